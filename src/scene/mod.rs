@@ -1,0 +1,372 @@
+//! Scene: what the world is made of, in world space, metres, one struct.
+//!
+//! Every loader (glTF files, built-in scenes) produces a [`Scene`]; acceleration and
+//! transport only read it. Colours stay RGB here: the transport picks the one band the
+//! transient cube records (see [`Channel`]).
+
+pub mod builtin;
+pub mod gltf_load;
+
+use glam::{Affine3A, Vec2, Vec3};
+use serde::{Deserialize, Serialize};
+
+/// A triangle in world space (metres). Vertex order gives the geometric normal
+/// `(p1 - p0) x (p2 - p0)`, the glTF front face (counter-clockwise).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Triangle {
+    pub p: [Vec3; 3],
+}
+
+impl Triangle {
+    /// Area in m^2.
+    pub fn area_m2(&self) -> f32 {
+        0.5 * (self.p[1] - self.p[0]).cross(self.p[2] - self.p[0]).length()
+    }
+}
+
+/// Per-triangle shading data, kept beside [`Triangle`] with the same index.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TriangleAttrs {
+    /// Vertex shading normals (unit length), or `None` to shade with the geometric normal.
+    pub normals: Option<[Vec3; 3]>,
+    /// Texture coordinates (TEXCOORD_0), zero when the mesh has none.
+    pub uv: [Vec2; 3],
+    /// Index into [`Scene::materials`].
+    pub material: u32,
+}
+
+/// How a material's alpha covers the surface (glTF `alphaMode`).
+///
+/// Coverage `a` in [0, 1]: a fraction `1 - a` of the light passes straight through,
+/// unchanged and undelayed (the paper's *virtual* interface, `K = delta(w - w')`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum AlphaMode {
+    Opaque,
+    /// Covered where alpha >= cutoff, open elsewhere.
+    Mask { cutoff: f32 },
+    /// Covered by the fraction alpha.
+    Blend,
+}
+
+/// A reference to a texture and the TEXCOORD set it reads (only set 0 is loaded).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TextureRef {
+    pub texture: u32,
+}
+
+/// A material, following glTF 2.0 metallic-roughness and the KHR extensions tprf
+/// honours. All factors are linear (not sRGB).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    /// Linear RGBA base colour factor.
+    pub base_color: [f32; 4],
+    /// sRGB-encoded base colour texture (RGB multiplies `base_color`, A multiplies alpha).
+    pub base_color_texture: Option<TextureRef>,
+    pub metallic: f32,
+    /// Perceptual roughness in [0, 1] (GGX alpha = roughness^2).
+    pub roughness: f32,
+    /// Linear texture: G = roughness, B = metallic (glTF convention).
+    pub metallic_roughness_texture: Option<TextureRef>,
+    /// KHR_materials_specular `specularFactor` (1 without the extension; 0 = pure Lambertian
+    /// for a dielectric).
+    pub specular_factor: f32,
+    /// KHR_materials_specular `specularColorFactor` (linear RGB).
+    pub specular_color: [f32; 3],
+    /// KHR_materials_transmission `transmissionFactor` in [0, 1].
+    pub transmission: f32,
+    /// KHR_materials_ior (1.5 without the extension). Light inside travels at c / ior.
+    pub ior: f32,
+    pub alpha_mode: AlphaMode,
+    /// Emitted radiance, W / (m^2 sr) per channel: `emissiveFactor x emissive_strength`.
+    pub emissive: [f32; 3],
+    /// sRGB-encoded emissive texture (multiplies `emissive`).
+    pub emissive_texture: Option<TextureRef>,
+    pub double_sided: bool,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        // glTF's default material: white, fully metallic=1 roughness=1 per spec; tprf's
+        // default for a primitive with no material is a grey Lambertian instead, which is
+        // what a user of a range sensor expects of "no material given".
+        Material {
+            name: "default".into(),
+            base_color: [0.8, 0.8, 0.8, 1.0],
+            base_color_texture: None,
+            metallic: 0.0,
+            roughness: 1.0,
+            metallic_roughness_texture: None,
+            specular_factor: 0.0,
+            specular_color: [1.0; 3],
+            transmission: 0.0,
+            ior: 1.5,
+            alpha_mode: AlphaMode::Opaque,
+            emissive: [0.0; 3],
+            emissive_texture: None,
+            double_sided: true,
+        }
+    }
+}
+
+impl Material {
+    /// A grey-or-coloured pure Lambertian (specularFactor 0), the workhorse of tests.
+    pub fn lambertian(name: &str, albedo: [f32; 3]) -> Self {
+        Material {
+            name: name.into(),
+            base_color: [albedo[0], albedo[1], albedo[2], 1.0],
+            ..Material::default()
+        }
+    }
+
+    /// Whether any part of the material emits.
+    pub fn is_emissive(&self) -> bool {
+        self.emissive.iter().any(|&e| e > 0.0)
+    }
+}
+
+/// A decoded texture: 8-bit RGBA, row 0 = top (glTF UV (0,0) is the top-left corner).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texture {
+    pub width: u32,
+    pub height: u32,
+    pub rgba8: Vec<[u8; 4]>,
+}
+
+/// Spot cone of a KHR_lights_punctual spot light.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Spot {
+    /// Unit direction the spot points to (world space; the light's -Z).
+    pub direction: Vec3,
+    pub inner_cone_rad: f32,
+    pub outer_cone_rad: f32,
+}
+
+/// A point or spot light (KHR_lights_punctual). The pulse leaves it at t = 0.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PunctualLight {
+    pub name: String,
+    pub position: Vec3,
+    /// Radiant intensity per channel, W/sr: `color x intensity` (no 683 lm/W factor).
+    pub intensity_w_per_sr: [f32; 3],
+    pub spot: Option<Spot>,
+}
+
+/// A pinhole camera. `world_from_camera` maps camera space (-Z forward, +Y up, glTF) to
+/// world space; it has no scale.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    pub world_from_camera: Affine3A,
+    /// Vertical field of view in radians; the horizontal one follows from the image aspect.
+    pub yfov_rad: f32,
+}
+
+impl Camera {
+    /// A camera at `eye` looking at `target`, +Y up (or +Z when looking along Y).
+    pub fn look_at(eye: Vec3, target: Vec3, yfov_rad: f32) -> Self {
+        let fwd = (target - eye).normalize();
+        let up = if fwd.cross(Vec3::Y).length_squared() < 1e-8 {
+            Vec3::Z
+        } else {
+            Vec3::Y
+        };
+        let view = glam::Mat4::look_at_rh(eye, target, up);
+        Camera {
+            world_from_camera: Affine3A::from_mat4(view.inverse()),
+            yfov_rad,
+        }
+    }
+
+    /// Camera position in world space, metres.
+    pub fn position(&self) -> Vec3 {
+        self.world_from_camera.translation.into()
+    }
+}
+
+/// The world: triangles, their materials, punctual lights and the camera.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// A name for metadata: the file path or `builtin:NAME`.
+    pub name: String,
+    pub triangles: Vec<Triangle>,
+    /// Same length and order as `triangles`.
+    pub attrs: Vec<TriangleAttrs>,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    pub lights: Vec<PunctualLight>,
+    pub camera: Camera,
+    /// What the loader decided on its own (a framed camera, a co-located light, dropped
+    /// degenerate triangles...). Front ends print these.
+    pub notes: Vec<String>,
+}
+
+/// Axis-aligned bounds, metres.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bounds {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+impl Bounds {
+    pub fn diagonal_m(&self) -> f32 {
+        (self.max - self.min).length()
+    }
+    pub fn center(&self) -> Vec3 {
+        0.5 * (self.min + self.max)
+    }
+}
+
+impl Scene {
+    /// Bounds of all triangles (and lights and camera).
+    pub fn bounds(&self) -> Bounds {
+        let mut min = Vec3::splat(f32::INFINITY);
+        let mut max = Vec3::splat(f32::NEG_INFINITY);
+        let points = self
+            .triangles
+            .iter()
+            .flat_map(|t| t.p)
+            .chain(self.lights.iter().map(|l| l.position))
+            .chain(std::iter::once(self.camera.position()));
+        for p in points {
+            min = min.min(p);
+            max = max.max(p);
+        }
+        Bounds { min, max }
+    }
+
+    /// Bounds of the triangles only (what a framed camera looks at).
+    pub fn geometry_bounds(&self) -> Option<Bounds> {
+        if self.triangles.is_empty() {
+            return None;
+        }
+        let mut min = Vec3::splat(f32::INFINITY);
+        let mut max = Vec3::splat(f32::NEG_INFINITY);
+        for p in self.triangles.iter().flat_map(|t| t.p) {
+            min = min.min(p);
+            max = max.max(p);
+        }
+        Some(Bounds { min, max })
+    }
+
+    /// Frame a camera on the geometry: look at the bounds' centre along -Z from in front
+    /// (+Z, glTF's front), slightly above, far enough that the bounding sphere fits the
+    /// vertical field of view.
+    pub fn framed_camera(&self, yfov_rad: f32) -> Camera {
+        let Some(b) = self.geometry_bounds() else {
+            return Camera::look_at(Vec3::new(0.0, 0.0, 1.0), Vec3::ZERO, yfov_rad);
+        };
+        let radius = 0.5 * b.diagonal_m().max(1e-6);
+        let dist = radius / (0.5 * yfov_rad).sin();
+        let dir = Vec3::new(0.0, 0.15, 1.0).normalize();
+        Camera::look_at(b.center() + dir * dist, b.center(), yfov_rad)
+    }
+
+    /// Uniform scale of everything about the origin (geometry, lights, camera position).
+    /// Used to check time-scale invariance: the TPRF stretches by `s`.
+    pub fn scaled(mut self, s: f32) -> Scene {
+        for t in &mut self.triangles {
+            for p in &mut t.p {
+                *p *= s;
+            }
+        }
+        for l in &mut self.lights {
+            l.position *= s;
+        }
+        self.camera.world_from_camera.translation *= s;
+        self
+    }
+
+    /// Check the invariants the transport relies on; loaders call this last.
+    pub fn validate(&self) -> Result<(), SceneError> {
+        if self.triangles.len() != self.attrs.len() {
+            return Err(SceneError::Invalid(format!(
+                "{} triangles but {} attribute records",
+                self.triangles.len(),
+                self.attrs.len()
+            )));
+        }
+        for (i, t) in self.triangles.iter().enumerate() {
+            if !t.p.iter().all(|p| p.is_finite()) {
+                return Err(SceneError::Invalid(format!(
+                    "triangle {i} has a non-finite vertex position"
+                )));
+            }
+        }
+        for (i, a) in self.attrs.iter().enumerate() {
+            if a.material as usize >= self.materials.len() {
+                return Err(SceneError::Invalid(format!(
+                    "triangle {i} uses material {} of {}",
+                    a.material,
+                    self.materials.len()
+                )));
+            }
+        }
+        for l in &self.lights {
+            if !l.position.is_finite() || l.intensity_w_per_sr.iter().any(|v| !v.is_finite() || *v < 0.0) {
+                return Err(SceneError::Invalid(format!(
+                    "light '{}' has a non-finite position or a negative/non-finite intensity",
+                    l.name
+                )));
+            }
+        }
+        if !self.camera.world_from_camera.is_finite()
+            || !(self.camera.yfov_rad > 0.0 && self.camera.yfov_rad < std::f32::consts::PI)
+        {
+            return Err(SceneError::Invalid(
+                "camera has a non-finite transform or a field of view outside (0, 180) degrees".into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The single spectral band the transient cube records.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Channel {
+    Red,
+    Green,
+    Blue,
+    /// A panchromatic band: Rec. 709 luminance weights of R, G, B.
+    #[default]
+    Gray,
+}
+
+impl Channel {
+    /// This band's value of a linear RGB triple.
+    pub fn pick(self, rgb: [f32; 3]) -> f32 {
+        match self {
+            Channel::Red => rgb[0],
+            Channel::Green => rgb[1],
+            Channel::Blue => rgb[2],
+            Channel::Gray => 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2],
+        }
+    }
+}
+
+/// Why a scene could not be loaded. Messages name the problem and where it is.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    #[error("cannot read {path}: {source}")]
+    Io {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{path}: not a valid glTF 2.0 file: {message}")]
+    Gltf { path: String, message: String },
+    #[error("{path}: requires extension {extension}, which tprf does not support")]
+    UnsupportedExtension { path: String, extension: String },
+    #[error("unknown built-in scene '{0}' (known: {known})", known = builtin::NAMES.join(", "))]
+    UnknownBuiltin(String),
+    #[error("invalid scene: {0}")]
+    Invalid(String),
+}
+
+/// Load a scene by name: `builtin:NAME` or a path to a `.gltf` / `.glb` file.
+pub fn load(name: &str) -> Result<Scene, SceneError> {
+    match name.strip_prefix("builtin:") {
+        Some(b) => builtin::load(b),
+        None => gltf_load::load_gltf(std::path::Path::new(name)),
+    }
+}
