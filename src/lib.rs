@@ -5,3 +5,6 @@
 
 pub mod scene;
 pub mod units;
+pub mod accel;
+pub mod film;
+pub mod transport;

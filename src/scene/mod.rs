@@ -170,9 +170,10 @@ impl Camera {
         } else {
             Vec3::Y
         };
-        let view = glam::Mat4::look_at_rh(eye, target, up);
+        let right = fwd.cross(up).normalize();
+        let true_up = right.cross(fwd);
         Camera {
-            world_from_camera: Affine3A::from_mat4(view.inverse()),
+            world_from_camera: Affine3A::from_cols(right.into(), true_up.into(), (-fwd).into(), eye.into()),
             yfov_rad,
         }
     }

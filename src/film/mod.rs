@@ -1,0 +1,8 @@
+//! Film: the TPRF store. Time-binned accumulators per pixel (pbrt's "film": how samples
+//! accumulate), kept apart from the sensor (what is measured from them).
+
+mod store;
+mod time_axis;
+
+pub use store::{FilmLayout, PixelSink, TprfFilm};
+pub use time_axis::TimeAxis;

@@ -1,0 +1,338 @@
+//! Scattering `S` of the transient rendering equation: the BSDF at a surface point, in one
+//! spectral band. Scattering takes no time; only propagation delays.
+//!
+//! Lobes: Lambertian diffuse, GGX microfacet specular (a mirror when the roughness is
+//! near 0) with a Schlick Fresnel that reaches 0 for `specularFactor = 0` on a
+//! dielectric (pure Lambertian), and a smooth dielectric transmission lobe.
+//! Directions are in the local shading frame (normal = +Z), pointing away from the
+//! surface.
+
+use glam::Vec3;
+use std::f32::consts::PI;
+
+use super::sampler::Sampler;
+
+/// GGX alpha below which the specular lobe is treated as a perfect mirror.
+pub const MIRROR_ALPHA: f32 = 1e-3;
+
+/// An orthonormal frame around a unit normal (Duff et al. 2017).
+#[derive(Clone, Copy, Debug)]
+pub struct Frame {
+    pub t: Vec3,
+    pub b: Vec3,
+    pub n: Vec3,
+}
+
+impl Frame {
+    pub fn new(n: Vec3) -> Frame {
+        let sign = 1.0f32.copysign(n.z);
+        let a = -1.0 / (sign + n.z);
+        let b = n.x * n.y * a;
+        Frame {
+            t: Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+            b: Vec3::new(b, sign + n.y * n.y * a, -n.y),
+            n,
+        }
+    }
+    #[inline]
+    pub fn to_local(&self, v: Vec3) -> Vec3 {
+        Vec3::new(v.dot(self.t), v.dot(self.b), v.dot(self.n))
+    }
+    #[inline]
+    pub fn to_world(&self, v: Vec3) -> Vec3 {
+        self.t * v.x + self.b * v.y + self.n * v.z
+    }
+}
+
+/// Which lobe produced a sampled direction.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LobeKind {
+    Diffuse,
+    Glossy,
+    Mirror,
+    Reflect,
+    Refract,
+}
+
+/// A sampled direction and its path weight `f |cos| / pdf`.
+#[derive(Clone, Copy, Debug)]
+pub struct BsdfSample {
+    pub wi: Vec3,
+    pub weight: f32,
+    /// Solid-angle pdf of the whole (one-sample MIS over lobes) BSDF; 0 for delta lobes.
+    pub pdf: f32,
+    pub kind: LobeKind,
+}
+
+impl BsdfSample {
+    pub fn is_delta(&self) -> bool {
+        matches!(self.kind, LobeKind::Mirror | LobeKind::Reflect | LobeKind::Refract)
+    }
+}
+
+/// The BSDF at one point, one band.
+#[derive(Clone, Copy, Debug)]
+pub struct Bsdf {
+    /// Lambertian albedo (already weighted by metallic, transmission and specular loss).
+    diffuse: f32,
+    /// Schlick F0 and F90 of the combined metal/dielectric specular layer.
+    f0: f32,
+    f90: f32,
+    /// GGX alpha = roughness^2.
+    alpha: f32,
+    /// Weight of the smooth dielectric transmission lobe, and its tint.
+    transmission: f32,
+    tint: f32,
+    /// Relative index `n_incident / n_transmitted` seen from the `wo` side.
+    eta: f32,
+    p_diffuse: f32,
+    p_spec: f32,
+}
+
+/// Material parameters at a point, one band, all in [0, 1] except `ior`.
+#[derive(Clone, Copy, Debug)]
+pub struct BsdfParams {
+    pub base: f32,
+    pub metallic: f32,
+    pub roughness: f32,
+    pub specular_factor: f32,
+    pub specular_color: f32,
+    pub transmission: f32,
+    pub ior: f32,
+}
+
+#[inline]
+fn schlick(f0: f32, f90: f32, cos: f32) -> f32 {
+    let m = (1.0 - cos).clamp(0.0, 1.0);
+    let m2 = m * m;
+    f0 + (f90 - f0) * m2 * m2 * m
+}
+
+/// Exact Fresnel reflectance of a smooth dielectric for unpolarised light; `eta` =
+/// n_incident / n_transmitted. Returns 1 for total internal reflection.
+pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
+    let cos_i = cos_i.clamp(0.0, 1.0);
+    let sin2_t = eta * eta * (1.0 - cos_i * cos_i);
+    if sin2_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    let rs = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    let rp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    0.5 * (rs * rs + rp * rp)
+}
+
+/// GGX normal distribution D(h), `cos_h` = h.z.
+#[inline]
+fn ggx_d(alpha: f32, cos_h: f32) -> f32 {
+    let a2 = alpha * alpha;
+    let c2 = cos_h * cos_h;
+    let den = c2 * (a2 - 1.0) + 1.0;
+    a2 / (PI * den * den)
+}
+
+/// Smith G1 for GGX.
+#[inline]
+fn ggx_g1(alpha: f32, cos: f32) -> f32 {
+    let a2 = alpha * alpha;
+    let c2 = cos * cos;
+    2.0 * cos / (cos + (a2 + (1.0 - a2) * c2).sqrt())
+}
+
+impl Bsdf {
+    /// Build the BSDF from material parameters. `n_outside_over_inside` is `1 / ior`
+    /// when `wo` is on the front (entering) side, `ior` when it is inside the medium.
+    pub fn new(p: &BsdfParams, eta: f32) -> Bsdf {
+        let dielectric = 1.0 - p.metallic;
+        let f0_dielectric = (((p.ior - 1.0) / (p.ior + 1.0)).powi(2) * p.specular_color).min(1.0);
+        let f0 = p.metallic * p.base + dielectric * p.specular_factor * f0_dielectric;
+        let f90 = p.metallic + dielectric * p.specular_factor;
+        let transmission = dielectric * p.transmission;
+        let diffuse = dielectric * (1.0 - p.transmission) * p.base * (1.0 - p.specular_factor * f0_dielectric);
+        let alpha = (p.roughness * p.roughness).max(0.0);
+        let w_spec = 0.5 * (f0 + f90) * (1.0 - transmission);
+        let total = diffuse + w_spec + transmission;
+        let (p_diffuse, p_spec) = if total > 0.0 {
+            (diffuse / total, w_spec / total)
+        } else {
+            (0.0, 0.0)
+        };
+        Bsdf {
+            diffuse,
+            f0,
+            f90,
+            alpha,
+            transmission,
+            tint: p.base,
+            eta,
+            p_diffuse,
+            p_spec,
+        }
+    }
+
+    fn p_transmission(&self) -> f32 {
+        (1.0 - self.p_diffuse - self.p_spec).max(0.0)
+    }
+
+    fn is_mirror(&self) -> bool {
+        self.alpha < MIRROR_ALPHA
+    }
+
+    /// Whether some lobe can be evaluated for a given direction pair (next-event
+    /// estimation is useless otherwise).
+    pub fn has_smooth_lobe(&self) -> bool {
+        self.p_diffuse > 0.0 || (self.p_spec > 0.0 && !self.is_mirror())
+    }
+
+    /// `f(wo, wi)` of the non-delta lobes (1/sr) and the one-sample pdf of sampling `wi`
+    /// (1/sr). Both zero when either direction is below the surface.
+    pub fn eval(&self, wo: Vec3, wi: Vec3) -> (f32, f32) {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return (0.0, 0.0);
+        }
+        let mut f = self.diffuse / PI;
+        let mut pdf = self.p_diffuse * wi.z / PI;
+        if self.p_spec > 0.0 && !self.is_mirror() {
+            let h = (wo + wi).normalize();
+            let d = ggx_d(self.alpha, h.z);
+            let g = ggx_g1(self.alpha, wo.z) * ggx_g1(self.alpha, wi.z);
+            let fr = schlick(self.f0, self.f90, wo.dot(h));
+            f += fr * d * g / (4.0 * wo.z * wi.z);
+            pdf += self.p_spec * d * h.z / (4.0 * wo.dot(h).max(1e-8));
+        }
+        (f, pdf)
+    }
+
+    /// Sample an incident direction for outgoing `wo` (local frame).
+    pub fn sample(&self, wo: Vec3, rng: &mut Sampler) -> Option<BsdfSample> {
+        if wo.z <= 0.0 {
+            return None;
+        }
+        let u = rng.next();
+        let (u1, u2) = rng.next2();
+        let smooth_sample = |wi: Vec3, kind: LobeKind| -> Option<BsdfSample> {
+            let (f, pdf) = self.eval(wo, wi);
+            (pdf > 0.0 && f > 0.0).then(|| BsdfSample { wi, weight: f * wi.z / pdf, pdf, kind })
+        };
+        if u < self.p_diffuse {
+            // Cosine-weighted hemisphere.
+            let r = u1.sqrt();
+            let phi = 2.0 * PI * u2;
+            let wi = Vec3::new(r * phi.cos(), r * phi.sin(), (1.0 - u1).max(0.0).sqrt());
+            smooth_sample(wi, LobeKind::Diffuse)
+        } else if u < self.p_diffuse + self.p_spec {
+            if self.is_mirror() {
+                let wi = Vec3::new(-wo.x, -wo.y, wo.z);
+                let fr = schlick(self.f0, self.f90, wo.z);
+                return Some(BsdfSample { wi, weight: fr / self.p_spec, pdf: 0.0, kind: LobeKind::Mirror });
+            }
+            // GGX: h ~ D(h) cos(theta_h).
+            let a2 = self.alpha * self.alpha;
+            let cos2 = (1.0 - u1) / (u1 * (a2 - 1.0) + 1.0);
+            let cos_h = cos2.clamp(0.0, 1.0).sqrt();
+            let sin_h = (1.0 - cos_h * cos_h).max(0.0).sqrt();
+            let phi = 2.0 * PI * u2;
+            let h = Vec3::new(sin_h * phi.cos(), sin_h * phi.sin(), cos_h);
+            let wi = 2.0 * wo.dot(h) * h - wo;
+            if wi.z <= 0.0 {
+                return None;
+            }
+            smooth_sample(wi, LobeKind::Glossy)
+        } else {
+            let pt = self.p_transmission();
+            if pt <= 0.0 {
+                return None;
+            }
+            let fr = fresnel_dielectric(wo.z, self.eta);
+            if u1 < fr {
+                let wi = Vec3::new(-wo.x, -wo.y, wo.z);
+                Some(BsdfSample { wi, weight: self.transmission / pt, pdf: 0.0, kind: LobeKind::Reflect })
+            } else {
+                let sin2_t = self.eta * self.eta * (1.0 - wo.z * wo.z);
+                let cos_t = (1.0 - sin2_t).max(0.0).sqrt();
+                let wi = Vec3::new(-self.eta * wo.x, -self.eta * wo.y, -cos_t).normalize();
+                Some(BsdfSample {
+                    wi,
+                    weight: self.transmission * self.tint / pt,
+                    pdf: 0.0,
+                    kind: LobeKind::Refract,
+                })
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn params(base: f32, metallic: f32, roughness: f32, specular_factor: f32) -> BsdfParams {
+        BsdfParams {
+            base,
+            metallic,
+            roughness,
+            specular_factor,
+            specular_color: 1.0,
+            transmission: 0.0,
+            ior: 1.5,
+        }
+    }
+
+    /// Albedo estimate: E[weight] over sampled directions.
+    fn albedo(b: &Bsdf, wo: Vec3, n: usize) -> f64 {
+        let mut rng = Sampler::new(1, 2, 3);
+        (0..n)
+            .map(|_| b.sample(wo, &mut rng).map_or(0.0, |s| s.weight as f64))
+            .sum::<f64>()
+            / n as f64
+    }
+
+    #[test]
+    fn lambertian_albedo_is_base() {
+        let b = Bsdf::new(&params(0.7, 0.0, 1.0, 0.0), 1.0 / 1.5);
+        let wo = Vec3::new(0.3, 0.1, 0.9).normalize();
+        let a = albedo(&b, wo, 200_000);
+        assert!((a - 0.7).abs() < 1e-6, "pure Lambertian weight is exactly the albedo: {a}");
+        let (f, pdf) = b.eval(wo, Vec3::Z);
+        assert!((f - 0.7 / PI).abs() < 1e-6 && (pdf - 1.0 / PI).abs() < 1e-6);
+    }
+
+    #[test]
+    fn sampling_matches_eval_for_glossy() {
+        // Monte Carlo integral of f cos over the hemisphere by uniform sampling must match
+        // the importance-sampled albedo.
+        let b = Bsdf::new(&params(0.5, 0.5, 0.4, 1.0), 1.0 / 1.5);
+        let wo = Vec3::new(0.5, 0.0, 0.8).normalize();
+        let importance = albedo(&b, wo, 400_000);
+        let mut rng = Sampler::new(9, 9, 9);
+        let n = 400_000;
+        let mut uniform = 0.0f64;
+        for _ in 0..n {
+            let (u1, u2) = rng.next2();
+            let z = u1;
+            let r = (1.0 - z * z).sqrt();
+            let phi = 2.0 * PI * u2;
+            let wi = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+            uniform += (b.eval(wo, wi).0 * wi.z) as f64 * 2.0 * PI as f64;
+        }
+        uniform /= n as f64;
+        assert!((importance - uniform).abs() < 0.01 * uniform, "{importance} vs {uniform}");
+    }
+
+    #[test]
+    fn fresnel_limits() {
+        assert!((fresnel_dielectric(1.0, 1.0 / 1.5) - 0.04).abs() < 1e-6);
+        assert_eq!(fresnel_dielectric(0.1, 1.5), 1.0, "total internal reflection");
+        assert!((fresnel_dielectric(0.0, 1.0 / 1.5) - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn frame_is_orthonormal() {
+        for n in [Vec3::Z, -Vec3::Z, Vec3::new(0.3, -0.4, 0.5).normalize(), Vec3::X] {
+            let f = Frame::new(n);
+            assert!(f.t.dot(f.b).abs() < 1e-6 && f.t.dot(n).abs() < 1e-6 && f.b.dot(n).abs() < 1e-6);
+            let v = Vec3::new(0.1, 0.7, -0.2);
+            assert!((f.to_world(f.to_local(v)) - v).length() < 1e-6);
+        }
+    }
+}

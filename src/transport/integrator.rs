@@ -1,0 +1,352 @@
+//! The path integrator: one camera path per sample, next-event estimation to punctual
+//! and area lights with MIS, Russian roulette, and every contribution delivered with its
+//! arrival time and scattering count.
+
+use super::bsdf::{Bsdf, Frame, LobeKind};
+use super::lights::Lights;
+use super::sampler::Sampler;
+use super::surface::Surfaces;
+use crate::accel::Accel;
+use crate::film::{PixelSink, TprfFilm};
+use crate::scene::{Channel, Scene};
+use crate::units::C_M_PER_S;
+use glam::Vec3;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Where a path's contributions go.
+pub trait Sink {
+    /// One contribution: radiance `value` (W / (m^2 sr) per unit pulse energy, already
+    /// divided by the path's pdf) arriving at `arrival_s` after `scatterings` events.
+    fn add(&mut self, arrival_s: f64, value: f64, scatterings: u32);
+    /// Latest arrival time that still counts, seconds.
+    fn window_end_s(&self) -> f64;
+}
+
+impl Sink for PixelSink<'_> {
+    #[inline]
+    fn add(&mut self, arrival_s: f64, value: f64, scatterings: u32) {
+        PixelSink::add(self, arrival_s, value, scatterings);
+    }
+    #[inline]
+    fn window_end_s(&self) -> f64 {
+        PixelSink::window_end_s(self)
+    }
+}
+
+/// Settings of the path tracer (the film's shape lives in the film).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderSettings {
+    /// Largest number of scattering events on a path.
+    pub max_bounces: u32,
+    pub seed: u64,
+    pub channel: Channel,
+    /// Next-event estimation (shadow rays to lights). Off: lights are reached only by
+    /// hitting emissive surfaces (punctual lights then contribute nothing).
+    pub nee: bool,
+    /// Scattering events before Russian roulette starts.
+    pub rr_start: u32,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings { max_bounces: 1024, seed: 0, channel: Channel::Gray, nee: true, rr_start: 3 }
+    }
+}
+
+/// Work done by one pass.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PassStats {
+    pub paths: u64,
+    pub rays: u64,
+    /// Mean per pixel of what arrived outside the time window.
+    pub outside_per_pixel: f64,
+}
+
+/// Largest number of straight pass-throughs (alpha coverage) along one segment chain.
+const MAX_PASS_THROUGH: u32 = 1024;
+
+/// The scene prepared for transport. Immutable once built; shared by all threads.
+pub struct Renderer {
+    surfaces: Surfaces,
+    accel: Accel,
+    lights: Lights,
+    settings: RenderSettings,
+    /// Ray-offset length scale: 1e-6 of the scene's bounding diagonal, metres.
+    eps_m: f32,
+    rays: AtomicU64,
+}
+
+/// Power heuristic (beta = 2) weight of strategy `a` against `b`.
+#[inline]
+fn power_heuristic(a: f32, b: f32) -> f32 {
+    let (a2, b2) = (a * a, b * b);
+    if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
+}
+
+impl Renderer {
+    /// Build the BVH and light tables.
+    pub fn new(scene: Arc<Scene>, settings: RenderSettings) -> Renderer {
+        let accel = Accel::build(&scene);
+        let lights = Lights::new(&scene, settings.channel);
+        let diag = scene.bounds().diagonal_m();
+        let eps_m = if diag.is_finite() && diag > 0.0 { diag * 1e-6 } else { 1e-6 };
+        let surfaces = Surfaces::new(scene, settings.channel);
+        Renderer { surfaces, accel, lights, settings, eps_m, rays: AtomicU64::new(0) }
+    }
+
+    pub fn scene(&self) -> &Scene {
+        self.surfaces.scene()
+    }
+
+    pub fn settings(&self) -> &RenderSettings {
+        &self.settings
+    }
+
+    pub fn accel(&self) -> &Accel {
+        &self.accel
+    }
+
+    /// Rays traced so far (camera, bounce and shadow rays).
+    pub fn rays_traced(&self) -> u64 {
+        self.rays.load(Ordering::Relaxed)
+    }
+
+    /// Offset of a new ray origin from `p`, metres: scene-relative plus a few ulps of
+    /// the coordinates, so a scene scaled by s gets offsets scaled by s.
+    #[inline]
+    fn offset_m(&self, p: Vec3) -> f32 {
+        self.eps_m + p.abs().max_element() * 4.0 * f32::EPSILON
+    }
+
+    /// Unit direction through image point `(px, py)` (pixels, row 0 = top) for a
+    /// `width x height` image.
+    pub fn camera_ray(&self, px: f32, py: f32, width: usize, height: usize) -> (Vec3, Vec3) {
+        let cam = &self.scene().camera;
+        let tan_half = (0.5 * cam.yfov_rad).tan();
+        let aspect = width as f32 / height.max(1) as f32;
+        let sx = (2.0 * px / width as f32 - 1.0) * tan_half * aspect;
+        let sy = (1.0 - 2.0 * py / height as f32) * tan_half;
+        let dir = cam.world_from_camera.transform_vector3(Vec3::new(sx, sy, -1.0)).normalize();
+        (cam.position(), dir)
+    }
+
+    /// One pass: `spp` samples per pixel into `film`, rows in parallel on the current
+    /// rayon pool. The random stream of each pixel depends only on (seed, pass, pixel).
+    pub fn render_pass(&self, film: &mut TprfFilm, spp: u32) -> PassStats {
+        let layout = *film.layout();
+        let (w, h) = (layout.width, layout.height);
+        let pass = film.passes();
+        let rays_before = self.rays_traced();
+        let outside = film.run_pass(spp as u64, |y, sinks| {
+            for (x, sink) in sinks.iter_mut().enumerate() {
+                let mut rng = Sampler::new(self.settings.seed, pass, (y * w + x) as u64);
+                let mut rays = 0u64;
+                for _ in 0..spp {
+                    rays += self.trace_sample(x, y, w, h, &mut rng, sink);
+                }
+                self.rays.fetch_add(rays, Ordering::Relaxed);
+            }
+        });
+        PassStats {
+            paths: (w * h) as u64 * spp as u64,
+            rays: self.rays_traced() - rays_before,
+            outside_per_pixel: outside,
+        }
+    }
+
+    /// Trace one jittered camera sample of pixel `(x, y)`; returns the rays traced.
+    pub fn trace_sample(&self, x: usize, y: usize, w: usize, h: usize, rng: &mut Sampler, sink: &mut impl Sink) -> u64 {
+        let (jx, jy) = rng.next2();
+        let (origin, dir) = self.camera_ray(x as f32 + jx, y as f32 + jy, w, h);
+        self.trace_path(origin, dir, rng, sink)
+    }
+
+    /// Trace a path from the eye at `origin` along unit `dir`. The eye-side optical path
+    /// length `opl_m` (sum of `n_i d_i`, metres, f64) grows along the path; a contribution
+    /// reaching the eye through vertex k arrives at `(opl_m + n d(vertex, light)) / c`.
+    /// Returns the rays traced.
+    pub fn trace_path(&self, mut origin: Vec3, mut dir: Vec3, rng: &mut Sampler, sink: &mut impl Sink) -> u64 {
+        let s = &self.settings;
+        let window_end_opl_m = sink.window_end_s() * C_M_PER_S;
+        let mut rays = 0u64;
+        let mut throughput = 1.0f32;
+        let mut opl_m = 0.0f64;
+        let mut scatterings = 0u32;
+        // Refractive index of the medium the ray travels in.
+        let mut ior_here = 1.0f32;
+        // Solid-angle pdf of the last BSDF sample; `None` for the camera ray and delta lobes.
+        let mut last_pdf: Option<f32> = None;
+        let mut last_position = origin;
+        let mut pass_throughs = 0u32;
+        loop {
+            rays += 1;
+            let Some(hit) = self.accel.closest_hit(origin, dir, f32::INFINITY) else {
+                break; // escaped: no environment light
+            };
+            opl_m += hit.t_m as f64 * ior_here as f64;
+            if opl_m > window_end_opl_m {
+                break; // already too late to arrive inside the window
+            }
+            let sp = self.surfaces.at(&hit, origin, dir);
+            // Virtual interface: the uncovered fraction passes straight through, undelayed.
+            if sp.coverage < 1.0 && rng.next() >= sp.coverage {
+                pass_throughs += 1;
+                if pass_throughs > MAX_PASS_THROUGH {
+                    break;
+                }
+                origin = sp.position - sp.n_face * self.offset_m(sp.position);
+                continue;
+            }
+            // Emission seen along the path (R0 at t = 0 at the emitter).
+            if sp.emission > 0.0 {
+                let weight = match last_pdf {
+                    None => 1.0,
+                    Some(pdf_bsdf) => {
+                        let d2 = (sp.position - last_position).length_squared();
+                        let cos_l = sp.n_face.dot(-dir).abs();
+                        let pdf_light = self.lights.pdf_area(hit.triangle) * d2 / cos_l.max(1e-12);
+                        if s.nee { power_heuristic(pdf_bsdf, pdf_light) } else { 1.0 }
+                    }
+                };
+                sink.add(opl_m / C_M_PER_S, (throughput * sp.emission * weight) as f64, scatterings);
+            }
+            if scatterings >= s.max_bounces {
+                break;
+            }
+            let entering = sp.front;
+            let eta = if entering { 1.0 / sp.bsdf.ior } else { sp.bsdf.ior };
+            let bsdf = Bsdf::new(&sp.bsdf, eta);
+            let frame = Frame::new(sp.n_shading);
+            let wo_world = -dir;
+            let wo = frame.to_local(wo_world);
+            let p_out = sp.position + sp.n_face * self.offset_m(sp.position);
+            if s.nee && bsdf.has_smooth_lobe() {
+                rays += self.next_event(&bsdf, &frame, wo, p_out, sp.n_face, opl_m, ior_here, throughput, scatterings + 1, rng, sink);
+            }
+            let Some(bs) = bsdf.sample(wo, rng) else {
+                break;
+            };
+            let wi_world = frame.to_world(bs.wi);
+            let refracted = bs.kind == LobeKind::Refract;
+            // The geometric side must agree with the lobe (shading normals can disagree).
+            let geo = wi_world.dot(sp.n_face);
+            if (refracted && geo >= 0.0) || (!refracted && geo <= 0.0) {
+                break;
+            }
+            throughput *= bs.weight;
+            scatterings += 1;
+            if refracted {
+                ior_here = if entering { sp.bsdf.ior } else { 1.0 };
+            }
+            last_pdf = (!bs.is_delta()).then_some(bs.pdf);
+            last_position = sp.position;
+            pass_throughs = 0;
+            origin = sp.position + sp.n_face * self.offset_m(sp.position) * geo.signum();
+            dir = wi_world.normalize();
+            // Russian roulette: stop when the remaining flux is small (unbiased).
+            if scatterings >= s.rr_start {
+                let q = throughput.min(1.0);
+                if !(q > 0.0) || rng.next() >= q {
+                    break;
+                }
+                throughput /= q;
+            }
+            if !(throughput.is_finite() && throughput > 0.0) {
+                break;
+            }
+        }
+        rays
+    }
+
+    /// Next-event estimation at a vertex with outgoing `wo` (local): every punctual light
+    /// and one power-sampled point on the emitters (MIS against BSDF sampling). The
+    /// contribution arrives at `(opl_m + n d) / c` with `scatterings` events.
+    #[allow(clippy::too_many_arguments)]
+    fn next_event(
+        &self,
+        bsdf: &Bsdf,
+        frame: &Frame,
+        wo: Vec3,
+        p: Vec3,
+        n_face: Vec3,
+        opl_m: f64,
+        ior_here: f32,
+        throughput: f32,
+        scatterings: u32,
+        rng: &mut Sampler,
+        sink: &mut impl Sink,
+    ) -> u64 {
+        let mut rays = 0;
+        for light in &self.lights.punctual {
+            let to = light.position - p;
+            let d2 = to.length_squared();
+            if !(d2 > 0.0) {
+                continue;
+            }
+            let d = d2.sqrt();
+            let wi_world = to / d;
+            if wi_world.dot(n_face) <= 0.0 {
+                continue;
+            }
+            let (f, _) = bsdf.eval(wo, frame.to_local(wi_world));
+            let intensity = light.intensity_toward(-wi_world);
+            if f <= 0.0 || intensity <= 0.0 {
+                continue;
+            }
+            rays += 1;
+            let tr = self.transmittance(p, wi_world, d);
+            if tr > 0.0 {
+                let cos_i = frame.to_local(wi_world).z;
+                let value = throughput * f * cos_i * intensity / d2 * tr;
+                sink.add((opl_m + d as f64 * ior_here as f64) / C_M_PER_S, value as f64, scatterings);
+            }
+        }
+        if self.lights.has_emitters() {
+            let u = rng.next();
+            let (u1, u2) = rng.next2();
+            if let Some(es) = self.lights.sample_emitter(u, u1, u2) {
+                let to = es.position - p;
+                let d2 = to.length_squared();
+                if d2 > 0.0 {
+                    let d = d2.sqrt();
+                    let wi_world = to / d;
+                    let le = self.surfaces.emission(es.triangle, es.u, es.v, -wi_world);
+                    let cos_l = self.surfaces.geometric_normal(es.triangle).dot(-wi_world).abs();
+                    if le > 0.0 && cos_l > 0.0 && wi_world.dot(n_face) > 0.0 {
+                        let wi = frame.to_local(wi_world);
+                        let (f, pdf_bsdf) = bsdf.eval(wo, wi);
+                        if f > 0.0 {
+                            rays += 1;
+                            let t_max = d - 2.0 * self.offset_m(es.position);
+                            let tr = self.transmittance(p, wi_world, t_max);
+                            if tr > 0.0 {
+                                let pdf_light = es.pdf_area * d2 / cos_l;
+                                let w = power_heuristic(pdf_light, pdf_bsdf);
+                                let value = throughput * f * wi.z * le * w * tr / pdf_light;
+                                sink.add((opl_m + d as f64 * ior_here as f64) / C_M_PER_S, value as f64, scatterings);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        rays
+    }
+
+    /// Fraction of light passing straight from `p` along unit `dir` for `dist_m`: the
+    /// product of `1 - coverage` of the partly covered surfaces crossed; 0 when an opaque
+    /// or refracting surface is in the way.
+    fn transmittance(&self, p: Vec3, dir: Vec3, dist_m: f32) -> f32 {
+        let mut tr = 1.0f32;
+        let blocked = self.accel.any_hit(p, dir, dist_m, |hit| {
+            if self.surfaces.blocks_shadow_rays(hit.triangle) {
+                return true;
+            }
+            let c = self.surfaces.coverage(hit.triangle, hit.u, hit.v);
+            tr *= 1.0 - c;
+            tr <= 0.0
+        });
+        if blocked { 0.0 } else { tr }
+    }
+}

@@ -1,0 +1,14 @@
+//! Transport: a progressive transient path tracer. It samples the Neumann series
+//! `R = R0 + G R0 + G G R0 + ...` of the transient rendering equation `R = R0 + S P R`:
+//! a path with k scattering events is one sample of the k-th term, and it arrives at
+//! `t = (optical path length, light -> ... -> eye) / c`.
+
+pub mod bsdf;
+mod integrator;
+pub mod lights;
+pub mod sampler;
+pub mod surface;
+mod window;
+
+pub use integrator::{PassStats, Renderer, RenderSettings, Sink};
+pub use window::{WindowRequest, auto_window};

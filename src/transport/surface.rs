@@ -1,0 +1,221 @@
+//! What the transport needs to know at a hit point: position, normals, and the material
+//! evaluated there (textures looked up, colours reduced to the rendered band).
+
+use crate::accel::Hit;
+use crate::scene::{AlphaMode, Channel, Material, Scene, Texture, TextureRef};
+use glam::{Vec2, Vec3};
+use std::sync::{Arc, OnceLock};
+
+use super::bsdf::BsdfParams;
+
+/// sRGB 8-bit code -> linear value.
+fn srgb_to_linear_lut() -> &'static [f32; 256] {
+    static LUT: OnceLock<[f32; 256]> = OnceLock::new();
+    LUT.get_or_init(|| {
+        let mut t = [0.0f32; 256];
+        for (i, v) in t.iter_mut().enumerate() {
+            let c = i as f32 / 255.0;
+            *v = if c <= 0.04045 {
+                c / 12.92
+            } else {
+                ((c + 0.055) / 1.055).powf(2.4)
+            };
+        }
+        t
+    })
+}
+
+/// Bilinear lookup with repeat wrapping; returns RGBA in [0, 1], RGB decoded from sRGB
+/// when `srgb`, alpha always linear.
+pub fn sample_texture(tex: &Texture, uv: Vec2, srgb: bool) -> [f32; 4] {
+    if tex.width == 0 || tex.height == 0 || tex.rgba8.len() < (tex.width * tex.height) as usize {
+        return [1.0; 4];
+    }
+    let lut = srgb_to_linear_lut();
+    let (w, h) = (tex.width as i64, tex.height as i64);
+    let x = uv.x * tex.width as f32 - 0.5;
+    let y = uv.y * tex.height as f32 - 0.5;
+    if !x.is_finite() || !y.is_finite() {
+        return [1.0; 4];
+    }
+    let (x0, y0) = (x.floor(), y.floor());
+    let (fx, fy) = (x - x0, y - y0);
+    let texel = |xi: i64, yi: i64| -> [f32; 4] {
+        let xi = xi.rem_euclid(w);
+        let yi = yi.rem_euclid(h);
+        let p = tex.rgba8[(yi * w + xi) as usize];
+        let c = |v: u8| if srgb { lut[v as usize] } else { v as f32 / 255.0 };
+        [c(p[0]), c(p[1]), c(p[2]), p[3] as f32 / 255.0]
+    };
+    let (x0, y0) = (x0 as i64, y0 as i64);
+    let (a, b, c, d) = (texel(x0, y0), texel(x0 + 1, y0), texel(x0, y0 + 1), texel(x0 + 1, y0 + 1));
+    let mut out = [0.0; 4];
+    for i in 0..4 {
+        let top = a[i] + (b[i] - a[i]) * fx;
+        let bottom = c[i] + (d[i] - c[i]) * fx;
+        out[i] = top + (bottom - top) * fy;
+    }
+    out
+}
+
+/// A surface point with its material, one band.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfacePoint {
+    pub position: Vec3,
+    /// Unit geometric normal, on the side the ray came from.
+    pub n_face: Vec3,
+    /// Unit shading normal, on the same side as `n_face`.
+    pub n_shading: Vec3,
+    /// Whether the ray hit the front face (counter-clockwise side).
+    pub front: bool,
+    /// Coverage in [0, 1]; the rest passes straight through.
+    pub coverage: f32,
+    /// Emitted radiance toward the ray, W / (m^2 sr), this band (0 from a single-sided
+    /// emitter's back).
+    pub emission: f32,
+    pub bsdf: BsdfParams,
+}
+
+/// The scene reduced to what surfaces look like in one band.
+pub struct Surfaces {
+    scene: Arc<Scene>,
+    channel: Channel,
+    /// Unit geometric normals per triangle.
+    normals: Vec<Vec3>,
+}
+
+impl Surfaces {
+    pub fn new(scene: Arc<Scene>, channel: Channel) -> Surfaces {
+        let normals = scene
+            .triangles
+            .iter()
+            .map(|t| (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).normalize_or_zero())
+            .collect();
+        Surfaces { scene, channel, normals }
+    }
+
+    pub fn geometric_normal(&self, triangle: u32) -> Vec3 {
+        self.normals.get(triangle as usize).copied().unwrap_or(Vec3::Z)
+    }
+
+    pub fn scene(&self) -> &Arc<Scene> {
+        &self.scene
+    }
+
+    fn texture(&self, r: Option<TextureRef>) -> Option<&Texture> {
+        r.and_then(|r| self.scene.textures.get(r.texture as usize))
+    }
+
+    pub fn material(&self, triangle: u32) -> &Material {
+        static DEFAULT: OnceLock<Material> = OnceLock::new();
+        self.scene
+            .attrs
+            .get(triangle as usize)
+            .and_then(|a| self.scene.materials.get(a.material as usize))
+            .unwrap_or_else(|| DEFAULT.get_or_init(Material::default))
+    }
+
+    fn uv(&self, triangle: u32, u: f32, v: f32) -> Vec2 {
+        match self.scene.attrs.get(triangle as usize) {
+            Some(a) => a.uv[0] * (1.0 - u - v) + a.uv[1] * u + a.uv[2] * v,
+            None => Vec2::ZERO,
+        }
+    }
+
+    /// Coverage (alpha) of `triangle` at barycentrics `(u, v)`.
+    pub fn coverage(&self, triangle: u32, u: f32, v: f32) -> f32 {
+        let m = self.material(triangle);
+        if m.alpha_mode == AlphaMode::Opaque {
+            return 1.0;
+        }
+        let mut alpha = m.base_color[3];
+        if let Some(t) = self.texture(m.base_color_texture) {
+            alpha *= sample_texture(t, self.uv(triangle, u, v), true)[3];
+        }
+        match m.alpha_mode {
+            AlphaMode::Opaque => 1.0,
+            AlphaMode::Mask { cutoff } => {
+                if alpha >= cutoff {
+                    1.0
+                } else {
+                    0.0
+                }
+            }
+            AlphaMode::Blend => alpha.clamp(0.0, 1.0),
+        }
+    }
+
+    /// Whether a shadow ray can pass this triangle at all (transmissive surfaces refract
+    /// and so block straight-line shadow rays).
+    pub fn blocks_shadow_rays(&self, triangle: u32) -> bool {
+        self.material(triangle).transmission > 0.0
+    }
+
+    /// Emitted radiance of `triangle` at `(u, v)` toward direction `toward` (unit, away
+    /// from the surface), W / (m^2 sr), this band.
+    pub fn emission(&self, triangle: u32, u: f32, v: f32, toward: Vec3) -> f32 {
+        let m = self.material(triangle);
+        if !m.is_emissive() {
+            return 0.0;
+        }
+        if !m.double_sided && self.geometric_normal(triangle).dot(toward) <= 0.0 {
+            return 0.0;
+        }
+        let mut e = m.emissive;
+        if let Some(t) = self.texture(m.emissive_texture) {
+            let c = sample_texture(t, self.uv(triangle, u, v), true);
+            e = [e[0] * c[0], e[1] * c[1], e[2] * c[2]];
+        }
+        self.channel.pick(e).max(0.0)
+    }
+
+    /// Everything at a hit of a ray travelling along `dir` (unit).
+    pub fn at(&self, hit: &Hit, origin: Vec3, dir: Vec3) -> SurfacePoint {
+        let tri = hit.triangle;
+        let (u, v) = (hit.u, hit.v);
+        let ng = self.geometric_normal(tri);
+        let front = ng.dot(dir) < 0.0;
+        let n_face = if front { ng } else { -ng };
+        let attrs = self.scene.attrs.get(tri as usize);
+        let mut n_shading = n_face;
+        if let Some(ns) = attrs.and_then(|a| a.normals) {
+            let n = (ns[0] * (1.0 - u - v) + ns[1] * u + ns[2] * v).normalize_or_zero();
+            if n != Vec3::ZERO {
+                n_shading = if n.dot(n_face) < 0.0 { -n } else { n };
+            }
+        }
+        let m = self.material(tri);
+        let uv = self.uv(tri, u, v);
+        let mut base = [m.base_color[0], m.base_color[1], m.base_color[2]];
+        if let Some(t) = self.texture(m.base_color_texture) {
+            let c = sample_texture(t, uv, true);
+            base = [base[0] * c[0], base[1] * c[1], base[2] * c[2]];
+        }
+        let (mut metallic, mut roughness) = (m.metallic, m.roughness);
+        if let Some(t) = self.texture(m.metallic_roughness_texture) {
+            let c = sample_texture(t, uv, false);
+            roughness *= c[1];
+            metallic *= c[2];
+        }
+        SurfacePoint {
+            position: match self.scene.triangles.get(tri as usize) {
+                Some(t) => t.p[0] * (1.0 - u - v) + t.p[1] * u + t.p[2] * v,
+                None => origin + dir * hit.t_m,
+            },
+            n_face,
+            n_shading,
+            front,
+            coverage: self.coverage(tri, u, v),
+            emission: self.emission(tri, u, v, -dir),
+            bsdf: BsdfParams {
+                base: self.channel.pick(base).clamp(0.0, 1.0),
+                metallic: metallic.clamp(0.0, 1.0),
+                roughness: roughness.clamp(0.0, 1.0),
+                specular_factor: m.specular_factor.clamp(0.0, 1.0),
+                specular_color: self.channel.pick(m.specular_color).max(0.0),
+                transmission: m.transmission.clamp(0.0, 1.0),
+                ior: if m.ior.is_finite() && m.ior >= 1.0 { m.ior } else { 1.5 },
+            },
+        }
+    }
+}

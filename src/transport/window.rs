@@ -1,0 +1,122 @@
+//! The automatic time window: a small pilot render finds when light first arrives and
+//! when the light that matters has arrived.
+
+use super::integrator::{Renderer, Sink};
+use super::sampler::Sampler;
+use crate::film::TimeAxis;
+use crate::units::C_M_PER_S;
+use rayon::prelude::*;
+
+/// What the user fixed of the time axis; the rest is chosen from a pilot render.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct WindowRequest {
+    pub t0_s: Option<f64>,
+    pub dt_s: Option<f64>,
+    pub bins: usize,
+}
+
+/// Pilot resolution (pixels per side) and samples per pixel.
+const PILOT_SIDE: usize = 48;
+const PILOT_SPP: u32 = 4;
+/// Fraction of the pilot's energy the automatic window holds.
+const ENERGY_HELD: f64 = 0.995;
+
+struct PilotSink {
+    end_s: f64,
+    arrivals: Vec<(f64, f64)>,
+}
+
+impl Sink for PilotSink {
+    fn add(&mut self, arrival_s: f64, value: f64, _scatterings: u32) {
+        if value > 0.0 && value.is_finite() && arrival_s <= self.end_s {
+            self.arrivals.push((arrival_s, value));
+        }
+    }
+    fn window_end_s(&self) -> f64 {
+        self.end_s
+    }
+}
+
+/// Round `x > 0` up to 1, 2, 2.5 or 5 times a power of ten.
+fn nice_ceil(x: f64) -> f64 {
+    let p = 10f64.powf(x.log10().floor());
+    for m in [1.0, 2.0, 2.5, 5.0, 10.0] {
+        if m * p >= x * (1.0 - 1e-12) {
+            return m * p;
+        }
+    }
+    10.0 * p
+}
+
+/// Resolve the time axis. Given both `t0_s` and `dt_s`, no pilot is needed. Otherwise a
+/// pilot render (48 x 48 pixels, 4 spp, window 1000 scene diagonals long) records every
+/// arrival; the window runs from just before the first arrival to the time that holds
+/// 99.5 % of the pilot's energy, with a 2 % margin each side, and the bin width is
+/// rounded up to 1, 2, 2.5 or 5 x 10^k seconds.
+pub fn auto_window(renderer: &Renderer, req: WindowRequest) -> Result<TimeAxis, String> {
+    if req.bins == 0 {
+        return Err("the number of bins must be at least 1".into());
+    }
+    if let (Some(t0), Some(dt)) = (req.t0_s, req.dt_s) {
+        return TimeAxis::new(t0, dt, req.bins);
+    }
+    let diag_m = renderer.scene().bounds().diagonal_m() as f64;
+    let cam_m = renderer.scene().camera.position().length() as f64;
+    let horizon_s = 1000.0 * (diag_m + cam_m).max(1e-9) / C_M_PER_S;
+    let seed = renderer.settings().seed ^ 0x5049_4c4f_5400_0000;
+    let mut arrivals: Vec<(f64, f64)> = (0..PILOT_SIDE * PILOT_SIDE)
+        .into_par_iter()
+        .map(|p| {
+            let mut sink = PilotSink { end_s: horizon_s, arrivals: Vec::new() };
+            let mut rng = Sampler::new(seed, 0, p as u64);
+            for _ in 0..PILOT_SPP {
+                renderer.trace_sample(p % PILOT_SIDE, p / PILOT_SIDE, PILOT_SIDE, PILOT_SIDE, &mut rng, &mut sink);
+            }
+            sink.arrivals
+        })
+        .flatten()
+        .collect();
+    if arrivals.is_empty() {
+        return Err("no light reaches the camera in a pilot render: nothing to bin \
+                    (check the lights, or give --t0 and --dt)"
+            .into());
+    }
+    arrivals.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let total: f64 = arrivals.iter().map(|a| a.1).sum();
+    let first_s = arrivals[0].0;
+    let mut acc = 0.0;
+    let mut held_s = arrivals[arrivals.len() - 1].0;
+    for &(t, v) in &arrivals {
+        acc += v;
+        if acc >= ENERGY_HELD * total {
+            held_s = t;
+            break;
+        }
+    }
+    let span_s = (held_s - first_s).max(first_s * 0.05).max(1e-18);
+    let start_s = req.t0_s.unwrap_or((first_s - 0.02 * span_s).max(0.0));
+    let end_s = held_s + 0.02 * span_s;
+    let dt_s = match req.dt_s {
+        Some(dt) => dt,
+        None => nice_ceil(((end_s - start_s) / req.bins as f64).max(1e-21)),
+    };
+    let t0_s = match req.t0_s {
+        Some(t0) => t0,
+        None => (start_s / dt_s).floor() * dt_s,
+    };
+    TimeAxis::new(t0_s, dt_s, req.bins)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::nice_ceil;
+
+    #[test]
+    fn nice_numbers() {
+        assert_eq!(nice_ceil(1.0), 1.0);
+        assert!((nice_ceil(1.2e-12) - 2e-12).abs() < 1e-24);
+        assert!((nice_ceil(2.1e-12) - 2.5e-12).abs() < 1e-24);
+        assert!((nice_ceil(3e-9) - 5e-9).abs() < 1e-21);
+        assert!((nice_ceil(6e-9) - 1e-8).abs() < 1e-21);
+    }
+}
