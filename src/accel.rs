@@ -32,7 +32,13 @@ pub struct Hit {
 impl PreparedTri {
     /// Moller-Trumbore: distance along `dir` and barycentrics, if hit within (tmin, tmax).
     #[inline(always)]
-    fn intersect(&self, origin: Vec3A, dir: Vec3A, tmin: f32, tmax: f32) -> Option<(f32, f32, f32)> {
+    fn intersect(
+        &self,
+        origin: Vec3A,
+        dir: Vec3A,
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<(f32, f32, f32)> {
         let pvec = dir.cross(self.e2);
         let det = self.e1.dot(pvec);
         if det == 0.0 || !det.is_finite() {
@@ -54,8 +60,15 @@ impl PreparedTri {
     }
 }
 
-/// The BVH and the triangles in BVH order.
+/// The BVH and the triangles in BVH order, in *BVH space*: world space shifted to the
+/// scene's centre and scaled by a power of two so the scene's diagonal is about 2^14
+/// units. obvhs culls BVH nodes closer than an absolute 1e-4 units to the ray origin;
+/// in BVH space that is below 1e-8 of the scene at any scale, so a 1 mm scene and a
+/// 10 km scene trace the same way (and the power-of-two scale is exact in floating point).
 pub struct Accel {
+    /// BVH space = (world - origin) * scale.
+    origin: Vec3A,
+    scale: f32,
     bvh: Option<CwBvh>,
     /// Triangles in BVH primitive order.
     tris: Vec<PreparedTri>,
@@ -67,32 +80,52 @@ impl Accel {
     /// Build the CWBVH (obvhs `medium_build`: no spatial splits, so every triangle sits in
     /// exactly one leaf and any-hit visits it at most once).
     pub fn build(scene: &Scene) -> Accel {
-        if scene.triangles.is_empty() {
-            return Accel { bvh: None, tris: Vec::new(), scene_index: Vec::new() };
-        }
+        let Some(bounds) = scene.geometry_bounds() else {
+            return Accel {
+                origin: Vec3A::ZERO,
+                scale: 1.0,
+                bvh: None,
+                tris: Vec::new(),
+                scene_index: Vec::new(),
+            };
+        };
+        let origin: Vec3A = bounds.center().into();
+        let diag = bounds.diagonal_m().max(f32::MIN_POSITIVE);
+        let scale = (16384.0 / diag).log2().round().clamp(-120.0, 120.0).exp2();
+        let to_bvh = |p: Vec3| (Vec3A::from(p) - origin) * scale;
         let obvhs_tris: Vec<obvhs::triangle::Triangle> = scene
             .triangles
             .iter()
             .map(|t| obvhs::triangle::Triangle {
-                v0: t.p[0].into(),
-                v1: t.p[1].into(),
-                v2: t.p[2].into(),
+                v0: to_bvh(t.p[0]),
+                v1: to_bvh(t.p[1]),
+                v2: to_bvh(t.p[2]),
             })
             .collect();
-        let bvh = build_cwbvh_from_tris(&obvhs_tris, BvhBuildParams::medium_build(), &mut Duration::default());
+        let bvh = build_cwbvh_from_tris(
+            &obvhs_tris,
+            BvhBuildParams::medium_build(),
+            &mut Duration::default(),
+        );
         let scene_index = bvh.primitive_indices.clone();
         let tris = scene_index
             .iter()
             .map(|&i| {
-                let t = &scene.triangles[i as usize];
+                let t = &obvhs_tris[i as usize];
                 PreparedTri {
-                    v0: t.p[0].into(),
-                    e1: (t.p[1] - t.p[0]).into(),
-                    e2: (t.p[2] - t.p[0]).into(),
+                    v0: t.v0,
+                    e1: t.v1 - t.v0,
+                    e2: t.v2 - t.v0,
                 }
             })
             .collect();
-        Accel { bvh: Some(bvh), tris, scene_index }
+        Accel {
+            origin,
+            scale,
+            bvh: Some(bvh),
+            tris,
+            scene_index,
+        }
     }
 
     /// Number of triangles in the BVH.
@@ -103,39 +136,60 @@ impl Accel {
     /// Closest hit along `origin + t dir` for `t` in (0, t_max_m). `dir` must be unit length.
     pub fn closest_hit(&self, origin: Vec3, dir: Vec3, t_max_m: f32) -> Option<Hit> {
         let bvh = self.bvh.as_ref()?;
-        let o: Vec3A = origin.into();
+        let o = (Vec3A::from(origin) - self.origin) * self.scale;
         let d: Vec3A = dir.into();
-        let ray = Ray::new(o, d, 0.0, t_max_m);
+        let ray = Ray::new(o, d, 0.0, t_max_m * self.scale);
         let mut best: Option<(f32, usize, f32, f32)> = None;
         let mut hit = obvhs::ray::RayHit::none();
-        bvh.ray_traverse(ray, &mut hit, |r, id| match self.tris[id].intersect(o, d, 0.0, r.tmax) {
-            Some((t, u, v)) => {
-                best = Some((t, id, u, v));
-                t
+        bvh.ray_traverse(ray, &mut hit, |r, id| {
+            match self.tris[id].intersect(o, d, 0.0, r.tmax) {
+                Some((t, u, v)) => {
+                    best = Some((t, id, u, v));
+                    t
+                }
+                None => f32::INFINITY,
             }
-            None => f32::INFINITY,
         });
-        best.map(|(t, id, u, v)| Hit { t_m: t, triangle: self.scene_index[id], u, v })
+        best.map(|(t, id, u, v)| Hit {
+            t_m: t / self.scale,
+            triangle: self.scene_index[id],
+            u,
+            v,
+        })
     }
 
     /// Visit every hit along the segment (0, t_max_m), in no particular order, until
     /// `visit` returns `true` (the ray is blocked). Returns whether it was blocked.
-    pub fn any_hit(&self, origin: Vec3, dir: Vec3, t_max_m: f32, mut visit: impl FnMut(Hit) -> bool) -> bool {
+    pub fn any_hit(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_max_m: f32,
+        mut visit: impl FnMut(Hit) -> bool,
+    ) -> bool {
         let Some(bvh) = self.bvh.as_ref() else {
             return false;
         };
-        let o: Vec3A = origin.into();
+        let o = (Vec3A::from(origin) - self.origin) * self.scale;
         let d: Vec3A = dir.into();
-        let ray = Ray::new(o, d, 0.0, t_max_m);
-        !bvh.ray_traverse_miss(ray, |_, id| match self.tris[id].intersect(o, d, 0.0, t_max_m) {
-            Some((t, u, v)) => {
-                if visit(Hit { t_m: t, triangle: self.scene_index[id], u, v }) {
-                    t
-                } else {
-                    f32::INFINITY
+        let t_max = t_max_m * self.scale;
+        let ray = Ray::new(o, d, 0.0, t_max);
+        !bvh.ray_traverse_miss(ray, |_, id| {
+            match self.tris[id].intersect(o, d, 0.0, t_max) {
+                Some((t, u, v)) => {
+                    if visit(Hit {
+                        t_m: t / self.scale,
+                        triangle: self.scene_index[id],
+                        u,
+                        v,
+                    }) {
+                        t
+                    } else {
+                        f32::INFINITY
+                    }
                 }
+                None => f32::INFINITY,
             }
-            None => f32::INFINITY,
         })
     }
 }

@@ -3,8 +3,8 @@
 //! Data flow, each arrow one-way (see ARCHITECTURE.md):
 //! `scene -> accel -> transport -> film -> (sensor, viewer, export)`.
 
-pub mod scene;
-pub mod units;
 pub mod accel;
 pub mod film;
+pub mod scene;
 pub mod transport;
+pub mod units;

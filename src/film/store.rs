@@ -166,7 +166,13 @@ impl TprfFilm {
                 .map(|(y, row)| {
                     let mut sinks: Vec<PixelSink<'_>> = row
                         .chunks_mut(t)
-                        .map(|bins| PixelSink { axis: layout.axis, layout, bins, bounce_bins: &mut [], outside: 0.0 })
+                        .map(|bins| PixelSink {
+                            axis: layout.axis,
+                            layout,
+                            bins,
+                            bounce_bins: &mut [],
+                            outside: 0.0,
+                        })
                         .collect();
                     render_row(y, &mut sinks);
                     sinks.iter().map(|s| s.outside).sum::<f64>()
@@ -181,7 +187,13 @@ impl TprfFilm {
                     let mut sinks: Vec<PixelSink<'_>> = row
                         .chunks_mut(t)
                         .zip(brow.chunks_mut(layers * t))
-                        .map(|(bins, bounce_bins)| PixelSink { axis: layout.axis, layout, bins, bounce_bins, outside: 0.0 })
+                        .map(|(bins, bounce_bins)| PixelSink {
+                            axis: layout.axis,
+                            layout,
+                            bins,
+                            bounce_bins,
+                            outside: 0.0,
+                        })
                         .collect();
                     render_row(y, &mut sinks);
                     sinks.iter().map(|s| s.outside).sum::<f64>()
@@ -204,7 +216,9 @@ impl TprfFilm {
         let n = self.spp().max(1) as f64;
         let i = self.index(x, y);
         let t = self.layout.axis.bins;
-        (0..t).map(|b| (self.halves[0][i + b] + self.halves[1][i + b]) / n).collect()
+        (0..t)
+            .map(|b| (self.halves[0][i + b] + self.halves[1][i + b]) / n)
+            .collect()
     }
 
     /// The per-bounce TPRFs of pixel `(x, y)`: `layers x bins`, empty without layers.

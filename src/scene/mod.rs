@@ -20,7 +20,9 @@ pub struct Triangle {
 impl Triangle {
     /// Area in m^2.
     pub fn area_m2(&self) -> f32 {
-        0.5 * (self.p[1] - self.p[0]).cross(self.p[2] - self.p[0]).length()
+        0.5 * (self.p[1] - self.p[0])
+            .cross(self.p[2] - self.p[0])
+            .length()
     }
 }
 
@@ -43,7 +45,9 @@ pub struct TriangleAttrs {
 pub enum AlphaMode {
     Opaque,
     /// Covered where alpha >= cutoff, open elsewhere.
-    Mask { cutoff: f32 },
+    Mask {
+        cutoff: f32,
+    },
     /// Covered by the fraction alpha.
     Blend,
 }
@@ -173,7 +177,12 @@ impl Camera {
         let right = fwd.cross(up).normalize();
         let true_up = right.cross(fwd);
         Camera {
-            world_from_camera: Affine3A::from_cols(right.into(), true_up.into(), (-fwd).into(), eye.into()),
+            world_from_camera: Affine3A::from_cols(
+                right.into(),
+                true_up.into(),
+                (-fwd).into(),
+                eye.into(),
+            ),
             yfov_rad,
         }
     }
@@ -277,6 +286,17 @@ impl Scene {
         self
     }
 
+    /// Multiply every light's intensity and every emitter's radiance by `k`.
+    pub fn with_intensity_scale(mut self, k: f32) -> Scene {
+        for l in &mut self.lights {
+            l.intensity_w_per_sr = l.intensity_w_per_sr.map(|v| v * k);
+        }
+        for m in &mut self.materials {
+            m.emissive = m.emissive.map(|v| v * k);
+        }
+        self
+    }
+
     /// Check the invariants the transport relies on; loaders call this last.
     pub fn validate(&self) -> Result<(), SceneError> {
         if self.triangles.len() != self.attrs.len() {
@@ -303,7 +323,11 @@ impl Scene {
             }
         }
         for l in &self.lights {
-            if !l.position.is_finite() || l.intensity_w_per_sr.iter().any(|v| !v.is_finite() || *v < 0.0) {
+            if !l.position.is_finite()
+                || l.intensity_w_per_sr
+                    .iter()
+                    .any(|v| !v.is_finite() || *v < 0.0)
+            {
                 return Err(SceneError::Invalid(format!(
                     "light '{}' has a non-finite position or a negative/non-finite intensity",
                     l.name
@@ -314,7 +338,8 @@ impl Scene {
             || !(self.camera.yfov_rad > 0.0 && self.camera.yfov_rad < std::f32::consts::PI)
         {
             return Err(SceneError::Invalid(
-                "camera has a non-finite transform or a field of view outside (0, 180) degrees".into(),
+                "camera has a non-finite transform or a field of view outside (0, 180) degrees"
+                    .into(),
             ));
         }
         Ok(())

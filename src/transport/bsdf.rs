@@ -66,7 +66,10 @@ pub struct BsdfSample {
 
 impl BsdfSample {
     pub fn is_delta(&self) -> bool {
-        matches!(self.kind, LobeKind::Mirror | LobeKind::Reflect | LobeKind::Refract)
+        matches!(
+            self.kind,
+            LobeKind::Mirror | LobeKind::Reflect | LobeKind::Refract
+        )
     }
 }
 
@@ -148,7 +151,10 @@ impl Bsdf {
         let f0 = p.metallic * p.base + dielectric * p.specular_factor * f0_dielectric;
         let f90 = p.metallic + dielectric * p.specular_factor;
         let transmission = dielectric * p.transmission;
-        let diffuse = dielectric * (1.0 - p.transmission) * p.base * (1.0 - p.specular_factor * f0_dielectric);
+        let diffuse = dielectric
+            * (1.0 - p.transmission)
+            * p.base
+            * (1.0 - p.specular_factor * f0_dielectric);
         let alpha = (p.roughness * p.roughness).max(0.0);
         let w_spec = 0.5 * (f0 + f90) * (1.0 - transmission);
         let total = diffuse + w_spec + transmission;
@@ -212,7 +218,12 @@ impl Bsdf {
         let (u1, u2) = rng.next2();
         let smooth_sample = |wi: Vec3, kind: LobeKind| -> Option<BsdfSample> {
             let (f, pdf) = self.eval(wo, wi);
-            (pdf > 0.0 && f > 0.0).then(|| BsdfSample { wi, weight: f * wi.z / pdf, pdf, kind })
+            (pdf > 0.0 && f > 0.0).then(|| BsdfSample {
+                wi,
+                weight: f * wi.z / pdf,
+                pdf,
+                kind,
+            })
         };
         if u < self.p_diffuse {
             // Cosine-weighted hemisphere.
@@ -224,7 +235,12 @@ impl Bsdf {
             if self.is_mirror() {
                 let wi = Vec3::new(-wo.x, -wo.y, wo.z);
                 let fr = schlick(self.f0, self.f90, wo.z);
-                return Some(BsdfSample { wi, weight: fr / self.p_spec, pdf: 0.0, kind: LobeKind::Mirror });
+                return Some(BsdfSample {
+                    wi,
+                    weight: fr / self.p_spec,
+                    pdf: 0.0,
+                    kind: LobeKind::Mirror,
+                });
             }
             // GGX: h ~ D(h) cos(theta_h).
             let a2 = self.alpha * self.alpha;
@@ -246,7 +262,12 @@ impl Bsdf {
             let fr = fresnel_dielectric(wo.z, self.eta);
             if u1 < fr {
                 let wi = Vec3::new(-wo.x, -wo.y, wo.z);
-                Some(BsdfSample { wi, weight: self.transmission / pt, pdf: 0.0, kind: LobeKind::Reflect })
+                Some(BsdfSample {
+                    wi,
+                    weight: self.transmission / pt,
+                    pdf: 0.0,
+                    kind: LobeKind::Reflect,
+                })
             } else {
                 let sin2_t = self.eta * self.eta * (1.0 - wo.z * wo.z);
                 let cos_t = (1.0 - sin2_t).max(0.0).sqrt();
@@ -292,7 +313,10 @@ mod tests {
         let b = Bsdf::new(&params(0.7, 0.0, 1.0, 0.0), 1.0 / 1.5);
         let wo = Vec3::new(0.3, 0.1, 0.9).normalize();
         let a = albedo(&b, wo, 200_000);
-        assert!((a - 0.7).abs() < 1e-6, "pure Lambertian weight is exactly the albedo: {a}");
+        assert!(
+            (a - 0.7).abs() < 1e-6,
+            "pure Lambertian weight is exactly the albedo: {a}"
+        );
         let (f, pdf) = b.eval(wo, Vec3::Z);
         assert!((f - 0.7 / PI).abs() < 1e-6 && (pdf - 1.0 / PI).abs() < 1e-6);
     }
@@ -316,21 +340,35 @@ mod tests {
             uniform += (b.eval(wo, wi).0 * wi.z) as f64 * 2.0 * PI as f64;
         }
         uniform /= n as f64;
-        assert!((importance - uniform).abs() < 0.01 * uniform, "{importance} vs {uniform}");
+        assert!(
+            (importance - uniform).abs() < 0.01 * uniform,
+            "{importance} vs {uniform}"
+        );
     }
 
     #[test]
     fn fresnel_limits() {
         assert!((fresnel_dielectric(1.0, 1.0 / 1.5) - 0.04).abs() < 1e-6);
-        assert_eq!(fresnel_dielectric(0.1, 1.5), 1.0, "total internal reflection");
+        assert_eq!(
+            fresnel_dielectric(0.1, 1.5),
+            1.0,
+            "total internal reflection"
+        );
         assert!((fresnel_dielectric(0.0, 1.0 / 1.5) - 1.0).abs() < 1e-6);
     }
 
     #[test]
     fn frame_is_orthonormal() {
-        for n in [Vec3::Z, -Vec3::Z, Vec3::new(0.3, -0.4, 0.5).normalize(), Vec3::X] {
+        for n in [
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::new(0.3, -0.4, 0.5).normalize(),
+            Vec3::X,
+        ] {
             let f = Frame::new(n);
-            assert!(f.t.dot(f.b).abs() < 1e-6 && f.t.dot(n).abs() < 1e-6 && f.b.dot(n).abs() < 1e-6);
+            assert!(
+                f.t.dot(f.b).abs() < 1e-6 && f.t.dot(n).abs() < 1e-6 && f.b.dot(n).abs() < 1e-6
+            );
             let v = Vec3::new(0.1, 0.7, -0.2);
             assert!((f.to_world(f.to_local(v)) - v).length() < 1e-6);
         }

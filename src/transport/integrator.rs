@@ -50,7 +50,13 @@ pub struct RenderSettings {
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        RenderSettings { max_bounces: 1024, seed: 0, channel: Channel::Gray, nee: true, rr_start: 3 }
+        RenderSettings {
+            max_bounces: 1024,
+            seed: 0,
+            channel: Channel::Gray,
+            nee: true,
+            rr_start: 3,
+        }
     }
 }
 
@@ -90,9 +96,20 @@ impl Renderer {
         let accel = Accel::build(&scene);
         let lights = Lights::new(&scene, settings.channel);
         let diag = scene.bounds().diagonal_m();
-        let eps_m = if diag.is_finite() && diag > 0.0 { diag * 1e-6 } else { 1e-6 };
+        let eps_m = if diag.is_finite() && diag > 0.0 {
+            diag * 1e-6
+        } else {
+            1e-6
+        };
         let surfaces = Surfaces::new(scene, settings.channel);
-        Renderer { surfaces, accel, lights, settings, eps_m, rays: AtomicU64::new(0) }
+        Renderer {
+            surfaces,
+            accel,
+            lights,
+            settings,
+            eps_m,
+            rays: AtomicU64::new(0),
+        }
     }
 
     pub fn scene(&self) -> &Scene {
@@ -127,7 +144,10 @@ impl Renderer {
         let aspect = width as f32 / height.max(1) as f32;
         let sx = (2.0 * px / width as f32 - 1.0) * tan_half * aspect;
         let sy = (1.0 - 2.0 * py / height as f32) * tan_half;
-        let dir = cam.world_from_camera.transform_vector3(Vec3::new(sx, sy, -1.0)).normalize();
+        let dir = cam
+            .world_from_camera
+            .transform_vector3(Vec3::new(sx, sy, -1.0))
+            .normalize();
         (cam.position(), dir)
     }
 
@@ -156,7 +176,15 @@ impl Renderer {
     }
 
     /// Trace one jittered camera sample of pixel `(x, y)`; returns the rays traced.
-    pub fn trace_sample(&self, x: usize, y: usize, w: usize, h: usize, rng: &mut Sampler, sink: &mut impl Sink) -> u64 {
+    pub fn trace_sample(
+        &self,
+        x: usize,
+        y: usize,
+        w: usize,
+        h: usize,
+        rng: &mut Sampler,
+        sink: &mut impl Sink,
+    ) -> u64 {
         let (jx, jy) = rng.next2();
         let (origin, dir) = self.camera_ray(x as f32 + jx, y as f32 + jy, w, h);
         self.trace_path(origin, dir, rng, sink)
@@ -166,7 +194,13 @@ impl Renderer {
     /// length `opl_m` (sum of `n_i d_i`, metres, f64) grows along the path; a contribution
     /// reaching the eye through vertex k arrives at `(opl_m + n d(vertex, light)) / c`.
     /// Returns the rays traced.
-    pub fn trace_path(&self, mut origin: Vec3, mut dir: Vec3, rng: &mut Sampler, sink: &mut impl Sink) -> u64 {
+    pub fn trace_path(
+        &self,
+        mut origin: Vec3,
+        mut dir: Vec3,
+        rng: &mut Sampler,
+        sink: &mut impl Sink,
+    ) -> u64 {
         let s = &self.settings;
         let window_end_opl_m = sink.window_end_s() * C_M_PER_S;
         let mut rays = 0u64;
@@ -206,23 +240,47 @@ impl Renderer {
                         let d2 = (sp.position - last_position).length_squared();
                         let cos_l = sp.n_face.dot(-dir).abs();
                         let pdf_light = self.lights.pdf_area(hit.triangle) * d2 / cos_l.max(1e-12);
-                        if s.nee { power_heuristic(pdf_bsdf, pdf_light) } else { 1.0 }
+                        if s.nee {
+                            power_heuristic(pdf_bsdf, pdf_light)
+                        } else {
+                            1.0
+                        }
                     }
                 };
-                sink.add(opl_m / C_M_PER_S, (throughput * sp.emission * weight) as f64, scatterings);
+                sink.add(
+                    opl_m / C_M_PER_S,
+                    (throughput * sp.emission * weight) as f64,
+                    scatterings,
+                );
             }
             if scatterings >= s.max_bounces {
                 break;
             }
             let entering = sp.front;
-            let eta = if entering { 1.0 / sp.bsdf.ior } else { sp.bsdf.ior };
+            let eta = if entering {
+                1.0 / sp.bsdf.ior
+            } else {
+                sp.bsdf.ior
+            };
             let bsdf = Bsdf::new(&sp.bsdf, eta);
             let frame = Frame::new(sp.n_shading);
             let wo_world = -dir;
             let wo = frame.to_local(wo_world);
             let p_out = sp.position + sp.n_face * self.offset_m(sp.position);
             if s.nee && bsdf.has_smooth_lobe() {
-                rays += self.next_event(&bsdf, &frame, wo, p_out, sp.n_face, opl_m, ior_here, throughput, scatterings + 1, rng, sink);
+                rays += self.next_event(
+                    &bsdf,
+                    &frame,
+                    wo,
+                    p_out,
+                    sp.n_face,
+                    opl_m,
+                    ior_here,
+                    throughput,
+                    scatterings + 1,
+                    rng,
+                    sink,
+                );
             }
             let Some(bs) = bsdf.sample(wo, rng) else {
                 break;
@@ -299,7 +357,11 @@ impl Renderer {
             if tr > 0.0 {
                 let cos_i = frame.to_local(wi_world).z;
                 let value = throughput * f * cos_i * intensity / d2 * tr;
-                sink.add((opl_m + d as f64 * ior_here as f64) / C_M_PER_S, value as f64, scatterings);
+                sink.add(
+                    (opl_m + d as f64 * ior_here as f64) / C_M_PER_S,
+                    value as f64,
+                    scatterings,
+                );
             }
         }
         if self.lights.has_emitters() {
@@ -312,7 +374,11 @@ impl Renderer {
                     let d = d2.sqrt();
                     let wi_world = to / d;
                     let le = self.surfaces.emission(es.triangle, es.u, es.v, -wi_world);
-                    let cos_l = self.surfaces.geometric_normal(es.triangle).dot(-wi_world).abs();
+                    let cos_l = self
+                        .surfaces
+                        .geometric_normal(es.triangle)
+                        .dot(-wi_world)
+                        .abs();
                     if le > 0.0 && cos_l > 0.0 && wi_world.dot(n_face) > 0.0 {
                         let wi = frame.to_local(wi_world);
                         let (f, pdf_bsdf) = bsdf.eval(wo, wi);
@@ -324,7 +390,11 @@ impl Renderer {
                                 let pdf_light = es.pdf_area * d2 / cos_l;
                                 let w = power_heuristic(pdf_light, pdf_bsdf);
                                 let value = throughput * f * wi.z * le * w * tr / pdf_light;
-                                sink.add((opl_m + d as f64 * ior_here as f64) / C_M_PER_S, value as f64, scatterings);
+                                sink.add(
+                                    (opl_m + d as f64 * ior_here as f64) / C_M_PER_S,
+                                    value as f64,
+                                    scatterings,
+                                );
                             }
                         }
                     }

@@ -74,7 +74,11 @@ pub struct Lights {
 
 impl Lights {
     pub fn new(scene: &Scene, channel: Channel) -> Lights {
-        let punctual = scene.lights.iter().map(|l| Punctual::new(l, channel)).collect();
+        let punctual = scene
+            .lights
+            .iter()
+            .map(|l| Punctual::new(l, channel))
+            .collect();
         let mut emitters = Vec::new();
         let mut weights = Vec::new();
         let mut emitter_of = vec![u32::MAX; scene.triangles.len()];
@@ -108,7 +112,12 @@ impl Lights {
                 (acc / total) as f32
             })
             .collect();
-        Lights { punctual, emitters, cdf, emitter_of }
+        Lights {
+            punctual,
+            emitters,
+            cdf,
+            emitter_of,
+        }
     }
 
     pub fn has_emitters(&self) -> bool {
@@ -117,7 +126,11 @@ impl Lights {
 
     fn select_probability(&self, i: usize) -> f32 {
         let hi = self.cdf.get(i).copied().unwrap_or(0.0);
-        let lo = if i == 0 { 0.0 } else { self.cdf.get(i - 1).copied().unwrap_or(0.0) };
+        let lo = if i == 0 {
+            0.0
+        } else {
+            self.cdf.get(i - 1).copied().unwrap_or(0.0)
+        };
         hi - lo
     }
 
@@ -126,7 +139,10 @@ impl Lights {
         if self.emitters.is_empty() {
             return None;
         }
-        let i = self.cdf.partition_point(|&c| c <= u_select).min(self.emitters.len() - 1);
+        let i = self
+            .cdf
+            .partition_point(|&c| c <= u_select)
+            .min(self.emitters.len() - 1);
         let e = &self.emitters[i];
         let s = u1.sqrt();
         let (bu, bv) = (s * (1.0 - u2), s * u2);

@@ -6,9 +6,10 @@
 pub mod bsdf;
 mod integrator;
 pub mod lights;
+pub mod progressive;
 pub mod sampler;
 pub mod surface;
 mod window;
 
-pub use integrator::{PassStats, Renderer, RenderSettings, Sink};
+pub use integrator::{PassStats, RenderSettings, Renderer, Sink};
 pub use window::{WindowRequest, auto_window};

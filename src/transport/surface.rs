@@ -44,11 +44,22 @@ pub fn sample_texture(tex: &Texture, uv: Vec2, srgb: bool) -> [f32; 4] {
         let xi = xi.rem_euclid(w);
         let yi = yi.rem_euclid(h);
         let p = tex.rgba8[(yi * w + xi) as usize];
-        let c = |v: u8| if srgb { lut[v as usize] } else { v as f32 / 255.0 };
+        let c = |v: u8| {
+            if srgb {
+                lut[v as usize]
+            } else {
+                v as f32 / 255.0
+            }
+        };
         [c(p[0]), c(p[1]), c(p[2]), p[3] as f32 / 255.0]
     };
     let (x0, y0) = (x0 as i64, y0 as i64);
-    let (a, b, c, d) = (texel(x0, y0), texel(x0 + 1, y0), texel(x0, y0 + 1), texel(x0 + 1, y0 + 1));
+    let (a, b, c, d) = (
+        texel(x0, y0),
+        texel(x0 + 1, y0),
+        texel(x0, y0 + 1),
+        texel(x0 + 1, y0 + 1),
+    );
     let mut out = [0.0; 4];
     for i in 0..4 {
         let top = a[i] + (b[i] - a[i]) * fx;
@@ -91,11 +102,18 @@ impl Surfaces {
             .iter()
             .map(|t| (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).normalize_or_zero())
             .collect();
-        Surfaces { scene, channel, normals }
+        Surfaces {
+            scene,
+            channel,
+            normals,
+        }
     }
 
     pub fn geometric_normal(&self, triangle: u32) -> Vec3 {
-        self.normals.get(triangle as usize).copied().unwrap_or(Vec3::Z)
+        self.normals
+            .get(triangle as usize)
+            .copied()
+            .unwrap_or(Vec3::Z)
     }
 
     pub fn scene(&self) -> &Arc<Scene> {
@@ -214,7 +232,11 @@ impl Surfaces {
                 specular_factor: m.specular_factor.clamp(0.0, 1.0),
                 specular_color: self.channel.pick(m.specular_color).max(0.0),
                 transmission: m.transmission.clamp(0.0, 1.0),
-                ior: if m.ior.is_finite() && m.ior >= 1.0 { m.ior } else { 1.5 },
+                ior: if m.ior.is_finite() && m.ior >= 1.0 {
+                    m.ior
+                } else {
+                    1.5
+                },
             },
         }
     }

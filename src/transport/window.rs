@@ -67,19 +67,31 @@ pub fn auto_window(renderer: &Renderer, req: WindowRequest) -> Result<TimeAxis, 
     let mut arrivals: Vec<(f64, f64)> = (0..PILOT_SIDE * PILOT_SIDE)
         .into_par_iter()
         .map(|p| {
-            let mut sink = PilotSink { end_s: horizon_s, arrivals: Vec::new() };
+            let mut sink = PilotSink {
+                end_s: horizon_s,
+                arrivals: Vec::new(),
+            };
             let mut rng = Sampler::new(seed, 0, p as u64);
             for _ in 0..PILOT_SPP {
-                renderer.trace_sample(p % PILOT_SIDE, p / PILOT_SIDE, PILOT_SIDE, PILOT_SIDE, &mut rng, &mut sink);
+                renderer.trace_sample(
+                    p % PILOT_SIDE,
+                    p / PILOT_SIDE,
+                    PILOT_SIDE,
+                    PILOT_SIDE,
+                    &mut rng,
+                    &mut sink,
+                );
             }
             sink.arrivals
         })
         .flatten()
         .collect();
     if arrivals.is_empty() {
-        return Err("no light reaches the camera in a pilot render: nothing to bin \
+        return Err(
+            "no light reaches the camera in a pilot render: nothing to bin \
                     (check the lights, or give --t0 and --dt)"
-            .into());
+                .into(),
+        );
     }
     arrivals.sort_by(|a, b| a.0.total_cmp(&b.0));
     let total: f64 = arrivals.iter().map(|a| a.1).sum();

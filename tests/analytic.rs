@@ -1,0 +1,229 @@
+//! The renderer against answers derived by hand: a plane lit by a co-located point light
+//! (single bounce, per pixel time and value) and the transient furnace (a closed diffuse
+//! sphere with light and camera at the centre).
+
+mod common;
+use common::*;
+use tprf::film::TimeAxis;
+
+/// Exact pixel mean (midpoint rule on an n x n grid over the footprint) of the
+/// single-bounce radiance `L = rho I h / (pi r^3)` and its energy-weighted arrival
+/// `2 r / c`, for a camera at height h looking straight down at z = 0 with the light at
+/// the camera. Image point (sx, sy) on the plane z = -1 hits the ground at distance
+/// `r = h sqrt(1 + sx^2 + sy^2)`.
+/// Also returns the standard deviations of L and of 2r/c over the footprint (what one
+/// jittered sample scatters by), for tolerances from the sample count.
+fn plane_reference(
+    x: usize,
+    y: usize,
+    w: usize,
+    h_px: usize,
+    h_m: f64,
+    rho: f64,
+    i: f64,
+    fov_deg: f64,
+) -> [f64; 4] {
+    let n = 32;
+    let (mut sum_l2, mut sum_t, mut sum_t2) = (0.0, 0.0, 0.0);
+    let tan_half = (0.5 * fov_deg.to_radians()).tan();
+    let aspect = w as f64 / h_px as f64;
+    let (mut sum_l, mut sum_lt) = (0.0, 0.0);
+    for a in 0..n {
+        for b in 0..n {
+            let px = x as f64 + (a as f64 + 0.5) / n as f64;
+            let py = y as f64 + (b as f64 + 0.5) / n as f64;
+            let sx = (2.0 * px / w as f64 - 1.0) * tan_half * aspect;
+            let sy = (1.0 - 2.0 * py / h_px as f64) * tan_half;
+            let r = h_m * (1.0 + sx * sx + sy * sy).sqrt();
+            let l = rho * i * h_m / (std::f64::consts::PI * r * r * r);
+            let t = 2.0 * r / C;
+            sum_l += l;
+            sum_lt += l * t;
+            sum_l2 += l * l;
+            sum_t += t;
+            sum_t2 += t * t;
+        }
+    }
+    let m = (n * n) as f64;
+    let sd = |s: f64, s2: f64| (s2 / m - (s / m) * (s / m)).max(0.0).sqrt();
+    [
+        sum_l / m,
+        sum_lt / sum_l,
+        sd(sum_l, sum_l2),
+        sd(sum_t, sum_t2),
+    ]
+}
+
+#[test]
+fn plane_lit_by_colocated_light_matches_single_bounce_answer() {
+    let (h_m, rho, i, fov) = (2.0f32, 0.5f32, 3.0f32, 40.0f32);
+    let (w, hp) = (12, 9);
+    let t_direct = 2.0 * h_m as f64 / C;
+    let axis = TimeAxis::new(0.95 * t_direct, 0.004 * t_direct, 100).unwrap();
+    let spp = 64;
+    let r = render_scene(lit_plane(h_m, rho, i, 50.0, fov), w, hp, axis, spp, 7, 2);
+    let se = |sd: f64| 4.0 * sd / (spp as f64).sqrt();
+    let film = &r.film;
+    for y in 0..hp {
+        for x in 0..w {
+            let [l_ref, t_ref, l_sd, t_sd] =
+                plane_reference(x, y, w, hp, h_m as f64, rho as f64, i as f64, fov as f64);
+            let tprf = film.pixel_tprf(x, y);
+            let steady: f64 = tprf.iter().sum();
+            assert!(
+                (steady - l_ref).abs() < se(l_sd) + 1e-4 * l_ref,
+                "pixel ({x},{y}): steady {steady} vs analytic {l_ref}"
+            );
+            let t_mean = mean_arrival_s(&tprf, &axis);
+            assert!(
+                (t_mean - t_ref).abs() < se(t_sd) + 0.5 * axis.dt_s,
+                "pixel ({x},{y}): mean arrival {t_mean} s vs analytic {t_ref} s (dt {})",
+                axis.dt_s
+            );
+            // Nothing arrives before the shortest possible round trip 2h/c.
+            let first = tprf.iter().position(|&v| v > 0.0).unwrap();
+            assert!(
+                axis.bin_start_s(first + 1) > t_direct,
+                "light before 2h/c in pixel ({x},{y})"
+            );
+            // A plane cannot light itself: everything is one scattering event.
+            let layers = film.pixel_bounces(x, y);
+            assert_eq!(layers.len(), 4);
+            let one: f64 = layers[1].iter().sum();
+            let others: f64 = layers[0].iter().chain(&layers[2]).chain(&layers[3]).sum();
+            assert!((one - steady).abs() < 1e-9 * steady && others == 0.0);
+        }
+    }
+}
+
+/// Semi-analytic transient furnace. With light and eye at the centre of a diffuse sphere
+/// of radius R and albedo rho, the k-th scattering term has steady radiance
+/// `rho^k I / (pi R^2)` and arrives at `(2R + S_{k-1}) / c`, where `S_{k-1}` is the sum
+/// of k-1 independent chords with density `d / (2 R^2)` on [0, 2R] (cosine-distributed
+/// directions). The chord sums are convolved numerically on a fine grid; returns the
+/// expected bin integrals on `axis`.
+fn furnace_reference(r_m: f64, rho: f64, i: f64, axis: &TimeAxis) -> Vec<f64> {
+    let cell_m = r_m / 400.0;
+    let horizon_m = axis.end_s() * C;
+    let cells = (horizon_m / cell_m).ceil() as usize + 1;
+    // Chord-length mass per cell from the CDF d^2 / (4 R^2).
+    let kernel: Vec<f64> = (0..800)
+        .map(|j| {
+            let a = j as f64 * cell_m;
+            let b = a + cell_m;
+            (b * b - a * a) / (4.0 * r_m * r_m)
+        })
+        .collect();
+    let l1 = rho * i / (std::f64::consts::PI * r_m * r_m);
+    let mut out = vec![0.0; axis.bins];
+    // k = 1: S_0 = 0 exactly (not a cell centre).
+    if let Some(b) = axis.bin_of(2.0 * r_m / C) {
+        out[b] += l1;
+    }
+    let mut add = |dist: &[f64], weight: f64| {
+        for (j, &m) in dist.iter().enumerate() {
+            if m == 0.0 {
+                continue;
+            }
+            // Cell j holds sums in [j, j+1) cells; its mass sits at the cell centre.
+            let opl = 2.0 * r_m + (j as f64 + 0.5) * cell_m;
+            if let Some(b) = axis.bin_of(opl / C) {
+                out[b] += weight * m;
+            }
+        }
+    };
+    let mut dist = kernel.clone();
+    let mut weight = l1 * rho;
+    while weight > 1e-9 * l1 {
+        add(&dist, weight);
+        let mut next = vec![0.0; cells.min(dist.len() + kernel.len())];
+        for (a, &da) in dist.iter().enumerate() {
+            if da < 1e-300 {
+                continue;
+            }
+            for (b, &kb) in kernel.iter().enumerate() {
+                if let Some(n) = next.get_mut(a + b) {
+                    *n += da * kb;
+                }
+            }
+        }
+        dist = next;
+        weight *= rho;
+    }
+    drop(add);
+    out
+}
+
+fn check_furnace(rho: f32) {
+    let (r_m, i) = (1.0f32, 2.0f32);
+    let axis = TimeAxis::new(0.25 / C, 0.5 / C, 60).unwrap();
+    let rendered = render_scene(furnace(r_m, rho, i), 8, 8, axis, 1024, 11, 0);
+    let film = &rendered.film;
+    let n = 64.0;
+    let mut mean = vec![0.0; axis.bins];
+    for y in 0..8 {
+        for x in 0..8 {
+            for (m, v) in mean.iter_mut().zip(film.pixel_tprf(x, y)) {
+                *m += v / n;
+            }
+        }
+    }
+    let reference = furnace_reference(r_m as f64, rho as f64, i as f64, &axis);
+    let total_ref: f64 = reference.iter().sum();
+    let total: f64 = mean.iter().sum();
+    // Standard error of the mean from the 64 independent pixel totals.
+    let totals: Vec<f64> = film.steady();
+    let var = totals.iter().map(|t| (t - total).powi(2)).sum::<f64>() / (n - 1.0);
+    let se = (var / n).sqrt();
+    // The closed form for the infinite sum, to check the reference itself.
+    let closed = rho as f64 * i as f64 / (std::f64::consts::PI * (1.0 - rho as f64));
+    let tail = closed - total_ref;
+    assert!(
+        tail >= -1e-9 * closed,
+        "reference exceeds the closed form: {total_ref} > {closed}"
+    );
+    // 4 standard errors plus 0.5 % for the facets (the icosphere lies inside radius R).
+    assert!(
+        (total - total_ref).abs() < 4.0 * se + 0.005 * total_ref,
+        "rho {rho}: energy in window {total} vs {total_ref} (standard error {se})"
+    );
+    let peak = reference.iter().cloned().fold(0.0, f64::max);
+    for (b, (got, want)) in mean.iter().zip(&reference).enumerate() {
+        assert!(
+            (got - want).abs() < 0.03 * peak + 0.05 * want,
+            "rho {rho}: bin {b}: {got} vs {want} (peak {peak})"
+        );
+    }
+    let t_ref = mean_arrival_s(&reference, &axis);
+    let t_got = mean_arrival_s(&mean, &axis);
+    assert!(
+        (t_got - t_ref).abs() < 0.01 * t_ref,
+        "rho {rho}: mean arrival {t_got} vs {t_ref}"
+    );
+}
+
+#[test]
+fn furnace_rho_0_5_energy_and_time_profile() {
+    check_furnace(0.5);
+}
+
+#[test]
+fn furnace_rho_0_9_energy_and_time_profile() {
+    check_furnace(0.9);
+}
+
+#[test]
+fn furnace_total_energy_matches_closed_form() {
+    // A window long enough to hold all but ~1e-6 of the energy: the steady radiance is
+    // rho I / (pi R^2 (1 - rho)).
+    let (r_m, rho, i) = (1.0f32, 0.5f32, 1.0f32);
+    let axis = TimeAxis::new(0.0, 100.0 / C, 1).unwrap();
+    let rendered = render_scene(furnace(r_m, rho, i), 8, 8, axis, 256, 3, 0);
+    let steady: f64 = rendered.film.steady().iter().sum::<f64>() / 64.0;
+    let closed = rho as f64 * i as f64
+        / (std::f64::consts::PI * r_m as f64 * r_m as f64 * (1.0 - rho as f64));
+    assert!(
+        (steady - closed).abs() < 0.01 * closed,
+        "{steady} vs {closed}"
+    );
+}
