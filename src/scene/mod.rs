@@ -6,6 +6,7 @@
 
 pub mod builtin;
 pub mod gltf_load;
+pub mod gltf_save;
 
 use glam::{Affine3A, Vec2, Vec3};
 use serde::{Deserialize, Serialize};
