@@ -8,3 +8,5 @@ pub mod film;
 pub mod scene;
 pub mod transport;
 pub mod units;
+pub mod cli;
+pub mod export;

@@ -3,7 +3,7 @@
 
 use super::integrator::Renderer;
 use crate::film::TprfFilm;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::ops::ControlFlow;
 use std::time::Instant;
 
@@ -17,7 +17,7 @@ pub enum Budget {
 }
 
 /// State after a pass.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PassReport {
     pub pass: u64,
     pub spp: u64,

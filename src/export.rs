@@ -1,0 +1,164 @@
+//! Exports: the cube as `.npy` with JSON metadata, tone-mapped PNGs (steady image and
+//! time-slice frames). Every file is written to a temporary name and renamed, so an
+//! existing file is replaced atomically and a failed write loses nothing.
+
+use crate::film::{TimeAxis, TprfFilm};
+use crate::transport::progressive::PassReport;
+use anyhow::{Context, Result};
+use serde::{Deserialize, Serialize};
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use npyz::WriterBuilder;
+use std::path::{Path, PathBuf};
+
+/// Everything `tprf.json` records about a cube.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct CubeMetadata {
+    pub format: String,
+    pub t0_s: f64,
+    pub dt_s: f64,
+    pub bins: usize,
+    pub width: usize,
+    pub height: usize,
+    pub spp: u64,
+    pub seed: u64,
+    pub c_m_per_s: f64,
+    /// The band the one-channel cube records.
+    pub channel: String,
+    /// What a bin holds.
+    pub value: String,
+    pub scene: String,
+    pub camera: CameraMetadata,
+    pub max_bounces: u32,
+    /// Per-bounce layers in `tprf_bounces.npy` (0 = none): layer 0 = light seen directly,
+    /// 1..=K = that many scattering events, K+1 = more.
+    pub bounces_separate: u32,
+    pub threads: usize,
+    pub wall_seconds: f64,
+    pub rays_traced: u64,
+    pub paths_traced: u64,
+    /// Error of the cube estimated from two independent halves of the samples (relative
+    /// RMS), when both halves have samples.
+    pub error_estimate: Option<f64>,
+    pub passes: Vec<PassReport>,
+    pub notes: Vec<String>,
+}
+
+/// The camera as written to metadata.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct CameraMetadata {
+    pub position_m: [f32; 3],
+    /// Column-major 4x4 `world_from_camera` (camera looks along its -Z, +Y up).
+    pub world_from_camera: [f32; 16],
+    pub yfov_deg: f32,
+}
+
+impl CubeMetadata {
+    pub fn axis(&self) -> Result<TimeAxis> {
+        TimeAxis::new(self.t0_s, self.dt_s, self.bins).map_err(anyhow::Error::msg)
+    }
+}
+
+/// What a bin holds, in words (DESIGN.md conventions).
+pub const BIN_VALUE: &str = "integral over the bin of the pixel's radiance (W m^-2 sr^-1 s) for a \
+unit-energy pulse emitted at t = 0; the sum over bins is the steady-state radiance (W m^-2 sr^-1) \
+for unit emitted power";
+
+fn temp_path(path: &Path) -> PathBuf {
+    let mut name = path.file_name().map(|n| n.to_os_string()).unwrap_or_default();
+    name.push(".tmp");
+    path.with_file_name(name)
+}
+
+/// Write `path` through `write` into a temporary file, then rename over `path`.
+pub fn write_atomic(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> Result<()>) -> Result<()> {
+    let tmp = temp_path(path);
+    let result = (|| {
+        let file = File::create(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
+        let mut w = BufWriter::new(file);
+        write(&mut w)?;
+        w.flush()?;
+        w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
+        std::fs::rename(&tmp, path).with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result.with_context(|| format!("writing {}", path.display()))
+}
+
+/// Write a float32 C-order array.
+pub fn write_npy_f32(path: &Path, shape: &[u64], data: &[f32]) -> Result<()> {
+    write_atomic(path, |w| {
+        let mut npy = npyz::WriteOptions::<f32>::new().default_dtype().shape(shape).writer(w).begin_nd()?;
+        npy.extend(data.iter().copied())?;
+        npy.finish()?;
+        Ok(())
+    })
+}
+
+/// Read a float32 array written by [`write_npy_f32`] (or numpy), with its shape.
+pub fn read_npy_f32(path: &Path) -> Result<(Vec<u64>, Vec<f32>)> {
+    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let npy = npyz::NpyFile::new(&bytes[..]).with_context(|| format!("{} is not a .npy file", path.display()))?;
+    let shape = npy.shape().to_vec();
+    if npy.order() != npyz::Order::C {
+        anyhow::bail!("{}: Fortran-order arrays are not supported", path.display());
+    }
+    let data = npy
+        .into_vec::<f32>()
+        .with_context(|| format!("{}: expected float32 data", path.display()))?;
+    Ok((shape, data))
+}
+
+/// Write pretty JSON.
+pub fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
+    write_atomic(path, |w| {
+        serde_json::to_writer_pretty(&mut *w, value)?;
+        writeln!(w)?;
+        Ok(())
+    })
+}
+
+/// The exposure that maps the `q` quantile of the positive values to 1 (1 if none).
+pub fn exposure_for(values: impl Iterator<Item = f64>, q: f64) -> f64 {
+    let mut v: Vec<f64> = values.filter(|x| *x > 0.0 && x.is_finite()).collect();
+    if v.is_empty() {
+        return 1.0;
+    }
+    let k = ((v.len() - 1) as f64 * q.clamp(0.0, 1.0)).round() as usize;
+    let (_, x, _) = v.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
+    if *x > 0.0 { 1.0 / *x } else { 1.0 }
+}
+
+/// Linear value -> sRGB-encoded 8-bit (clamped to [0, 1] first).
+pub fn srgb8(x: f64) -> u8 {
+    let x = if x.is_finite() { x.clamp(0.0, 1.0) } else { 0.0 };
+    let s = if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 };
+    (s * 255.0 + 0.5) as u8
+}
+
+/// Write a grey PNG of `values` (row-major `w x h`) times `exposure`, sRGB-encoded.
+pub fn write_png_gray(path: &Path, w: usize, h: usize, values: &[f64], exposure: f64) -> Result<()> {
+    let bytes: Vec<u8> = values.iter().map(|v| srgb8(v * exposure)).collect();
+    let img = image::GrayImage::from_raw(w as u32, h as u32, bytes).context("image size mismatch")?;
+    write_atomic(path, |out| {
+        img.write_to(out, image::ImageFormat::Png)?;
+        Ok(())
+    })
+}
+
+/// Write `frames/0000.png ...`: one PNG per time bin, one shared exposure (the 99.9 %
+/// quantile of the whole cube maps to white) so brightness compares across frames.
+pub fn write_frames(dir: &Path, film: &TprfFilm) -> Result<()> {
+    let frames = dir.join("frames");
+    std::fs::create_dir_all(&frames).with_context(|| format!("cannot create {}", frames.display()))?;
+    let cube = film.cube_f32();
+    let exposure = exposure_for(cube.iter().map(|&v| v as f64), 0.999);
+    let l = film.layout();
+    for b in 0..l.axis.bins {
+        let slice = film.slice(b);
+        write_png_gray(&frames.join(format!("{b:04}.png")), l.width, l.height, &slice, exposure)?;
+    }
+    Ok(())
+}
