@@ -3,5 +3,6 @@
 //! Data flow, each arrow one-way (see ARCHITECTURE.md):
 //! `scene -> accel -> transport -> film -> (sensor, viewer, export)`.
 
+pub mod oned;
 pub mod scene;
 pub mod units;
