@@ -295,6 +295,8 @@ pub enum WorldError {
         eye_m: f64,
         light_m: f64,
     },
+    #[error("cannot scale a world by {scale}: the factor must be positive and finite")]
+    BadScale { scale: f64 },
 }
 
 /// Slack on `reflectance + transmittance <= 1` for decimal inputs such as 0.6 + 0.4.
@@ -551,6 +553,9 @@ impl World {
     /// The same world with every position multiplied by `scale` (> 0): its TPRF has the
     /// same weights at times multiplied by `scale`.
     pub fn scaled(&self, scale: f64) -> Result<Self, WorldError> {
+        if !(scale.is_finite() && scale > 0.0) {
+            return Err(WorldError::BadScale { scale });
+        }
         let mut file = WorldFile::from(self.clone());
         file.eye_m *= scale;
         file.light_m *= scale;

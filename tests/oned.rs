@@ -466,6 +466,12 @@ fn scaling_the_world_stretches_time() {
             assert_eq!(a.order, b.order);
         }
     }
+    for scale in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        assert!(matches!(
+            world.scaled(scale),
+            Err(WorldError::BadScale { .. })
+        ));
+    }
 }
 
 #[test]
