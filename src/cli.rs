@@ -236,8 +236,7 @@ pub fn oned(a: &OnedArgs) -> Result<()> {
         )),
         _ => None,
     };
-    let _ = bins;
-    bail!("the 1-D world lands with the oned module")
+    crate::oned::run_cli(&a.world, bins, &mut std::io::stdout().lock())
 }
 
 /// Entry point of the `tprf` binary.

@@ -4,9 +4,10 @@
 //! `scene -> accel -> transport -> film -> (sensor, viewer, export)`.
 
 pub mod accel;
+pub mod cli;
+pub mod export;
 pub mod film;
+pub mod oned;
 pub mod scene;
 pub mod transport;
 pub mod units;
-pub mod cli;
-pub mod export;
