@@ -170,7 +170,7 @@ impl Camera {
         } else {
             Vec3::Y
         };
-        let view = glam::Mat4::look_at_rh(eye, target, up);
+        let view = glam::camera::rh::view::look_at_mat4(eye, target, up);
         Camera {
             world_from_camera: Affine3A::from_mat4(view.inverse()),
             yfov_rad,
