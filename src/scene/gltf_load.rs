@@ -298,17 +298,15 @@ fn check_accessor(acc: &Accessor, types: &[DataType], dims: Dimensions) -> Resul
     if let Some(sparse) = acc.sparse() {
         let (indices, values) = (sparse.indices(), sparse.values());
         let index_size = indices.index_type().size();
-        let name = format!("{name} (sparse indices)");
         check_span(
-            &name,
+            &format!("{name} (sparse indices)"),
             &indices.view(),
             indices.offset(),
             sparse.count(),
             index_size,
         )?;
-        let name = format!("{name} (sparse values)");
         check_span(
-            &name,
+            &format!("{name} (sparse values)"),
             &values.view(),
             values.offset(),
             sparse.count(),
@@ -412,8 +410,8 @@ fn triangle_corners(mode: Mode, indices: &[u32]) -> Vec<[u32; 3]> {
     }
 }
 
-/// Zero area up to f32 rounding: the sine of the largest angle is below 1e-7 (or the area
-/// overflows to NaN).
+/// Zero area up to f32 rounding: the height over the longest edge is below 1e-7 of that
+/// edge's length (or the area overflows to NaN).
 fn is_degenerate(t: &Triangle) -> bool {
     let [p0, p1, p2] = t.p;
     let longest_sq = (p1 - p0)
