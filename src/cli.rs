@@ -15,7 +15,11 @@ use std::sync::Arc;
 use std::time::Instant;
 
 #[derive(Parser, Debug)]
-#[command(name = "tprf", version, about = "Transient rendering: light in flight, TPRF cubes and time-of-flight sensors")]
+#[command(
+    name = "tprf",
+    version,
+    about = "Transient rendering: light in flight, TPRF cubes and time-of-flight sensors"
+)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Option<Command>,
@@ -97,7 +101,11 @@ const MAX_SIDE: usize = 16384;
 
 fn check_render_args(a: &RenderArgs) -> Result<()> {
     if a.width == 0 || a.height == 0 || a.width > MAX_SIDE || a.height > MAX_SIDE {
-        bail!("--width and --height must be in 1..={MAX_SIDE} (got {} x {})", a.width, a.height);
+        bail!(
+            "--width and --height must be in 1..={MAX_SIDE} (got {} x {})",
+            a.width,
+            a.height
+        );
     }
     if let Some(s) = a.seconds
         && !(s.is_finite() && s > 0.0)
@@ -126,16 +134,39 @@ pub fn render(a: &RenderArgs) -> Result<()> {
 
 fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
     let start = Instant::now();
-    let t0_s = a.t0.as_deref().map(parse_time_s).transpose().map_err(anyhow::Error::msg).context("--t0")?;
-    let dt_s = a.dt.as_deref().map(parse_time_s).transpose().map_err(anyhow::Error::msg).context("--dt")?;
+    let t0_s =
+        a.t0.as_deref()
+            .map(parse_time_s)
+            .transpose()
+            .map_err(anyhow::Error::msg)
+            .context("--t0")?;
+    let dt_s =
+        a.dt.as_deref()
+            .map(parse_time_s)
+            .transpose()
+            .map_err(anyhow::Error::msg)
+            .context("--dt")?;
     let scene = scene::load(&a.scene)?;
     for note in &scene.notes {
         eprintln!("note: {note}");
     }
-    let settings = RenderSettings { max_bounces: a.max_bounces, seed: a.seed, channel: a.channel, ..Default::default() };
+    let settings = RenderSettings {
+        max_bounces: a.max_bounces,
+        seed: a.seed,
+        channel: a.channel,
+        ..Default::default()
+    };
     let scene = Arc::new(scene);
     let renderer = Renderer::new(scene.clone(), settings);
-    let axis = auto_window(&renderer, WindowRequest { t0_s, dt_s, bins: a.bins }).map_err(anyhow::Error::msg)?;
+    let axis = auto_window(
+        &renderer,
+        WindowRequest {
+            t0_s,
+            dt_s,
+            bins: a.bins,
+        },
+    )
+    .map_err(anyhow::Error::msg)?;
     eprintln!(
         "time axis: {} bins of {} from {} ({:.4} m to {:.4} m of optical path)",
         axis.bins,
@@ -144,9 +175,15 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
         axis.t0_s * C_M_PER_S,
         axis.end_s() * C_M_PER_S
     );
-    let layout = FilmLayout { width: a.width, height: a.height, axis, bounces_separate: a.bounces_separate };
+    let layout = FilmLayout {
+        width: a.width,
+        height: a.height,
+        axis,
+        bounces_separate: a.bounces_separate,
+    };
     let mut film = TprfFilm::new(layout).map_err(anyhow::Error::msg)?;
-    std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("cannot create {}", a.out.display()))?;
 
     let budget = match (a.spp, a.seconds) {
         (_, Some(s)) => Budget::Seconds(s),
@@ -167,7 +204,11 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
             Budget::Spp(_) => r.spp,
             Budget::Seconds(_) => (r.seconds * 10.0) as u64,
         });
-        bar.set_message(format!("{} spp, {:.1} Mrays/s", r.spp, r.rays as f64 / r.seconds.max(1e-9) / 1e6));
+        bar.set_message(format!(
+            "{} spp, {:.1} Mrays/s",
+            r.spp,
+            r.rays as f64 / r.seconds.max(1e-9) / 1e6
+        ));
         ControlFlow::Continue(())
     });
     bar.finish_and_clear();
@@ -177,11 +218,21 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
     export::write_npy_f32(&a.out.join("tprf.npy"), &[h, w, t], &film.cube_f32())?;
     if layout.bounce_layers() > 0 {
         let l = layout.bounce_layers() as u64;
-        export::write_npy_f32(&a.out.join("tprf_bounces.npy"), &[l, h, w, t], &film.bounce_cube_f32())?;
+        export::write_npy_f32(
+            &a.out.join("tprf_bounces.npy"),
+            &[l, h, w, t],
+            &film.bounce_cube_f32(),
+        )?;
     }
     let steady = film.steady();
     let exposure = 0.8 * export::exposure_for(steady.iter().copied(), 0.99);
-    export::write_png_gray(&a.out.join("steady.png"), a.width, a.height, &steady, exposure)?;
+    export::write_png_gray(
+        &a.out.join("steady.png"),
+        a.width,
+        a.height,
+        &steady,
+        exposure,
+    )?;
     if a.frames {
         export::write_frames(&a.out, &film)?;
     }
@@ -221,7 +272,10 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
         film.spp(),
         meta.wall_seconds,
         meta.rays_traced as f64 / meta.wall_seconds.max(1e-9) / 1e6,
-        meta.error_estimate.map_or(String::new(), |e| format!(", error estimate {:.2} %", 100.0 * e))
+        meta.error_estimate.map_or(String::new(), |e| format!(
+            ", error estimate {:.2} %",
+            100.0 * e
+        ))
     );
     Ok(())
 }
@@ -230,8 +284,12 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
 pub fn oned(a: &OnedArgs) -> Result<()> {
     let bins = match (&a.t0, &a.dt, a.bins) {
         (Some(t0), Some(dt), Some(n)) => Some((
-            parse_time_s(t0).map_err(anyhow::Error::msg).context("--t0")?,
-            parse_time_s(dt).map_err(anyhow::Error::msg).context("--dt")?,
+            parse_time_s(t0)
+                .map_err(anyhow::Error::msg)
+                .context("--t0")?,
+            parse_time_s(dt)
+                .map_err(anyhow::Error::msg)
+                .context("--dt")?,
             n,
         )),
         _ => None,

@@ -5,10 +5,10 @@
 use crate::film::{TimeAxis, TprfFilm};
 use crate::transport::progressive::PassReport;
 use anyhow::{Context, Result};
+use npyz::WriterBuilder;
 use serde::{Deserialize, Serialize};
 use std::fs::File;
 use std::io::{BufWriter, Write};
-use npyz::WriterBuilder;
 use std::path::{Path, PathBuf};
 
 /// Everything `tprf.json` records about a cube.
@@ -65,21 +65,29 @@ unit-energy pulse emitted at t = 0; the sum over bins is the steady-state radian
 for unit emitted power";
 
 fn temp_path(path: &Path) -> PathBuf {
-    let mut name = path.file_name().map(|n| n.to_os_string()).unwrap_or_default();
+    let mut name = path
+        .file_name()
+        .map(|n| n.to_os_string())
+        .unwrap_or_default();
     name.push(".tmp");
     path.with_file_name(name)
 }
 
 /// Write `path` through `write` into a temporary file, then rename over `path`.
-pub fn write_atomic(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> Result<()>) -> Result<()> {
+pub fn write_atomic(
+    path: &Path,
+    write: impl FnOnce(&mut BufWriter<File>) -> Result<()>,
+) -> Result<()> {
     let tmp = temp_path(path);
     let result = (|| {
-        let file = File::create(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
+        let file =
+            File::create(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
         let mut w = BufWriter::new(file);
         write(&mut w)?;
         w.flush()?;
         w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
-        std::fs::rename(&tmp, path).with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))
+        std::fs::rename(&tmp, path)
+            .with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))
     })();
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
@@ -90,7 +98,11 @@ pub fn write_atomic(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> Res
 /// Write a float32 C-order array.
 pub fn write_npy_f32(path: &Path, shape: &[u64], data: &[f32]) -> Result<()> {
     write_atomic(path, |w| {
-        let mut npy = npyz::WriteOptions::<f32>::new().default_dtype().shape(shape).writer(w).begin_nd()?;
+        let mut npy = npyz::WriteOptions::<f32>::new()
+            .default_dtype()
+            .shape(shape)
+            .writer(w)
+            .begin_nd()?;
         npy.extend(data.iter().copied())?;
         npy.finish()?;
         Ok(())
@@ -100,7 +112,8 @@ pub fn write_npy_f32(path: &Path, shape: &[u64], data: &[f32]) -> Result<()> {
 /// Read a float32 array written by [`write_npy_f32`] (or numpy), with its shape.
 pub fn read_npy_f32(path: &Path) -> Result<(Vec<u64>, Vec<f32>)> {
     let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let npy = npyz::NpyFile::new(&bytes[..]).with_context(|| format!("{} is not a .npy file", path.display()))?;
+    let npy = npyz::NpyFile::new(&bytes[..])
+        .with_context(|| format!("{} is not a .npy file", path.display()))?;
     let shape = npy.shape().to_vec();
     if npy.order() != npyz::Order::C {
         anyhow::bail!("{}: Fortran-order arrays are not supported", path.display());
@@ -133,15 +146,30 @@ pub fn exposure_for(values: impl Iterator<Item = f64>, q: f64) -> f64 {
 
 /// Linear value -> sRGB-encoded 8-bit (clamped to [0, 1] first).
 pub fn srgb8(x: f64) -> u8 {
-    let x = if x.is_finite() { x.clamp(0.0, 1.0) } else { 0.0 };
-    let s = if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 };
+    let x = if x.is_finite() {
+        x.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let s = if x <= 0.003_130_8 {
+        12.92 * x
+    } else {
+        1.055 * x.powf(1.0 / 2.4) - 0.055
+    };
     (s * 255.0 + 0.5) as u8
 }
 
 /// Write a grey PNG of `values` (row-major `w x h`) times `exposure`, sRGB-encoded.
-pub fn write_png_gray(path: &Path, w: usize, h: usize, values: &[f64], exposure: f64) -> Result<()> {
+pub fn write_png_gray(
+    path: &Path,
+    w: usize,
+    h: usize,
+    values: &[f64],
+    exposure: f64,
+) -> Result<()> {
     let bytes: Vec<u8> = values.iter().map(|v| srgb8(v * exposure)).collect();
-    let img = image::GrayImage::from_raw(w as u32, h as u32, bytes).context("image size mismatch")?;
+    let img =
+        image::GrayImage::from_raw(w as u32, h as u32, bytes).context("image size mismatch")?;
     write_atomic(path, |out| {
         img.write_to(out, image::ImageFormat::Png)?;
         Ok(())
@@ -152,13 +180,20 @@ pub fn write_png_gray(path: &Path, w: usize, h: usize, values: &[f64], exposure:
 /// quantile of the whole cube maps to white) so brightness compares across frames.
 pub fn write_frames(dir: &Path, film: &TprfFilm) -> Result<()> {
     let frames = dir.join("frames");
-    std::fs::create_dir_all(&frames).with_context(|| format!("cannot create {}", frames.display()))?;
+    std::fs::create_dir_all(&frames)
+        .with_context(|| format!("cannot create {}", frames.display()))?;
     let cube = film.cube_f32();
     let exposure = exposure_for(cube.iter().map(|&v| v as f64), 0.999);
     let l = film.layout();
     for b in 0..l.axis.bins {
         let slice = film.slice(b);
-        write_png_gray(&frames.join(format!("{b:04}.png")), l.width, l.height, &slice, exposure)?;
+        write_png_gray(
+            &frames.join(format!("{b:04}.png")),
+            l.width,
+            l.height,
+            &slice,
+            exposure,
+        )?;
     }
     Ok(())
 }
