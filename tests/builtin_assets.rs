@@ -429,3 +429,44 @@ fn cornell_asset() {
 fn canopy_asset() {
     asset("canopy");
 }
+
+/// The saved asset, read back by tprf's own glTF loader, is the built-in scene: same
+/// triangles (to f32 rounding), materials, light and camera.
+fn round_trip(name: &str) {
+    let built = builtin::load(name).unwrap();
+    let loaded = tprf::scene::gltf_load::load_gltf(&asset_path(name)).unwrap();
+    assert_eq!(loaded.triangles.len(), built.triangles.len(), "{name}: triangle count");
+    let scale = built.bounds().diagonal_m();
+    for (a, b) in loaded.triangles.iter().zip(&built.triangles) {
+        for (p, q) in a.p.iter().zip(&b.p) {
+            assert!((*p - *q).length() <= 1e-6 * scale, "{name}: vertex {p} vs {q}");
+        }
+    }
+    for (a, b) in loaded.attrs.iter().zip(&built.attrs) {
+        let (ma, mb) = (&loaded.materials[a.material as usize], &built.materials[b.material as usize]);
+        assert_eq!(ma.base_color, mb.base_color, "{name}: material {}", mb.name);
+        assert_eq!(ma.specular_factor, mb.specular_factor);
+        assert_eq!(ma.emissive, mb.emissive);
+    }
+    assert_eq!(loaded.lights.len(), built.lights.len());
+    for (a, b) in loaded.lights.iter().zip(&built.lights) {
+        assert!((a.position - b.position).length() <= 1e-6 * scale);
+        for (x, y) in a.intensity_w_per_sr.iter().zip(&b.intensity_w_per_sr) {
+            assert!((x - y).abs() <= 1e-6 * y.abs().max(1.0));
+        }
+    }
+    assert!((loaded.camera.position() - built.camera.position()).length() <= 1e-6 * scale);
+    assert!((loaded.camera.yfov_rad - built.camera.yfov_rad).abs() < 1e-6);
+    let fwd = |s: &Scene| s.camera.world_from_camera.transform_vector3(Vec3::NEG_Z);
+    assert!((fwd(&loaded) - fwd(&built)).length() < 1e-6);
+}
+
+#[test]
+fn cornell_asset_loads_back_as_the_builtin() {
+    round_trip("cornell");
+}
+
+#[test]
+fn canopy_asset_loads_back_as_the_builtin() {
+    round_trip("canopy");
+}
