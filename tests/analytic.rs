@@ -227,3 +227,154 @@ fn furnace_total_energy_matches_closed_form() {
         "{steady} vs {closed}"
     );
 }
+
+/// A camera 1 m above a glass slab (thickness d, ior n, fully transmissive) with an
+/// emissive floor under it, looking straight down through a 1 degree field of view. The
+/// floor's light reaches the eye as an impulse train: straight through with weight
+/// `Le (1 - F)^2`, then after 2k internal reflections with `Le (1 - F)^2 F^(2k)`, where
+/// F = ((n - 1) / (n + 1))^2 at normal incidence; the k-th arrives at
+/// `(1 m + (2k + 1) n d + gap) / c`: the slab delays by n d / c per crossing.
+#[test]
+fn glass_slab_delays_by_n_d_over_c() {
+    use glam::{Affine3A, Vec3};
+    use tprf::scene::{Camera, Material};
+    let (n, d, gap, le) = (1.5f32, 0.3f32, 0.5f32, 2.0f32);
+    let cam = Camera {
+        world_from_camera: Affine3A::from_translation(Vec3::new(0.0, 0.0, 1.0)),
+        yfov_rad: 1f32.to_radians(),
+    };
+    let mut s = empty_scene(cam);
+    s.materials.push(Material {
+        transmission: 1.0,
+        ior: n,
+        roughness: 0.0,
+        specular_factor: 1.0,
+        base_color: [1.0; 4],
+        ..Material::lambertian("glass", [1.0; 3])
+    });
+    let mut floor = Material::lambertian("floor", [0.0; 3]);
+    floor.emissive = [le; 3];
+    s.materials.push(floor);
+    let quad = |s: &mut tprf::scene::Scene, z: f32, up: bool, m: u32| {
+        let (a, b, c, dd) = (
+            Vec3::new(-5.0, -5.0, z),
+            Vec3::new(5.0, -5.0, z),
+            Vec3::new(5.0, 5.0, z),
+            Vec3::new(-5.0, 5.0, z),
+        );
+        if up {
+            push_tri(s, [a, b, c], m);
+            push_tri(s, [a, c, dd], m);
+        } else {
+            push_tri(s, [a, c, b], m);
+            push_tri(s, [a, dd, c], m);
+        }
+    };
+    quad(&mut s, 0.0, true, 0); // slab top, facing the camera
+    quad(&mut s, -d, false, 0); // slab bottom, facing down (outward)
+    quad(&mut s, -d - gap, true, 1); // emissive floor
+    let direct_m = 1.0 + n as f64 * d as f64 + gap as f64;
+    let echo_m = 2.0 * n as f64 * d as f64;
+    let axis = TimeAxis::new((direct_m - 0.105) / C, 0.01 / C, 200).unwrap();
+    let r = render_scene(s, 2, 2, axis, 4096, 1, 0);
+    let mut tprf = vec![0.0; axis.bins];
+    for y in 0..2 {
+        for x in 0..2 {
+            for (a, v) in tprf.iter_mut().zip(r.film.pixel_tprf(x, y)) {
+                *a += v / 4.0;
+            }
+        }
+    }
+    let f = ((n as f64 - 1.0) / (n as f64 + 1.0)).powi(2);
+    for k in 0..2 {
+        let t = (direct_m + k as f64 * echo_m) / C;
+        let b = axis.bin_of(t).unwrap();
+        let want = le as f64 * (1.0 - f).powi(2) * f.powi(2 * k);
+        let got = tprf[b - 1] + tprf[b] + tprf[b + 1];
+        // Each impulse is a Bernoulli fraction of 4 x 4096 paths: tolerance from that count.
+        let se = (want * le as f64 / (4.0 * 4096.0)).sqrt();
+        assert!(
+            (got - want).abs() < 5.0 * se + 1e-3 * want,
+            "echo {k}: {got} vs {want} at {t} s (bin {b})"
+        );
+    }
+    // Nothing arrives before the delayed direct path.
+    let first = tprf.iter().position(|&v| v > 0.0).unwrap();
+    assert!(
+        axis.bin_start_s(first + 1) > direct_m / C,
+        "first light in bin {first}"
+    );
+}
+
+/// The paper's virtual interface: a half-covered layer (alpha 0.5, BLEND) at height h1
+/// over an opaque floor at 0, camera and light together at height H, looking down. The
+/// single-scattering TPRF has exactly two returns: the layer at `2 (H - h1) / c` with
+/// `a rho L1`, and the floor at `2 H / c` with `(1 - a)^2 rho L0` (the light passes the
+/// layer twice, undelayed), where `L = I / (pi r^2)` for a co-located source.
+#[test]
+fn partly_covered_layer_passes_light_undelayed() {
+    use glam::{Affine3A, Vec3};
+    use tprf::scene::{AlphaMode, Camera, Material, PunctualLight};
+    let (big_h, h1, a, rho, i) = (10.0f32, 4.0f32, 0.5f32, 0.6f32, 100.0f32);
+    let cam = Camera {
+        world_from_camera: Affine3A::from_translation(Vec3::new(0.0, 0.0, big_h)),
+        yfov_rad: 1f32.to_radians(),
+    };
+    let mut s = empty_scene(cam);
+    let mut leaf = Material::lambertian("leaf", [rho; 3]);
+    leaf.base_color[3] = a;
+    leaf.alpha_mode = AlphaMode::Blend;
+    s.materials.push(leaf);
+    s.materials.push(Material::lambertian("ground", [rho; 3]));
+    for (z, m) in [(h1, 0u32), (0.0, 1u32)] {
+        let (p, q, r_, t) = (
+            Vec3::new(-50.0, -50.0, z),
+            Vec3::new(50.0, -50.0, z),
+            Vec3::new(50.0, 50.0, z),
+            Vec3::new(-50.0, 50.0, z),
+        );
+        push_tri(&mut s, [p, q, r_], m);
+        push_tri(&mut s, [p, r_, t], m);
+    }
+    s.lights.push(PunctualLight {
+        name: "laser".into(),
+        position: Vec3::new(0.0, 0.0, big_h),
+        intensity_w_per_sr: [i; 3],
+        spot: None,
+    });
+    let axis = TimeAxis::new(0.0, 0.1 / C, 300).unwrap();
+    let spp = 2048;
+    let r = render_scene(s, 2, 2, axis, spp, 4, 1);
+    let mut single = vec![0.0; axis.bins];
+    for y in 0..2 {
+        for x in 0..2 {
+            for (s1, v) in single.iter_mut().zip(&r.film.pixel_bounces(x, y)[1]) {
+                *s1 += v / 4.0;
+            }
+        }
+    }
+    let pi = std::f64::consts::PI;
+    let (a, rho, i) = (a as f64, rho as f64, i as f64);
+    let d1 = (big_h - h1) as f64;
+    let d0 = big_h as f64;
+    let returns = [
+        (2.0 * d1, a * rho * i / (pi * d1 * d1)),
+        (2.0 * d0, (1.0 - a).powi(2) * rho * i / (pi * d0 * d0)),
+    ];
+    let total: f64 = single.iter().sum();
+    let expected_total: f64 = returns.iter().map(|r| r.1).sum();
+    for (opl, want) in returns {
+        let b = axis.bin_of(opl / C).unwrap();
+        let got = single[b.saturating_sub(1)..=b + 1].iter().sum::<f64>();
+        // The camera ray passes or stops at the layer at random: a Bernoulli(a) fraction.
+        let se = want * ((1.0 - a) / (a * 4.0 * spp as f64)).sqrt();
+        assert!(
+            (got - want).abs() < 5.0 * se + 1e-3 * want,
+            "return at {opl} m: {got} vs {want}"
+        );
+    }
+    assert!(
+        (total - expected_total).abs() < 0.05 * expected_total,
+        "nothing else is single scattering: {total} vs {expected_total}"
+    );
+}

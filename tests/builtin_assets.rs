@@ -435,15 +435,25 @@ fn canopy_asset() {
 fn round_trip(name: &str) {
     let built = builtin::load(name).unwrap();
     let loaded = tprf::scene::gltf_load::load_gltf(&asset_path(name)).unwrap();
-    assert_eq!(loaded.triangles.len(), built.triangles.len(), "{name}: triangle count");
+    assert_eq!(
+        loaded.triangles.len(),
+        built.triangles.len(),
+        "{name}: triangle count"
+    );
     let scale = built.bounds().diagonal_m();
     for (a, b) in loaded.triangles.iter().zip(&built.triangles) {
         for (p, q) in a.p.iter().zip(&b.p) {
-            assert!((*p - *q).length() <= 1e-6 * scale, "{name}: vertex {p} vs {q}");
+            assert!(
+                (*p - *q).length() <= 1e-6 * scale,
+                "{name}: vertex {p} vs {q}"
+            );
         }
     }
     for (a, b) in loaded.attrs.iter().zip(&built.attrs) {
-        let (ma, mb) = (&loaded.materials[a.material as usize], &built.materials[b.material as usize]);
+        let (ma, mb) = (
+            &loaded.materials[a.material as usize],
+            &built.materials[b.material as usize],
+        );
         assert_eq!(ma.base_color, mb.base_color, "{name}: material {}", mb.name);
         assert_eq!(ma.specular_factor, mb.specular_factor);
         assert_eq!(ma.emissive, mb.emissive);
