@@ -176,19 +176,17 @@ impl Accel {
         let ray = Ray::new(o, d, 0.0, t_max);
         !bvh.ray_traverse_miss(ray, |_, id| {
             match self.tris[id].intersect(o, d, 0.0, t_max) {
-                Some((t, u, v)) => {
+                Some((t, u, v))
                     if visit(Hit {
                         t_m: t / self.scale,
                         triangle: self.scene_index[id],
                         u,
                         v,
-                    }) {
-                        t
-                    } else {
-                        f32::INFINITY
-                    }
+                    }) =>
+                {
+                    t
                 }
-                None => f32::INFINITY,
+                _ => f32::INFINITY,
             }
         })
     }

@@ -3,6 +3,9 @@
 //! Data flow, each arrow one-way (see ARCHITECTURE.md):
 //! `scene -> accel -> transport -> film -> (sensor, viewer, export)`.
 
+// `!(x > 0.0)` is how this crate rejects NaN along with the non-positive values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod accel;
 pub mod cli;
 pub mod export;
@@ -11,3 +14,4 @@ pub mod oned;
 pub mod scene;
 pub mod transport;
 pub mod units;
+pub mod viewer;

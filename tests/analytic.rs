@@ -13,6 +13,7 @@ use tprf::film::TimeAxis;
 /// `r = h sqrt(1 + sx^2 + sy^2)`.
 /// Also returns the standard deviations of L and of 2r/c over the footprint (what one
 /// jittered sample scatters by), for tolerances from the sample count.
+#[allow(clippy::too_many_arguments)] // a reference formula with its geometry spelled out
 fn plane_reference(
     x: usize,
     y: usize,
@@ -150,7 +151,6 @@ fn furnace_reference(r_m: f64, rho: f64, i: f64, axis: &TimeAxis) -> Vec<f64> {
         dist = next;
         weight *= rho;
     }
-    drop(add);
     out
 }
 

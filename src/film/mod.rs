@@ -1,8 +1,10 @@
 //! Film: the TPRF store. Time-binned accumulators per pixel (pbrt's "film": how samples
 //! accumulate), kept apart from the sensor (what is measured from them).
 
+mod snapshot;
 mod store;
 mod time_axis;
 
+pub use snapshot::FilmSnapshot;
 pub use store::{FilmLayout, PixelSink, TprfFilm};
 pub use time_axis::TimeAxis;

@@ -6,7 +6,7 @@
 //! pixel's radiance (W / (m^2 sr) times seconds per unit pulse energy... i.e. summed over
 //! bins it is the steady-state radiance for a unit pulse; DESIGN.md).
 
-use super::TimeAxis;
+use super::{FilmSnapshot, TimeAxis};
 use rayon::prelude::*;
 
 /// The shape of a film.
@@ -256,6 +256,18 @@ impl TprfFilm {
             }
         }
         out
+    }
+
+    /// A copy of the current means for readers on other threads.
+    pub fn snapshot(&self) -> FilmSnapshot {
+        FilmSnapshot {
+            layout: self.layout,
+            spp: self.spp(),
+            passes: self.passes,
+            cube: self.cube_f32(),
+            bounces: self.bounce_cube_f32(),
+            error_estimate: self.half_error_estimate(),
+        }
     }
 
     /// Steady-state image `[H, W]`: per pixel the sum over bins (in f64).

@@ -335,9 +335,8 @@ impl Scene {
                 )));
             }
         }
-        if !self.camera.world_from_camera.is_finite()
-            || !(self.camera.yfov_rad > 0.0 && self.camera.yfov_rad < std::f32::consts::PI)
-        {
+        let fov_ok = self.camera.yfov_rad > 0.0 && self.camera.yfov_rad < std::f32::consts::PI;
+        if !(self.camera.world_from_camera.is_finite() && fov_ok) {
             return Err(SceneError::Invalid(
                 "camera has a non-finite transform or a field of view outside (0, 180) degrees"
                     .into(),

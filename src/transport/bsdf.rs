@@ -214,7 +214,7 @@ impl Bsdf {
         if wo.z <= 0.0 {
             return None;
         }
-        let u = rng.next();
+        let u = rng.uniform();
         let (u1, u2) = rng.next2();
         let smooth_sample = |wi: Vec3, kind: LobeKind| -> Option<BsdfSample> {
             let (f, pdf) = self.eval(wo, wi);

@@ -224,7 +224,7 @@ impl Renderer {
             }
             let sp = self.surfaces.at(&hit, origin, dir);
             // Virtual interface: the uncovered fraction passes straight through, undelayed.
-            if sp.coverage < 1.0 && rng.next() >= sp.coverage {
+            if sp.coverage < 1.0 && rng.uniform() >= sp.coverage {
                 pass_throughs += 1;
                 if pass_throughs > MAX_PASS_THROUGH {
                     break;
@@ -305,7 +305,7 @@ impl Renderer {
             // Russian roulette: stop when the remaining flux is small (unbiased).
             if scatterings >= s.rr_start {
                 let q = throughput.min(1.0);
-                if !(q > 0.0) || rng.next() >= q {
+                if !(q > 0.0) || rng.uniform() >= q {
                     break;
                 }
                 throughput /= q;
@@ -365,7 +365,7 @@ impl Renderer {
             }
         }
         if self.lights.has_emitters() {
-            let u = rng.next();
+            let u = rng.uniform();
             let (u1, u2) = rng.next2();
             if let Some(es) = self.lights.sample_emitter(u, u1, u2) {
                 let to = es.position - p;

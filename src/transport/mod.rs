@@ -10,6 +10,7 @@ pub mod progressive;
 pub mod sampler;
 pub mod surface;
 mod window;
+pub mod worker;
 
 pub use integrator::{PassStats, RenderSettings, Renderer, Sink};
 pub use window::{WindowRequest, auto_window};

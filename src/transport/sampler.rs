@@ -24,13 +24,13 @@ impl Sampler {
 
     /// Uniform in [0, 1).
     #[inline]
-    pub fn next(&mut self) -> f32 {
+    pub fn uniform(&mut self) -> f32 {
         self.0.random::<f32>()
     }
 
     /// Two uniforms in [0, 1).
     #[inline]
     pub fn next2(&mut self) -> (f32, f32) {
-        (self.next(), self.next())
+        (self.uniform(), self.uniform())
     }
 }

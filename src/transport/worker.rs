@@ -1,0 +1,242 @@
+//! The renderer on a background thread: loads the scene, builds the BVH, picks the time
+//! window, then adds passes until told to stop, publishing a [`FilmSnapshot`] after each.
+//! Readers (the viewer) take the latest snapshot and status without ever waiting for a
+//! pass: the worker holds its locks only to swap a pointer.
+
+use super::integrator::{RenderSettings, Renderer};
+use super::window::{WindowRequest, auto_window};
+use crate::film::{FilmLayout, FilmSnapshot, TimeAxis, TprfFilm};
+use crate::scene::{self, Scene};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+/// What to render.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderJob {
+    /// `builtin:NAME` or a glTF path.
+    pub scene: String,
+    pub width: usize,
+    pub height: usize,
+    pub window: WindowRequest,
+    pub bounces_separate: u32,
+    pub settings: RenderSettings,
+    /// Stop after this many samples per pixel (`None`: until stopped).
+    pub spp_target: Option<u64>,
+}
+
+/// Where the worker is.
+#[derive(Clone, Debug, PartialEq)]
+pub enum WorkerState {
+    Loading,
+    Rendering,
+    Paused,
+    Done,
+    Failed(String),
+}
+
+/// The worker's progress, copied out for readers.
+#[derive(Clone, Debug)]
+pub struct WorkerStatus {
+    pub state: WorkerState,
+    pub spp: u64,
+    pub passes: u64,
+    /// Seconds spent rendering (pauses excluded).
+    pub elapsed_s: f64,
+    pub passes_per_s: f64,
+    pub rays: u64,
+    /// (elapsed seconds, relative error estimate) after each pass with both halves.
+    pub error_history: Vec<(f64, f64)>,
+    pub axis: Option<TimeAxis>,
+    pub triangles: usize,
+    pub notes: Vec<String>,
+}
+
+struct Shared {
+    snapshot: Mutex<Option<Arc<FilmSnapshot>>>,
+    status: Mutex<WorkerStatus>,
+    paused: AtomicBool,
+    stop: AtomicBool,
+}
+
+/// A running render. Dropping it stops the thread (after at most one pass) without
+/// waiting for it.
+pub struct RenderWorker {
+    shared: Arc<Shared>,
+    job: RenderJob,
+    handle: Option<JoinHandle<()>>,
+}
+
+/// Seconds a pass should take: short enough to keep the view fresh.
+const PASS_TARGET_S: f64 = 0.25;
+
+impl RenderWorker {
+    /// Start rendering `job`; `on_update` is called after each published change (the
+    /// viewer passes its repaint request).
+    pub fn spawn(job: RenderJob, on_update: impl Fn() + Send + 'static) -> RenderWorker {
+        let shared = Arc::new(Shared {
+            snapshot: Mutex::new(None),
+            status: Mutex::new(WorkerStatus {
+                state: WorkerState::Loading,
+                spp: 0,
+                passes: 0,
+                elapsed_s: 0.0,
+                passes_per_s: 0.0,
+                rays: 0,
+                error_history: Vec::new(),
+                axis: None,
+                triangles: 0,
+                notes: Vec::new(),
+            }),
+            paused: AtomicBool::new(false),
+            stop: AtomicBool::new(false),
+        });
+        let thread_shared = shared.clone();
+        let thread_job = job.clone();
+        let handle = std::thread::Builder::new()
+            .name("tprf-render".into())
+            .spawn(move || {
+                let result = run(&thread_job, &thread_shared, &on_update);
+                if let Err(e) = result
+                    && let Ok(mut s) = thread_shared.status.lock()
+                {
+                    s.state = WorkerState::Failed(e);
+                }
+                on_update();
+            })
+            .ok();
+        if handle.is_none()
+            && let Ok(mut s) = shared.status.lock()
+        {
+            s.state = WorkerState::Failed("cannot start the render thread".into());
+        }
+        RenderWorker {
+            shared,
+            job,
+            handle,
+        }
+    }
+
+    pub fn job(&self) -> &RenderJob {
+        &self.job
+    }
+
+    /// The latest published film, if any pass has finished.
+    pub fn latest(&self) -> Option<Arc<FilmSnapshot>> {
+        self.shared.snapshot.lock().ok().and_then(|s| s.clone())
+    }
+
+    pub fn status(&self) -> Option<WorkerStatus> {
+        self.shared.status.lock().ok().map(|s| s.clone())
+    }
+
+    pub fn set_paused(&self, paused: bool) {
+        self.shared.paused.store(paused, Ordering::Relaxed);
+    }
+
+    pub fn is_paused(&self) -> bool {
+        self.shared.paused.load(Ordering::Relaxed)
+    }
+
+    /// Whether the thread has ended (done, failed or stopped).
+    pub fn is_finished(&self) -> bool {
+        self.handle.as_ref().is_none_or(|h| h.is_finished())
+    }
+}
+
+impl Drop for RenderWorker {
+    fn drop(&mut self) {
+        self.shared.stop.store(true, Ordering::Relaxed);
+        // Not joined: the thread ends after its current pass, and the UI must not wait.
+        if let Some(h) = self.handle.take()
+            && h.is_finished()
+        {
+            let _ = h.join();
+        }
+    }
+}
+
+fn set_status(shared: &Shared, f: impl FnOnce(&mut WorkerStatus)) {
+    if let Ok(mut s) = shared.status.lock() {
+        f(&mut s);
+    }
+}
+
+fn run(job: &RenderJob, shared: &Shared, on_update: &dyn Fn()) -> Result<(), String> {
+    let scene: Scene = scene::load(&job.scene).map_err(|e| e.to_string())?;
+    let notes = scene.notes.clone();
+    let triangles = scene.triangles.len();
+    let renderer = Renderer::new(Arc::new(scene), job.settings);
+    let axis = auto_window(&renderer, job.window)?;
+    let layout = FilmLayout {
+        width: job.width,
+        height: job.height,
+        axis,
+        bounces_separate: job.bounces_separate,
+    };
+    let mut film = TprfFilm::new(layout)?;
+    set_status(shared, |s| {
+        s.state = WorkerState::Rendering;
+        s.axis = Some(axis);
+        s.triangles = triangles;
+        s.notes = notes;
+    });
+    on_update();
+    // One core stays with the caller (the viewer's UI thread) so frames keep their pace.
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .saturating_sub(1)
+        .max(1);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .thread_name(|i| format!("tprf-pass-{i}"))
+        .build()
+        .map_err(|e| format!("cannot start the render threads: {e}"))?;
+    let mut elapsed = Duration::ZERO;
+    let mut spp_pass: u32 = 1;
+    loop {
+        if shared.stop.load(Ordering::Relaxed) {
+            return Ok(());
+        }
+        if job.spp_target.is_some_and(|n| film.spp() >= n) {
+            set_status(shared, |s| s.state = WorkerState::Done);
+            on_update();
+            return Ok(());
+        }
+        if shared.paused.load(Ordering::Relaxed) {
+            set_status(shared, |s| s.state = WorkerState::Paused);
+            std::thread::sleep(Duration::from_millis(30));
+            continue;
+        }
+        let spp = match job.spp_target {
+            Some(n) => spp_pass.min(n.saturating_sub(film.spp()).min(u32::MAX as u64) as u32),
+            None => spp_pass,
+        };
+        let start = Instant::now();
+        pool.install(|| renderer.render_pass(&mut film, spp));
+        let pass_s = start.elapsed();
+        elapsed += pass_s;
+        // Aim for passes of PASS_TARGET_S.
+        let ratio = PASS_TARGET_S / pass_s.as_secs_f64().max(1e-4);
+        spp_pass = ((spp as f64 * ratio).round() as u32).clamp(1, 256);
+        let snapshot = Arc::new(film.snapshot());
+        let error = snapshot.error_estimate;
+        if let Ok(mut s) = shared.snapshot.lock() {
+            *s = Some(snapshot);
+        }
+        let secs = elapsed.as_secs_f64();
+        set_status(shared, |s| {
+            s.state = WorkerState::Rendering;
+            s.spp = film.spp();
+            s.passes = film.passes();
+            s.elapsed_s = secs;
+            s.passes_per_s = film.passes() as f64 / secs.max(1e-9);
+            s.rays = renderer.rays_traced();
+            if let Some(e) = error {
+                s.error_history.push((secs, e));
+            }
+        });
+        on_update();
+    }
+}
