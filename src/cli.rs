@@ -31,6 +31,15 @@ pub enum Command {
     Render(RenderArgs),
     /// The paper's 1-D world: print the exact impulse train (and the binned TPRF).
     Oned(OnedArgs),
+    /// Open the viewer on a cube folder written by `tprf render` (no rendering), or on a
+    /// scene to render (a .gltf/.glb path or builtin:NAME). No argument: the last scene.
+    View(ViewArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct ViewArgs {
+    /// A cube folder, a glTF file or builtin:NAME.
+    pub what: Option<String>,
 }
 
 #[derive(Args, Debug)]
@@ -297,17 +306,25 @@ pub fn oned(a: &OnedArgs) -> Result<()> {
     crate::oned::run_cli(&a.world, bins, &mut std::io::stdout().lock())
 }
 
+/// `tprf view` (and `tprf` alone): the window.
+pub fn view(a: &ViewArgs) -> Result<()> {
+    use crate::viewer::Start;
+    let start = match &a.what {
+        None => Start::Default,
+        Some(w) if std::path::Path::new(w).is_dir() => Start::Cube(PathBuf::from(w)),
+        Some(w) => Start::Scene(w.clone()),
+    };
+    crate::viewer::run(start).map_err(|e| anyhow::anyhow!("cannot open the window: {e}"))
+}
+
 /// Entry point of the `tprf` binary.
 pub fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Some(Command::Render(a)) => render(a),
         Some(Command::Oned(a)) => oned(a),
-        None => {
-            use clap::CommandFactory;
-            let _ = Cli::command().print_help();
-            Ok(())
-        }
+        Some(Command::View(a)) => view(a),
+        None => view(&ViewArgs { what: None }),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

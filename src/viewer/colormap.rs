@@ -1,0 +1,145 @@
+//! Turning film values into pixels: exposure, log scale, colour maps. Pure functions,
+//! tested without a window.
+
+use serde::{Deserialize, Serialize};
+
+/// How a time slice is exposed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ExposureMode {
+    /// Each frame scaled by its own 99.5 % quantile: every instant readable.
+    PerFrame,
+    /// One scale for the whole cube (its 99.9 % quantile): brightness compares across time.
+    Global,
+}
+
+/// Colour map of a scalar image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ColorMap {
+    Inferno,
+    Gray,
+}
+
+/// Display mapping of values to [0, 1].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Tone {
+    /// Multiplies values before mapping (from the exposure mode and EV offset).
+    pub scale: f64,
+    /// Log mapping over `decades` decades below 1 instead of linear.
+    pub log: bool,
+    pub decades: f64,
+}
+
+impl Tone {
+    /// Map a value to [0, 1].
+    pub fn map(&self, v: f64) -> f64 {
+        let x = v * self.scale;
+        if !(x > 0.0) || !x.is_finite() {
+            return if x == f64::INFINITY { 1.0 } else { 0.0 };
+        }
+        if self.log {
+            (1.0 + x.log10() / self.decades.max(0.1)).clamp(0.0, 1.0)
+        } else {
+            x.clamp(0.0, 1.0)
+        }
+    }
+}
+
+/// The `q` quantile of the positive finite values (None when there are none).
+pub fn quantile_positive(values: impl Iterator<Item = f32>, q: f64) -> Option<f64> {
+    let mut v: Vec<f32> = values.filter(|x| *x > 0.0 && x.is_finite()).collect();
+    if v.is_empty() {
+        return None;
+    }
+    let k = ((v.len() - 1) as f64 * q.clamp(0.0, 1.0)).round() as usize;
+    let (_, x, _) = v.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
+    Some(*x as f64)
+}
+
+/// sRGB-encode a linear value in [0, 1].
+fn srgb(x: f64) -> u8 {
+    crate::export::srgb8(x)
+}
+
+/// RGBA8 pixels of a scalar image.
+pub fn colorize(values: &[f32], tone: &Tone, map: ColorMap) -> Vec<u8> {
+    let mut out = Vec::with_capacity(values.len() * 4);
+    for &v in values {
+        let t = tone.map(v as f64);
+        match map {
+            ColorMap::Gray => {
+                let g = srgb(t);
+                out.extend_from_slice(&[g, g, g, 255]);
+            }
+            ColorMap::Inferno => {
+                let c = colorous::INFERNO.eval_continuous(t);
+                out.extend_from_slice(&[c.r, c.g, c.b, 255]);
+            }
+        }
+    }
+    out
+}
+
+/// The "rainbow" view: hue = arrival time of the TPRF's peak (bin / bins, turbo colour
+/// map), brightness = the pixel's energy through `tone`.
+pub fn rainbow(peaks: &[(Option<usize>, f32)], bins: usize, tone: &Tone) -> Vec<u8> {
+    let mut out = Vec::with_capacity(peaks.len() * 4);
+    for &(bin, energy) in peaks {
+        match bin {
+            Some(b) => {
+                let hue = b as f64 / bins.saturating_sub(1).max(1) as f64;
+                let c = colorous::TURBO.eval_continuous(hue.clamp(0.0, 1.0));
+                let k = tone.map(energy as f64).sqrt();
+                let f = |x: u8| (x as f64 * k).round().clamp(0.0, 255.0) as u8;
+                out.extend_from_slice(&[f(c.r), f(c.g), f(c.b), 255]);
+            }
+            None => out.extend_from_slice(&[0, 0, 0, 255]),
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tone_maps_linear_and_log() {
+        let lin = Tone {
+            scale: 2.0,
+            log: false,
+            decades: 3.0,
+        };
+        assert_eq!(lin.map(0.25), 0.5);
+        assert_eq!(lin.map(1.0), 1.0);
+        assert_eq!(lin.map(-1.0), 0.0);
+        assert_eq!(lin.map(f64::NAN), 0.0);
+        let log = Tone {
+            scale: 1.0,
+            log: true,
+            decades: 3.0,
+        };
+        assert!((log.map(1.0) - 1.0).abs() < 1e-12);
+        assert!((log.map(1e-3) - 0.0).abs() < 1e-12);
+        assert!((log.map(1e-1) - 2.0 / 3.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn quantiles() {
+        let v = [0.0f32, 1.0, 2.0, 3.0, 4.0, f32::NAN];
+        assert_eq!(quantile_positive(v.into_iter(), 1.0), Some(4.0));
+        assert_eq!(quantile_positive(v.into_iter(), 0.0), Some(1.0));
+        assert_eq!(quantile_positive([0.0f32; 3].into_iter(), 0.5), None);
+    }
+
+    #[test]
+    fn rainbow_is_black_where_dark_and_hue_follows_time() {
+        let tone = Tone {
+            scale: 1.0,
+            log: false,
+            decades: 3.0,
+        };
+        let px = rainbow(&[(None, 0.0), (Some(0), 1.0), (Some(9), 1.0)], 10, &tone);
+        assert_eq!(&px[0..4], &[0, 0, 0, 255]);
+        assert_ne!(&px[4..8], &px[8..12]);
+    }
+}
