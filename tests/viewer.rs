@@ -1,0 +1,315 @@
+//! The viewer driven as a user would, with egui_kittest: open it on a built-in scene,
+//! wait for the renderer, pause playback, step the scrubber with the keyboard, click a
+//! pixel of the time slice and check the plot shows that pixel's TPRF.
+//!
+//! Where a wgpu adapter exists (CI installs Mesa's software Vulkan), the window is also
+//! rendered to an image and checked for the things a person would see. With
+//! `TPRF_SCREENSHOTS=1` the ignored test `screenshots` writes the README's pictures to
+//! `screenshots/`.
+
+use eframe::egui::{Event, Key, Modifiers, PointerButton, Pos2, Vec2};
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+use std::time::{Duration, Instant};
+use tprf::transport::worker::WorkerState;
+use tprf::viewer::{Selection, Start, TprfApp, ViewerSettings};
+
+fn small_settings(scene: &str, side: usize, bins: usize, spp: u64) -> ViewerSettings {
+    ViewerSettings {
+        scene: scene.into(),
+        width: side,
+        height: side,
+        bins,
+        spp_target: spp,
+        ..ViewerSettings::default()
+    }
+}
+
+fn harness(settings: ViewerSettings) -> Harness<'static, TprfApp> {
+    Harness::builder()
+        .with_size(Vec2::new(1280.0, 800.0))
+        .build_eframe(move |cc| TprfApp::with_settings(cc, settings, Start::Default))
+}
+
+/// Step the UI until the render worker has finished (its spp target reached).
+fn wait_done(h: &mut Harness<'static, TprfApp>, limit: Duration) {
+    let start = Instant::now();
+    loop {
+        h.step();
+        match h.state().status().map(|s| s.state) {
+            Some(WorkerState::Done) if h.state().snapshot().is_some() => break,
+            Some(WorkerState::Failed(e)) => panic!("render failed: {e}"),
+            _ => {}
+        }
+        assert!(
+            start.elapsed() < limit,
+            "render did not finish in {limit:?}"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // Let the last snapshot reach the textures.
+    h.run_steps(2);
+}
+
+/// Screen position of the centre of pixel (x, y) of the image widget labelled `label`.
+fn pixel_pos(
+    h: &Harness<'static, TprfApp>,
+    label: &str,
+    x: usize,
+    y: usize,
+    w: usize,
+    hgt: usize,
+) -> Pos2 {
+    let rect = h.get_by_label(label).rect();
+    Pos2::new(
+        rect.min.x + (x as f32 + 0.5) * rect.width() / w as f32,
+        rect.min.y + (y as f32 + 0.5) * rect.height() / hgt as f32,
+    )
+}
+
+/// A mouse click (press and release, no movement) at `pos`.
+fn click_at(h: &mut Harness<'static, TprfApp>, pos: Pos2) {
+    h.hover_at(pos);
+    h.step();
+    for pressed in [true, false] {
+        h.event(Event::PointerButton {
+            pos,
+            button: PointerButton::Primary,
+            pressed,
+            modifiers: Modifiers::NONE,
+        });
+        h.step();
+    }
+    h.step();
+}
+
+#[test]
+fn scrub_click_and_plot_a_pixel() {
+    let (side, bins) = (24, 48);
+    let mut h = harness(small_settings("builtin:cornell", side, bins, 8));
+    wait_done(&mut h, Duration::from_secs(120));
+    let snap = h.state().snapshot().expect("a film");
+    assert_eq!(
+        (snap.width(), snap.height(), snap.axis().bins),
+        (side, side, bins)
+    );
+    assert_eq!(snap.spp, 8);
+
+    // Light moves at once; space pauses it.
+    assert!(h.state().playing, "playback starts on opening");
+    h.key_press(Key::Space);
+    h.step();
+    assert!(!h.state().playing, "space pauses");
+
+    // Arrow keys step one bin; the start button goes to bin 0.
+    h.get_by_label("⏮").click();
+    h.step();
+    assert_eq!(h.state().bin, 0);
+    for _ in 0..3 {
+        h.key_press(Key::ArrowRight);
+        h.step();
+    }
+    assert_eq!(h.state().bin, 3);
+    h.key_press(Key::ArrowLeft);
+    h.step();
+    assert_eq!(h.state().bin, 2);
+    // Stepping back from bin 0 stays at 0 when not looping... or wraps when looping;
+    // either way it stays inside the window.
+    for _ in 0..5 {
+        h.key_press(Key::ArrowLeft);
+        h.step();
+    }
+    assert!(h.state().bin < bins);
+
+    // Click pixel (17, 6) of the time slice (the back wall's upper right).
+    let (px, py) = (17, 6);
+    let pos = pixel_pos(&h, "time slice", px, py, side, side);
+    click_at(&mut h, pos);
+    assert_eq!(
+        h.state().selection,
+        Some(Selection::pixel(px, py)),
+        "the click at {pos:?} selects the pixel under it"
+    );
+
+    // The plot's first curve is that pixel's TPRF, bin by bin.
+    let curves = h.state().plotted_curves(&snap);
+    let (name, _, values) = &curves[0];
+    assert_eq!(name, &format!("pixel ({px}, {py})"));
+    let expected: Vec<f64> = snap.pixel(px, py).iter().map(|&v| v as f64).collect();
+    assert_eq!(values.len(), bins);
+    for (b, (got, want)) in values.iter().zip(&expected).enumerate() {
+        assert!(
+            (got - want).abs() <= 1e-6 * want.abs().max(1e-12),
+            "bin {b}: plotted {got}, pixel has {want}"
+        );
+    }
+    assert!(
+        expected.iter().sum::<f64>() > 0.0,
+        "a lit wall pixel receives light"
+    );
+    // Per-bounce curves add up to the total (layers partition the paths).
+    let bounce_sum: Vec<f64> = (0..bins)
+        .map(|b| {
+            (0..snap.layers())
+                .map(|l| snap.pixel_layer(l, px, py)[b] as f64)
+                .sum()
+        })
+        .collect();
+    for (b, (s, t)) in bounce_sum.iter().zip(&expected).enumerate() {
+        assert!(
+            (s - t).abs() <= 1e-4 * t.abs().max(1e-9),
+            "bin {b}: layers sum {s}, total {t}"
+        );
+    }
+
+    // Pin it, pick another pixel: both are plotted.
+    h.get_by_label("📌 Pin").click();
+    h.step();
+    let pos2 = pixel_pos(&h, "steady image", 5, 20, side, side);
+    click_at(&mut h, pos2);
+    assert_eq!(h.state().selection, Some(Selection::pixel(5, 20)));
+    let names: Vec<String> = h
+        .state()
+        .plotted_curves(&snap)
+        .into_iter()
+        .map(|c| c.0)
+        .collect();
+    assert!(
+        names.contains(&format!("pin: pixel ({px}, {py})")),
+        "pinned curve kept: {names:?}"
+    );
+}
+
+#[test]
+fn a_bad_scene_is_reported_in_the_window() {
+    let mut h = harness(small_settings("/no/such/scene.gltf", 16, 16, 1));
+    let start = Instant::now();
+    loop {
+        h.step();
+        if matches!(
+            h.state().status().map(|s| s.state),
+            Some(WorkerState::Failed(_))
+        ) {
+            break;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(30),
+            "no failure reported"
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    h.run_steps(2);
+    assert!(
+        h.state()
+            .messages()
+            .iter()
+            .any(|m| m.contains("scene.gltf")),
+        "messages: {:?}",
+        h.state().messages()
+    );
+    // The window keeps running and a built-in can be opened from it.
+    h.get_by_label("builtin:cornell").click();
+    h.step();
+    assert_eq!(h.state().settings.scene, "builtin:cornell");
+}
+
+/// Renders the window where a wgpu adapter exists; skips (with a note) where none does.
+fn render(h: &mut Harness<'static, TprfApp>) -> Option<image::RgbaImage> {
+    match h.render() {
+        Ok(img) => Some(img),
+        Err(e) => {
+            eprintln!("no wgpu adapter, window image not checked: {e}");
+            None
+        }
+    }
+}
+
+#[test]
+fn the_window_image_shows_the_scene() {
+    let side = 48;
+    let mut h = harness(small_settings("builtin:cornell", side, 64, 16));
+    wait_done(&mut h, Duration::from_secs(120));
+    h.state_mut().playing = false;
+    let Some(img) = render(&mut h) else { return };
+    assert_eq!((img.width(), img.height()), (1280, 800));
+    // The steady image: a lit box, so its area has both bright and dark pixels, and
+    // the lamp region near its top is brighter than the floor shadow region.
+    let rect = h.get_by_label("steady image").rect();
+    let lum = |x: f32, y: f32| {
+        let p = img.get_pixel(
+            (rect.min.x + x * rect.width()) as u32,
+            (rect.min.y + y * rect.height()) as u32,
+        );
+        0.2126 * p[0] as f32 + 0.7152 * p[1] as f32 + 0.0722 * p[2] as f32
+    };
+    let samples: Vec<f32> = (1..10)
+        .flat_map(|i| (1..10).map(move |j| (i as f32 / 10.0, j as f32 / 10.0)))
+        .map(|(x, y)| lum(x, y))
+        .collect();
+    let (lo, hi) = samples
+        .iter()
+        .fold((f32::MAX, f32::MIN), |(a, b), &v| (a.min(v), b.max(v)));
+    assert!(hi - lo > 60.0, "steady image is flat: luminance {lo}..{hi}");
+    assert!(hi > 120.0, "steady image is dark: max luminance {hi}");
+}
+
+/// `TPRF_SCREENSHOTS=1 cargo test --release --test viewer -- --ignored screenshots`
+/// writes the README's screenshots.
+#[test]
+#[ignore = "writes screenshots/; run by hand"]
+fn screenshots() {
+    if std::env::var_os("TPRF_SCREENSHOTS").is_none() {
+        eprintln!("set TPRF_SCREENSHOTS=1 to write screenshots/");
+        return;
+    }
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("screenshots");
+    std::fs::create_dir_all(&dir).unwrap();
+
+    // Cornell box mid-propagation, a back-wall pixel plotted.
+    let side = 160;
+    let mut h = harness(small_settings("builtin:cornell", side, 256, 512));
+    wait_done(&mut h, Duration::from_secs(600));
+    {
+        let app = h.state_mut();
+        app.playing = false;
+        app.selection = Some(Selection::pixel(60, 50));
+        let snap = app.snapshot().unwrap();
+        // The bin where the first wave has swept the back wall: the selected pixel's
+        // peak plus a little.
+        let px = snap.pixel(60, 50);
+        let peak = px
+            .iter()
+            .enumerate()
+            .fold((0, 0.0f32), |a, (i, &v)| if v > a.1 { (i, v) } else { a })
+            .0;
+        app.bin = (peak + 6).min(snap.axis().bins - 1);
+    }
+    h.remove_cursor();
+    h.run_steps(3);
+    let img = h.render().expect("a wgpu adapter for screenshots");
+    img.save(dir.join("cornell.png")).unwrap();
+
+    // Canopy: airborne LiDAR over a partly covered foliage layer.
+    let mut h = harness(ViewerSettings {
+        plot_log: true,
+        ..small_settings("builtin:canopy", 160, 256, 256)
+    });
+    wait_done(&mut h, Duration::from_secs(600));
+    {
+        let app = h.state_mut();
+        app.playing = false;
+        app.selection = Some(Selection::pixel(80, 80));
+        let snap = app.snapshot().unwrap();
+        let px = snap.pixel(80, 80);
+        let peak = px
+            .iter()
+            .enumerate()
+            .fold((0, 0.0f32), |a, (i, &v)| if v > a.1 { (i, v) } else { a })
+            .0;
+        app.bin = peak.min(snap.axis().bins - 1);
+    }
+    h.remove_cursor();
+    h.run_steps(3);
+    let img = h.render().expect("a wgpu adapter for screenshots");
+    img.save(dir.join("canopy.png")).unwrap();
+}
