@@ -313,3 +313,132 @@ fn screenshots() {
     let img = h.render().expect("a wgpu adapter for screenshots");
     img.save(dir.join("canopy.png")).unwrap();
 }
+
+#[test]
+fn opens_a_saved_cube_without_rendering() {
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("viewer-cube-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_tprf"))
+        .args([
+            "render",
+            "builtin:cornell",
+            "--width",
+            "20",
+            "--height",
+            "12",
+            "--spp",
+            "4",
+            "--bins",
+            "40",
+            "--out",
+        ])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let cube_dir = dir.clone();
+    let mut h = Harness::builder()
+        .with_size(Vec2::new(1280.0, 800.0))
+        .build_eframe(move |cc| {
+            TprfApp::with_settings(cc, ViewerSettings::default(), Start::Cube(cube_dir))
+        });
+    h.run_steps(3);
+    assert!(h.state().status().is_none(), "no renderer runs for a cube");
+    let snap = h.state().snapshot().expect("the cube is shown");
+    assert_eq!(
+        (snap.width(), snap.height(), snap.axis().bins),
+        (20, 12, 40)
+    );
+    // The viewer shows the file's numbers: compare with tprf.npy read independently.
+    let bytes = std::fs::read(dir.join("tprf.npy")).unwrap();
+    let header_len = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+    let data: Vec<f32> = bytes[10 + header_len..]
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
+    assert_eq!(data.len(), 20 * 12 * 40);
+    assert_eq!(
+        snap.pixel(7, 5),
+        &data[(5 * 20 + 7) * 40..(5 * 20 + 8) * 40]
+    );
+    assert!(
+        h.state()
+            .status_line(Some(&snap))
+            .contains("builtin:cornell")
+    );
+
+    // A directory that is not a cube: an error in the window, not a panic.
+    let bad = dir.join("not-a-cube");
+    std::fs::create_dir_all(&bad).unwrap();
+    let mut h = Harness::builder()
+        .with_size(Vec2::new(1280.0, 800.0))
+        .build_eframe(move |cc| {
+            TprfApp::with_settings(cc, ViewerSettings::default(), Start::Cube(bad))
+        });
+    h.run_steps(2);
+    assert!(
+        h.state().messages().iter().any(|m| m.contains("tprf.json")),
+        "{:?}",
+        h.state().messages()
+    );
+}
+
+#[test]
+fn changing_the_resolution_restarts_the_render() {
+    let mut h = harness(small_settings("builtin:cornell", 16, 32, 0));
+    let start = Instant::now();
+    while h.state().snapshot().is_none() {
+        h.step();
+        assert!(start.elapsed() < Duration::from_secs(60));
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    h.state_mut().pending.width = 24;
+    h.state_mut().pending.spp_target = 2;
+    h.step();
+    h.get_by_label("Apply & restart").click();
+    h.step();
+    assert_eq!(h.state().settings.width, 24);
+    wait_done(&mut h, Duration::from_secs(60));
+    let snap = h.state().snapshot().unwrap();
+    assert_eq!((snap.width(), snap.height(), snap.spp), (24, 16, 2));
+}
+
+#[test]
+fn absurd_settings_are_clamped_or_refused() {
+    let settings = ViewerSettings {
+        width: 0,
+        height: 1_000_000,
+        bins: usize::MAX,
+        play_bins_per_s: f32::NAN,
+        ev: f32::INFINITY,
+        dt: "-5 ns".into(),
+        ..small_settings("builtin:cornell", 8, 8, 1)
+    };
+    let mut h = harness(settings);
+    h.run_steps(3);
+    let s = &h.state().settings;
+    assert!(s.width >= 1 && s.height <= 4096 && s.bins <= 16384);
+    assert!(s.play_bins_per_s.is_finite() && s.ev.is_finite());
+    // A negative bin width cannot start a render: said in the window.
+    assert!(
+        h.state().messages().iter().any(|m| m.contains("bin width")),
+        "{:?}",
+        h.state().messages()
+    );
+    // An unparsable one neither.
+    h.state_mut().pending.dt = "fast".into();
+    h.state_mut().pending.t0 = String::new();
+    h.step();
+    h.get_by_label("Apply & restart").click();
+    h.step();
+    assert!(
+        h.state().messages().iter().any(|m| m.contains("fast")),
+        "{:?}",
+        h.state().messages()
+    );
+}

@@ -5,6 +5,6 @@ mod snapshot;
 mod store;
 mod time_axis;
 
-pub use snapshot::FilmSnapshot;
+pub use snapshot::{FilmSnapshot, quantile_positive};
 pub use store::{FilmLayout, PixelSink, TprfFilm};
 pub use time_axis::TimeAxis;

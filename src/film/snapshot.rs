@@ -15,9 +15,58 @@ pub struct FilmSnapshot {
     pub bounces: Vec<f32>,
     /// Relative RMS error estimated from the two half-sample buffers.
     pub error_estimate: Option<f64>,
+    /// Per-snapshot summaries, computed once by whoever makes the snapshot (the render
+    /// thread) so readers drawing every frame never scan the cube.
+    steady: Vec<f32>,
+    peak_bin: Vec<Option<u32>>,
+    robust_max: Option<f64>,
 }
 
+/// At most this many values are looked at for [`FilmSnapshot::robust_max`].
+const ROBUST_MAX_SAMPLES: usize = 1 << 20;
+
 impl FilmSnapshot {
+    /// A snapshot of `cube` (`[H, W, T]`) and `bounces` (`[L, H, W, T]` or empty); computes
+    /// the steady image, the peak bins and the robust maximum in parallel.
+    pub fn new(
+        layout: FilmLayout,
+        spp: u64,
+        passes: u64,
+        cube: Vec<f32>,
+        bounces: Vec<f32>,
+        error_estimate: Option<f64>,
+    ) -> FilmSnapshot {
+        use rayon::prelude::*;
+        let t = layout.axis.bins.max(1);
+        let (steady, peak_bin): (Vec<f32>, Vec<Option<u32>>) = cube
+            .par_chunks(t)
+            .map(|p| {
+                let mut best: Option<(u32, f32)> = None;
+                let mut sum = 0.0f64;
+                for (b, &v) in p.iter().enumerate() {
+                    sum += v as f64;
+                    if v > 0.0 && best.is_none_or(|(_, m)| v > m) {
+                        best = Some((b as u32, v));
+                    }
+                }
+                (sum as f32, best.map(|(b, _)| b))
+            })
+            .unzip();
+        let stride = cube.len().div_ceil(ROBUST_MAX_SAMPLES).max(1);
+        let robust_max = quantile_positive(cube.iter().step_by(stride).copied(), 0.999);
+        FilmSnapshot {
+            layout,
+            spp,
+            passes,
+            cube,
+            bounces,
+            error_estimate,
+            steady,
+            peak_bin,
+            robust_max,
+        }
+    }
+
     pub fn axis(&self) -> &TimeAxis {
         &self.layout.axis
     }
@@ -99,36 +148,80 @@ impl FilmSnapshot {
         if b >= t {
             return vec![0.0; self.layout.pixels()];
         }
-        self.cube.chunks_exact(t).map(|p| p[b]).collect()
+        // A strided gather, one cache line per pixel: spread over the threads.
+        use rayon::prelude::*;
+        self.cube
+            .par_chunks_exact(t)
+            .with_min_len(4096)
+            .map(|p| p[b])
+            .collect()
     }
 
     /// Steady-state image (sum over bins): `[H * W]`.
-    pub fn steady(&self) -> Vec<f32> {
-        let t = self.layout.axis.bins;
-        self.cube
-            .chunks_exact(t)
-            .map(|p| p.iter().map(|&v| v as f64).sum::<f64>() as f32)
-            .collect()
+    pub fn steady(&self) -> &[f32] {
+        &self.steady
     }
 
-    /// Per pixel the bin of the TPRF's peak and the pixel's total energy (the "rainbow"
-    /// view: colour = arrival time of the peak, brightness = energy). Bin is `None` for a
-    /// dark pixel.
-    pub fn peaks(&self) -> Vec<(Option<usize>, f32)> {
-        let t = self.layout.axis.bins;
-        self.cube
-            .chunks_exact(t)
-            .map(|p| {
-                let mut best: Option<(usize, f32)> = None;
-                let mut sum = 0.0f64;
-                for (b, &v) in p.iter().enumerate() {
-                    sum += v as f64;
-                    if v > 0.0 && best.is_none_or(|(_, m)| v > m) {
-                        best = Some((b, v));
-                    }
-                }
-                (best.map(|(b, _)| b), sum as f32)
-            })
-            .collect()
+    /// Per pixel the bin of the TPRF's peak (`None` for a dark pixel): the "rainbow"
+    /// view's colour, arrival time of the peak.
+    pub fn peak_bins(&self) -> &[Option<u32>] {
+        &self.peak_bin
+    }
+
+    /// The 99.9 % quantile of the positive bin values (from at most 2^20 of them): a
+    /// maximum that one firefly cannot set, for a global exposure.
+    pub fn robust_max(&self) -> Option<f64> {
+        self.robust_max
+    }
+}
+
+/// The `q` quantile of the positive finite values, `None` when there are none.
+pub fn quantile_positive(values: impl Iterator<Item = f32>, q: f64) -> Option<f64> {
+    let mut v: Vec<f32> = values.filter(|x| *x > 0.0 && x.is_finite()).collect();
+    if v.is_empty() {
+        return None;
+    }
+    let k = ((v.len() - 1) as f64 * q.clamp(0.0, 1.0)).round() as usize;
+    let (_, x, _) = v.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
+    Some(*x as f64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn summaries_by_hand() {
+        let axis = TimeAxis::new(0.0, 1e-9, 3).unwrap();
+        let layout = FilmLayout {
+            width: 2,
+            height: 1,
+            axis,
+            bounces_separate: 0,
+        };
+        // Pixel 0: 1, 3, 2 (peak bin 1, sum 6); pixel 1 dark.
+        let snap = FilmSnapshot::new(
+            layout,
+            4,
+            1,
+            vec![1.0, 3.0, 2.0, 0.0, 0.0, 0.0],
+            Vec::new(),
+            None,
+        );
+        assert_eq!(snap.steady(), &[6.0, 0.0]);
+        assert_eq!(snap.peak_bins(), &[Some(1), None]);
+        assert_eq!(snap.robust_max(), Some(3.0));
+        assert_eq!(snap.slice(2), vec![2.0, 0.0]);
+        assert_eq!(snap.slice(7), vec![0.0, 0.0]);
+        assert_eq!(snap.layers(), 0);
+        assert_eq!(snap.box_mean(0, 0, 1, 0, None), vec![0.5, 1.5, 1.0]);
+    }
+
+    #[test]
+    fn quantiles() {
+        let v = [0.0f32, 1.0, 2.0, 3.0, 4.0, f32::NAN];
+        assert_eq!(quantile_positive(v.into_iter(), 1.0), Some(4.0));
+        assert_eq!(quantile_positive(v.into_iter(), 0.0), Some(1.0));
+        assert_eq!(quantile_positive([0.0f32; 3].into_iter(), 0.5), None);
     }
 }

@@ -260,14 +260,14 @@ impl TprfFilm {
 
     /// A copy of the current means for readers on other threads.
     pub fn snapshot(&self) -> FilmSnapshot {
-        FilmSnapshot {
-            layout: self.layout,
-            spp: self.spp(),
-            passes: self.passes,
-            cube: self.cube_f32(),
-            bounces: self.bounce_cube_f32(),
-            error_estimate: self.half_error_estimate(),
-        }
+        FilmSnapshot::new(
+            self.layout,
+            self.spp(),
+            self.passes,
+            self.cube_f32(),
+            self.bounce_cube_f32(),
+            self.half_error_estimate(),
+        )
     }
 
     /// Steady-state image `[H, W]`: per pixel the sum over bins (in f64).

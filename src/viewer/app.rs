@@ -373,7 +373,7 @@ impl TprfApp {
                 match self.global_scale {
                     Some((k, s)) if k == key => Some(s),
                     _ => {
-                        let s = colormap::quantile_positive(snap.cube.iter().copied(), 0.999);
+                        let s = snap.robust_max();
                         if let Some(s) = s {
                             self.global_scale = Some((key, s));
                         }
@@ -448,18 +448,17 @@ impl TprfApp {
                     log: self.settings.log_image,
                     decades: 3.0,
                 };
-                colormap::colorize(&values, &tone, ColorMap::Gray)
+                colormap::colorize(values, &tone, ColorMap::Gray)
             }
             View::Rainbow => {
-                let peaks = snap.peaks();
-                let base = colormap::quantile_positive(peaks.iter().map(|p| p.1), 0.99)
+                let base = colormap::quantile_positive(snap.steady().iter().copied(), 0.99)
                     .map_or(1.0, |b| 1.0 / b);
                 let tone = Tone {
                     scale: base * 2f64.powf(self.settings.ev as f64),
                     log: false,
                     decades: 3.0,
                 };
-                colormap::rainbow(&peaks, snap.axis().bins, &tone)
+                colormap::rainbow(snap.peak_bins(), snap.steady(), snap.axis().bins, &tone)
             }
         }
     }
@@ -817,8 +816,7 @@ impl TprfApp {
             return;
         };
         let result = (|| -> anyhow::Result<()> {
-            let scale = colormap::quantile_positive(snap.cube.iter().copied(), 0.999)
-                .map_or(1.0, |b| 1.0 / b);
+            let scale = snap.robust_max().map_or(1.0, |b| 1.0 / b);
             let tone = Tone {
                 scale: scale * 2f64.powf(self.settings.ev as f64),
                 log: self.settings.log_image,
@@ -1294,14 +1292,14 @@ pub fn load_cube(dir: &Path) -> anyhow::Result<(CubeMetadata, FilmSnapshot)> {
         axis,
         bounces_separate,
     };
-    let snapshot = FilmSnapshot {
+    let snapshot = FilmSnapshot::new(
         layout,
-        spp: meta.spp,
-        passes: meta.passes.len() as u64,
+        meta.spp,
+        meta.passes.len() as u64,
         cube,
         bounces,
-        error_estimate: meta.error_estimate,
-    };
+        meta.error_estimate,
+    );
     Ok((meta, snapshot))
 }
 

@@ -44,16 +44,7 @@ impl Tone {
     }
 }
 
-/// The `q` quantile of the positive finite values (None when there are none).
-pub fn quantile_positive(values: impl Iterator<Item = f32>, q: f64) -> Option<f64> {
-    let mut v: Vec<f32> = values.filter(|x| *x > 0.0 && x.is_finite()).collect();
-    if v.is_empty() {
-        return None;
-    }
-    let k = ((v.len() - 1) as f64 * q.clamp(0.0, 1.0)).round() as usize;
-    let (_, x, _) = v.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
-    Some(*x as f64)
-}
+pub use crate::film::quantile_positive;
 
 /// sRGB-encode a linear value in [0, 1].
 fn srgb(x: f64) -> u8 {
@@ -81,9 +72,9 @@ pub fn colorize(values: &[f32], tone: &Tone, map: ColorMap) -> Vec<u8> {
 
 /// The "rainbow" view: hue = arrival time of the TPRF's peak (bin / bins, turbo colour
 /// map), brightness = the pixel's energy through `tone`.
-pub fn rainbow(peaks: &[(Option<usize>, f32)], bins: usize, tone: &Tone) -> Vec<u8> {
-    let mut out = Vec::with_capacity(peaks.len() * 4);
-    for &(bin, energy) in peaks {
+pub fn rainbow(peak_bins: &[Option<u32>], energy: &[f32], bins: usize, tone: &Tone) -> Vec<u8> {
+    let mut out = Vec::with_capacity(peak_bins.len() * 4);
+    for (&bin, &energy) in peak_bins.iter().zip(energy) {
         match bin {
             Some(b) => {
                 let hue = b as f64 / bins.saturating_sub(1).max(1) as f64;
@@ -124,21 +115,13 @@ mod tests {
     }
 
     #[test]
-    fn quantiles() {
-        let v = [0.0f32, 1.0, 2.0, 3.0, 4.0, f32::NAN];
-        assert_eq!(quantile_positive(v.into_iter(), 1.0), Some(4.0));
-        assert_eq!(quantile_positive(v.into_iter(), 0.0), Some(1.0));
-        assert_eq!(quantile_positive([0.0f32; 3].into_iter(), 0.5), None);
-    }
-
-    #[test]
     fn rainbow_is_black_where_dark_and_hue_follows_time() {
         let tone = Tone {
             scale: 1.0,
             log: false,
             decades: 3.0,
         };
-        let px = rainbow(&[(None, 0.0), (Some(0), 1.0), (Some(9), 1.0)], 10, &tone);
+        let px = rainbow(&[None, Some(0), Some(9)], &[0.0, 1.0, 1.0], 10, &tone);
         assert_eq!(&px[0..4], &[0, 0, 0, 255]);
         assert_ne!(&px[4..8], &px[8..12]);
     }
