@@ -548,7 +548,7 @@ impl TprfApp {
 
     // ---- panels -------------------------------------------------------------------
 
-    fn top_bar_ui(&mut self, ui: &mut egui::Ui, snap: Option<&Arc<FilmSnapshot>>) {
+    fn top_bar_ui(&mut self, ui: &mut egui::Ui) {
         ui.horizontal_wrapped(|ui| {
             ui.strong("tprf");
             ui.separator();
@@ -594,8 +594,6 @@ impl TprfApp {
                 }
                 Source::None => {}
             }
-            ui.separator();
-            ui.label(self.status_line(snap));
         });
     }
 
@@ -1326,7 +1324,11 @@ impl eframe::App for TprfApp {
         self.handle_keys(&ctx, bins);
         self.advance_playback(&ctx, bins);
 
-        egui::Panel::top("top").show(ui, |ui| self.top_bar_ui(ui, snap.as_ref()));
+        let window_w = ui.available_width();
+        egui::Panel::top("top").show(ui, |ui| self.top_bar_ui(ui));
+        egui::Panel::bottom("status").show(ui, |ui| {
+            ui.horizontal(|ui| ui.label(RichText::new(self.status_line(snap.as_ref())).small()));
+        });
         egui::Panel::left("controls")
             .resizable(true)
             .default_size(250.0)
@@ -1335,7 +1337,7 @@ impl eframe::App for TprfApp {
             });
         egui::Panel::right("plot")
             .resizable(true)
-            .default_size(400.0)
+            .default_size((window_w * 0.3).clamp(320.0, 720.0))
             .show(ui, |ui| match &snap {
                 Some(s) => self.plot_ui(ui, s),
                 None => {
