@@ -133,6 +133,24 @@ fn bad_input_gives_clear_errors() {
             "--width",
         ),
         (
+            // 64 GiB of film: refused up front with its size, not killed by the kernel.
+            &[
+                "render",
+                "builtin:cornell",
+                "--out",
+                out,
+                "--width",
+                "1024",
+                "--height",
+                "1024",
+                "--bins",
+                "4096",
+                "--spp",
+                "1",
+            ],
+            "GiB",
+        ),
+        (
             &[
                 "render",
                 "builtin:cornell",

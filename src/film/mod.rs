@@ -6,5 +6,5 @@ mod store;
 mod time_axis;
 
 pub use snapshot::{FilmSnapshot, quantile_positive};
-pub use store::{FilmLayout, PixelSink, TprfFilm};
+pub use store::{FilmLayout, PixelSink, TprfFilm, available_memory_bytes};
 pub use time_axis::TimeAxis;

@@ -102,6 +102,20 @@ impl TprfFilm {
             .pixels()
             .checked_mul(layout.axis.bins)
             .ok_or("film size overflows")?;
+        // Refuse what would only fit by swapping (or be killed): an allocation larger than
+        // the free memory succeeds on Linux and fails page by page later.
+        if let Some(free) = available_memory_bytes()
+            && layout.bytes() as u64 > free / 10 * 9
+        {
+            return Err(format!(
+                "the TPRF store for {} x {} pixels x {} bins needs {:.1} GiB, and {:.1} GiB is free; lower the resolution or the bins",
+                layout.width,
+                layout.height,
+                layout.axis.bins,
+                layout.bytes() as f64 / (1u64 << 30) as f64,
+                free as f64 / (1u64 << 30) as f64
+            ));
+        }
         let alloc = |len: usize| -> Result<Vec<f64>, String> {
             let mut v = Vec::new();
             v.try_reserve_exact(len).map_err(|_| {
@@ -315,4 +329,12 @@ impl TprfFilm {
         }
         Some((diff2.sqrt() * (na * nb).sqrt() / n) / norm2.sqrt())
     }
+}
+
+/// Memory the system can give without swapping (`MemAvailable`), where it says (Linux).
+pub fn available_memory_bytes() -> Option<u64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
 }

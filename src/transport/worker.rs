@@ -168,14 +168,6 @@ fn gib(bytes: u64) -> String {
     format!("{:.1} GiB", bytes as f64 / (1u64 << 30) as f64)
 }
 
-/// Memory the system can give without swapping (`MemAvailable`), where it says (Linux).
-fn available_memory_bytes() -> Option<u64> {
-    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib * 1024)
-}
-
 fn set_status(shared: &Shared, f: impl FnOnce(&mut WorkerStatus)) {
     if let Ok(mut s) = shared.status.lock() {
         f(&mut s);
@@ -195,7 +187,7 @@ fn run(job: &RenderJob, shared: &Shared, on_update: &dyn Fn()) -> Result<(), Str
         axis,
         bounces_separate: job.bounces_separate,
     };
-    if let Some(available) = available_memory_bytes() {
+    if let Some(available) = crate::film::available_memory_bytes() {
         let budget = available / 10 * 8;
         if session_bytes(&layout) > budget && layout.bounces_separate > 0 {
             layout.bounces_separate = 0;
