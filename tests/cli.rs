@@ -133,18 +133,18 @@ fn bad_input_gives_clear_errors() {
             "--width",
         ),
         (
-            // 64 GiB of film: refused up front with its size, not killed by the kernel.
+            // 1 TiB of film: refused up front with its size, not killed by the kernel.
             &[
                 "render",
                 "builtin:cornell",
                 "--out",
                 out,
                 "--width",
-                "1024",
+                "2048",
                 "--height",
-                "1024",
+                "2048",
                 "--bins",
-                "4096",
+                "16384",
                 "--spp",
                 "1",
             ],
