@@ -1327,7 +1327,14 @@ impl eframe::App for TprfApp {
         let window_w = ui.available_width();
         egui::Panel::top("top").show(ui, |ui| self.top_bar_ui(ui));
         egui::Panel::bottom("status").show(ui, |ui| {
-            ui.horizontal(|ui| ui.label(RichText::new(self.status_line(snap.as_ref())).small()));
+            ui.horizontal(|ui| {
+                ui.label(RichText::new(self.status_line(snap.as_ref())).small());
+                // The latest error stays in sight (all of them: the left panel).
+                if let Some(m) = self.messages.last() {
+                    ui.separator();
+                    ui.label(RichText::new(m).small().color(ui.visuals().error_fg_color));
+                }
+            });
         });
         egui::Panel::left("controls")
             .resizable(true)
