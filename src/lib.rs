@@ -9,5 +9,6 @@ pub mod export;
 pub mod film;
 pub mod oned;
 pub mod scene;
+pub mod sensor;
 pub mod transport;
 pub mod units;
