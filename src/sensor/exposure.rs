@@ -617,7 +617,7 @@ mod tests {
             let g = &gates(e)[0];
             for dt in [0.05 * ns, 0.7 * ns, 3.0 * ns] {
                 for k in 0..60 {
-                    let u = -1.0 * ns + 0.1 * ns * k as f64;
+                    let u = -ns + 0.1 * ns * k as f64;
                     // Fine midpoint rule of the gate itself.
                     let m = 20_000;
                     let want: f64 = (0..m)

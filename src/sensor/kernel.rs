@@ -23,8 +23,9 @@ use super::exposure::Gate;
 use super::light::Light;
 use crate::film::TimeAxis;
 
-/// Kernel weights below this fraction of the kernel's largest are trimmed from its ends.
-const TRIM_REL: f64 = 1e-14;
+/// Kernel weights below this fraction of the kernel's largest are trimmed from its
+/// ends (at least; see [`trim_fraction`]).
+const TRIM_REL: f64 = 1e-12;
 
 /// `K_i[b]` (dimensionless) for `b` in `first_bin..first_bin + weights.len()`, zero
 /// elsewhere: only those bins of a pixel are read.
@@ -98,16 +99,25 @@ pub fn kernel(light: &Light, gate: &Gate, axis: &TimeAxis) -> SparseKernel {
             )
         })
         .collect();
-    trimmed(b_lo, weights)
+    trimmed(b_lo, weights, trim_fraction(axis))
+}
+
+/// The fraction of a kernel's largest weight below which its end weights are dropped:
+/// [`TRIM_REL`], or the rounding of times on `axis` (a few ulps of the latest time, in
+/// bins), whichever is larger, so that a gate edge on a bin edge does not leave a
+/// rounding-sized weight in the next bin.
+fn trim_fraction(axis: &TimeAxis) -> f64 {
+    let t_max = axis.t0_s.abs().max(axis.end_s().abs());
+    TRIM_REL.max(8.0 * f64::EPSILON * t_max / axis.dt_s)
 }
 
 /// Drops the negligible ends of a kernel.
-fn trimmed(first_bin: usize, mut weights: Vec<f64>) -> SparseKernel {
+fn trimmed(first_bin: usize, mut weights: Vec<f64>, fraction: f64) -> SparseKernel {
     let max = weights.iter().fold(0.0f64, |m, w| m.max(w.abs()));
     if !(max > 0.0) {
         return SparseKernel::default();
     }
-    let keep = |w: &f64| w.abs() > TRIM_REL * max;
+    let keep = |w: &f64| w.abs() > fraction * max;
     let start = weights.iter().position(keep).unwrap_or(0);
     let end = weights.iter().rposition(keep).map_or(0, |e| e + 1);
     weights.truncate(end);

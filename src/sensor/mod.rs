@@ -50,7 +50,7 @@ pub use kernel::{SparseKernel, compute_kernels};
 pub use light::{Light, LightPulse};
 pub use measure::{Measurements, PackedKernels};
 pub use model::{PixelTrace, SensorModel, Update};
-pub use noise::Noise;
+pub use noise::{Noise, NoiseField};
 pub use preset::{BUILTIN_PRESETS, Sensor};
 pub use values::Point;
 

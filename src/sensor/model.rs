@@ -10,6 +10,7 @@ use super::exposure::{Exposure, Gate};
 use super::kernel::{BinTransfer, SparseKernel, compute_kernels};
 use super::light::Light;
 use super::measure::{Measurements, PackedKernels, measure_clean};
+use super::noise::NoiseField;
 use super::preset::Sensor;
 use super::{SensorError, TimeAxis};
 
@@ -155,6 +156,12 @@ impl SensorModel {
     /// the noise changed).
     pub fn apply_noise(&self, m: &mut Measurements) {
         self.sensor.noise.apply(&mut m.values);
+    }
+
+    /// [`SensorModel::apply_noise`] keeping the normal draws in `field`: after the
+    /// first call with a seed, a `sigma` edit costs one multiply-add per measurement.
+    pub fn apply_noise_cached(&self, m: &mut Measurements, field: &mut NoiseField) {
+        self.sensor.noise.apply_cached(&mut m.values, field);
     }
 
     /// One pixel's TPRF (`T` bins of the cube) through the sensor.
