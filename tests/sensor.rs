@@ -700,7 +700,8 @@ fn only_bins_where_the_kernel_is_nonzero_are_read() {
         "{} bins",
         k.weights.len()
     );
-    assert_eq!(m.packed().reads_per_pixel(), k.weights.len());
+    // Read in whole 16-lane chunks.
+    assert!(m.packed().reads_per_pixel() < k.weights.len() + 16);
     // A delta light: exactly the gate's bins.
     let m = model(LightPulse::default(), boxes(40.0 * NS, NS, 1), a);
     assert_eq!(m.kernels()[0].bins(), 400..410);

@@ -24,19 +24,38 @@ struct Span {
 }
 
 impl PackedKernels {
-    /// Packs `kernels` for a cube of `bins` bins (bins past the end are dropped).
+    /// Packs `kernels` for a cube of `bins` bins (bins past the end are dropped). Each
+    /// span is padded with zero weights to a multiple of the dot product's lane count
+    /// (within the cube), so that no scalar tail is left.
     pub fn new(kernels: &[SparseKernel], bins: usize) -> PackedKernels {
         let mut spans = Vec::with_capacity(kernels.len());
         let mut weights = Vec::new();
         for k in kernels {
             let first = k.first_bin.min(bins);
             let len = k.weights.len().min(bins - first);
+            if len == 0 {
+                spans.push(Span {
+                    first: 0,
+                    len: 0,
+                    offset: weights.len(),
+                });
+                continue;
+            }
+            let padded = len.div_ceil(LANES).saturating_mul(LANES).min(bins);
+            let start = first.min(bins - padded);
+            let offset = weights.len();
+            weights.resize(offset + padded, 0.0);
+            for (slot, &w) in weights[offset + first - start..]
+                .iter_mut()
+                .zip(&k.weights[..len])
+            {
+                *slot = w as f32;
+            }
             spans.push(Span {
-                first,
-                len,
-                offset: weights.len(),
+                first: start,
+                len: padded,
+                offset,
             });
-            weights.extend(k.weights[..len].iter().map(|&w| w as f32));
         }
         PackedKernels {
             bins,
@@ -55,7 +74,8 @@ impl PackedKernels {
         self.bins
     }
 
-    /// Bins read per pixel, summed over the gates (the work per pixel).
+    /// Bins read per pixel, summed over the gates (the work per pixel; spans padded to
+    /// whole lanes).
     pub fn reads_per_pixel(&self) -> usize {
         self.spans.iter().map(|s| s.len).sum()
     }
@@ -89,11 +109,13 @@ impl Measurements {
     }
 }
 
+/// Independent accumulators of [`dot`].
+const LANES: usize = 16;
+
 /// `sum_k a[k] b[k]` in 16 independent f32 lanes (vectorised; relative error ~1e-7 for
 /// the kernel lengths used).
 #[inline]
 fn dot(a: &[f32], b: &[f32]) -> f32 {
-    const LANES: usize = 16;
     let mut acc = [0f32; LANES];
     let (ca, cb) = (a.chunks_exact(LANES), b.chunks_exact(LANES));
     let tail: f32 = ca
