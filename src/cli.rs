@@ -442,24 +442,23 @@ fn read_cube(dir: &std::path::Path) -> Result<(Vec<f32>, usize, usize, TimeAxis)
     Ok((cube, w, h, axis))
 }
 
-/// A depth image as grey PNG: nearest white, farthest black, no depth black.
+/// A depth image as grey PNG, linear in depth from the 1 % to the 99 % quantile:
+/// nearest white, farthest dark grey, no depth black.
 fn write_depth_png(path: &std::path::Path, w: usize, h: usize, depth: &[f32]) -> Result<()> {
-    let finite = depth.iter().copied().filter(|d| d.is_finite());
-    let (lo, hi) = finite.fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), d| {
-        (lo.min(d), hi.max(d))
-    });
-    let span = f64::from(hi - lo).max(1e-12);
-    let grey: Vec<f64> = depth
-        .iter()
-        .map(|&d| {
-            if d.is_finite() {
-                0.1 + 0.9 * f64::from(hi - d) / span
-            } else {
-                0.0
-            }
-        })
-        .collect();
-    export::write_png_gray(path, w, h, &grey, 1.0)
+    let values = || depth.iter().map(|&d| f64::from(d));
+    let (lo, hi) = (quantile(values(), 0.01), quantile(values(), 0.99));
+    let span = (hi - lo).max(1e-12);
+    let mut rgb = Vec::with_capacity(3 * depth.len());
+    for &d in depth {
+        let g = if d.is_finite() {
+            let t = ((hi - f64::from(d)) / span).clamp(0.0, 1.0);
+            (255.0 * (0.15 + 0.85 * t)).round() as u8
+        } else {
+            0
+        };
+        rgb.extend([g, g, g]);
+    }
+    export::write_png_rgb(path, w, h, rgb)
 }
 
 /// A signed image as PNG: blue below 0, white at 0, red above, saturating at
