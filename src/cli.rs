@@ -1,8 +1,13 @@
-//! The command line: `tprf render`, `tprf oned`. Errors end here, printed once.
+//! The command line: `tprf render`, `tprf oned`, `tprf sensor`. Errors end here, printed
+//! once.
 
 use crate::export::{self, BIN_VALUE, CameraMetadata, CubeMetadata};
+use crate::film::TimeAxis;
 use crate::film::{FilmLayout, TprfFilm};
 use crate::scene::{self, Channel};
+use crate::sensor::{
+    self, Derived, Exposure, FirstReturn, LightPulse, Sensor, SensorModel, derived,
+};
 use crate::transport::progressive::{self, Budget};
 use crate::transport::{RenderSettings, Renderer, WindowRequest, auto_window};
 use crate::units::{C_M_PER_S, format_time, parse_time_s};
@@ -31,6 +36,9 @@ pub enum Command {
     Render(RenderArgs),
     /// The paper's 1-D world: print the exact impulse train (and the binned TPRF).
     Oned(OnedArgs),
+    /// Measure a rendered cube with a time-of-flight sensor (light pulse, exposure
+    /// gates, noise): the paper's TPRF sensor, without re-rendering.
+    Sensor(SensorArgs),
     /// Open the viewer on a cube folder written by `tprf render` (no rendering), or on a
     /// scene to render (a .gltf/.glb path or builtin:NAME). No argument: the last scene.
     View(ViewArgs),
@@ -103,6 +111,57 @@ pub struct OnedArgs {
     /// Number of bins.
     #[arg(long, requires_all = ["t0", "dt"])]
     pub bins: Option<usize>,
+}
+
+#[derive(Args, Debug)]
+pub struct SensorArgs {
+    /// A `tprf render` output folder: tprf.npy float32 [H, W, T] and tprf.json (t0_s,
+    /// dt_s, bins); tprf_bounces.npy, when present, gives the AMCW reference depth.
+    pub dir: PathBuf,
+    /// The sensor: a TOML file (see docs/sensor.md) or builtin:gated, builtin:lidar,
+    /// builtin:amcw. The options below override its parts.
+    #[arg(long)]
+    pub preset: Option<String>,
+    /// The light pulse as KIND:key=value,... e.g. gaussian:centre=5ns,fwhm=2ns (kinds:
+    /// delta gaussian rect exponential laser_diode sinc2 piecewise_linear). Default: a
+    /// unit delta at t = 0.
+    #[arg(long)]
+    pub light: Option<String>,
+    /// The gates as KIND:key=value,... e.g. box:start=10ns,width=1ns,count=32 or
+    /// amcw:freq=20MHz,phase_steps=4 (kinds: box gaussian piecewise_linear amcw).
+    #[arg(long)]
+    pub exposure: Option<String>,
+    /// Standard deviation of the additive Gaussian noise, in measurement units.
+    #[arg(long)]
+    pub noise_sigma: Option<f64>,
+    /// Photon noise: photons per unit of measurement (0: off).
+    #[arg(long)]
+    pub photons_per_energy: Option<f64>,
+    /// Seed of the noise.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Also write pixel_Y_X.csv and pixel_Y_X_gates.csv for pixel Y,X (row from the
+    /// top, column from the left). Repeatable.
+    #[arg(long = "pixel", value_name = "Y,X", value_parser = parse_pixel)]
+    pub pixels: Vec<(usize, usize)>,
+    /// Output folder (created if missing; files in it are replaced).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+fn parse_pixel(text: &str) -> Result<(usize, usize), String> {
+    let (y, x) = text
+        .split_once(',')
+        .ok_or_else(|| format!("'{text}' is not Y,X"))?;
+    let y = y
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{y}' is not a row index"))?;
+    let x = x
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{x}' is not a column index"))?;
+    Ok((y, x))
 }
 
 /// Largest image side accepted.
@@ -317,6 +376,413 @@ pub fn view(a: &ViewArgs) -> Result<()> {
     crate::viewer::run(start).map_err(|e| anyhow::anyhow!("cannot open the window: {e}"))
 }
 
+/// The time window of a cube as `tprf.json` records it; other keys are ignored, so a
+/// cube written by another tool needs only these.
+#[derive(serde::Deserialize)]
+struct CubeWindow {
+    t0_s: f64,
+    dt_s: f64,
+    bins: usize,
+    #[serde(default)]
+    width: Option<usize>,
+    #[serde(default)]
+    height: Option<usize>,
+}
+
+/// The sensor of `tprf sensor`: the preset (or a delta light and `--exposure`), with
+/// the options' overrides.
+fn sensor_from_args(a: &SensorArgs) -> Result<Sensor> {
+    let mut sensor = match (&a.preset, &a.exposure) {
+        (Some(p), _) => Sensor::load(p).with_context(|| format!("--preset {p}"))?,
+        (None, Some(spec)) => Sensor::new(
+            LightPulse::default(),
+            Exposure::from_spec(spec).context("--exposure")?,
+        ),
+        (None, None) => bail!(
+            "give --preset (a TOML file, or builtin:lidar, builtin:gated, builtin:amcw) or \
+             --exposure KIND:key=value,... (e.g. box:start=10ns,width=1ns,count=32)"
+        ),
+    };
+    if let Some(spec) = &a.light {
+        sensor.light = LightPulse::from_spec(spec).context("--light")?;
+    }
+    if let Some(spec) = &a.exposure {
+        sensor.exposure = Exposure::from_spec(spec).context("--exposure")?;
+        // The preset's derived outputs may not fit the new gates.
+        let gates = sensor.exposure.gates(0.0).context("--exposure")?;
+        if let Err(e) = sensor.derived.validate(&sensor.exposure, &gates) {
+            eprintln!("note: the preset's derived outputs are dropped: {e}");
+            sensor.derived = Derived::default();
+        }
+    }
+    if let Some(x) = a.noise_sigma {
+        sensor.noise.sigma = x;
+    }
+    if let Some(x) = a.photons_per_energy {
+        sensor.noise.photons_per_energy = x;
+    }
+    if let Some(x) = a.seed {
+        sensor.noise.seed = x;
+    }
+    Ok(sensor)
+}
+
+/// Reads `tprf.npy` and `tprf.json` of a render folder: the cube, width, height, axis.
+fn read_cube(dir: &std::path::Path) -> Result<(Vec<f32>, usize, usize, TimeAxis)> {
+    let json_path = dir.join("tprf.json");
+    let text = std::fs::read(&json_path)
+        .with_context(|| format!("cannot read {}", json_path.display()))?;
+    let meta: CubeWindow = serde_json::from_slice(&text)
+        .with_context(|| format!("{}: expected t0_s, dt_s and bins", json_path.display()))?;
+    let axis = TimeAxis::new(meta.t0_s, meta.dt_s, meta.bins)
+        .map_err(anyhow::Error::msg)
+        .with_context(|| json_path.display().to_string())?;
+    let npy_path = dir.join("tprf.npy");
+    let (shape, cube) = export::read_npy_f32(&npy_path)?;
+    let (h, w, t) = match shape[..] {
+        [h, w, t] => (h as usize, w as usize, t as usize),
+        _ => bail!(
+            "{} has shape {shape:?}; expected [H, W, T]",
+            npy_path.display()
+        ),
+    };
+    if t != axis.bins
+        || meta.width.is_some_and(|mw| mw != w)
+        || meta.height.is_some_and(|mh| mh != h)
+    {
+        bail!(
+            "{} is [{h}, {w}, {t}] but {} says {} x {} pixels, {} bins",
+            npy_path.display(),
+            json_path.display(),
+            meta.height.map_or("?".into(), |v| v.to_string()),
+            meta.width.map_or("?".into(), |v| v.to_string()),
+            axis.bins
+        );
+    }
+    Ok((cube, w, h, axis))
+}
+
+/// A depth image as grey PNG, linear in depth from the 1 % to the 99 % quantile:
+/// nearest white, farthest dark grey, no depth black.
+fn write_depth_png(path: &std::path::Path, w: usize, h: usize, depth: &[f32]) -> Result<()> {
+    let values = || depth.iter().map(|&d| f64::from(d));
+    let (lo, hi) = (quantile(values(), 0.01), quantile(values(), 0.99));
+    let span = (hi - lo).max(1e-12);
+    let mut rgb = Vec::with_capacity(3 * depth.len());
+    for &d in depth {
+        let g = if d.is_finite() {
+            let t = ((hi - f64::from(d)) / span).clamp(0.0, 1.0);
+            (255.0 * (0.15 + 0.85 * t)).round() as u8
+        } else {
+            0
+        };
+        rgb.extend([g, g, g]);
+    }
+    export::write_png_rgb(path, w, h, rgb)
+}
+
+/// A signed image as PNG: blue below 0, white at 0, red above, saturating at
+/// `+- scale`; NaN black.
+fn write_signed_png(
+    path: &std::path::Path,
+    w: usize,
+    h: usize,
+    values: &[f32],
+    scale: f64,
+) -> Result<()> {
+    let mut rgb = Vec::with_capacity(3 * values.len());
+    for &v in values {
+        let px = if v.is_finite() {
+            let t = (f64::from(v) / scale.max(1e-300)).clamp(-1.0, 1.0);
+            let fade = (255.0 * (1.0 - t.abs())).round() as u8;
+            if t < 0.0 {
+                [fade, fade, 255]
+            } else {
+                [255, fade, fade]
+            }
+        } else {
+            [0, 0, 0]
+        };
+        rgb.extend(px);
+    }
+    export::write_png_rgb(path, w, h, rgb)
+}
+
+/// The `q` quantile of the finite values (0 if none).
+fn quantile(values: impl Iterator<Item = f64>, q: f64) -> f64 {
+    let mut v: Vec<f64> = values.filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return 0.0;
+    }
+    let k = ((v.len() - 1) as f64 * q).round() as usize;
+    *v.select_nth_unstable_by(k, f64::total_cmp).1
+}
+
+/// The AMCW depth reference: the single-scattering layer's centroid when the render
+/// kept per-bounce layers, else the first return of the noise-free TPRF.
+fn reference_depth(
+    dir: &std::path::Path,
+    cube: &[f32],
+    w: usize,
+    h: usize,
+    axis: &TimeAxis,
+) -> Result<(Vec<f32>, &'static str)> {
+    let path = dir.join("tprf_bounces.npy");
+    if path.exists() {
+        let (shape, layers) = export::read_npy_f32(&path)?;
+        let n = w * h * axis.bins;
+        if shape.len() == 4
+            && shape[0] >= 3
+            && shape[1..] == [h as u64, w as u64, axis.bins as u64]
+            && let Some(single) = layers.get(n..2 * n)
+        {
+            return Ok((
+                derived::tprf_centroid_depth(single, w, h, axis),
+                "centroid of the single-scattering layer (layer 1 of tprf_bounces.npy)",
+            ));
+        }
+    }
+    Ok((
+        derived::tprf_first_return_depth(cube, w, h, axis, &FirstReturn::default()),
+        "first return of the noise-free TPRF (render with --bounces-separate 1 for the \
+         exact single-scattering depth)",
+    ))
+}
+
+/// `tprf sensor`.
+pub fn sensor(a: &SensorArgs) -> Result<()> {
+    let start = Instant::now();
+    let sensor = sensor_from_args(a)?;
+    let (cube, w, h, axis) = read_cube(&a.dir)?;
+    for &(y, x) in &a.pixels {
+        if y >= h || x >= w {
+            bail!("--pixel {y},{x} is outside the {h} x {w} image (row, column from 0)");
+        }
+    }
+    let t_kernels = Instant::now();
+    let model = SensorModel::new(sensor, axis)?;
+    let kernels_s = t_kernels.elapsed().as_secs_f64();
+    let t_measure = Instant::now();
+    let mut m = model.measure_clean(&cube, w, h)?;
+    let measure_s = t_measure.elapsed().as_secs_f64();
+    let t_noise = Instant::now();
+    model.apply_noise(&mut m);
+    let noise_s = t_noise.elapsed().as_secs_f64();
+    let n = model.gate_count();
+
+    let unread: Vec<usize> = (0..n)
+        .filter(|&i| model.kernels()[i].weights.is_empty())
+        .collect();
+    if !unread.is_empty() {
+        eprintln!(
+            "note: {} of {n} gates see no light from the cube's window ({} .. {}); their \
+             measurements are noise only",
+            unread.len(),
+            format_time(axis.t0_s),
+            format_time(axis.end_s())
+        );
+    }
+
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("cannot create {}", a.out.display()))?;
+    let mut files = vec!["sensor.npy".to_string(), "sensor.json".to_string()];
+    export::write_npy_f32(
+        &a.out.join("sensor.npy"),
+        &[n as u64, h as u64, w as u64],
+        &m.values,
+    )?;
+
+    let mut derived_json = serde_json::Map::new();
+    if let Some(depth) = model.first_return_depth(&m) {
+        export::write_npy_f32(&a.out.join("depth.npy"), &[h as u64, w as u64], &depth)?;
+        write_depth_png(&a.out.join("depth.png"), w, h, &depth)?;
+        files.extend(["depth.npy".into(), "depth.png".into()]);
+        let found = depth.iter().filter(|d| d.is_finite()).count();
+        derived_json.insert(
+            "first_return".into(),
+            serde_json::json!({
+                "depth": "c (t_return - light mean time) / 2, metres; NaN: no return",
+                "pixels_with_return": found,
+                "light_mean_s": model.light().mean_s(),
+            }),
+        );
+    }
+    if let Some(amcw) = model.amcw(&m) {
+        let (reference, how) = reference_depth(&a.dir, &cube, w, h, &axis)?;
+        let error: Vec<f32> = amcw
+            .depth_m
+            .iter()
+            .zip(&reference)
+            .map(|(&d, &r)| {
+                derived::wrapped_difference(f64::from(d), f64::from(r), amcw.ambiguity_m) as f32
+            })
+            .collect();
+        let shape = [h as u64, w as u64];
+        export::write_npy_f32(&a.out.join("amcw_phase.npy"), &shape, &amcw.phase_rad)?;
+        export::write_npy_f32(&a.out.join("amcw_amplitude.npy"), &shape, &amcw.amplitude)?;
+        export::write_npy_f32(&a.out.join("amcw_depth.npy"), &shape, &amcw.depth_m)?;
+        export::write_npy_f32(&a.out.join("true_depth.npy"), &shape, &reference)?;
+        export::write_npy_f32(&a.out.join("multipath_error.npy"), &shape, &error)?;
+        write_depth_png(&a.out.join("amcw_depth.png"), w, h, &amcw.depth_m)?;
+        let abs = || error.iter().map(|e| f64::from(e.abs()));
+        let (median, p95) = (quantile(abs(), 0.5), quantile(abs(), 0.95));
+        write_signed_png(
+            &a.out.join("multipath_error.png"),
+            w,
+            h,
+            &error,
+            quantile(abs(), 0.99),
+        )?;
+        files.extend(
+            [
+                "amcw_phase.npy",
+                "amcw_amplitude.npy",
+                "amcw_depth.npy",
+                "true_depth.npy",
+                "multipath_error.npy",
+                "amcw_depth.png",
+                "multipath_error.png",
+            ]
+            .map(String::from),
+        );
+        eprintln!(
+            "AMCW: multipath error |amcw_depth - true_depth| median {:.4} m, 95 % {:.4} m \
+             (ambiguity range {:.3} m)",
+            median, p95, amcw.ambiguity_m
+        );
+        derived_json.insert(
+            "amcw".into(),
+            serde_json::json!({
+                "phase": "radians in [0, 2 pi), the light's own phase removed",
+                "depth": "c phase / (4 pi f), metres, in [0, ambiguity_m)",
+                "ambiguity_m": amcw.ambiguity_m,
+                "phase_offset_rad": model.amcw_phase_offset_rad(),
+                "true_depth": how,
+                "multipath_error": "amcw_depth - true_depth wrapped into [-ambiguity/2, ambiguity/2), metres",
+                "multipath_error_median_abs_m": median,
+                "multipath_error_p95_abs_m": p95,
+            }),
+        );
+    }
+
+    for &(y, x) in &a.pixels {
+        let written = write_pixel_csv(&a.out, &model, &m, &cube, w, y, x)?;
+        files.extend(written);
+    }
+
+    let gates: Vec<serde_json::Value> = model
+        .gates()
+        .iter()
+        .zip(model.kernels())
+        .enumerate()
+        .map(|(i, (g, k))| {
+            serde_json::json!({
+                "index": i,
+                "centre_s": g.centre_s(),
+                "support_s": g.support_s().map(|(lo, hi)| [lo, hi]),
+                "kernel_first_bin": k.first_bin,
+                "kernel_bins": k.weights.len(),
+                "kernel_sum": k.weights.iter().sum::<f64>(),
+            })
+        })
+        .collect();
+    let light = model.light();
+    let (lo, hi) = light.support_s();
+    let json = serde_json::json!({
+        "format": "tprf sensor v1: sensor.npy float32 [N, H, W], row 0 = top",
+        "model": "M_i = max(0, Noise + sum_b TPRF[b] K_i[b]), K_i[b] the mean over bin b of \
+                  K_i(tau) = integral Light(t - tau) Exposure_i(t) dt",
+        "value": "measurement in the unit of a cube bin (radiance x seconds per unit pulse \
+                  energy) times the light's energy",
+        "sensor": model.sensor(),
+        "cube": {
+            "dir": a.dir.display().to_string(),
+            "t0_s": axis.t0_s,
+            "dt_s": axis.dt_s,
+            "bins": axis.bins,
+            "width": w,
+            "height": h,
+        },
+        "light": {
+            "energy": light.energy(),
+            "mean_s": light.mean_s(),
+            "support_s": [lo, hi],
+            "delta_at_s": light.delta_time_s(),
+        },
+        "gates": gates,
+        "bins_read_per_pixel": model.packed().reads_per_pixel(),
+        "derived": derived_json,
+        "files": files,
+        "seconds": {
+            "kernels": kernels_s,
+            "measurement": measure_s,
+            "noise": noise_s,
+            "total": start.elapsed().as_secs_f64(),
+        },
+    });
+    export::write_json(&a.out.join("sensor.json"), &json)?;
+    eprintln!(
+        "wrote {} ({n} gates x {h} x {w}; kernels {:.1} ms, measurement {:.1} ms, noise \
+         {:.1} ms)",
+        a.out.display(),
+        kernels_s * 1e3,
+        measure_s * 1e3,
+        noise_s * 1e3
+    );
+    Ok(())
+}
+
+/// `pixel_Y_X.csv` (per bin: time, TPRF, TPRF * Light, each gate's share of M_i) and
+/// `pixel_Y_X_gates.csv` (per gate: centre, M_i before and after noise).
+fn write_pixel_csv(
+    out: &std::path::Path,
+    model: &SensorModel,
+    m: &sensor::Measurements,
+    cube: &[f32],
+    w: usize,
+    y: usize,
+    x: usize,
+) -> Result<Vec<String>> {
+    let axis = *model.axis();
+    let start = (y * w + x) * axis.bins;
+    let tprf = cube
+        .get(start..start + axis.bins)
+        .context("pixel outside the cube")?;
+    let trace = model.pixel_trace(tprf)?;
+    let kernels = model.kernels();
+    let mut header: Vec<String> = ["bin", "t_start_s", "t_centre_s", "tprf", "tprf_light"]
+        .map(String::from)
+        .to_vec();
+    header.extend((0..kernels.len()).map(|i| format!("gate_{i}")));
+    let rows = (0..axis.bins).map(|b| {
+        let mut row = vec![
+            b as f64,
+            axis.bin_start_s(b),
+            axis.bin_center_s(b),
+            trace.tprf[b],
+            trace.tprf_light[b],
+        ];
+        row.extend(kernels.iter().map(|k| trace.tprf[b] * k.get(b)));
+        row
+    });
+    let name = format!("pixel_{y}_{x}.csv");
+    export::write_csv(&out.join(&name), &header, rows)?;
+
+    let noisy = m.pixel(y, x);
+    let header = ["gate", "centre_s", "m_clean", "m"].map(String::from);
+    let rows = model.gates().iter().enumerate().map(|(i, g)| {
+        vec![
+            i as f64,
+            g.centre_s().unwrap_or(f64::NAN),
+            trace.m_clean[i],
+            noisy.get(i).map_or(f64::NAN, |&v| f64::from(v)),
+        ]
+    });
+    let gates_name = format!("pixel_{y}_{x}_gates.csv");
+    export::write_csv(&out.join(&gates_name), &header, rows)?;
+    Ok(vec![name, gates_name])
+}
+
 /// Entry point of the `tprf` binary.
 pub fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
@@ -324,6 +790,7 @@ pub fn main() -> std::process::ExitCode {
         Some(Command::Render(a)) => render(a),
         Some(Command::Oned(a)) => oned(a),
         Some(Command::View(a)) => view(a),
+        Some(Command::Sensor(a)) => sensor(a),
         None => view(&ViewArgs { what: None }),
     };
     match result {

@@ -197,3 +197,40 @@ pub fn write_frames(dir: &Path, film: &TprfFilm) -> Result<()> {
     }
     Ok(())
 }
+
+/// Write an 8-bit RGB PNG (`rgb` row-major, 3 bytes per pixel, `w x h`).
+pub fn write_png_rgb(path: &Path, w: usize, h: usize, rgb: Vec<u8>) -> Result<()> {
+    let img = image::RgbImage::from_raw(w as u32, h as u32, rgb).context("image size mismatch")?;
+    write_atomic(path, |out| {
+        img.write_to(out, image::ImageFormat::Png)?;
+        Ok(())
+    })
+}
+
+/// Write a CSV file: a header line, then one line per row (NaN written as an empty
+/// field).
+pub fn write_csv(
+    path: &Path,
+    header: &[String],
+    rows: impl Iterator<Item = Vec<f64>>,
+) -> Result<()> {
+    write_atomic(path, |w| {
+        writeln!(w, "{}", header.join(","))?;
+        for row in rows {
+            let mut first = true;
+            for v in row {
+                if !first {
+                    write!(w, ",")?;
+                }
+                first = false;
+                if v.fract() == 0.0 && v.abs() < 1e15 {
+                    write!(w, "{v}")?;
+                } else if !v.is_nan() {
+                    write!(w, "{v:e}")?;
+                }
+            }
+            writeln!(w)?;
+        }
+        Ok(())
+    })
+}

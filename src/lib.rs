@@ -12,6 +12,7 @@ pub mod export;
 pub mod film;
 pub mod oned;
 pub mod scene;
+pub mod sensor;
 pub mod transport;
 pub mod units;
 pub mod viewer;

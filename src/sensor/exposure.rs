@@ -1,0 +1,677 @@
+//! `Exposure_i(t)`, `i = 0..N-1`: the sensitivity of measurement `i` over time
+//! (paper, section 6), dimensionless, `t` in seconds.
+//!
+//! [`Exposure`] describes a whole sequence (box gates, Gaussian gates, a free
+//! piecewise-linear gate repeated at a step, AMCW sinusoids); [`Exposure::gates`]
+//! checks it and resolves it into single [`Gate`]s at absolute times. What the
+//! kernels need from a gate is its average over a bin-wide window,
+//! [`Gate::bin_average`], in closed form for every kind.
+
+use serde::{Deserialize, Serialize};
+use std::f64::consts::{PI, SQRT_2, TAU};
+use std::sync::Arc;
+
+use super::values::{Point, count, hertz, option_seconds, seconds};
+use super::{SensorError, finite, non_negative, positive};
+
+/// Most gates one sensor may have (the measurement holds `N x H x W` floats).
+pub const MAX_GATES: u64 = 4096;
+
+/// Most knots of a piecewise-linear gate.
+pub const MAX_GATE_POINTS: usize = 10_000;
+
+/// Gaussian gates are cut at this many sigma (sensitivity below 1.3e-14 of the peak).
+const GAUSS_CUT: f64 = 8.0;
+
+/// Where the times of a gate sequence are counted from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TimeOrigin {
+    /// The trigger: the instant the TPRF's unit pulse leaves the light (`t = 0`).
+    #[default]
+    Pulse,
+    /// The start `t0` of the cube's time window, so a preset follows any scene.
+    Window,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+fn one_count() -> u64 {
+    1
+}
+
+fn four() -> u64 {
+    4
+}
+
+/// A sequence of exposure gates as written in a sensor file (checked by
+/// [`Exposure::gates`]). Gate `i` of a stepped sequence is gate 0 shifted by
+/// `i * step_s`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Exposure {
+    /// Box gates: gate `i` has sensitivity `gain` (default 1) over
+    /// `[start_s + i step_s, start_s + i step_s + width_s)`, 0 elsewhere. `step_s`
+    /// defaults to `width_s` (gates side by side).
+    Box {
+        #[serde(default)]
+        origin: TimeOrigin,
+        #[serde(default, alias = "start", with = "seconds")]
+        start_s: f64,
+        #[serde(alias = "width", with = "seconds")]
+        width_s: f64,
+        #[serde(
+            default,
+            alias = "step",
+            with = "option_seconds",
+            skip_serializing_if = "Option::is_none"
+        )]
+        step_s: Option<f64>,
+        #[serde(default = "one_count", with = "count")]
+        count: u64,
+        #[serde(default = "one")]
+        gain: f64,
+    },
+    /// Gaussian gates: gate `i` is `peak * exp(-(t - c_i)^2 / (2 sigma^2))`,
+    /// `c_i = centre_s + i step_s`, `sigma = fwhm_s / 2.3548`. `step_s` defaults to
+    /// `fwhm_s`.
+    Gaussian {
+        #[serde(default)]
+        origin: TimeOrigin,
+        #[serde(default, alias = "centre", alias = "center", with = "seconds")]
+        centre_s: f64,
+        #[serde(alias = "fwhm", with = "seconds")]
+        fwhm_s: f64,
+        #[serde(
+            default,
+            alias = "step",
+            with = "option_seconds",
+            skip_serializing_if = "Option::is_none"
+        )]
+        step_s: Option<f64>,
+        #[serde(default = "one_count", with = "count")]
+        count: u64,
+        #[serde(default = "one")]
+        peak: f64,
+    },
+    /// A free gate through `[t_s, value]` knots (values >= 0, times non-decreasing, a
+    /// repeated time is a jump), linear in between, 0 outside; gate `i` is it shifted
+    /// by `i * step_s` (default 0).
+    PiecewiseLinear {
+        #[serde(default)]
+        origin: TimeOrigin,
+        points: Vec<Point>,
+        #[serde(default, alias = "step", with = "seconds")]
+        step_s: f64,
+        #[serde(default = "one_count", with = "count")]
+        count: u64,
+    },
+    /// An amplitude-modulated continuous-wave (AMCW) time-of-flight camera:
+    /// `phase_steps` sinusoidal gates `(1 + modulation cos(2 pi freq_hz t - phi_i)) / 2`
+    /// with `phi_i = phase0_deg + 360 i / phase_steps` degrees, in absolute time (the
+    /// phase is counted from the trigger). With a delta light the correlation
+    /// `K_i(tau)` is the same sinusoid in `tau`, as for a sinusoidally modulated source
+    /// correlated over many periods.
+    Amcw {
+        #[serde(alias = "freq", alias = "frequency", with = "hertz")]
+        freq_hz: f64,
+        #[serde(default = "four", with = "count")]
+        phase_steps: u64,
+        #[serde(default, alias = "phase0")]
+        phase0_deg: f64,
+        #[serde(default = "one")]
+        modulation: f64,
+    },
+}
+
+/// One resolved gate `Exposure_i(t)`, times in seconds after the trigger.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Gate {
+    /// `gain` on `[start_s, end_s)`.
+    Box { start_s: f64, end_s: f64, gain: f64 },
+    /// `peak * exp(-(t - centre_s)^2 / (2 sigma_s^2))`.
+    Gaussian {
+        centre_s: f64,
+        sigma_s: f64,
+        peak: f64,
+    },
+    /// A piecewise-linear shape shifted by `shift_s`.
+    PiecewiseLinear { shape: Arc<PwlShape>, shift_s: f64 },
+    /// `(1 + modulation cos(2 pi freq_hz t - phase_rad)) / 2`.
+    Cosine {
+        freq_hz: f64,
+        phase_rad: f64,
+        modulation: f64,
+    },
+}
+
+/// The knots of a piecewise-linear gate, with its running integral.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PwlShape {
+    t_s: Vec<f64>,
+    v: Vec<f64>,
+    /// `integral_{t_0}^{t_k} E`, seconds.
+    cum: Vec<f64>,
+    centroid_s: f64,
+}
+
+impl PwlShape {
+    fn new(points: &[Point]) -> Result<PwlShape, SensorError> {
+        if points.len() > MAX_GATE_POINTS {
+            return Err(SensorError::TooMany {
+                what: "exposure.points".into(),
+                count: points.len() as u64,
+                max: MAX_GATE_POINTS as u64,
+            });
+        }
+        if points.len() < 2 {
+            return Err(SensorError::Invalid(
+                "exposure.points needs at least two [t_s, value] knots".into(),
+            ));
+        }
+        let mut t_s: Vec<f64> = Vec::with_capacity(points.len());
+        let mut v = Vec::with_capacity(points.len());
+        for (k, p) in points.iter().enumerate() {
+            let t = finite(&format!("exposure.points[{k}] time"), p.0)?;
+            let value = non_negative(&format!("exposure.points[{k}] value"), p.1)?;
+            if let Some(&prev) = t_s.last()
+                && t < prev
+            {
+                return Err(SensorError::Invalid(format!(
+                    "exposure.points[{k}]: time {t} s comes before the previous knot's \
+                     {prev} s (times must not decrease)"
+                )));
+            }
+            t_s.push(t);
+            v.push(value);
+        }
+        let mut cum = vec![0.0; t_s.len()];
+        let mut moment = 0.0;
+        for k in 1..t_s.len() {
+            let (t0, t1, v0, v1) = (t_s[k - 1], t_s[k], v[k - 1], v[k]);
+            cum[k] = cum[k - 1] + 0.5 * (v0 + v1) * (t1 - t0);
+            moment += (t1 - t0) * (v0 * (2.0 * t0 + t1) + v1 * (t0 + 2.0 * t1)) / 6.0;
+        }
+        let area = cum[cum.len() - 1];
+        if !(area > 0.0 && area.is_finite()) {
+            return Err(SensorError::Invalid(format!(
+                "exposure.points encloses area {area}: a gate needs a positive, finite area"
+            )));
+        }
+        Ok(PwlShape {
+            centroid_s: moment / area,
+            t_s,
+            v,
+            cum,
+        })
+    }
+
+    fn value(&self, t: f64) -> f64 {
+        let j = self.t_s.partition_point(|&k| k <= t);
+        if j == 0 || j == self.t_s.len() {
+            return 0.0;
+        }
+        let (t0, t1, v0, v1) = (self.t_s[j - 1], self.t_s[j], self.v[j - 1], self.v[j]);
+        v0 + (v1 - v0) * (t - t0) / (t1 - t0)
+    }
+
+    /// `integral_{t_0}^{t} E`.
+    fn primitive(&self, t: f64) -> f64 {
+        let j = self.t_s.partition_point(|&k| k <= t);
+        if j == 0 {
+            return 0.0;
+        }
+        if j == self.t_s.len() {
+            return self.cum[j - 1];
+        }
+        let (t0, t1, v0, v1) = (self.t_s[j - 1], self.t_s[j], self.v[j - 1], self.v[j]);
+        let d = t - t0;
+        self.cum[j - 1] + v0 * d + 0.5 * (v1 - v0) / (t1 - t0) * d * d
+    }
+
+    fn span_s(&self) -> (f64, f64) {
+        (self.t_s[0], self.t_s[self.t_s.len() - 1])
+    }
+}
+
+/// `Phi(x2) - Phi(x1)` for the standard normal CDF, `x1 <= x2`, without cancellation
+/// in the tails.
+fn normal_cdf_diff(x1: f64, x2: f64) -> f64 {
+    let q = |x: f64| 0.5 * libm::erfc(x / SQRT_2);
+    if x1 >= 0.0 {
+        q(x1) - q(x2)
+    } else if x2 <= 0.0 {
+        q(-x2) - q(-x1)
+    } else {
+        1.0 - q(x2) - q(-x1)
+    }
+}
+
+/// `sin(x) / x`.
+fn sinc(x: f64) -> f64 {
+    if x.abs() < 1e-8 { 1.0 } else { x.sin() / x }
+}
+
+impl Exposure {
+    /// The `kind` name as in a file.
+    pub fn kind_name(&self) -> &'static str {
+        match self {
+            Exposure::Box { .. } => "box",
+            Exposure::Gaussian { .. } => "gaussian",
+            Exposure::PiecewiseLinear { .. } => "piecewise_linear",
+            Exposure::Amcw { .. } => "amcw",
+        }
+    }
+
+    /// The number of gates `N` (unchecked).
+    pub fn count(&self) -> u64 {
+        match self {
+            Exposure::Box { count, .. }
+            | Exposure::Gaussian { count, .. }
+            | Exposure::PiecewiseLinear { count, .. } => *count,
+            Exposure::Amcw { phase_steps, .. } => *phase_steps,
+        }
+    }
+
+    /// The time origin of the gate times ([`TimeOrigin::Pulse`] for AMCW).
+    pub fn origin(&self) -> TimeOrigin {
+        match self {
+            Exposure::Box { origin, .. }
+            | Exposure::Gaussian { origin, .. }
+            | Exposure::PiecewiseLinear { origin, .. } => *origin,
+            Exposure::Amcw { .. } => TimeOrigin::Pulse,
+        }
+    }
+
+    /// Checks every value (finite, widths > 0, `1 <= count <= MAX_GATES`, ...) and
+    /// resolves the sequence into gates at absolute times; `window_t0_s` is the cube's
+    /// window start, used when the origin is [`TimeOrigin::Window`].
+    pub fn gates(&self, window_t0_s: f64) -> Result<Vec<Gate>, SensorError> {
+        let n = self.count();
+        let what_count = match self {
+            Exposure::Amcw { .. } => "exposure.phase_steps",
+            _ => "exposure.count",
+        };
+        if n == 0 {
+            return Err(SensorError::OutOfRange {
+                what: what_count.into(),
+                value: 0.0,
+                rule: "at least 1",
+            });
+        }
+        if n > MAX_GATES {
+            return Err(SensorError::TooMany {
+                what: what_count.into(),
+                count: n,
+                max: MAX_GATES,
+            });
+        }
+        let offset = match self.origin() {
+            TimeOrigin::Pulse => 0.0,
+            TimeOrigin::Window => finite("cube t0_s", window_t0_s)?,
+        };
+        let gates: Vec<Gate> = match self {
+            Exposure::Box {
+                start_s,
+                width_s,
+                step_s,
+                gain,
+                ..
+            } => {
+                let start = finite("exposure.start_s", *start_s)?;
+                let width = positive("exposure.width_s", *width_s)?;
+                let step = finite("exposure.step_s", step_s.unwrap_or(width))?;
+                let gain = non_negative("exposure.gain", *gain)?;
+                (0..n)
+                    .map(|i| {
+                        let a = offset + start + step * i as f64;
+                        Gate::Box {
+                            start_s: a,
+                            end_s: a + width,
+                            gain,
+                        }
+                    })
+                    .collect()
+            }
+            Exposure::Gaussian {
+                centre_s,
+                fwhm_s,
+                step_s,
+                peak,
+                ..
+            } => {
+                let centre = finite("exposure.centre_s", *centre_s)?;
+                let fwhm = positive("exposure.fwhm_s", *fwhm_s)?;
+                let step = finite("exposure.step_s", step_s.unwrap_or(fwhm))?;
+                let peak = non_negative("exposure.peak", *peak)?;
+                (0..n)
+                    .map(|i| Gate::Gaussian {
+                        centre_s: offset + centre + step * i as f64,
+                        sigma_s: fwhm / super::light::FWHM_PER_SIGMA,
+                        peak,
+                    })
+                    .collect()
+            }
+            Exposure::PiecewiseLinear { points, step_s, .. } => {
+                let shape = Arc::new(PwlShape::new(points)?);
+                let step = finite("exposure.step_s", *step_s)?;
+                (0..n)
+                    .map(|i| Gate::PiecewiseLinear {
+                        shape: shape.clone(),
+                        shift_s: offset + step * i as f64,
+                    })
+                    .collect()
+            }
+            Exposure::Amcw {
+                freq_hz,
+                phase0_deg,
+                modulation,
+                ..
+            } => {
+                let freq_hz = positive("exposure.freq_hz", *freq_hz)?;
+                let phase0 = finite("exposure.phase0_deg", *phase0_deg)?.to_radians();
+                let modulation = non_negative("exposure.modulation", *modulation)?;
+                if modulation > 1.0 {
+                    return Err(SensorError::OutOfRange {
+                        what: "exposure.modulation".into(),
+                        value: modulation,
+                        rule: "in [0, 1] (a sensitivity cannot be negative)",
+                    });
+                }
+                (0..n)
+                    .map(|i| Gate::Cosine {
+                        freq_hz,
+                        phase_rad: (phase0 + TAU * i as f64 / n as f64).rem_euclid(TAU),
+                        modulation,
+                    })
+                    .collect()
+            }
+        };
+        for (i, g) in gates.iter().enumerate() {
+            let (lo, hi) = g.bin_average_support(0.0);
+            if lo.is_nan() || hi.is_nan() || lo == f64::INFINITY || hi == f64::NEG_INFINITY {
+                return Err(SensorError::Invalid(format!(
+                    "exposure gate {i}: its times [{lo}, {hi}] s are not representable"
+                )));
+            }
+            if let Gate::Box { start_s, end_s, .. } = g
+                && !(start_s.is_finite() && end_s.is_finite() && end_s > start_s)
+            {
+                return Err(SensorError::Invalid(format!(
+                    "exposure gate {i}: [{start_s}, {end_s}) s is not a representable interval"
+                )));
+            }
+        }
+        Ok(gates)
+    }
+}
+
+impl Gate {
+    /// `Exposure_i(t_s)`.
+    pub fn value(&self, t_s: f64) -> f64 {
+        match self {
+            Gate::Box {
+                start_s,
+                end_s,
+                gain,
+            } => {
+                if t_s >= *start_s && t_s < *end_s {
+                    *gain
+                } else {
+                    0.0
+                }
+            }
+            Gate::Gaussian {
+                centre_s,
+                sigma_s,
+                peak,
+            } => {
+                let x = (t_s - centre_s) / sigma_s;
+                peak * (-0.5 * x * x).exp()
+            }
+            Gate::PiecewiseLinear { shape, shift_s } => shape.value(t_s - shift_s),
+            Gate::Cosine {
+                freq_hz,
+                phase_rad,
+                modulation,
+            } => 0.5 * (1.0 + modulation * (TAU * freq_hz * t_s - phase_rad).cos()),
+        }
+    }
+
+    /// `Exposure_i(t)` at each time of `t_s` (for plots).
+    pub fn sample(&self, t_s: &[f64]) -> Vec<f64> {
+        t_s.iter().map(|&t| self.value(t)).collect()
+    }
+
+    /// The gate's mean time, weighted by sensitivity, seconds (`None` for AMCW).
+    pub fn centre_s(&self) -> Option<f64> {
+        match self {
+            Gate::Box { start_s, end_s, .. } => Some(0.5 * (start_s + end_s)),
+            Gate::Gaussian { centre_s, .. } => Some(*centre_s),
+            Gate::PiecewiseLinear { shape, shift_s } => Some(shape.centroid_s + shift_s),
+            Gate::Cosine { .. } => None,
+        }
+    }
+
+    /// Where the gate is sensitive, seconds (`None`: everywhere, AMCW). Gaussian
+    /// gates are cut at 8 sigma.
+    pub fn support_s(&self) -> Option<(f64, f64)> {
+        match self {
+            Gate::Cosine { .. } => None,
+            _ => Some(self.bin_average_support(0.0)),
+        }
+    }
+
+    /// `(1 / dt) integral_u^{u + dt} Exposure(t) dt`: the gate averaged over a window
+    /// of one bin (`dt_s > 0`) starting at `u_s`; `Exposure(u_s)` for `dt_s = 0`.
+    pub fn bin_average(&self, u_s: f64, dt_s: f64) -> f64 {
+        if dt_s <= 0.0 {
+            return self.value(u_s);
+        }
+        match self {
+            Gate::Box {
+                start_s,
+                end_s,
+                gain,
+            } => {
+                let overlap = (u_s + dt_s).min(*end_s) - u_s.max(*start_s);
+                if overlap > 0.0 {
+                    gain * overlap / dt_s
+                } else {
+                    0.0
+                }
+            }
+            Gate::Gaussian {
+                centre_s,
+                sigma_s,
+                peak,
+            } => {
+                if dt_s < 1e-3 * sigma_s {
+                    // Simpson: exact to (dt / sigma)^4 / 2880.
+                    (self.value(u_s) + 4.0 * self.value(u_s + 0.5 * dt_s) + self.value(u_s + dt_s))
+                        / 6.0
+                } else {
+                    let x1 = (u_s - centre_s) / sigma_s;
+                    let x2 = (u_s + dt_s - centre_s) / sigma_s;
+                    peak * sigma_s * (2.0 * PI).sqrt() / dt_s * normal_cdf_diff(x1, x2)
+                }
+            }
+            Gate::PiecewiseLinear { shape, shift_s } => {
+                let u = u_s - shift_s;
+                (shape.primitive(u + dt_s) - shape.primitive(u)) / dt_s
+            }
+            Gate::Cosine {
+                freq_hz,
+                phase_rad,
+                modulation,
+            } => {
+                let w = TAU * freq_hz;
+                0.5 * (1.0
+                    + modulation
+                        * sinc(0.5 * w * dt_s)
+                        * (w * (u_s + 0.5 * dt_s) - phase_rad).cos())
+            }
+        }
+    }
+
+    /// The range of `u` where [`Gate::bin_average`]`(u, dt_s)` can be non-zero.
+    pub fn bin_average_support(&self, dt_s: f64) -> (f64, f64) {
+        match self {
+            Gate::Box { start_s, end_s, .. } => (start_s - dt_s, *end_s),
+            Gate::Gaussian {
+                centre_s, sigma_s, ..
+            } => (
+                centre_s - GAUSS_CUT * sigma_s - dt_s,
+                centre_s + GAUSS_CUT * sigma_s,
+            ),
+            Gate::PiecewiseLinear { shape, shift_s } => {
+                let (a, b) = shape.span_s();
+                (a + shift_s - dt_s, b + shift_s)
+            }
+            Gate::Cosine { .. } => (f64::NEG_INFINITY, f64::INFINITY),
+        }
+    }
+
+    /// The kinks of [`Gate::bin_average`]`(., dt_s)`, sorted, into `out` (cleared).
+    pub fn bin_average_breaks(&self, dt_s: f64, out: &mut Vec<f64>) {
+        out.clear();
+        match self {
+            Gate::Box { start_s, end_s, .. } => {
+                out.extend([start_s - dt_s, *start_s, end_s - dt_s, *end_s]);
+            }
+            Gate::PiecewiseLinear { shape, shift_s } => {
+                for &t in &shape.t_s {
+                    out.push(t + shift_s - dt_s);
+                    out.push(t + shift_s);
+                }
+            }
+            Gate::Gaussian { .. } | Gate::Cosine { .. } => {}
+        }
+        out.sort_unstable_by(f64::total_cmp);
+        out.dedup();
+    }
+
+    /// The time scale on which [`Gate::bin_average`] is smooth between its kinks,
+    /// seconds (infinity: a polynomial of degree <= 2 there).
+    pub fn scale_s(&self) -> f64 {
+        match self {
+            Gate::Box { .. } | Gate::PiecewiseLinear { .. } => f64::INFINITY,
+            Gate::Gaussian { sigma_s, .. } => *sigma_s,
+            Gate::Cosine { freq_hz, .. } => 1.0 / (TAU * freq_hz),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn gates(e: &Exposure) -> Vec<Gate> {
+        match e.gates(0.0) {
+            Ok(g) => g,
+            Err(err) => panic!("{err}"),
+        }
+    }
+
+    #[test]
+    fn bin_averages_match_quadrature_of_the_gate() {
+        let ns = 1e-9;
+        let seqs = [
+            Exposure::Box {
+                origin: TimeOrigin::Pulse,
+                start_s: ns,
+                width_s: 2.0 * ns,
+                step_s: None,
+                count: 1,
+                gain: 0.5,
+            },
+            Exposure::Gaussian {
+                origin: TimeOrigin::Pulse,
+                centre_s: 3.0 * ns,
+                fwhm_s: 1.5 * ns,
+                step_s: None,
+                count: 1,
+                peak: 1.0,
+            },
+            Exposure::PiecewiseLinear {
+                origin: TimeOrigin::Pulse,
+                points: vec![
+                    Point(ns, 0.0),
+                    Point(2.0 * ns, 1.0),
+                    Point(2.0 * ns, 0.5),
+                    Point(4.0 * ns, 0.0),
+                ],
+                step_s: 0.0,
+                count: 1,
+            },
+            Exposure::Amcw {
+                freq_hz: 2e8,
+                phase_steps: 4,
+                phase0_deg: 30.0,
+                modulation: 0.8,
+            },
+        ];
+        for e in &seqs {
+            let g = &gates(e)[0];
+            for dt in [0.05 * ns, 0.7 * ns, 3.0 * ns] {
+                for k in 0..60 {
+                    let u = -ns + 0.1 * ns * k as f64;
+                    // Fine midpoint rule of the gate itself.
+                    let m = 20_000;
+                    let want: f64 = (0..m)
+                        .map(|j| g.value(u + dt * (j as f64 + 0.5) / m as f64))
+                        .sum::<f64>()
+                        / m as f64;
+                    let got = g.bin_average(u, dt);
+                    assert!(
+                        (got - want).abs() < 2e-4,
+                        "{} u {u} dt {dt}: {got} vs {want}",
+                        e.kind_name()
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn window_origin_shifts_gates() {
+        let e = Exposure::Box {
+            origin: TimeOrigin::Window,
+            start_s: 1.0,
+            width_s: 1.0,
+            step_s: Some(2.0),
+            count: 3,
+            gain: 1.0,
+        };
+        let Ok(g) = e.gates(10.0) else {
+            panic!("valid");
+        };
+        assert_eq!(g[2].centre_s(), Some(15.5));
+    }
+
+    #[test]
+    fn absurd_sequences_are_errors() {
+        let boxes = |width_s: f64, count: u64| Exposure::Box {
+            origin: TimeOrigin::Pulse,
+            start_s: 0.0,
+            width_s,
+            step_s: None,
+            count,
+            gain: 1.0,
+        };
+        assert!(boxes(1.0, 1_000_000_000).gates(0.0).is_err());
+        assert!(boxes(1.0, 0).gates(0.0).is_err());
+        assert!(boxes(-1.0, 1).gates(0.0).is_err());
+        assert!(boxes(f64::NAN, 1).gates(0.0).is_err());
+        assert!(boxes(1e308, 4).gates(0.0).is_err());
+        let amcw = Exposure::Amcw {
+            freq_hz: 0.0,
+            phase_steps: 4,
+            phase0_deg: 0.0,
+            modulation: 1.0,
+        };
+        assert!(amcw.gates(0.0).is_err());
+    }
+}

@@ -1,0 +1,197 @@
+//! The correlation kernels `K_i` of DESIGN.md, integrated over the cube's bins.
+//!
+//! `integral (TPRF * Light)(t) Exposure_i(t) dt = integral TPRF(tau) K_i(tau) dtau`,
+//! `K_i(tau) = integral Light(t - tau) Exposure_i(t) dt = integral Light(s)
+//! Exposure_i(s + tau) ds` (dimensionless for a unit-energy light and a 0..1 gate).
+//!
+//! Bin `b` of a cube holds `integral_{bin b} TPRF`, and tprf takes the TPRF as spread
+//! uniformly over the bin, so the bin meets the kernel averaged over it:
+//!
+//! `K_i[b] = (1/dt) integral_{tau_b}^{tau_b + dt} K_i(tau) dtau
+//!         = integral Light(s) h_i(s + tau_b) ds`,
+//!
+//! `tau_b = t0 + b dt`, `h_i(u) = (1/dt) integral_u^{u + dt} Exposure_i` the gate
+//! averaged over one bin ([`Gate::bin_average`], closed form). `h_i` is continuous with
+//! known kinks, so the integral against the light is done piecewise
+//! ([`Light::integrate`]): a delta light is one evaluation, a pulse a thousandth of a
+//! bin wide keeps all its energy, and `M_i = sum_b TPRF[b] K_i[b]`.
+
+use rayon::prelude::*;
+use std::ops::Range;
+
+use super::exposure::Gate;
+use super::light::Light;
+use crate::film::TimeAxis;
+
+/// Kernel weights below this fraction of the kernel's largest are trimmed from its
+/// ends (at least; see [`trim_fraction`]).
+const TRIM_REL: f64 = 1e-12;
+
+/// `K_i[b]` (dimensionless) for `b` in `first_bin..first_bin + weights.len()`, zero
+/// elsewhere: only those bins of a pixel are read.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SparseKernel {
+    pub first_bin: usize,
+    pub weights: Vec<f64>,
+}
+
+impl SparseKernel {
+    /// The bins where the kernel may be non-zero.
+    pub fn bins(&self) -> Range<usize> {
+        self.first_bin..self.first_bin + self.weights.len()
+    }
+
+    /// `K_i[b]`.
+    pub fn get(&self, b: usize) -> f64 {
+        b.checked_sub(self.first_bin)
+            .and_then(|k| self.weights.get(k))
+            .copied()
+            .unwrap_or(0.0)
+    }
+
+    /// All `bins` weights, zeros included.
+    pub fn to_dense(&self, bins: usize) -> Vec<f64> {
+        (0..bins).map(|b| self.get(b)).collect()
+    }
+
+    /// `sum_b tprf[b] K_i[b]` in f64 (one pixel; the cube goes through
+    /// [`super::measure`]).
+    pub fn dot(&self, tprf: &[f32]) -> f64 {
+        tprf.get(self.bins())
+            .unwrap_or(&[])
+            .iter()
+            .zip(&self.weights)
+            .map(|(&v, &w)| f64::from(v) * w)
+            .sum()
+    }
+}
+
+/// `K_i[b]` of one gate over `axis`.
+pub fn kernel(light: &Light, gate: &Gate, axis: &TimeAxis) -> SparseKernel {
+    let dt = axis.dt_s;
+    let (s_lo, s_hi) = light.support_s();
+    let (g_lo, g_hi) = gate.bin_average_support(dt);
+    // h(s + tau_b) can be non-zero for some s in the light's support only if
+    // tau_b is in [g_lo - s_hi, g_hi - s_lo].
+    let b_lo = ((g_lo - s_hi - axis.t0_s) / dt).floor().max(0.0);
+    let b_hi = ((g_hi - s_lo - axis.t0_s) / dt)
+        .ceil()
+        .min(axis.bins as f64 - 1.0);
+    if !(b_hi >= b_lo) {
+        return SparseKernel::default();
+    }
+    let (b_lo, b_hi) = (b_lo as usize, b_hi as usize);
+    let mut breaks = Vec::new();
+    gate.bin_average_breaks(dt, &mut breaks);
+    let scale = gate.scale_s();
+    let mut scratch = Vec::new();
+    let weights: Vec<f64> = (b_lo..=b_hi)
+        .map(|b| {
+            let tau = axis.bin_start_s(b);
+            light.integrate(
+                |s| gate.bin_average(s + tau, dt),
+                g_lo - tau,
+                g_hi - tau,
+                &breaks,
+                tau,
+                scale,
+                &mut scratch,
+            )
+        })
+        .collect();
+    trimmed(b_lo, weights, trim_fraction(axis))
+}
+
+/// The fraction of a kernel's largest weight below which its end weights are dropped:
+/// [`TRIM_REL`], or the rounding of times on `axis` (a few ulps of the latest time, in
+/// bins), whichever is larger, so that a gate edge on a bin edge does not leave a
+/// rounding-sized weight in the next bin.
+fn trim_fraction(axis: &TimeAxis) -> f64 {
+    let t_max = axis.t0_s.abs().max(axis.end_s().abs());
+    TRIM_REL.max(8.0 * f64::EPSILON * t_max / axis.dt_s)
+}
+
+/// Drops the negligible ends of a kernel.
+fn trimmed(first_bin: usize, mut weights: Vec<f64>, fraction: f64) -> SparseKernel {
+    let max = weights.iter().fold(0.0f64, |m, w| m.max(w.abs()));
+    if !(max > 0.0) {
+        return SparseKernel::default();
+    }
+    let keep = |w: &f64| w.abs() > fraction * max;
+    let start = weights.iter().position(keep).unwrap_or(0);
+    let end = weights.iter().rposition(keep).map_or(0, |e| e + 1);
+    weights.truncate(end);
+    weights.drain(..start);
+    SparseKernel {
+        first_bin: first_bin + start,
+        weights,
+    }
+}
+
+/// `K_i[b]` for every gate, in parallel over the gates.
+pub fn compute_kernels(light: &Light, gates: &[Gate], axis: &TimeAxis) -> Vec<SparseKernel> {
+    gates.par_iter().map(|g| kernel(light, g, axis)).collect()
+}
+
+/// The light's transfer between bins: entry `d - first_offset` is
+/// `P[d] = (1/dt) integral_{tau in bin b} integral_{t in bin b + d} Light(t - tau) dt dtau
+/// = integral Light(s) tri(s - d dt) ds` (`tri` the unit-height triangle of half-width
+/// `dt`), for offsets `|d| <= max_offset`. `sum_b TPRF[b] P[k - b]` is
+/// `(TPRF * Light)` integrated over bin `k`; `sum_d P[d]` is the light's energy.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BinTransfer {
+    pub first_offset: i64,
+    pub weights: Vec<f64>,
+}
+
+impl BinTransfer {
+    /// The transfer of `light` on bins of width `dt_s`, offsets within `max_offset`.
+    pub fn new(light: &Light, dt_s: f64, max_offset: usize) -> BinTransfer {
+        let (s_lo, s_hi) = light.support_s();
+        let limit = max_offset as f64;
+        let d_lo = ((s_lo / dt_s).floor() - 1.0).max(-limit);
+        let d_hi = ((s_hi / dt_s).ceil() + 1.0).min(limit);
+        if !(d_hi >= d_lo) {
+            return BinTransfer::default();
+        }
+        let (d_lo, d_hi) = (d_lo as i64, d_hi as i64);
+        let mut scratch = Vec::new();
+        let weights = (d_lo..=d_hi)
+            .map(|d| {
+                let c = d as f64 * dt_s;
+                light.integrate(
+                    |s| (1.0 - (s - c).abs() / dt_s).max(0.0),
+                    c - dt_s,
+                    c + dt_s,
+                    &[c],
+                    0.0,
+                    f64::INFINITY,
+                    &mut scratch,
+                )
+            })
+            .collect();
+        BinTransfer {
+            first_offset: d_lo,
+            weights,
+        }
+    }
+
+    /// `(TPRF * Light)` integrated over each bin of the TPRF's axis (what falls past
+    /// the last bin is not shown).
+    pub fn apply(&self, tprf: &[f32]) -> Vec<f64> {
+        let n = tprf.len() as i64;
+        let mut out = vec![0.0; tprf.len()];
+        for (b, &v) in tprf.iter().enumerate() {
+            if v == 0.0 {
+                continue;
+            }
+            for (j, &w) in self.weights.iter().enumerate() {
+                let k = b as i64 + self.first_offset + j as i64;
+                if (0..n).contains(&k) {
+                    out[k as usize] += f64::from(v) * w;
+                }
+            }
+        }
+        out
+    }
+}

@@ -1,0 +1,132 @@
+//! The TPRF sensor of the paper's section 6:
+//!
+//! `M_i = max(0, Noise + integral (TPRF * Light)(t) Exposure_i(t) dt)`,
+//!
+//! computed from a cached transient cube without re-rendering. It knows nothing of
+//! rendering: it reads a cube `&[f32]` in `[H, W, T]` layout on a [`TimeAxis`] and
+//! writes measurements `[N, H, W]`.
+//!
+//! The identity behind it (DESIGN.md): `integral (TPRF * Light)(t) Exposure_i(t) dt =
+//! integral TPRF(tau) K_i(tau) dtau` with the correlation kernel
+//! `K_i(tau) = integral Light(t - tau) Exposure_i(t) dt`. A cube bin holds the integral
+//! of the TPRF over the bin, taken as spread uniformly over it, so the kernel a bin
+//! meets is `K_i` averaged over the bin ([`kernel`]); a measurement is then one sparse
+//! dot product per pixel and gate ([`measure`]).
+//!
+//! Units: time in seconds (`_s`), frequency in hertz (`_hz`), lengths in metres (`_m`).
+//! `Light(t)` is a power envelope with `integral Light dt = energy` (1 by default: the
+//! unit pulse the cube was rendered for); `Exposure_i(t)` is a dimensionless
+//! sensitivity (0..1 for the presets); so `K_i` is dimensionless and `M_i` has the
+//! unit of a cube bin (radiance x seconds for a unit pulse).
+//!
+//! Parts, one per file:
+//! - [`light`]: `Light(t)` presets ([`LightPulse`]) and their compiled form ([`Light`]);
+//! - [`exposure`]: `Exposure_i(t)` gate sequences ([`Exposure`]) and single gates ([`Gate`]);
+//! - [`kernel`]: the bin-averaged kernels `K_i[b]` ([`SparseKernel`]);
+//! - [`measure`]: the `[pixels x T] x [T x N]` product ([`Measurements`]);
+//! - [`noise`]: Gaussian white noise, optional Poisson photon noise, `max(0, .)`;
+//! - [`derived`]: first-return depth, AMCW phase and depth;
+//! - [`preset`]: sensor files (TOML) and the built-in presets;
+//! - [`model`]: [`SensorModel`], a sensor compiled for one time axis, with its kernels
+//!   cached: what a viewer keeps and updates as the user edits.
+
+// `!(x > 0.0)` is how this module rejects NaN along with the out-of-range values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+pub mod derived;
+pub mod exposure;
+pub mod kernel;
+pub mod light;
+pub mod measure;
+pub mod model;
+pub mod noise;
+pub mod preset;
+mod quad;
+mod values;
+
+pub use derived::{AmcwImage, Derived, FirstReturn};
+pub use exposure::{Exposure, Gate, MAX_GATES, TimeOrigin};
+pub use kernel::{SparseKernel, compute_kernels};
+pub use light::{Light, LightPulse};
+pub use measure::{Measurements, PackedKernels};
+pub use model::{PixelTrace, SensorModel, Update};
+pub use noise::{Noise, NoiseField};
+pub use preset::{BUILTIN_PRESETS, Sensor};
+pub use values::Point;
+
+pub use crate::film::TimeAxis;
+
+use std::path::PathBuf;
+
+/// Why a sensor description or a cube cannot be used. Messages name the parameter
+/// (`light.fwhm_s`, `exposure.count`) and what is allowed.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum SensorError {
+    #[error("{what} = {value} is not a finite number")]
+    NotFinite { what: String, value: f64 },
+    #[error("{what} = {value}: it must be {rule}")]
+    OutOfRange {
+        what: String,
+        value: f64,
+        rule: &'static str,
+    },
+    #[error("{what} = {count} is too many (at most {max})")]
+    TooMany { what: String, count: u64, max: u64 },
+    #[error("{0}")]
+    Invalid(String),
+    #[error("cannot read sensor file {path}: {message}")]
+    Io { path: PathBuf, message: String },
+    #[error("not a valid sensor description: {0}")]
+    Parse(String),
+    #[error(
+        "the cube has {got} values, but height {height} x width {width} x bins {bins} = \
+         {expected}"
+    )]
+    CubeSize {
+        got: usize,
+        height: usize,
+        width: usize,
+        bins: usize,
+        expected: usize,
+    },
+}
+
+/// `value` if finite.
+pub(crate) fn finite(what: &str, value: f64) -> Result<f64, SensorError> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(SensorError::NotFinite {
+            what: what.to_string(),
+            value,
+        })
+    }
+}
+
+/// `value` if finite and `>= 0`.
+pub(crate) fn non_negative(what: &str, value: f64) -> Result<f64, SensorError> {
+    finite(what, value)?;
+    if value >= 0.0 {
+        Ok(value)
+    } else {
+        Err(SensorError::OutOfRange {
+            what: what.to_string(),
+            value,
+            rule: ">= 0",
+        })
+    }
+}
+
+/// `value` if finite and `> 0`.
+pub(crate) fn positive(what: &str, value: f64) -> Result<f64, SensorError> {
+    finite(what, value)?;
+    if value > 0.0 {
+        Ok(value)
+    } else {
+        Err(SensorError::OutOfRange {
+            what: what.to_string(),
+            value,
+            rule: "> 0",
+        })
+    }
+}
