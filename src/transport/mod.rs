@@ -11,5 +11,5 @@ pub mod sampler;
 pub mod surface;
 mod window;
 
-pub use integrator::{PassStats, RenderSettings, Renderer, Sink};
+pub use integrator::{PassStats, RayKind, RenderSettings, Renderer, Sink};
 pub use window::{WindowRequest, auto_window};
