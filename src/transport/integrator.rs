@@ -21,6 +21,20 @@ pub trait Sink {
     fn add(&mut self, arrival_s: f64, value: f64, scatterings: u32);
     /// Latest arrival time that still counts, seconds.
     fn window_end_s(&self) -> f64;
+    /// A ray about to be traced: from `origin` along unit `dir` up to `t_max_m` metres
+    /// (infinite for path rays). Does nothing by default (and then costs nothing); the
+    /// engine benchmark records the rays to replay them against the BVH alone.
+    #[inline(always)]
+    fn ray(&mut self, _origin: Vec3, _dir: Vec3, _t_max_m: f32, _kind: RayKind) {}
+}
+
+/// What a traced ray is for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RayKind {
+    /// A camera or bounce ray: closest hit.
+    Path,
+    /// A shadow ray to a light: any hit along a segment.
+    Shadow,
 }
 
 impl Sink for PixelSink<'_> {
@@ -215,6 +229,7 @@ impl Renderer {
         let mut pass_throughs = 0u32;
         loop {
             rays += 1;
+            sink.ray(origin, dir, f32::INFINITY, RayKind::Path);
             let Some(hit) = self.accel.closest_hit(origin, dir, f32::INFINITY) else {
                 break; // escaped: no environment light
             };
@@ -353,6 +368,7 @@ impl Renderer {
                 continue;
             }
             rays += 1;
+            sink.ray(p, wi_world, d, RayKind::Shadow);
             let tr = self.transmittance(p, wi_world, d);
             if tr > 0.0 {
                 let cos_i = frame.to_local(wi_world).z;
@@ -385,6 +401,7 @@ impl Renderer {
                         if f > 0.0 {
                             rays += 1;
                             let t_max = d - 2.0 * self.offset_m(es.position);
+                            sink.ray(p, wi_world, t_max, RayKind::Shadow);
                             let tr = self.transmittance(p, wi_world, t_max);
                             if tr > 0.0 {
                                 let pdf_light = es.pdf_area * d2 / cos_l;

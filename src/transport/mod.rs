@@ -12,5 +12,5 @@ pub mod surface;
 mod window;
 pub mod worker;
 
-pub use integrator::{PassStats, RenderSettings, Renderer, Sink};
+pub use integrator::{PassStats, RayKind, RenderSettings, Renderer, Sink};
 pub use window::{WindowRequest, auto_window};

@@ -1,0 +1,705 @@
+//! Engine benchmark: `cargo bench --bench engine` (a plain program, not a timed test).
+//!
+//! In one run, for `builtin:cornell` and for the Cornell box with its blocks replaced by a
+//! displaced sphere of over a million triangles:
+//!
+//! - the transient render (progressive passes on the rayon pool, as `tprf render` does):
+//!   paths/s and rays/s (camera, bounce and shadow rays);
+//! - the same passes again with a sink that only sums (no time binning), and once more
+//!   recording every ray the paths trace;
+//! - the recorded rays replayed against the BVH alone: `Accel::closest_hit` (obvhs CWBVH
+//!   traversal + the triangle test) on every ray, on the same pool and on one thread,
+//!   and with the renderer's own query kinds (closest hit for path rays, any hit for
+//!   shadow rays);
+//! - BVH build time and heap, and the film's memory for a 256 x 256 x 1024 cube.
+//!
+//! It prints markdown tables (docs/benchmarks.md keeps a copy).
+
+use glam::Vec3;
+use rayon::prelude::*;
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::hint::black_box;
+use std::ops::ControlFlow;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
+use std::time::Instant;
+use tprf::accel::Accel;
+use tprf::film::{FilmLayout, TimeAxis, TprfFilm};
+use tprf::scene::{Material, Scene, Triangle, TriangleAttrs};
+use tprf::transport::progressive::{self, Budget};
+use tprf::transport::sampler::Sampler;
+use tprf::transport::{RayKind, RenderSettings, Renderer, Sink, WindowRequest, auto_window};
+
+// ---------------------------------------------------------------------------------------
+// Heap accounting: live and peak bytes of the system allocator.
+
+struct CountingAlloc;
+
+static LIVE: AtomicUsize = AtomicUsize::new(0);
+static PEAK: AtomicUsize = AtomicUsize::new(0);
+
+fn grew(bytes: usize) {
+    let now = LIVE.fetch_add(bytes, Relaxed) + bytes;
+    PEAK.fetch_max(now, Relaxed);
+}
+
+unsafe impl GlobalAlloc for CountingAlloc {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        let p = unsafe { System.alloc(layout) };
+        if !p.is_null() {
+            grew(layout.size());
+        }
+        p
+    }
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        let p = unsafe { System.alloc_zeroed(layout) };
+        if !p.is_null() {
+            grew(layout.size());
+        }
+        p
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) };
+        LIVE.fetch_sub(layout.size(), Relaxed);
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        let p = unsafe { System.realloc(ptr, layout, new_size) };
+        if !p.is_null() {
+            LIVE.fetch_sub(layout.size(), Relaxed);
+            grew(new_size);
+        }
+        p
+    }
+}
+
+#[global_allocator]
+static ALLOC: CountingAlloc = CountingAlloc;
+
+/// Run `f`, returning its value, wall seconds, heap bytes it left allocated, and the peak
+/// heap above the starting level while it ran.
+fn measured<T>(f: impl FnOnce() -> T) -> (T, f64, isize, usize) {
+    let before = LIVE.load(Relaxed);
+    PEAK.store(before, Relaxed);
+    let start = Instant::now();
+    let value = f();
+    let seconds = start.elapsed().as_secs_f64();
+    let after = LIVE.load(Relaxed);
+    let peak = PEAK.load(Relaxed);
+    (
+        value,
+        seconds,
+        after as isize - before as isize,
+        peak.saturating_sub(before),
+    )
+}
+
+/// Bytes in KiB, MiB or GiB.
+fn human(bytes: f64) -> String {
+    let units = [("GiB", 30), ("MiB", 20), ("KiB", 10)];
+    for (unit, shift) in units {
+        let v = bytes / (1u64 << shift) as f64;
+        if v.abs() >= 1.0 {
+            return format!("{v:.1} {unit}");
+        }
+    }
+    format!("{bytes:.0} B")
+}
+
+// ---------------------------------------------------------------------------------------
+// Scenes.
+
+/// `builtin:cornell` with the two blocks replaced by a displaced sphere: `lat` rings of
+/// `lon` segments, `2 lon (lat - 1)` triangles, grey Lambertian (albedo 0.7), radius
+/// 0.15 m +- 10 % on the floor's centre line. Flat-shaded (geometric normals).
+fn cornell_blob(lat: usize, lon: usize) -> Scene {
+    use std::f32::consts::{PI, TAU};
+    let mut scene = tprf::scene::load("builtin:cornell").expect("builtin:cornell");
+    // Keep the walls: triangles whose three vertices lie on one face of the box.
+    let h = 0.5 * tprf::scene::builtin::CORNELL_SIZE_M;
+    let planes = [(0, -h), (0, h), (1, 0.0), (1, 2.0 * h), (2, -h)];
+    let on_wall = |t: &Triangle| {
+        planes
+            .iter()
+            .any(|&(axis, v)| t.p.iter().all(|p| (p[axis] - v).abs() < 1e-6))
+    };
+    let (triangles, attrs): (Vec<Triangle>, Vec<TriangleAttrs>) = scene
+        .triangles
+        .iter()
+        .zip(&scene.attrs)
+        .filter(|(t, _)| on_wall(t))
+        .map(|(t, a)| (*t, *a))
+        .unzip();
+    assert_eq!(triangles.len(), 10, "the box has 5 walls of 2 triangles");
+    scene.triangles = triangles;
+    scene.attrs = attrs;
+
+    let material = scene.materials.len() as u32;
+    scene
+        .materials
+        .push(Material::lambertian("blob", [0.7, 0.7, 0.7]));
+    let centre = Vec3::new(0.0, 0.2, 0.0);
+    let radius = 0.15;
+    // Bumps at several scales, a smooth function of the direction (no seam at the poles).
+    let point = |i: usize, j: usize| {
+        let (theta, phi) = (PI * i as f32 / lat as f32, TAU * j as f32 / lon as f32);
+        let d = Vec3::new(
+            theta.sin() * phi.cos(),
+            theta.cos(),
+            theta.sin() * phi.sin(),
+        );
+        let bumps =
+            0.06 * (6.0 * d.x + 1.3).sin() * (5.0 * d.y + 0.4).sin() * (7.0 * d.z + 2.1).sin()
+                + 0.03 * (17.0 * (d.x + d.y) + 0.5).sin() * (19.0 * (d.y - d.z)).sin()
+                + 0.012 * (53.0 * d.x + 41.0 * d.z + 0.7).sin() * (47.0 * d.y + 1.1).sin();
+        centre + d * radius * (1.0 + bumps)
+    };
+    let attrs = TriangleAttrs {
+        normals: None,
+        uv: Default::default(),
+        material,
+    };
+    let mut push = |p: [Vec3; 3]| {
+        // Face outwards.
+        let n = (p[1] - p[0]).cross(p[2] - p[0]);
+        let out = (p[0] + p[1] + p[2]) / 3.0 - centre;
+        let p = if n.dot(out) < 0.0 {
+            [p[0], p[2], p[1]]
+        } else {
+            p
+        };
+        scene.triangles.push(Triangle { p });
+        scene.attrs.push(attrs);
+    };
+    for i in 0..lat {
+        for j in 0..lon {
+            let (a, b) = (point(i, j), point(i, (j + 1) % lon));
+            let (c, d) = (point(i + 1, j), point(i + 1, (j + 1) % lon));
+            if i > 0 {
+                push([a, b, d]);
+            }
+            if i + 1 < lat {
+                push([a, d, c]);
+            }
+        }
+    }
+    scene.name = format!("cornell + {}-triangle blob", scene.triangles.len() - 10);
+    scene.validate().expect("valid scene");
+    scene
+}
+
+// ---------------------------------------------------------------------------------------
+// Sinks for replaying the timed passes.
+
+/// Sums what arrives (so the shading stays live) but bins nothing.
+struct SumSink {
+    end_s: f64,
+    sum: f64,
+}
+
+impl Sink for SumSink {
+    #[inline]
+    fn add(&mut self, _arrival_s: f64, value: f64, _scatterings: u32) {
+        self.sum += value;
+    }
+    fn window_end_s(&self) -> f64 {
+        self.end_s
+    }
+}
+
+#[derive(Clone, Copy)]
+struct TracedRay {
+    origin: Vec3,
+    dir: Vec3,
+    t_max_m: f32,
+    kind: RayKind,
+}
+
+/// Records every ray.
+struct RecordSink {
+    end_s: f64,
+    rays: Vec<TracedRay>,
+}
+
+impl Sink for RecordSink {
+    fn add(&mut self, _arrival_s: f64, _value: f64, _scatterings: u32) {}
+    fn window_end_s(&self) -> f64 {
+        self.end_s
+    }
+    fn ray(&mut self, origin: Vec3, dir: Vec3, t_max_m: f32, kind: RayKind) {
+        self.rays.push(TracedRay {
+            origin,
+            dir,
+            t_max_m,
+            kind,
+        });
+    }
+}
+
+/// Trace the samples of `passes` (pass index, spp) of a `w x h` image into one sink per
+/// row, rows in parallel, with exactly the random streams `Renderer::render_pass` uses.
+/// Returns the sinks (in row order) and the rays traced.
+fn replay<S: Sink + Send>(
+    renderer: &Renderer,
+    (w, h): (usize, usize),
+    passes: &[(u64, u32)],
+    new_sink: impl Fn() -> S + Sync,
+) -> (Vec<S>, u64) {
+    let rows: Vec<(S, u64)> = (0..h)
+        .into_par_iter()
+        .map(|y| {
+            let mut sink = new_sink();
+            let mut rays = 0;
+            for &(pass, spp) in passes {
+                for x in 0..w {
+                    let mut rng = Sampler::new(renderer.settings().seed, pass, (y * w + x) as u64);
+                    for _ in 0..spp {
+                        rays += renderer.trace_sample(x, y, w, h, &mut rng, &mut sink);
+                    }
+                }
+            }
+            (sink, rays)
+        })
+        .collect();
+    let rays = rows.iter().map(|r| r.1).sum();
+    (rows.into_iter().map(|r| r.0).collect(), rays)
+}
+
+// ---------------------------------------------------------------------------------------
+// Raw BVH replay.
+
+const CHUNK: usize = 4096;
+
+/// `Accel::closest_hit` on every ray (path and shadow rays alike, each up to its own
+/// `t_max`); returns the hit count.
+fn closest_all(accel: &Accel, rays: &[TracedRay]) -> usize {
+    rays.iter()
+        .filter(|r| accel.closest_hit(r.origin, r.dir, r.t_max_m).is_some())
+        .count()
+}
+
+/// The renderer's query kinds: closest hit for path rays, any hit (the first hit blocks,
+/// as for the opaque surfaces of these scenes) for shadow rays.
+fn as_renderer(accel: &Accel, rays: &[TracedRay]) -> usize {
+    rays.iter()
+        .filter(|r| match r.kind {
+            RayKind::Path => accel.closest_hit(r.origin, r.dir, r.t_max_m).is_some(),
+            RayKind::Shadow => accel.any_hit(r.origin, r.dir, r.t_max_m, |_| true),
+        })
+        .count()
+}
+
+/// Repetitions of each timed run; the fastest counts (the others absorb page faults,
+/// cache warm-up and whatever else the machine was doing).
+const REPEATS: usize = 2;
+
+/// CPU seconds this process has used so far, all threads (utime + stime from
+/// /proc/self/stat, in USER_HZ = 100 ticks); 0 where that is not available.
+fn cpu_s() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    // Fields after the command name: state is the first, utime the 12th, stime the 13th.
+    let fields: Vec<&str> = stat
+        .rsplit_once(')')
+        .map_or("", |(_, rest)| rest)
+        .split_whitespace()
+        .collect();
+    let ticks = |i: usize| fields.get(i).and_then(|v| v.parse::<f64>().ok());
+    ticks(11)
+        .zip(ticks(12))
+        .map_or(0.0, |(u, s)| (u + s) / 100.0)
+}
+
+/// Wall and CPU seconds of one run.
+#[derive(Clone, Copy)]
+struct Timing {
+    wall_s: f64,
+    cpu_s: f64,
+}
+
+impl Timing {
+    fn of(f: impl FnOnce()) -> Timing {
+        let (cpu, start) = (cpu_s(), Instant::now());
+        f();
+        Timing {
+            wall_s: start.elapsed().as_secs_f64(),
+            cpu_s: cpu_s() - cpu,
+        }
+    }
+
+    /// CPU seconds per wall second: the thread count when nothing else competes for the
+    /// cores.
+    fn busy(&self) -> f64 {
+        self.cpu_s / self.wall_s
+    }
+}
+
+/// The fastest of `REPEATS` runs of `f`.
+fn best_of(mut f: impl FnMut()) -> Timing {
+    (0..REPEATS)
+        .map(|_| Timing::of(&mut f))
+        .min_by(|a, b| a.wall_s.total_cmp(&b.wall_s))
+        .expect("REPEATS > 0")
+}
+
+// ---------------------------------------------------------------------------------------
+
+struct Case {
+    label: &'static str,
+    width: usize,
+    height: usize,
+    spp: u64,
+}
+
+struct Figures {
+    label: String,
+    triangles: usize,
+    width: usize,
+    height: usize,
+    spp: u64,
+    bins: usize,
+    scene_s: f64,
+    scene_bytes: isize,
+    bvh_s: f64,
+    bvh_bytes: isize,
+    bvh_peak: usize,
+    renderer_s: f64,
+    paths: u64,
+    rays: u64,
+    shadow_rays: usize,
+    render: Timing,
+    nobin: Timing,
+    record_s: f64,
+    raw_pool: Timing,
+    raw_one: Timing,
+    raw_kinds_pool: Timing,
+    hits: usize,
+}
+
+fn run_case(case: &Case, make_scene: impl FnOnce() -> Scene) -> Figures {
+    let (scene, scene_s, scene_bytes, _) = measured(make_scene);
+    let triangles = scene.triangles.len();
+    eprintln!("{}: {triangles} triangles", case.label);
+
+    // The BVH on its own (Renderer::new builds it again, with the light and surface tables).
+    let (accel, bvh_s, bvh_bytes, bvh_peak) = measured(|| Accel::build(&scene));
+    drop(accel);
+    let scene = Arc::new(scene);
+    let (renderer, renderer_s, _, _) =
+        measured(|| Renderer::new(scene.clone(), RenderSettings::default()));
+    let axis = auto_window(
+        &renderer,
+        WindowRequest {
+            bins: 256,
+            ..Default::default()
+        },
+    )
+    .expect("time window");
+    let layout = FilmLayout {
+        width: case.width,
+        height: case.height,
+        axis,
+        bounces_separate: 0,
+    };
+    // 1. The transient render, as `tprf render` runs it, on a fresh film each time.
+    let mut rays = 0;
+    let mut reports = Vec::new();
+    let render = best_of(|| {
+        let mut film = TprfFilm::new(layout).expect("film");
+        let rays_before = renderer.rays_traced();
+        reports = progressive::render(&renderer, &mut film, Budget::Spp(case.spp), |_, _| {
+            ControlFlow::Continue(())
+        });
+        rays = renderer.rays_traced() - rays_before;
+        eprintln!(
+            "  rendered in {:.2} s",
+            reports.last().expect("one pass").seconds
+        );
+    });
+    let last = *reports.last().expect("one pass");
+    let mut passes = Vec::new();
+    let mut spp_before = 0;
+    for r in &reports {
+        passes.push((r.pass, (r.spp - spp_before) as u32));
+        spp_before = r.spp;
+    }
+    let size = (case.width, case.height);
+    let end_s = axis.end_s();
+
+    // 2. The same paths, summed instead of binned.
+    let nobin = best_of(|| {
+        let (sinks, nobin_rays) = replay(&renderer, size, &passes, || SumSink { end_s, sum: 0.0 });
+        black_box(sinks.iter().map(|s| s.sum).sum::<f64>());
+        assert_eq!(nobin_rays, rays, "the replay traced other rays");
+    });
+
+    // 3. The same paths, recording their rays.
+    let start = Instant::now();
+    let (sinks, _) = replay(&renderer, size, &passes, || RecordSink {
+        end_s,
+        rays: Vec::new(),
+    });
+    let recorded: Vec<TracedRay> = sinks.into_iter().flat_map(|s| s.rays).collect();
+    let record_s = start.elapsed().as_secs_f64();
+    assert_eq!(recorded.len() as u64, rays, "recorded other rays");
+    let shadow_rays = recorded
+        .iter()
+        .filter(|r| r.kind == RayKind::Shadow)
+        .count();
+
+    // 4. Those rays against the BVH alone.
+    let accel = renderer.accel();
+    let mut hits = 0;
+    let raw_pool = best_of(|| {
+        hits = black_box(
+            recorded
+                .par_chunks(CHUNK)
+                .map(|c| closest_all(accel, c))
+                .sum(),
+        );
+    });
+    let raw_one = best_of(|| {
+        let n: usize = recorded.chunks(CHUNK).map(|c| closest_all(accel, c)).sum();
+        assert_eq!(black_box(n), hits);
+    });
+    let raw_kinds_pool = best_of(|| {
+        black_box(
+            recorded
+                .par_chunks(CHUNK)
+                .map(|c| as_renderer(accel, c))
+                .sum::<usize>(),
+        );
+    });
+
+    Figures {
+        label: case.label.to_string(),
+        triangles,
+        width: case.width,
+        height: case.height,
+        spp: last.spp,
+        bins: axis.bins,
+        scene_s,
+        scene_bytes,
+        bvh_s,
+        bvh_bytes,
+        bvh_peak,
+        renderer_s,
+        paths: last.paths,
+        rays,
+        shadow_rays,
+        render,
+        nobin,
+        record_s,
+        raw_pool,
+        raw_one,
+        raw_kinds_pool,
+        hits,
+    }
+}
+
+fn main() {
+    let threads = rayon::current_num_threads();
+    let load_before = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    let total = Instant::now();
+    let cases = [
+        (
+            Case {
+                label: "builtin:cornell",
+                width: 256,
+                height: 256,
+                spp: 32,
+            },
+            None,
+        ),
+        (
+            Case {
+                label: "cornell + blob",
+                width: 256,
+                height: 256,
+                spp: 32,
+            },
+            Some((512, 1024)),
+        ),
+    ];
+    let figures: Vec<Figures> = cases
+        .iter()
+        .map(|(case, blob)| match blob {
+            None => run_case(case, || {
+                tprf::scene::load("builtin:cornell").expect("builtin:cornell")
+            }),
+            Some((lat, lon)) => run_case(case, || cornell_blob(*lat, *lon)),
+        })
+        .collect();
+
+    // Film memory of a typical cube: computed, and allocated (without per-bounce layers).
+    let cube = |bounces_separate| FilmLayout {
+        width: 256,
+        height: 256,
+        axis: TimeAxis::new(0.0, 1e-11, 1024).expect("axis"),
+        bounces_separate,
+    };
+    let (film, film_s, film_bytes, _) = measured(|| TprfFilm::new(cube(0)).expect("film"));
+    drop(black_box(film));
+
+    println!(
+        "{threads} rayon threads; load average before the run: {}.\n",
+        load_before
+            .split_whitespace()
+            .take(3)
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
+    println!("## Render throughput\n");
+    println!(
+        "Default settings (max 1024 bounces, Russian roulette from bounce 3, NEE), a \
+         256-bin time window chosen by the pilot render, progressive passes as `tprf \
+         render` runs them; fastest of {REPEATS} runs.\n"
+    );
+    println!(
+        "| scene | triangles | image x spp | bins | paths | rays (shadow) | rays/path | render s | paths/s | rays/s |"
+    );
+    println!("|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|");
+    for f in &figures {
+        println!(
+            "| {} | {} | {}x{} x {} | {} | {} | {} ({:.0} %) | {:.2} | {:.2} | {:.0} k | {:.2} M |",
+            f.label,
+            f.triangles,
+            f.width,
+            f.height,
+            f.spp,
+            f.bins,
+            f.paths,
+            f.rays,
+            100.0 * f.shadow_rays as f64 / f.rays as f64,
+            f.rays as f64 / f.paths as f64,
+            f.render.wall_s,
+            f.paths as f64 / f.render.wall_s / 1e3,
+            f.rays as f64 / f.render.wall_s / 1e6,
+        );
+    }
+
+    println!("\n## The renderer's rays against the BVH alone\n");
+    println!(
+        "Mrays/s. The renderer's rays are recorded by replaying its passes, then traced \
+         again with `Accel::closest_hit` (obvhs CWBVH traversal + Moller-Trumbore), in \
+         chunks of {CHUNK} rays in recorded order. *per wall s*: rays over the run's wall \
+         time; *per CPU s*: over the CPU time the process used (all threads), which holds \
+         up when other programs share the cores.\n"
+    );
+    println!(
+        "| scene | per | renderer | renderer, no binning | raw closest-hit, {threads} threads | raw closest-hit, 1 thread | raw, renderer's query kinds, {threads} threads | renderer : raw closest-hit | ray hits |"
+    );
+    println!("|---|---|--:|--:|--:|--:|--:|--:|--:|");
+    for f in &figures {
+        let r = f.rays as f64;
+        let wall = |t: &Timing| t.wall_s;
+        let cpu = |t: &Timing| t.cpu_s;
+        for (per, secs) in [
+            ("wall s", &wall as &dyn Fn(&Timing) -> f64),
+            ("CPU s", &cpu),
+        ] {
+            println!(
+                "| {} | {per} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | 1 : {:.2} | {:.0} % |",
+                f.label,
+                r / secs(&f.render) / 1e6,
+                r / secs(&f.nobin) / 1e6,
+                r / secs(&f.raw_pool) / 1e6,
+                r / secs(&f.raw_one) / 1e6,
+                r / secs(&f.raw_kinds_pool) / 1e6,
+                secs(&f.render) / secs(&f.raw_pool),
+                100.0 * f.hits as f64 / r,
+            );
+        }
+    }
+
+    println!("\n## Where the render time goes\n");
+    println!(
+        "Shares of the render's CPU time: BVH = the same rays with the renderer's query \
+         kinds on the BVH alone; binning = render minus the no-binning replay; the rest is \
+         sampling, shading, NEE and bookkeeping.\n"
+    );
+    println!("| scene | BVH | time binning | sampling, shading, rest |");
+    println!("|---|--:|--:|--:|");
+    for f in &figures {
+        let bvh = f.raw_kinds_pool.cpu_s / f.render.cpu_s;
+        let binning = (f.render.cpu_s - f.nobin.cpu_s) / f.render.cpu_s;
+        println!(
+            "| {} | {:.0} % | {:.0} % | {:.0} % |",
+            f.label,
+            100.0 * bvh,
+            100.0 * binning,
+            100.0 * (1.0 - bvh - binning)
+        );
+    }
+
+    println!("\n## Self-check: CPU seconds per wall second\n");
+    println!(
+        "{threads} on the pool (1 for the one-thread run) when nothing else ran on the \
+         machine; less means the timed run shared the cores.\n"
+    );
+    println!("| scene | render | no binning | raw, pool | raw, 1 thread | raw query kinds, pool |");
+    println!("|---|--:|--:|--:|--:|--:|");
+    for f in &figures {
+        println!(
+            "| {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |",
+            f.label,
+            f.render.busy(),
+            f.nobin.busy(),
+            f.raw_pool.busy(),
+            f.raw_one.busy(),
+            f.raw_kinds_pool.busy(),
+        );
+    }
+
+    println!("\n## Scene and BVH\n");
+    println!(
+        "| scene | triangles | scene built in | scene heap | BVH build | BVH heap (B/triangle) | BVH build peak heap | Renderer::new |"
+    );
+    println!("|---|--:|--:|--:|--:|--:|--:|--:|");
+    for f in &figures {
+        println!(
+            "| {} | {} | {:.1} ms | {} | {:.1} ms | {} ({:.0}) | {} | {:.1} ms |",
+            f.label,
+            f.triangles,
+            1e3 * f.scene_s,
+            human(f.scene_bytes as f64),
+            1e3 * f.bvh_s,
+            human(f.bvh_bytes as f64),
+            f.bvh_bytes as f64 / f.triangles as f64,
+            human(f.bvh_peak as f64),
+            1e3 * f.renderer_s,
+        );
+    }
+
+    println!("\n## Film memory\n");
+    println!(
+        "Two f64 halves per bin (for the error estimate), plus one f64 per bin per \
+         per-bounce layer when asked for (`--bounces-separate K`: K + 2 layers).\n"
+    );
+    println!(
+        "| cube | bounce layers | FilmLayout::bytes | bytes per pixel per bin | allocated and zeroed |"
+    );
+    println!("|---|--:|--:|--:|--:|");
+    for k in [0, 4] {
+        let layout = cube(k);
+        let cells = (layout.pixels() * layout.axis.bins) as f64;
+        let allocated = if k == 0 {
+            format!("{} in {film_s:.2} s", human(film_bytes as f64))
+        } else {
+            "not allocated".into()
+        };
+        println!(
+            "| {}x{}x{} | {} | {} | {:.0} | {allocated} |",
+            layout.width,
+            layout.height,
+            layout.axis.bins,
+            layout.bounce_layers(),
+            human(layout.bytes() as f64),
+            layout.bytes() as f64 / cells,
+        );
+    }
+    let record_s: f64 = figures.iter().map(|f| f.record_s).sum();
+    println!(
+        "\nBenchmark wall time {:.0} s (recording the rays: {:.1} s).",
+        total.elapsed().as_secs_f64(),
+        record_s
+    );
+}
