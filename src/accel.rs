@@ -102,11 +102,13 @@ impl Accel {
                 v2: to_bvh(t.p[2]),
             })
             .collect();
-        let bvh = build_cwbvh_from_tris(
+        let mut bvh = build_cwbvh_from_tris(
             &obvhs_tris,
             BvhBuildParams::medium_build(),
             &mut Duration::default(),
         );
+        // obvhs reserves one node per triangle and keeps the spare capacity.
+        bvh.nodes.shrink_to_fit();
         let scene_index = bvh.primitive_indices.clone();
         let tris = scene_index
             .iter()
