@@ -11,8 +11,9 @@ use eframe::egui::{Event, Key, Modifiers, PointerButton, Pos2, Vec2};
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use std::time::{Duration, Instant};
+use tprf::sensor::{Exposure, LightPulse, Sensor, TimeOrigin};
 use tprf::transport::worker::WorkerState;
-use tprf::viewer::{Selection, Start, TprfApp, ViewerSettings};
+use tprf::viewer::{Mode, Selection, Start, TprfApp, ViewerSettings};
 
 fn small_settings(scene: &str, side: usize, bins: usize, spp: u64) -> ViewerSettings {
     ViewerSettings {
@@ -312,6 +313,38 @@ fn screenshots() {
     h.run_steps(3);
     let img = h.render().expect("a wgpu adapter for screenshots");
     img.save(dir.join("canopy.png")).unwrap();
+
+    // The sensor over the Cornell box: the full-waveform LiDAR preset with a pulse
+    // and box gates; the envelope editor over a back-wall pixel.
+    let mut h = harness(ViewerSettings {
+        mode: Mode::Sensor,
+        ..small_settings("builtin:cornell", 160, 256, 256)
+    });
+    wait_done(&mut h, Duration::from_secs(600));
+    {
+        let app = h.state_mut();
+        app.playing = false;
+        app.selection = Some(Selection::pixel(60, 50));
+        app.settings.sensor = Sensor::builtin("lidar").unwrap();
+        app.settings.sensor.exposure = Exposure::Box {
+            origin: TimeOrigin::Window,
+            start_s: 0.0,
+            width_s: 0.4e-9,
+            step_s: None,
+            count: 32,
+            gain: 1.0,
+        };
+        app.settings.sensor.light = LightPulse::Gaussian {
+            centre_s: 0.5e-9,
+            fwhm_s: 0.3e-9,
+            energy: 1.0,
+        };
+        app.sensor.gate = 5;
+    }
+    h.remove_cursor();
+    h.run_steps(4);
+    let img = h.render().expect("a wgpu adapter for screenshots");
+    img.save(dir.join("sensor.png")).unwrap();
 }
 
 #[test]
@@ -441,4 +474,100 @@ fn absurd_settings_are_clamped_or_refused() {
         "{:?}",
         h.state().messages()
     );
+}
+
+#[test]
+fn sensor_mode_measures_the_cached_film_within_a_frame() {
+    let (side, bins) = (16, 40);
+    let mut h = harness(ViewerSettings {
+        mode: Mode::Sensor,
+        ..small_settings("builtin:cornell", side, bins, 8)
+    });
+    wait_done(&mut h, Duration::from_secs(120));
+    let snap = h.state().snapshot().unwrap();
+    let axis = *snap.axis();
+    let window_s = axis.dt_s * bins as f64;
+    let steady: Vec<f64> = (0..side * side)
+        .map(|p| {
+            snap.pixel(p % side, p / side)
+                .iter()
+                .map(|&v| v as f64)
+                .sum()
+        })
+        .collect();
+    let check = |h: &Harness<'static, TprfApp>, gates: usize| {
+        let m = h.state().sensor.measurements().expect("measurements");
+        assert_eq!((m.gates, m.height, m.width), (gates, side, side));
+        // A delta pulse at t = 0 and gates tiling the window: the gates together see
+        // every bin once, so per pixel sum_i M_i = the steady value.
+        for (p, want) in steady.iter().enumerate() {
+            let got: f64 = (0..gates).map(|i| m.plane(i)[p] as f64).sum();
+            assert!(
+                (got - want).abs() <= 1e-5 * want.max(1e-12),
+                "pixel {p}: sum M_i {got}, steady {want}"
+            );
+        }
+    };
+    // One gate over the whole window, applied in one frame.
+    h.state_mut().settings.sensor = Sensor::new(
+        LightPulse::Delta {
+            t_s: 0.0,
+            energy: 1.0,
+        },
+        Exposure::Box {
+            origin: TimeOrigin::Window,
+            start_s: 0.0,
+            width_s: window_s,
+            step_s: None,
+            count: 1,
+            gain: 1.0,
+        },
+    );
+    h.step();
+    check(&h, 1);
+    // Eight gates side by side: an edit of the count, again within one frame.
+    if let Exposure::Box { width_s, count, .. } = &mut h.state_mut().settings.sensor.exposure {
+        *width_s = window_s / 8.0;
+        *count = 8;
+    }
+    h.step();
+    check(&h, 8);
+    // A gate entirely before the window measures exactly zero.
+    h.state_mut().settings.sensor.exposure = Exposure::Box {
+        origin: TimeOrigin::Pulse,
+        start_s: 0.0,
+        width_s: axis.t0_s * 0.5,
+        step_s: None,
+        count: 1,
+        gain: 1.0,
+    };
+    h.step();
+    assert!(
+        h.state()
+            .sensor
+            .measurements()
+            .unwrap()
+            .values
+            .iter()
+            .all(|&v| v == 0.0)
+    );
+    // An invalid edit (negative width) is reported and the last good measurement kept.
+    if let Exposure::Box { width_s, .. } = &mut h.state_mut().settings.sensor.exposure {
+        *width_s = -1.0;
+    }
+    h.step();
+    assert!(
+        h.state()
+            .sensor
+            .error
+            .as_deref()
+            .is_some_and(|e| e.contains("width")),
+        "{:?}",
+        h.state().sensor.error
+    );
+    assert_eq!(h.state().sensor.measurements().unwrap().gates, 1);
+    // The window still draws the sensor's widgets.
+    h.step();
+    h.get_by_label("envelope editor");
+    h.get_by_label("measurement image");
 }

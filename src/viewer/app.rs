@@ -2,10 +2,12 @@
 
 use super::Start;
 use super::colormap::{self, ColorMap, ExposureMode, Tone};
+use super::sensor_ui::{self, SensorState};
 use super::timeline::{TimeRuler, bin_label, nice_ticks_s};
 use crate::export::{self, CubeMetadata};
 use crate::film::{FilmSnapshot, TimeAxis};
 use crate::scene::Channel;
+use crate::sensor::Sensor;
 use crate::transport::worker::{RenderJob, RenderWorker, WorkerState, WorkerStatus};
 use crate::transport::{RenderSettings, WindowRequest};
 use crate::units::{C_M_PER_S, format_time, parse_time_s};
@@ -43,6 +45,19 @@ pub struct ViewerSettings {
     pub plot_log: bool,
     /// Per-bounce curves shown: 1, 2, 3, >3 scattering events.
     pub show_bounces: [bool; 4],
+    /// What the window shows: light in flight, or the sensor's measurements.
+    pub mode: Mode,
+    /// The sensor being edited (Light, gates, noise).
+    pub sensor: Sensor,
+}
+
+/// The window's two views of the film.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Mode {
+    /// Time slices, steady and rainbow images, TPRF plots.
+    Transient,
+    /// Light(t), Exposure_i(t) and the measurements M_i (the paper's section 6).
+    Sensor,
 }
 
 impl Default for ViewerSettings {
@@ -66,6 +81,8 @@ impl Default for ViewerSettings {
             colormap: ColorMap::Inferno,
             plot_log: false,
             show_bounces: [true, true, true, true],
+            mode: Mode::Transient,
+            sensor: Sensor::builtin("lidar").expect("the built-in LiDAR preset parses"),
         }
     }
 }
@@ -88,6 +105,25 @@ impl ViewerSettings {
             self.ev = 0.0;
         }
         self
+    }
+
+    /// These settings with the render ones (scene, size, window, spp, bounces, band,
+    /// seed) taken from `other`: what "Apply & restart" applies. Display and sensor
+    /// settings take effect at once and are not part of it.
+    fn with_render_of(&self, other: &ViewerSettings) -> ViewerSettings {
+        ViewerSettings {
+            scene: other.scene.clone(),
+            width: other.width,
+            height: other.height,
+            bins: other.bins,
+            t0: other.t0.clone(),
+            dt: other.dt.clone(),
+            spp_target: other.spp_target,
+            max_bounces: other.max_bounces,
+            channel: other.channel,
+            seed: other.seed,
+            ..self.clone()
+        }
     }
 
     /// The render job these settings describe, or what is wrong with them.
@@ -239,6 +275,8 @@ pub struct TprfApp {
     global_scale: Option<(usize, f64)>,
     messages: Vec<String>,
     frame_ms: f32,
+    /// The sensor's model, measurements and textures.
+    pub sensor: SensorState,
     ctx: egui::Context,
 }
 
@@ -274,6 +312,7 @@ impl TprfApp {
             global_scale: None,
             messages: Vec::new(),
             frame_ms: 0.0,
+            sensor: SensorState::default(),
             ctx: cc.egui_ctx.clone(),
         };
         match start {
@@ -310,7 +349,7 @@ impl TprfApp {
     }
 
     fn apply_pending(&mut self) {
-        let pending = self.pending.clone().sanitized();
+        let pending = self.settings.with_render_of(&self.pending).sanitized();
         match pending.job() {
             Ok(_) => {
                 self.settings = pending.clone();
@@ -552,6 +591,13 @@ impl TprfApp {
         ui.horizontal_wrapped(|ui| {
             ui.strong("tprf");
             ui.separator();
+            ui.selectable_value(&mut self.settings.mode, Mode::Transient, "Transient")
+                .on_hover_text("Light in flight: time slices and TPRF plots");
+            ui.selectable_value(&mut self.settings.mode, Mode::Sensor, "Sensor")
+                .on_hover_text(
+                    "Light(t), Exposure_i(t) and the measurements M_i, from the cached TPRFs",
+                );
+            ui.separator();
             if ui
                 .button("Open glTF…")
                 .on_hover_text("Render a .gltf/.glb scene (or drop one on the window)")
@@ -702,7 +748,7 @@ impl TprfApp {
                 ui.add(egui::DragValue::new(&mut p.seed)).labelled_by(l.id);
                 ui.end_row();
             });
-        let changed = self.pending != self.settings;
+        let changed = self.settings.with_render_of(&self.pending) != self.settings;
         ui.horizontal(|ui| {
             if ui
                 .add_enabled(changed, egui::Button::new("Apply & restart"))
@@ -1185,6 +1231,38 @@ impl TprfApp {
         self.error_plot_ui(ui);
     }
 
+    /// Sensor mode's right panel: the envelope editor over the selected pixel's TPRF,
+    /// then that pixel's TPRF * Light and M_i (the paper's Figures 5-7).
+    fn sensor_plots_ui(&mut self, ui: &mut egui::Ui, snap: &Arc<FilmSnapshot>) {
+        let sel = self.selection.unwrap_or(Selection::pixel(0, 0));
+        ui.heading(format!("Sensor · {}", sel.label()));
+        let tprf: Vec<f32> = sel.tprf(snap, None).into_iter().map(|v| v as f32).collect();
+        let m_pixel = self
+            .sensor
+            .measurements()
+            .map_or_else(Vec::new, |m| m.pixel(sel.y0, sel.x0));
+        let h = ui.available_height();
+        ui.label(
+            RichText::new("Drag the handles: Light(t) and the gates over the pixel's TPRF").small(),
+        );
+        sensor_ui::editor_ui(
+            ui,
+            &mut self.sensor,
+            &mut self.settings.sensor,
+            &tprf,
+            snap.axis(),
+            (h * 0.42).max(160.0),
+        );
+        sensor_ui::pixel_plots_ui(
+            ui,
+            &mut self.sensor,
+            &tprf,
+            &m_pixel,
+            snap.axis(),
+            (h * 0.2).max(90.0),
+        );
+    }
+
     fn error_plot_ui(&mut self, ui: &mut egui::Ui) {
         let Some(status) = self.status() else {
             return;
@@ -1324,6 +1402,10 @@ impl eframe::App for TprfApp {
         self.handle_keys(&ctx, bins);
         self.advance_playback(&ctx, bins);
 
+        let sensor_mode = self.settings.mode == Mode::Sensor;
+        if sensor_mode && let Some(s) = &snap {
+            self.sensor.update(&self.settings.sensor, s);
+        }
         let window_w = ui.available_width();
         egui::Panel::top("top").show(ui, |ui| self.top_bar_ui(ui));
         egui::Panel::bottom("status").show(ui, |ui| {
@@ -1340,16 +1422,35 @@ impl eframe::App for TprfApp {
             .resizable(true)
             .default_size(250.0)
             .show(ui, |ui| {
-                egui::ScrollArea::vertical().show(ui, |ui| self.controls_ui(ui));
+                egui::ScrollArea::vertical().show(ui, |ui| {
+                    if sensor_mode {
+                        let axis = snap.as_ref().map(|s| *s.axis());
+                        if let Some(m) =
+                            sensor_ui::controls_ui(ui, &mut self.settings.sensor, axis.as_ref())
+                        {
+                            self.messages.push(m);
+                        }
+                        if let Some(e) = &self.sensor.error {
+                            ui.label(RichText::new(e).color(ui.visuals().error_fg_color));
+                        }
+                        ui.separator();
+                    }
+                    self.controls_ui(ui)
+                });
             });
         egui::Panel::right("plot")
             .resizable(true)
             .default_size((window_w * 0.3).clamp(320.0, 720.0))
-            .show(ui, |ui| match &snap {
-                Some(s) => self.plot_ui(ui, s),
-                None => {
-                    ui.heading("TPRF");
-                    ui.label("Waiting for the first pass…");
+            .show(ui, |ui| {
+                // Keep the panel's width while its content is narrow (the first frames).
+                ui.set_min_width(ui.available_width());
+                match &snap {
+                    Some(s) if sensor_mode => self.sensor_plots_ui(ui, s),
+                    Some(s) => self.plot_ui(ui, s),
+                    None => {
+                        ui.heading("TPRF");
+                        ui.label("Waiting for the first pass…");
+                    }
                 }
             });
         if let Some(s) = &snap {
@@ -1357,6 +1458,11 @@ impl eframe::App for TprfApp {
             egui::Panel::bottom("timeline").show(ui, |ui| self.timeline_ui(ui, &axis));
         }
         egui::CentralPanel::default().show(ui, |ui| match &snap {
+            Some(s) if sensor_mode => {
+                if let Some((x, y)) = sensor_ui::images_ui(ui, &mut self.sensor, s) {
+                    self.selection = Some(Selection::pixel(x, y));
+                }
+            }
             Some(s) => self.images_ui(ui, s),
             None => {
                 ui.centered_and_justified(|ui| match self.status().map(|s| s.state) {

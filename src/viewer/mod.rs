@@ -5,9 +5,10 @@
 
 mod app;
 pub mod colormap;
+pub mod sensor_ui;
 pub mod timeline;
 
-pub use app::{Selection, TprfApp, ViewerSettings};
+pub use app::{Mode, Selection, TprfApp, ViewerSettings};
 
 use eframe::egui;
 use std::path::PathBuf;
