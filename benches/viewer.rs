@@ -11,7 +11,8 @@ use eframe::egui::{Pos2, Vec2};
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use std::time::{Duration, Instant};
-use tprf::viewer::{Start, TprfApp, ViewerSettings};
+use tprf::sensor::{LightPulse, Sensor};
+use tprf::viewer::{Mode, Start, TprfApp, ViewerSettings};
 
 fn quantile(sorted: &[f64], q: f64) -> f64 {
     sorted[((sorted.len() - 1) as f64 * q).round() as usize]
@@ -65,7 +66,84 @@ fn run(label: &str, settings: ViewerSettings, frames: usize) {
     );
 }
 
+/// Sensor mode: the time of the frame that follows an edit of the light pulse (new
+/// kernels, new measurements of the whole film, noise, derived depth, new textures).
+fn sensor_edits(label: &str, preset: &str, side: usize, bins: usize, edits: usize) {
+    let settings = ViewerSettings {
+        width: side,
+        height: side,
+        bins,
+        spp_target: 1,
+        mode: Mode::Sensor,
+        sensor: Sensor::builtin(preset).unwrap(),
+        ..ViewerSettings::default()
+    };
+    let mut h = Harness::builder()
+        .with_size(Vec2::new(1280.0, 800.0))
+        .build_eframe(move |cc| TprfApp::with_settings(cc, settings, Start::Default));
+    let start = Instant::now();
+    while h.state().sensor.measurements().is_none() || h.state().status().map(|s| s.spp) != Some(1)
+    {
+        assert!(
+            start.elapsed() < Duration::from_secs(300),
+            "no film after 300 s"
+        );
+        h.step();
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    h.run_steps(3);
+    let gates = h.state().sensor.measurements().unwrap().gates;
+    let mut times_ms = Vec::with_capacity(edits);
+    let mut all_ms = Vec::with_capacity(edits);
+    for k in 0..edits {
+        // Move the pulse by a fraction of a bin: a kernel edit.
+        let shift = 1e-12 * (1 + k % 7) as f64;
+        match &mut h.state_mut().settings.sensor.light {
+            LightPulse::Gaussian { centre_s, .. } => *centre_s += shift,
+            LightPulse::Delta { t_s, .. } => *t_s += shift,
+            LightPulse::Rect { start_s, .. } => *start_s += shift,
+            other => panic!("bench preset with a {other:?} light"),
+        }
+        let t = Instant::now();
+        h.step();
+        let shapes = h.output().shapes.clone();
+        let _ = h.ctx.tessellate(shapes, 1.0);
+        times_ms.push(t.elapsed().as_secs_f64() * 1e3);
+        // Then every gate, noise and depth, measured in the background.
+        let snap = h.state().snapshot().unwrap();
+        while !h.state().sensor.is_current(&snap) {
+            std::thread::sleep(Duration::from_millis(1));
+            h.step();
+        }
+        all_ms.push(t.elapsed().as_secs_f64() * 1e3);
+    }
+    times_ms.sort_by(f64::total_cmp);
+    all_ms.sort_by(f64::total_cmp);
+    println!(
+        "| {label} | {gates} | {edits} | {:.1} | {:.1} | {:.1} | {:.0} |",
+        quantile(&times_ms, 0.5),
+        quantile(&times_ms, 0.95),
+        times_ms.last().unwrap(),
+        quantile(&all_ms, 0.5),
+    );
+}
+
 fn main() {
+    // `cargo bench --bench viewer -- sensor` (or `-- frames`) runs one part.
+    let only: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with('-'))
+        .collect();
+    let part = |name: &str| only.is_empty() || only.iter().any(|a| a == name);
+    if part("frames") {
+        frames();
+    }
+    if part("sensor") {
+        sensor();
+    }
+}
+
+fn frames() {
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     println!(
         "UI thread time per frame while rendering ({threads} hardware threads; the renderer uses {})\n",
@@ -96,5 +174,24 @@ fn main() {
             ..base
         },
         300,
+    );
+}
+
+fn sensor() {
+    println!(
+        "\nSensor mode: UI thread time of the frame after an edit of Light(t) (the gate on screen measured in it), and the time until all gates are\n"
+    );
+    println!(
+        "| film (cornell) | gates | edits | frame p50 ms | frame p95 ms | frame max ms | all gates + depth, p50 ms |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    sensor_edits("128 x 128 x 256, gated camera", "gated", 128, 256, 60);
+    sensor_edits("256 x 256 x 1024, gated camera", "gated", 256, 1024, 40);
+    sensor_edits(
+        "256 x 256 x 1024, full-waveform LiDAR",
+        "lidar",
+        256,
+        1024,
+        20,
     );
 }

@@ -476,6 +476,23 @@ fn absurd_settings_are_clamped_or_refused() {
     );
 }
 
+/// Step until the sensor has measured every gate of the current film.
+fn wait_sensor(h: &mut Harness<'static, TprfApp>) {
+    let start = Instant::now();
+    loop {
+        h.step();
+        let snap = h.state().snapshot().unwrap();
+        if h.state().sensor.is_current(&snap) {
+            return;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "sensor never caught up"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
 #[test]
 fn sensor_mode_measures_the_cached_film_within_a_frame() {
     let (side, bins) = (16, 40);
@@ -495,20 +512,14 @@ fn sensor_mode_measures_the_cached_film_within_a_frame() {
                 .sum()
         })
         .collect();
-    let check = |h: &Harness<'static, TprfApp>, gates: usize| {
-        let m = h.state().sensor.measurements().expect("measurements");
-        assert_eq!((m.gates, m.height, m.width), (gates, side, side));
-        // A delta pulse at t = 0 and gates tiling the window: the gates together see
-        // every bin once, so per pixel sum_i M_i = the steady value.
-        for (p, want) in steady.iter().enumerate() {
-            let got: f64 = (0..gates).map(|i| m.plane(i)[p] as f64).sum();
-            assert!(
-                (got - want).abs() <= 1e-5 * want.max(1e-12),
-                "pixel {p}: sum M_i {got}, steady {want}"
-            );
-        }
+    let close = |got: f64, want: f64, what: &str| {
+        assert!(
+            (got - want).abs() <= 1e-5 * want.max(1e-12),
+            "{what}: {got} vs steady {want}"
+        );
     };
-    // One gate over the whole window, applied in one frame.
+    // A delta pulse at t = 0 and one gate over the whole window: the gate sees every
+    // bin once, so M_0 = the steady value. The image on screen has it within the frame.
     h.state_mut().settings.sensor = Sensor::new(
         LightPulse::Delta {
             t_s: 0.0,
@@ -524,14 +535,32 @@ fn sensor_mode_measures_the_cached_film_within_a_frame() {
         },
     );
     h.step();
-    check(&h, 1);
-    // Eight gates side by side: an edit of the count, again within one frame.
+    let plane = h
+        .state()
+        .sensor
+        .shown_plane(&snap)
+        .expect("the gate on screen is measured in the same frame")
+        .to_vec();
+    for (p, want) in steady.iter().enumerate() {
+        close(plane[p] as f64, *want, &format!("pixel {p}, shown gate"));
+    }
+    // Eight gates side by side: together they still see every bin once.
     if let Exposure::Box { width_s, count, .. } = &mut h.state_mut().settings.sensor.exposure {
         *width_s = window_s / 8.0;
         *count = 8;
     }
     h.step();
-    check(&h, 8);
+    assert!(h.state().sensor.shown_plane(&snap).is_some());
+    wait_sensor(&mut h);
+    let m = h.state().sensor.measurements().unwrap();
+    assert_eq!((m.gates, m.height, m.width), (8, side, side));
+    for (p, want) in steady.iter().enumerate() {
+        close(
+            (0..8).map(|i| m.plane(i)[p] as f64).sum(),
+            *want,
+            &format!("pixel {p}, sum over gates"),
+        );
+    }
     // A gate entirely before the window measures exactly zero.
     h.state_mut().settings.sensor.exposure = Exposure::Box {
         origin: TimeOrigin::Pulse,
@@ -542,6 +571,15 @@ fn sensor_mode_measures_the_cached_film_within_a_frame() {
         gain: 1.0,
     };
     h.step();
+    assert!(
+        h.state()
+            .sensor
+            .shown_plane(&snap)
+            .unwrap()
+            .iter()
+            .all(|&v| v == 0.0)
+    );
+    wait_sensor(&mut h);
     assert!(
         h.state()
             .sensor

@@ -1237,10 +1237,11 @@ impl TprfApp {
         let sel = self.selection.unwrap_or(Selection::pixel(0, 0));
         ui.heading(format!("Sensor · {}", sel.label()));
         let tprf: Vec<f32> = sel.tprf(snap, None).into_iter().map(|v| v as f32).collect();
-        let m_pixel = self
-            .sensor
-            .measurements()
-            .map_or_else(Vec::new, |m| m.pixel(sel.y0, sel.x0));
+        // With noise once all gates are measured; until then the clean values.
+        let m_pixel = match self.sensor.measurements() {
+            Some(m) if self.sensor.is_current(snap) => m.pixel(sel.y0, sel.x0),
+            _ => Vec::new(),
+        };
         let h = ui.available_height();
         ui.label(
             RichText::new("Drag the handles: Light(t) and the gates over the pixel's TPRF").small(),

@@ -56,15 +56,33 @@ struct Measured {
     /// AMCW depth minus the depth of the TPRF's own first return (multipath error), m.
     amcw_error_m: Option<Vec<f32>>,
     millis: f64,
+    /// 99.9 % quantile of the positive measurements: one exposure for all gates.
+    robust_max: Option<f64>,
+    noise_field: NoiseField,
+}
+
+/// The shown gate's image, measured on the UI thread right after an edit.
+struct Plane {
+    snapshot: usize,
+    sensor: Sensor,
+    gate: usize,
+    values: Vec<f32>,
+    millis: f64,
 }
 
 /// What the sensor tab keeps between frames: the model with its kernels, the latest
 /// measurements and their textures. The sensor being edited lives in the settings.
+///
+/// An edit is shown within the frame: the image of the gate on screen is measured at
+/// once (one kernel over the film). All N gates, the noise and the derived depth are
+/// measured on a background thread and replace it when done; the UI never waits.
 #[derive(Default)]
 pub struct SensorState {
     model: Option<SensorModel>,
     measured: Option<Measured>,
-    noise_field: NoiseField,
+    plane: Option<Plane>,
+    job: Option<std::sync::mpsc::Receiver<Measured>>,
+    noise_field: Option<NoiseField>,
     pub error: Option<String>,
     /// The gate shown, `i`.
     pub gate: usize,
@@ -72,9 +90,61 @@ pub struct SensorState {
     textures: Vec<(&'static str, u64, TextureHandle)>,
 }
 
+/// Threads for the background measurements: half the cores.
+fn background_pool() -> Option<&'static rayon::ThreadPool> {
+    static POOL: std::sync::OnceLock<Option<rayon::ThreadPool>> = std::sync::OnceLock::new();
+    POOL.get_or_init(|| {
+        let n = std::thread::available_parallelism().map_or(1, |n| n.get());
+        rayon::ThreadPoolBuilder::new()
+            .num_threads((n / 2).max(1))
+            .thread_name(|i| format!("tprf-sensor-{i}"))
+            .build()
+            .ok()
+    })
+    .as_ref()
+}
+
+/// All gates of `snap` through `model`, with noise and derived outputs.
+fn measure_all(
+    model: &SensorModel,
+    snap: &FilmSnapshot,
+    mut noise_field: NoiseField,
+) -> Result<Measured, String> {
+    let started = Instant::now();
+    let mut m = model
+        .measure_clean(&snap.cube, snap.width(), snap.height())
+        .map_err(|e| e.to_string())?;
+    model.apply_noise_cached(&mut m, &mut noise_field);
+    let stride = m.values.len().div_ceil(1 << 20).max(1);
+    let robust_max = colormap::quantile_positive(m.values.iter().step_by(stride).copied(), 0.999);
+    let depth_m = model.first_return_depth(&m);
+    let amcw = model.amcw(&m);
+    let amcw_error_m = amcw.as_ref().map(|a| {
+        let truth = derived::tprf_first_return_depth(
+            &snap.cube,
+            snap.width(),
+            snap.height(),
+            snap.axis(),
+            &Default::default(),
+        );
+        a.depth_m.iter().zip(&truth).map(|(d, t)| d - t).collect()
+    });
+    Ok(Measured {
+        snapshot: 0,
+        sensor: model.sensor().clone(),
+        m,
+        depth_m,
+        amcw,
+        amcw_error_m,
+        millis: started.elapsed().as_secs_f64() * 1e3,
+        robust_max,
+        noise_field,
+    })
+}
+
 impl SensorState {
     /// Bring the model and the measurements up to date with `sensor` and `snap`; an
-    /// invalid sensor leaves the last good ones and says why.
+    /// invalid sensor leaves the last good ones and says why. Never waits.
     pub fn update(&mut self, sensor: &Sensor, snap: &Arc<FilmSnapshot>) {
         let axis = *snap.axis();
         let model = match self.model.take() {
@@ -94,43 +164,101 @@ impl SensorState {
                 }
             },
         };
+        self.gate = self.gate.min(model.gate_count().saturating_sub(1));
         let key = Arc::as_ptr(snap) as usize;
-        let fresh = self
-            .measured
-            .as_ref()
-            .is_some_and(|m| m.snapshot == key && m.sensor == *model.sensor());
-        if !fresh {
-            let started = Instant::now();
-            match model.measure_clean(&snap.cube, snap.width(), snap.height()) {
-                Ok(mut m) => {
-                    model.apply_noise_cached(&mut m, &mut self.noise_field);
-                    let depth_m = model.first_return_depth(&m);
-                    let amcw = model.amcw(&m);
-                    let amcw_error_m = amcw.as_ref().map(|a| {
-                        let truth = derived::tprf_first_return_depth(
-                            &snap.cube,
-                            snap.width(),
-                            snap.height(),
-                            &axis,
-                            &Default::default(),
-                        );
-                        a.depth_m.iter().zip(&truth).map(|(d, t)| d - t).collect()
+        // A finished background measurement.
+        if let Some(rx) = &self.job {
+            match rx.try_recv() {
+                Ok(mut done) => {
+                    self.noise_field = Some(std::mem::take(&mut done.noise_field));
+                    self.measured = Some(done);
+                    self.job = None;
+                }
+                Err(std::sync::mpsc::TryRecvError::Disconnected) => self.job = None,
+                Err(std::sync::mpsc::TryRecvError::Empty) => {}
+            }
+        }
+        if !self.is_current_for(key, model.sensor()) {
+            if self.job.is_none() {
+                let (tx, rx) = std::sync::mpsc::channel();
+                let (job_model, job_snap) = (model.clone(), snap.clone());
+                let field = self.noise_field.take().unwrap_or_default();
+                let spawned = std::thread::Builder::new()
+                    .name("tprf-sensor".into())
+                    .spawn(move || {
+                        // On its own threads, so the gate measured for the frame does
+                        // not queue behind it on the global pool.
+                        let result = match background_pool() {
+                            Some(pool) => {
+                                pool.install(|| measure_all(&job_model, &job_snap, field))
+                            }
+                            None => measure_all(&job_model, &job_snap, field),
+                        };
+                        if let Ok(mut m) = result {
+                            m.snapshot = Arc::as_ptr(&job_snap) as usize;
+                            let _ = tx.send(m);
+                        }
                     });
-                    self.measured = Some(Measured {
+                match spawned {
+                    Ok(_) => self.job = Some(rx),
+                    Err(e) => {
+                        self.error = Some(format!("cannot start the measurement thread: {e}"))
+                    }
+                }
+            }
+            // The gate on screen, now.
+            let gate = self.gate;
+            let stale = self
+                .plane
+                .as_ref()
+                .is_none_or(|p| p.snapshot != key || p.gate != gate || p.sensor != *model.sensor());
+            if stale && let Some(k) = model.kernels().get(gate) {
+                let started = Instant::now();
+                let packed = crate::sensor::PackedKernels::new(std::slice::from_ref(k), axis.bins);
+                if let Ok(m) = crate::sensor::measure::measure_clean(
+                    &packed,
+                    &snap.cube,
+                    snap.width(),
+                    snap.height(),
+                ) {
+                    self.plane = Some(Plane {
                         snapshot: key,
                         sensor: model.sensor().clone(),
-                        m,
-                        depth_m,
-                        amcw,
-                        amcw_error_m,
+                        gate,
+                        values: m.values,
                         millis: started.elapsed().as_secs_f64() * 1e3,
                     });
                 }
-                Err(e) => self.error = Some(e.to_string()),
             }
         }
-        self.gate = self.gate.min(model.gate_count().saturating_sub(1));
         self.model = Some(model);
+    }
+
+    fn is_current_for(&self, snapshot: usize, sensor: &Sensor) -> bool {
+        self.measured
+            .as_ref()
+            .is_some_and(|m| m.snapshot == snapshot && m.sensor == *sensor)
+    }
+
+    /// Whether the measurements of all gates are those of the current sensor and film.
+    pub fn is_current(&self, snap: &Arc<FilmSnapshot>) -> bool {
+        self.model
+            .as_ref()
+            .is_some_and(|m| self.is_current_for(Arc::as_ptr(snap) as usize, m.sensor()))
+    }
+
+    /// The image of the gate on screen, `[H, W]`, as the window shows it now: from the
+    /// full measurement when it is current, else measured for this frame (no noise).
+    pub fn shown_plane(&self, snap: &Arc<FilmSnapshot>) -> Option<&[f32]> {
+        if self.is_current(snap) {
+            return self.measured.as_ref().map(|m| m.m.plane(self.gate));
+        }
+        let key = Arc::as_ptr(snap) as usize;
+        let model = self.model.as_ref()?;
+        self.plane
+            .as_ref()
+            .filter(|p| p.snapshot == key && p.gate == self.gate && p.sensor == *model.sensor())
+            .map(|p| p.values.as_slice())
     }
 
     pub fn model(&self) -> Option<&SensorModel> {
@@ -1057,7 +1185,16 @@ pub fn pixel_plots_ui(
         .show(ui, |p| {
             p.line(Line::new("TPRF * Light", PlotPoints::from(steps)).color(LIGHT_COLOR))
         });
-    ui.label(RichText::new("M_i of the pixel (with noise); click a gate").small());
+    ui.label(
+        RichText::new("M_i of the pixel (with noise once all gates are measured); click a gate")
+            .small(),
+    );
+    let m_clean: Vec<f32> = trace.m_clean.iter().map(|&v| v as f32).collect();
+    let m_pixel = if m_pixel.is_empty() {
+        &m_clean[..]
+    } else {
+        m_pixel
+    };
     let pts: Vec<[f64; 2]> = m_pixel
         .iter()
         .enumerate()
@@ -1093,35 +1230,47 @@ pub fn pixel_plots_ui(
 pub fn images_ui(
     ui: &mut egui::Ui,
     state: &mut SensorState,
-    snap: &FilmSnapshot,
+    snap: &Arc<FilmSnapshot>,
 ) -> Option<(usize, usize)> {
     let (w, h) = (snap.width(), snap.height());
-    let Some(measured) = &state.measured else {
-        ui.label(
-            state
-                .error
-                .clone()
-                .unwrap_or_else(|| "No measurement yet".into()),
-        );
+    let (Some(model), Some(plane)) = (state.model.as_ref(), state.shown_plane(snap)) else {
+        ui.label(state.error.clone().unwrap_or_else(|| "Measuring…".into()));
         return None;
     };
-    let gates = measured.m.gates;
-    let snapshot_key = measured.snapshot as u64;
-    let sensor_key = {
+    let current = state.is_current(snap);
+    let plane = plane.to_vec();
+    let gates = model.gate_count();
+    let gate = state.gate.min(gates.saturating_sub(1));
+    let hash = |x: &dyn std::fmt::Debug| {
         use std::hash::{Hash, Hasher};
         let mut hasher = std::collections::hash_map::DefaultHasher::new();
-        format!("{:?}", measured.sensor).hash(&mut hasher);
+        format!("{x:?}").hash(&mut hasher);
         hasher.finish()
     };
-    let gate = state.gate.min(gates.saturating_sub(1));
-    let plane = measured.m.plane(gate).to_vec();
-    let all_max = colormap::quantile_positive(measured.m.values.iter().copied(), 0.999);
-    let depth = measured
-        .depth_m
-        .clone()
-        .or_else(|| measured.amcw.as_ref().map(|a| a.depth_m.clone()));
-    let amcw_error = measured.amcw_error_m.clone();
-    let millis = measured.millis;
+    let plane_key = hash(&(Arc::as_ptr(snap) as usize, model.sensor(), gate, current));
+    // One exposure over all gates (from the full measurement, even a stale one).
+    let all_max = state
+        .measured
+        .as_ref()
+        .and_then(|m| m.robust_max)
+        .or_else(|| colormap::quantile_positive(plane.iter().copied(), 0.999));
+    let (depth, amcw_error, derived_key, millis) = match &state.measured {
+        Some(m) => (
+            m.depth_m
+                .clone()
+                .or_else(|| m.amcw.as_ref().map(|a| a.depth_m.clone())),
+            m.amcw_error_m.clone(),
+            hash(&(m.snapshot, &m.sensor)),
+            m.millis,
+        ),
+        None => (None, None, 0, 0.0),
+    };
+    let plane_ms = state.plane.as_ref().map_or(0.0, |p| p.millis);
+    let status = if current {
+        format!("all {gates} gates measured in {millis:.0} ms")
+    } else {
+        format!("gate {gate} measured in {plane_ms:.1} ms; all gates updating…")
+    };
     let ctx = ui.ctx().clone();
     let mut clicked = None;
     ui.horizontal(|ui| {
@@ -1134,11 +1283,7 @@ pub fn images_ui(
         if let Some(m) = &state.model {
             ui.label(gate_time_label(m, gate));
         }
-        ui.label(
-            RichText::new(format!("measured in {millis:.1} ms"))
-                .weak()
-                .small(),
-        );
+        ui.label(RichText::new(&status).weak().small());
     });
     let avail = ui.available_size();
     let side = (avail.x - 16.0) / 2.0;
@@ -1151,7 +1296,7 @@ pub fn images_ui(
                 log: false,
                 decades: 3.0,
             };
-            let key = snapshot_key ^ sensor_key.rotate_left(7) ^ (gate as u64).rotate_left(40);
+            let key = plane_key;
             let tex = state.texture(&ctx, "measurement", key, || {
                 egui::ColorImage::from_rgba_unmultiplied(
                     [w, h],
@@ -1171,7 +1316,7 @@ pub fn images_ui(
                     "first-return depth (m)"
                 };
                 ui.label(RichText::new(format!("{title}: {lo:.3} … {hi:.3}")).strong());
-                let key = snapshot_key ^ sensor_key;
+                let key = derived_key;
                 let small = Vec2::new(
                     max.x,
                     if amcw_error.is_some() {
