@@ -1454,7 +1454,9 @@ impl eframe::App for TprfApp {
                     }
                 }
             });
-        if let Some(s) = &snap {
+        if let Some(s) = &snap
+            && !sensor_mode
+        {
             let axis = *s.axis();
             egui::Panel::bottom("timeline").show(ui, |ui| self.timeline_ui(ui, &axis));
         }
