@@ -525,6 +525,17 @@ impl TprfApp {
                 i.key_pressed(egui::Key::Space),
             )
         });
+        if self.settings.mode == Mode::Sensor {
+            // In sensor mode the arrows step the gate shown.
+            let gates = self.sensor.model().map_or(1, |m| m.gate_count());
+            if left {
+                self.sensor.gate = self.sensor.gate.saturating_sub(1);
+            }
+            if right {
+                self.sensor.gate = (self.sensor.gate + 1).min(gates.saturating_sub(1));
+            }
+            return;
+        }
         if left {
             self.playing = false;
             self.step(-1, bins);
