@@ -13,7 +13,7 @@
 //! `tau_b = t0 + b dt`, `h_i(u) = (1/dt) integral_u^{u + dt} Exposure_i` the gate
 //! averaged over one bin ([`Gate::bin_average`], closed form). `h_i` is continuous with
 //! known kinks, so the integral against the light is done piecewise
-//! ([`Light::integrate`]): a delta light is one evaluation, a pulse a thousandth of a
+//! (`Light::integrate`): a delta light is one evaluation, a pulse a thousandth of a
 //! bin wide keeps all its energy, and `M_i = sum_b TPRF[b] K_i[b]`.
 
 use rayon::prelude::*;
