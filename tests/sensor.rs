@@ -661,6 +661,20 @@ fn bad_values_are_clear_errors_not_panics() {
         Err(SensorError::CubeSize { .. })
     ));
     assert!(m.pixel_trace(&[0.0; 3]).is_err());
+    // 4096 AMCW gates over 2^20 bins would hold 2^32 kernel weights.
+    let huge = SensorModel::new(
+        Sensor::new(
+            LightPulse::default(),
+            Exposure::Amcw {
+                freq_hz: 20e6,
+                phase_steps: 4096,
+                phase0_deg: 0.0,
+                modulation: 1.0,
+            },
+        ),
+        axis(0.0, 1e-12, 1 << 20),
+    );
+    assert!(matches!(huge, Err(SensorError::TooMany { .. })), "{huge:?}");
 }
 
 #[test]

@@ -13,7 +13,7 @@
 //! `tau_b = t0 + b dt`, `h_i(u) = (1/dt) integral_u^{u + dt} Exposure_i` the gate
 //! averaged over one bin ([`Gate::bin_average`], closed form). `h_i` is continuous with
 //! known kinks, so the integral against the light is done piecewise
-//! ([`Light::integrate`]): a delta light is one evaluation, a pulse a thousandth of a
+//! (`Light::integrate`): a delta light is one evaluation, a pulse a thousandth of a
 //! bin wide keeps all its energy, and `M_i = sum_b TPRF[b] K_i[b]`.
 
 use rayon::prelude::*;
@@ -66,21 +66,27 @@ impl SparseKernel {
     }
 }
 
-/// `K_i[b]` of one gate over `axis`.
-pub fn kernel(light: &Light, gate: &Gate, axis: &TimeAxis) -> SparseKernel {
+/// The bins (inclusive range) where `K_i[b]` of `gate` can be non-zero: those whose
+/// start `tau_b` lets the light's support reach the gate,
+/// `tau_b` in `[g_lo - s_hi, g_hi - s_lo]`. `None` when no bin can.
+pub fn kernel_bins(light: &Light, gate: &Gate, axis: &TimeAxis) -> Option<(usize, usize)> {
     let dt = axis.dt_s;
     let (s_lo, s_hi) = light.support_s();
     let (g_lo, g_hi) = gate.bin_average_support(dt);
-    // h(s + tau_b) can be non-zero for some s in the light's support only if
-    // tau_b is in [g_lo - s_hi, g_hi - s_lo].
     let b_lo = ((g_lo - s_hi - axis.t0_s) / dt).floor().max(0.0);
     let b_hi = ((g_hi - s_lo - axis.t0_s) / dt)
         .ceil()
         .min(axis.bins as f64 - 1.0);
-    if !(b_hi >= b_lo) {
+    (b_hi >= b_lo).then_some((b_lo as usize, b_hi as usize))
+}
+
+/// `K_i[b]` of one gate over `axis`.
+pub fn kernel(light: &Light, gate: &Gate, axis: &TimeAxis) -> SparseKernel {
+    let Some((b_lo, b_hi)) = kernel_bins(light, gate, axis) else {
         return SparseKernel::default();
-    }
-    let (b_lo, b_hi) = (b_lo as usize, b_hi as usize);
+    };
+    let dt = axis.dt_s;
+    let (g_lo, g_hi) = gate.bin_average_support(dt);
     let mut breaks = Vec::new();
     gate.bin_average_breaks(dt, &mut breaks);
     let scale = gate.scale_s();

@@ -7,12 +7,16 @@
 
 use super::derived::{self, AmcwImage};
 use super::exposure::{Exposure, Gate};
-use super::kernel::{BinTransfer, SparseKernel, compute_kernels};
+use super::kernel::{BinTransfer, SparseKernel, compute_kernels, kernel_bins};
 use super::light::Light;
 use super::measure::{Measurements, PackedKernels, measure_clean};
 use super::noise::NoiseField;
 use super::preset::Sensor;
 use super::{SensorError, TimeAxis};
+
+/// Most kernel weights (gates x bins each reads) a model may hold: 2^26, 0.5 GiB in
+/// f64 (e.g. 64 dense gates over 2^20 bins).
+pub const MAX_KERNEL_WEIGHTS: u64 = 1 << 26;
 
 /// A sensor ready to measure cubes on one time axis.
 #[derive(Clone, Debug)]
@@ -56,6 +60,22 @@ impl SensorModel {
         let gates = sensor.exposure.gates(axis.t0_s)?;
         sensor.noise.validate()?;
         sensor.derived.validate(&sensor.exposure, &gates)?;
+        let weights: u64 = gates
+            .iter()
+            .filter_map(|g| kernel_bins(&light, g, &axis))
+            .map(|(lo, hi)| (hi - lo + 1) as u64)
+            .sum();
+        if weights > MAX_KERNEL_WEIGHTS {
+            return Err(SensorError::TooMany {
+                what: format!(
+                    "kernel weights ({} gates over {} bins)",
+                    gates.len(),
+                    axis.bins
+                ),
+                count: weights,
+                max: MAX_KERNEL_WEIGHTS,
+            });
+        }
         let kernels = compute_kernels(&light, &gates, &axis);
         let packed = PackedKernels::new(&kernels, axis.bins);
         let transfer = BinTransfer::new(&light, axis.dt_s, axis.bins.saturating_sub(1));

@@ -24,11 +24,11 @@
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
+use super::SensorError;
 use super::derived::Derived;
 use super::exposure::Exposure;
 use super::light::LightPulse;
 use super::noise::Noise;
-use super::{SensorError, TimeAxis};
 
 /// The presets shipped in `assets/sensors/`, by name (`builtin:NAME`).
 pub const BUILTIN_PRESETS: &[(&str, &str)] = &[
@@ -131,11 +131,6 @@ impl Sensor {
     /// The description as TOML (times in seconds).
     pub fn to_toml_string(&self) -> Result<String, SensorError> {
         toml::to_string_pretty(self).map_err(|e| SensorError::Parse(e.to_string()))
-    }
-
-    /// The gates this sensor resolves to on `axis` (window-relative gates placed).
-    pub fn gates_on(&self, axis: &TimeAxis) -> Result<Vec<super::Gate>, SensorError> {
-        self.exposure.gates(axis.t0_s)
     }
 }
 

@@ -123,8 +123,8 @@ pub fn parse_frequency_hz(text: &str) -> Result<f64, String> {
     Ok(value * scale)
 }
 
-/// One knot of a piecewise-linear envelope: `[t_s, value]`, the time as for
-/// [`seconds`].
+/// One knot of a piecewise-linear envelope: `[t_s, value]`, the time in seconds or a
+/// string with a unit (`"2 ns"`).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Point(#[serde(with = "seconds")] pub f64, pub f64);
 
