@@ -11,6 +11,7 @@ pub mod cli;
 pub mod export;
 pub mod film;
 pub mod oned;
+pub mod reference;
 pub mod scene;
 pub mod transport;
 pub mod units;
