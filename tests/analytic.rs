@@ -221,6 +221,33 @@ fn oned_world_in_3d_matches_the_exact_impulse_train() {
     );
 }
 
+/// Russian roulette with a survival floor, and no roulette at all, stay unbiased: the
+/// furnace's energy in a window holding all but 1e-6 of it is `rho I / (pi R^2 (1 - rho))`.
+#[test]
+fn russian_roulette_floor_and_no_roulette_are_unbiased() {
+    use tprf::transport::RenderSettings;
+    let f = Furnace::point(1.0, 0.7, 1.0);
+    let axis = TimeAxis::new(0.0, 100.0 / C, 1).unwrap();
+    for (rr_start, floor) in [(1, 0.5f32), (0, 0.9), (2, 1.0)] {
+        let settings = RenderSettings {
+            seed: 77,
+            rr_start,
+            rr_min_survival: floor,
+            ..RenderSettings::default()
+        };
+        let r = render_with(f.scene(), 8, 8, axis, 128, settings, 0);
+        let totals = r.film.steady();
+        let mean = totals.iter().sum::<f64>() / 64.0;
+        let var = totals.iter().map(|t| (t - mean).powi(2)).sum::<f64>() / 63.0;
+        let se = (var / 64.0).sqrt();
+        let want = f.energy();
+        assert!(
+            (mean - want).abs() < 4.0 * se + 0.003 * want,
+            "rr_start {rr_start}, floor {floor}: {mean} vs {want} (se {se})"
+        );
+    }
+}
+
 #[test]
 fn glass_slab_delays_by_n_d_over_c() {
     use glam::{Affine3A, Vec3};
