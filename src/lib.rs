@@ -12,6 +12,7 @@ pub mod export;
 pub mod film;
 pub mod oned;
 pub mod reference;
+pub mod report;
 pub mod scene;
 pub mod transport;
 pub mod units;

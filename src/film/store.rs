@@ -266,6 +266,16 @@ impl TprfFilm {
             .collect()
     }
 
+    /// The whole cube `[H, W, T]` in f64 (row 0 = top): means over all samples.
+    pub fn cube_f64(&self) -> Vec<f64> {
+        let n = self.spp().max(1) as f64;
+        self.halves[0]
+            .par_iter()
+            .zip(self.halves[1].par_iter())
+            .map(|(a, b)| (a + b) / n)
+            .collect()
+    }
+
     /// The whole cube `[H, W, T]` as f32 (row 0 = top).
     pub fn cube_f32(&self) -> Vec<f32> {
         let n = self.spp().max(1) as f64;
