@@ -35,6 +35,9 @@ pub enum Command {
     /// checkpoints evenly spaced in log time; writes converge.csv, converge.png and
     /// summary.md.
     Converge(ConvergeArgs),
+    /// Stiff and extreme cases against independently derived answers; writes
+    /// stability.md (case, setting, expected, got, relative error, NaN/Inf, verdict).
+    Stability(StabilityArgs),
     /// Open the viewer on a cube folder written by `tprf render` (no rendering), or on a
     /// scene to render (a .gltf/.glb path or builtin:NAME). No argument: the last scene.
     View(ViewArgs),
@@ -137,6 +140,25 @@ pub struct ConvergeArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+}
+
+#[derive(Args, Debug)]
+pub struct StabilityArgs {
+    /// Output folder (created if missing).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Case sizes: full (larger films, more samples) or test (what the tests run).
+    #[arg(long, value_enum, default_value_t = StabilitySize::Full)]
+    pub size: StabilitySize,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum StabilitySize {
+    Test,
+    Full,
 }
 
 #[derive(Args, Debug)]
@@ -435,6 +457,58 @@ pub fn converge(a: &ConvergeArgs) -> Result<()> {
     Ok(())
 }
 
+/// `tprf stability`.
+pub fn stability(a: &StabilityArgs) -> Result<()> {
+    use crate::report::stability::{Size, cases, markdown};
+    if a.threads == Some(0) {
+        bail!("--threads must be at least 1");
+    }
+    let size = match a.size {
+        StabilitySize::Test => Size::Test,
+        StabilitySize::Full => Size::Full,
+    };
+    let mut pool = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = a.threads {
+        pool = pool.num_threads(n);
+    }
+    let pool = pool.build().context("cannot start the worker threads")?;
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("cannot create {}", a.out.display()))?;
+    let start = Instant::now();
+    let mut rows = Vec::new();
+    for (name, case) in cases() {
+        let t = Instant::now();
+        let r = pool.install(|| case(size));
+        let failed = r.iter().filter(|r| !r.passed()).count();
+        eprintln!(
+            "{name}: {} rows, {failed} failed, {:.1} s",
+            r.len(),
+            t.elapsed().as_secs_f64()
+        );
+        rows.extend(r);
+    }
+    let table = markdown(&rows);
+    let text = format!(
+        "# tprf stability ({:?} size, {:.0} s on {} threads)\n\n{table}",
+        size,
+        start.elapsed().as_secs_f64(),
+        pool.current_num_threads()
+    );
+    let path = a.out.join("stability.md");
+    export::write_atomic(&path, |w| {
+        use std::io::Write;
+        w.write_all(text.as_bytes())?;
+        Ok(())
+    })?;
+    print!("{table}");
+    let failed = rows.iter().filter(|r| !r.passed()).count();
+    eprintln!("wrote {}", path.display());
+    if failed > 0 {
+        bail!("{failed} of {} stability checks failed", rows.len());
+    }
+    Ok(())
+}
+
 /// `tprf oned`.
 pub fn oned(a: &OnedArgs) -> Result<()> {
     let bins = match (&a.t0, &a.dt, a.bins) {
@@ -470,6 +544,7 @@ pub fn main() -> std::process::ExitCode {
         Some(Command::Render(a)) => render(a),
         Some(Command::Oned(a)) => oned(a),
         Some(Command::Converge(a)) => converge(a),
+        Some(Command::Stability(a)) => stability(a),
         Some(Command::View(a)) => view(a),
         None => view(&ViewArgs { what: None }),
     };

@@ -9,3 +9,4 @@
 
 pub mod converge;
 pub mod plot;
+pub mod stability;
