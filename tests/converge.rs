@@ -349,6 +349,34 @@ fn cli_writes_csv_plot_and_summary_against_analytic_and_npy_references() {
             ],
             "unknown reference",
         ),
+        (
+            vec![
+                "converge",
+                "--reference",
+                "analytic:plane",
+                "--width",
+                "4096",
+                "--height",
+                "4096",
+                "--bins",
+                "4000000",
+                "--out",
+                o2,
+            ],
+            "too large",
+        ),
+        (
+            vec![
+                "converge",
+                "--reference",
+                "analytic:plane",
+                "--bins",
+                "0",
+                "--out",
+                o2,
+            ],
+            "bin count",
+        ),
     ] {
         let o = tprf_bin(&args);
         let err = String::from_utf8_lossy(&o.stderr);

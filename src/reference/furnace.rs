@@ -237,9 +237,12 @@ impl Furnace {
         if !(horizon_m > 0.0) || rho <= 0.0 {
             return out.bins;
         }
-        // Grid step: fine against the radius and the bins, at most ~4e6 grid points.
+        // Grid step: fine against the radius and the bins, at most ~4e6 grid points and
+        // ~2e9 multiply-adds (grid points x kernel points).
         let mut h = (r / 200.0).min(0.5 * axis.dt_s * C_M_PER_S).max(r / 4000.0);
-        h = h.max(horizon_m / 4e6);
+        h = h
+            .max(horizon_m / 4e6)
+            .max((horizon_m * 2.0 * r / 2e9).sqrt());
         let n = (horizon_m / h).ceil() as usize + 1;
         let m_max = (2.0 * r / h).ceil() as usize + 1;
         // Chord mass rounded to grid point m: CDF (d / 2R)^2 over [(m - 1/2) h, (m + 1/2) h].

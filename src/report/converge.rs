@@ -469,6 +469,12 @@ pub fn resolve_target(
             film.bins.unwrap_or(b0),
         );
         check_film(w, h)?;
+        if w.saturating_mul(h).saturating_mul(bins) > MAX_VALUES {
+            anyhow::bail!(
+                "a {w} x {h} x {bins} film is too large for a convergence run (at most \
+                 {MAX_VALUES} pixel-bins: the film, its reference and a copy are kept)"
+            );
+        }
         let mut axis = a.default_axis(w, h, bins).map_err(anyhow::Error::msg)?;
         if film.t0_s.is_some() || film.dt_s.is_some() {
             axis = TimeAxis::new(
@@ -555,6 +561,8 @@ pub fn resolve_target(
 
 /// Largest film side a convergence run accepts.
 const MAX_SIDE: usize = 4096;
+/// Largest number of pixel-bins of a convergence run (f64 each, several copies).
+const MAX_VALUES: usize = 1 << 27;
 
 fn check_film(w: usize, h: usize) -> anyhow::Result<()> {
     if w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE {
