@@ -93,9 +93,27 @@ impl Accel {
         let diag = bounds.diagonal_m().max(f32::MIN_POSITIVE);
         let scale = (16384.0 / diag).log2().round().clamp(-120.0, 120.0).exp2();
         let to_bvh = |p: Vec3| (Vec3A::from(p) - origin) * scale;
-        let obvhs_tris: Vec<obvhs::triangle::Triangle> = scene
-            .triangles
+        // Degenerate triangles (no normal: collinear or repeated vertices, or a cross
+        // product that underflows) are left out: they have no side to shade or offset
+        // from, and a zero-area surface must not stop light.
+        let kept: Vec<u32> = (0..scene.triangles.len() as u32)
+            .filter(|&i| {
+                let t = &scene.triangles[i as usize];
+                (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).normalize_or_zero() != Vec3::ZERO
+            })
+            .collect();
+        if kept.is_empty() {
+            return Accel {
+                origin,
+                scale,
+                bvh: None,
+                tris: Vec::new(),
+                scene_index: Vec::new(),
+            };
+        }
+        let obvhs_tris: Vec<obvhs::triangle::Triangle> = kept
             .iter()
+            .map(|&i| &scene.triangles[i as usize])
             .map(|t| obvhs::triangle::Triangle {
                 v0: to_bvh(t.p[0]),
                 v1: to_bvh(t.p[1]),
@@ -109,8 +127,8 @@ impl Accel {
         );
         // obvhs reserves one node per triangle and keeps the spare capacity.
         bvh.nodes.shrink_to_fit();
-        let scene_index = bvh.primitive_indices.clone();
-        let tris = scene_index
+        let tris = bvh
+            .primitive_indices
             .iter()
             .map(|&i| {
                 let t = &obvhs_tris[i as usize];
@@ -121,6 +139,11 @@ impl Accel {
                 }
             })
             .collect();
+        let scene_index = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| kept[i as usize])
+            .collect();
         Accel {
             origin,
             scale,
@@ -130,7 +153,7 @@ impl Accel {
         }
     }
 
-    /// Number of triangles in the BVH.
+    /// Number of triangles in the BVH (the scene's, less the degenerate ones).
     pub fn triangle_count(&self) -> usize {
         self.tris.len()
     }

@@ -39,6 +39,13 @@ pub enum Command {
     /// Measure a rendered cube with a time-of-flight sensor (light pulse, exposure
     /// gates, noise): the paper's TPRF sensor, without re-rendering.
     Sensor(SensorArgs),
+    /// Error against run time: render progressively and compare with a reference at
+    /// checkpoints evenly spaced in log time; writes converge.csv, converge.png and
+    /// summary.md.
+    Converge(ConvergeArgs),
+    /// Stiff and extreme cases against independently derived answers; writes
+    /// stability.md (case, setting, expected, got, relative error, NaN/Inf, verdict).
+    Stability(StabilityArgs),
     /// Open the viewer on a cube folder written by `tprf render` (no rendering), or on a
     /// scene to render (a .gltf/.glb path or builtin:NAME). No argument: the last scene.
     View(ViewArgs),
@@ -96,6 +103,70 @@ pub struct RenderArgs {
     /// The spectral band the one-channel cube records.
     #[arg(long, value_enum, default_value_t = Channel::Gray)]
     pub channel: Channel,
+}
+
+#[derive(Args, Debug)]
+pub struct ConvergeArgs {
+    /// What to render: with an analytic reference leave it out (the reference builds its
+    /// scene); with a .npy reference, the scene it was rendered from (a glTF path or
+    /// builtin:NAME). An analytic:... spec here is its own reference.
+    pub scene: Option<String>,
+    /// analytic:furnace?rho=0.9 (also r, i, light=area, le), analytic:plane (h, rho, i,
+    /// fov, light_h), analytic:oned (world=PATH; default the paper's Figure 4 world), or
+    /// a tprf.npy written by `tprf render` (its tprf.json beside it).
+    #[arg(long)]
+    pub reference: Option<String>,
+    /// Seconds of rendering per estimator setting (a setting's own seconds=S wins).
+    #[arg(long, default_value_t = 10.0)]
+    pub seconds: f64,
+    /// Output folder (created if missing).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// An estimator setting to compare (repeat for several on one plot): `default`, or
+    /// comma-separated nee=on|off, filter=box|tent, rr_start=N, rr_floor=P,
+    /// max_bounces=N, seconds=S. Default: just `default`.
+    #[arg(long = "setting")]
+    pub settings: Vec<String>,
+    /// Film width (default: the reference's).
+    #[arg(long)]
+    pub width: Option<usize>,
+    #[arg(long)]
+    pub height: Option<usize>,
+    #[arg(long)]
+    pub bins: Option<usize>,
+    /// Start of the time window, with a unit (default: the reference's).
+    #[arg(long)]
+    pub t0: Option<String>,
+    /// Bin width, with a unit (default: the reference's).
+    #[arg(long)]
+    pub dt: Option<String>,
+    /// Checkpoints per decade of time.
+    #[arg(long, default_value_t = 8)]
+    pub per_decade: u32,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+#[derive(Args, Debug)]
+pub struct StabilityArgs {
+    /// Output folder (created if missing).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Case sizes: full (larger films, more samples) or test (what the tests run).
+    #[arg(long, value_enum, default_value_t = StabilitySize::Full)]
+    pub size: StabilitySize,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum StabilitySize {
+    Test,
+    Full,
 }
 
 #[derive(Args, Debug)]
@@ -345,6 +416,155 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
             100.0 * e
         ))
     );
+    Ok(())
+}
+
+/// `tprf converge`.
+pub fn converge(a: &ConvergeArgs) -> Result<()> {
+    use crate::report::converge::{
+        EstimatorSetting, FilmRequest, RunConfig, resolve_target, run_setting, summarise,
+        summary_text, write_outputs,
+    };
+    if !(a.seconds.is_finite() && a.seconds > 0.0) {
+        bail!("--seconds must be a positive number (got {})", a.seconds);
+    }
+    if a.threads == Some(0) {
+        bail!("--threads must be at least 1");
+    }
+    if a.per_decade == 0 || a.per_decade > 100 {
+        bail!("--per-decade must be in 1..=100");
+    }
+    let parse = |s: &Option<String>, what: &str| -> Result<Option<f64>> {
+        s.as_deref()
+            .map(parse_time_s)
+            .transpose()
+            .map_err(anyhow::Error::msg)
+            .with_context(|| what.to_string())
+    };
+    let film = FilmRequest {
+        width: a.width,
+        height: a.height,
+        bins: a.bins,
+        t0_s: parse(&a.t0, "--t0")?,
+        dt_s: parse(&a.dt, "--dt")?,
+    };
+    let settings: Vec<EstimatorSetting> = if a.settings.is_empty() {
+        vec![EstimatorSetting::default_setting()]
+    } else {
+        a.settings
+            .iter()
+            .map(|s| EstimatorSetting::parse(s).map_err(anyhow::Error::msg))
+            .collect::<Result<_>>()?
+    };
+    let target = resolve_target(a.scene.as_deref(), a.reference.as_deref(), &film)?;
+    let mut pool = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = a.threads {
+        pool = pool.num_threads(n);
+    }
+    let pool = pool.build().context("cannot start the worker threads")?;
+    let config = RunConfig {
+        seconds: a.seconds,
+        per_decade: a.per_decade,
+        base: RenderSettings {
+            seed: a.seed,
+            channel: target.channel,
+            ..RenderSettings::default()
+        },
+        ..RunConfig::default()
+    };
+    let r = &target.reference;
+    eprintln!(
+        "{}: {} x {} pixels, {} bins of {} from {}; {} setting(s), {} s each",
+        target.label,
+        r.width,
+        r.height,
+        r.axis.bins,
+        format_time(r.axis.dt_s),
+        format_time(r.axis.t0_s),
+        settings.len(),
+        a.seconds
+    );
+    let scene = Arc::new(target.scene);
+    let mut all = Vec::new();
+    let mut summaries = Vec::new();
+    for s in &settings {
+        let checkpoints = pool
+            .install(|| {
+                run_setting(&scene, s, &config, r, |c| {
+                    eprintln!(
+                        "  {:<24} {:>8.2} s {:>8} spp  error {:.3e}  estimate {}",
+                        c.setting,
+                        c.seconds,
+                        c.spp,
+                        c.rel_l2_cube,
+                        c.half_estimate
+                            .map_or("-".to_string(), |e| format!("{e:.3e}"))
+                    )
+                })
+            })
+            .map_err(anyhow::Error::msg)?;
+        summaries.extend(summarise(&checkpoints));
+        all.extend(checkpoints);
+    }
+    let title = format!(
+        "{}: {} x {} x {} bins",
+        target.label, r.width, r.height, r.axis.bins
+    );
+    write_outputs(&a.out, &title, &all, &summaries)?;
+    eprint!("{}", summary_text(&summaries));
+    eprintln!("wrote {}", a.out.display());
+    Ok(())
+}
+
+/// `tprf stability`.
+pub fn stability(a: &StabilityArgs) -> Result<()> {
+    use crate::report::stability::{Size, cases, markdown};
+    if a.threads == Some(0) {
+        bail!("--threads must be at least 1");
+    }
+    let size = match a.size {
+        StabilitySize::Test => Size::Test,
+        StabilitySize::Full => Size::Full,
+    };
+    let mut pool = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = a.threads {
+        pool = pool.num_threads(n);
+    }
+    let pool = pool.build().context("cannot start the worker threads")?;
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("cannot create {}", a.out.display()))?;
+    let start = Instant::now();
+    let mut rows = Vec::new();
+    for (name, case) in cases() {
+        let t = Instant::now();
+        let r = pool.install(|| case(size));
+        let failed = r.iter().filter(|r| !r.passed()).count();
+        eprintln!(
+            "{name}: {} rows, {failed} failed, {:.1} s",
+            r.len(),
+            t.elapsed().as_secs_f64()
+        );
+        rows.extend(r);
+    }
+    let table = markdown(&rows);
+    let text = format!(
+        "# tprf stability ({:?} size, {:.0} s on {} threads)\n\n{table}",
+        size,
+        start.elapsed().as_secs_f64(),
+        pool.current_num_threads()
+    );
+    let path = a.out.join("stability.md");
+    export::write_atomic(&path, |w| {
+        use std::io::Write;
+        w.write_all(text.as_bytes())?;
+        Ok(())
+    })?;
+    print!("{table}");
+    let failed = rows.iter().filter(|r| !r.passed()).count();
+    eprintln!("wrote {}", path.display());
+    if failed > 0 {
+        bail!("{failed} of {} stability checks failed", rows.len());
+    }
     Ok(())
 }
 
@@ -789,6 +1009,8 @@ pub fn main() -> std::process::ExitCode {
     let result = match &cli.command {
         Some(Command::Render(a)) => render(a),
         Some(Command::Oned(a)) => oned(a),
+        Some(Command::Converge(a)) => converge(a),
+        Some(Command::Stability(a)) => stability(a),
         Some(Command::View(a)) => view(a),
         Some(Command::Sensor(a)) => sensor(a),
         None => view(&ViewArgs { what: None }),

@@ -11,6 +11,8 @@ pub mod cli;
 pub mod export;
 pub mod film;
 pub mod oned;
+pub mod reference;
+pub mod report;
 pub mod scene;
 pub mod sensor;
 pub mod transport;

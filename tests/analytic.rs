@@ -5,55 +5,8 @@
 mod common;
 use common::*;
 use tprf::film::TimeAxis;
-
-/// Exact pixel mean (midpoint rule on an n x n grid over the footprint) of the
-/// single-bounce radiance `L = rho I h / (pi r^3)` and its energy-weighted arrival
-/// `2 r / c`, for a camera at height h looking straight down at z = 0 with the light at
-/// the camera. Image point (sx, sy) on the plane z = -1 hits the ground at distance
-/// `r = h sqrt(1 + sx^2 + sy^2)`.
-/// Also returns the standard deviations of L and of 2r/c over the footprint (what one
-/// jittered sample scatters by), for tolerances from the sample count.
-#[allow(clippy::too_many_arguments)] // a reference formula with its geometry spelled out
-fn plane_reference(
-    x: usize,
-    y: usize,
-    w: usize,
-    h_px: usize,
-    h_m: f64,
-    rho: f64,
-    i: f64,
-    fov_deg: f64,
-) -> [f64; 4] {
-    let n = 32;
-    let (mut sum_l2, mut sum_t, mut sum_t2) = (0.0, 0.0, 0.0);
-    let tan_half = (0.5 * fov_deg.to_radians()).tan();
-    let aspect = w as f64 / h_px as f64;
-    let (mut sum_l, mut sum_lt) = (0.0, 0.0);
-    for a in 0..n {
-        for b in 0..n {
-            let px = x as f64 + (a as f64 + 0.5) / n as f64;
-            let py = y as f64 + (b as f64 + 0.5) / n as f64;
-            let sx = (2.0 * px / w as f64 - 1.0) * tan_half * aspect;
-            let sy = (1.0 - 2.0 * py / h_px as f64) * tan_half;
-            let r = h_m * (1.0 + sx * sx + sy * sy).sqrt();
-            let l = rho * i * h_m / (std::f64::consts::PI * r * r * r);
-            let t = 2.0 * r / C;
-            sum_l += l;
-            sum_lt += l * t;
-            sum_l2 += l * l;
-            sum_t += t;
-            sum_t2 += t * t;
-        }
-    }
-    let m = (n * n) as f64;
-    let sd = |s: f64, s2: f64| (s2 / m - (s / m) * (s / m)).max(0.0).sqrt();
-    [
-        sum_l / m,
-        sum_lt / sum_l,
-        sd(sum_l, sum_l2),
-        sd(sum_t, sum_t2),
-    ]
-}
+use tprf::reference::furnace::Furnace;
+use tprf::reference::plane::Plane;
 
 #[test]
 fn plane_lit_by_colocated_light_matches_single_bounce_answer() {
@@ -67,8 +20,11 @@ fn plane_lit_by_colocated_light_matches_single_bounce_answer() {
     let film = &r.film;
     for y in 0..hp {
         for x in 0..w {
-            let [l_ref, t_ref, l_sd, t_sd] =
-                plane_reference(x, y, w, hp, h_m as f64, rho as f64, i as f64, fov as f64);
+            // The single-bounce answer `L = rho I h / (pi r^3)` at `t = 2 r / c`, integrated
+            // over the pixel footprint (tprf::reference::plane).
+            let m = Plane::colocated(h_m as f64, rho as f64, i as f64, 50.0, fov as f64)
+                .pixel_moments(x, y, w, hp);
+            let (l_ref, t_ref, l_sd, t_sd) = (m.mean, m.mean_arrival_s, m.sd, m.sd_arrival_s);
             let tprf = film.pixel_tprf(x, y);
             let steady: f64 = tprf.iter().sum();
             assert!(
@@ -97,61 +53,11 @@ fn plane_lit_by_colocated_light_matches_single_bounce_answer() {
     }
 }
 
-/// Semi-analytic transient furnace. With light and eye at the centre of a diffuse sphere
-/// of radius R and albedo rho, the k-th scattering term has steady radiance
-/// `rho^k I / (pi R^2)` and arrives at `(2R + S_{k-1}) / c`, where `S_{k-1}` is the sum
-/// of k-1 independent chords with density `d / (2 R^2)` on [0, 2R] (cosine-distributed
-/// directions). The chord sums are convolved numerically on a fine grid; returns the
-/// expected bin integrals on `axis`.
+/// Semi-analytic transient furnace (tprf::reference::furnace): the k-th scattering term
+/// has steady radiance `rho^k I / (pi R^2)` and arrives at `(2R + S_{k-1}) / c`, `S_{k-1}`
+/// the sum of k-1 independent chords with density `d / (2 R^2)` on [0, 2R].
 fn furnace_reference(r_m: f64, rho: f64, i: f64, axis: &TimeAxis) -> Vec<f64> {
-    let cell_m = r_m / 400.0;
-    let horizon_m = axis.end_s() * C;
-    let cells = (horizon_m / cell_m).ceil() as usize + 1;
-    // Chord-length mass per cell from the CDF d^2 / (4 R^2).
-    let kernel: Vec<f64> = (0..800)
-        .map(|j| {
-            let a = j as f64 * cell_m;
-            let b = a + cell_m;
-            (b * b - a * a) / (4.0 * r_m * r_m)
-        })
-        .collect();
-    let l1 = rho * i / (std::f64::consts::PI * r_m * r_m);
-    let mut out = vec![0.0; axis.bins];
-    // k = 1: S_0 = 0 exactly (not a cell centre).
-    if let Some(b) = axis.bin_of(2.0 * r_m / C) {
-        out[b] += l1;
-    }
-    let mut add = |dist: &[f64], weight: f64| {
-        for (j, &m) in dist.iter().enumerate() {
-            if m == 0.0 {
-                continue;
-            }
-            // Cell j holds sums in [j, j+1) cells; its mass sits at the cell centre.
-            let opl = 2.0 * r_m + (j as f64 + 0.5) * cell_m;
-            if let Some(b) = axis.bin_of(opl / C) {
-                out[b] += weight * m;
-            }
-        }
-    };
-    let mut dist = kernel.clone();
-    let mut weight = l1 * rho;
-    while weight > 1e-9 * l1 {
-        add(&dist, weight);
-        let mut next = vec![0.0; cells.min(dist.len() + kernel.len())];
-        for (a, &da) in dist.iter().enumerate() {
-            if da < 1e-300 {
-                continue;
-            }
-            for (b, &kb) in kernel.iter().enumerate() {
-                if let Some(n) = next.get_mut(a + b) {
-                    *n += da * kb;
-                }
-            }
-        }
-        dist = next;
-        weight *= rho;
-    }
-    out
+    Furnace::point(r_m, rho, i).tprf(axis)
 }
 
 fn check_furnace(rho: f32) {
@@ -234,6 +140,114 @@ fn furnace_total_energy_matches_closed_form() {
 /// `Le (1 - F)^2`, then after 2k internal reflections with `Le (1 - F)^2 F^(2k)`, where
 /// F = ((n - 1) / (n + 1))^2 at normal incidence; the k-th arrives at
 /// `(1 m + (2k + 1) n d + gap) / c`: the slab delays by n d / c per crossing.
+/// Mean TPRF over all pixels of a film.
+fn mean_tprf(film: &tprf::film::TprfFilm) -> Vec<f64> {
+    let l = film.layout();
+    let n = l.pixels() as f64;
+    let mut mean = vec![0.0; l.axis.bins];
+    for y in 0..l.height {
+        for x in 0..l.width {
+            for (m, v) in mean.iter_mut().zip(film.pixel_tprf(x, y)) {
+                *m += v / n;
+            }
+        }
+    }
+    mean
+}
+
+/// The furnace lit by its own wall (radiance Le, pulsed at t = 0): `Le` at `R / c`, then
+/// `rho^k Le` spread over `(R + S_k) / c`; total `Le / (1 - rho)`. With next-event
+/// estimation (emitter sampling + MIS) and without (BSDF sampling only) alike.
+#[test]
+fn emitting_furnace_matches_the_renewal_reference_with_and_without_nee() {
+    use tprf::transport::RenderSettings;
+    let f = Furnace::emitting(1.0, 0.8, 1.5);
+    let axis = f.default_axis(60).unwrap();
+    let reference = f.tprf(&axis);
+    let total_ref: f64 = reference.iter().sum();
+    let peak = reference.iter().skip(1).cloned().fold(0.0, f64::max);
+    for nee in [true, false] {
+        let settings = RenderSettings {
+            seed: 21,
+            nee,
+            ..RenderSettings::default()
+        };
+        let r = render_with(f.scene(), 8, 8, axis, 256, settings, 0);
+        let mean = mean_tprf(&r.film);
+        let total: f64 = mean.iter().sum();
+        let totals = r.film.steady();
+        let var = totals.iter().map(|t| (t - total).powi(2)).sum::<f64>() / 63.0;
+        let se = (var / 64.0).sqrt();
+        assert!(
+            (total - total_ref).abs() < 4.0 * se + 0.005 * total_ref,
+            "nee {nee}: energy {total} vs {total_ref} (se {se})"
+        );
+        for (b, (got, want)) in mean.iter().zip(&reference).enumerate() {
+            assert!(
+                (got - want).abs() < 0.03 * peak + 0.03 * want,
+                "nee {nee}: bin {b}: {got} vs {want} (peak {peak})"
+            );
+        }
+    }
+}
+
+/// The paper's Figure 4 world built in 3-D (mirrors with alpha coverage, an emitting
+/// plane at L): every bin against the exact impulse train of tprf::oned.
+#[test]
+fn oned_world_in_3d_matches_the_exact_impulse_train() {
+    use tprf::reference::oned_scene::{OnedScene, figure4_world};
+    let o = OnedScene::new(figure4_world()).unwrap();
+    let axis = o.default_axis(256).unwrap();
+    let reference = o.tprf(&axis);
+    let spp = 4096;
+    let r = render_scene(o.scene(), 2, 2, axis, spp, 5, 0);
+    let mean = mean_tprf(&r.film);
+    let n = 4.0 * spp as f64;
+    let mut checked = 0;
+    for (b, (got, want)) in mean.iter().zip(&reference).enumerate() {
+        // Each sample adds at most 1 to a bin: variance <= mean.
+        let tol = 5.0 * (want / n).sqrt() + 1e-3 * want + 1e-9;
+        assert!((got - want).abs() < tol, "bin {b}: {got} vs {want}");
+        checked += usize::from(*want > 1e-3);
+    }
+    assert!(
+        checked >= 4,
+        "only {checked} impulses above 1e-3 in the window"
+    );
+    let (total, want): (f64, f64) = (mean.iter().sum(), reference.iter().sum());
+    assert!(
+        (total - want).abs() < 5.0 * (want / n).sqrt(),
+        "{total} vs {want}"
+    );
+}
+
+/// Russian roulette with a survival floor, and no roulette at all, stay unbiased: the
+/// furnace's energy in a window holding all but 1e-6 of it is `rho I / (pi R^2 (1 - rho))`.
+#[test]
+fn russian_roulette_floor_and_no_roulette_are_unbiased() {
+    use tprf::transport::RenderSettings;
+    let f = Furnace::point(1.0, 0.7, 1.0);
+    let axis = TimeAxis::new(0.0, 100.0 / C, 1).unwrap();
+    for (rr_start, floor) in [(1, 0.5f32), (0, 0.9), (2, 1.0)] {
+        let settings = RenderSettings {
+            seed: 77,
+            rr_start,
+            rr_min_survival: floor,
+            ..RenderSettings::default()
+        };
+        let r = render_with(f.scene(), 8, 8, axis, 128, settings, 0);
+        let totals = r.film.steady();
+        let mean = totals.iter().sum::<f64>() / 64.0;
+        let var = totals.iter().map(|t| (t - mean).powi(2)).sum::<f64>() / 63.0;
+        let se = (var / 64.0).sqrt();
+        let want = f.energy();
+        assert!(
+            (mean - want).abs() < 4.0 * se + 0.003 * want,
+            "rr_start {rr_start}, floor {floor}: {mean} vs {want} (se {se})"
+        );
+    }
+}
+
 #[test]
 fn glass_slab_delays_by_n_d_over_c() {
     use glam::{Affine3A, Vec3};

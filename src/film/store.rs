@@ -6,7 +6,7 @@
 //! pixel's radiance (W / (m^2 sr) times seconds per unit pulse energy... i.e. summed over
 //! bins it is the steady-state radiance for a unit pulse; DESIGN.md).
 
-use super::{FilmSnapshot, TimeAxis};
+use super::{FilmSnapshot, TimeAxis, TimeFilter};
 use rayon::prelude::*;
 
 /// The shape of a film.
@@ -53,16 +53,34 @@ pub struct PixelSink<'a> {
     layout: FilmLayout,
     bins: &'a mut [f64],
     bounce_bins: &'a mut [f64],
+    filter: TimeFilter,
     /// Sum of contributions that arrived before or after the window (for diagnostics).
     pub outside: f64,
 }
 
 impl PixelSink<'_> {
     /// Add one contribution `value` (radiance of one sample, W / (m^2 sr) per unit pulse
-    /// energy) arriving at `arrival_s` after `scatterings` scattering events. A box time
-    /// filter: the whole value lands in the bin holding `arrival_s`.
+    /// energy) arriving at `arrival_s` after `scatterings` scattering events, binned by
+    /// the film's [`TimeFilter`] (box: the whole value in the bin holding `arrival_s`).
     #[inline]
     pub fn add(&mut self, arrival_s: f64, value: f64, scatterings: u32) {
+        if self.filter == TimeFilter::Tent {
+            match self.axis.tent_split(arrival_s) {
+                Some(split) => {
+                    let l = self.layout.layer_of(scatterings) * self.axis.bins;
+                    for (b, w) in split {
+                        if w > 0.0 {
+                            self.bins[b] += w * value;
+                            if !self.bounce_bins.is_empty() {
+                                self.bounce_bins[l + b] += w * value;
+                            }
+                        }
+                    }
+                }
+                None => self.outside += value,
+            }
+            return;
+        }
         match self.axis.bin_of(arrival_s) {
             Some(b) => {
                 self.bins[b] += value;
@@ -93,6 +111,7 @@ pub struct TprfFilm {
     /// Samples per pixel in each half.
     spp: [u64; 2],
     passes: u64,
+    filter: TimeFilter,
 }
 
 impl TprfFilm {
@@ -136,7 +155,19 @@ impl TprfFilm {
             bounces: alloc(n * layout.bounce_layers())?,
             spp: [0, 0],
             passes: 0,
+            filter: TimeFilter::Box,
         })
+    }
+
+    /// The film with time filter `filter` (default [`TimeFilter::Box`]); set it before
+    /// the first pass.
+    pub fn with_time_filter(mut self, filter: TimeFilter) -> TprfFilm {
+        self.filter = filter;
+        self
+    }
+
+    pub fn time_filter(&self) -> TimeFilter {
+        self.filter
     }
 
     pub fn layout(&self) -> &FilmLayout {
@@ -174,6 +205,7 @@ impl TprfFilm {
         let w = layout.width;
         let layers = layout.bounce_layers();
         let half = (self.passes % 2) as usize;
+        let filter = self.filter;
         let rows = self.halves[half].par_chunks_mut(w * t);
         let outside: f64 = if layers == 0 {
             rows.enumerate()
@@ -185,6 +217,7 @@ impl TprfFilm {
                             layout,
                             bins,
                             bounce_bins: &mut [],
+                            filter,
                             outside: 0.0,
                         })
                         .collect();
@@ -206,6 +239,7 @@ impl TprfFilm {
                             layout,
                             bins,
                             bounce_bins,
+                            filter,
                             outside: 0.0,
                         })
                         .collect();
@@ -243,6 +277,16 @@ impl TprfFilm {
         let base = (y * self.layout.width + x) * layers * t;
         (0..layers)
             .map(|l| (0..t).map(|b| self.bounces[base + l * t + b] / n).collect())
+            .collect()
+    }
+
+    /// The whole cube `[H, W, T]` in f64 (row 0 = top): means over all samples.
+    pub fn cube_f64(&self) -> Vec<f64> {
+        let n = self.spp().max(1) as f64;
+        self.halves[0]
+            .par_iter()
+            .zip(self.halves[1].par_iter())
+            .map(|(a, b)| (a + b) / n)
             .collect()
     }
 

@@ -60,6 +60,11 @@ pub struct RenderSettings {
     pub nee: bool,
     /// Scattering events before Russian roulette starts.
     pub rr_start: u32,
+    /// Smallest survival probability of Russian roulette. 0 (the default): a path
+    /// survives with its throughput capped at 1; 1: no roulette (paths end only at
+    /// `max_bounces` or the window's end). A floor between trades time for less
+    /// roulette noise; every value is unbiased.
+    pub rr_min_survival: f32,
 }
 
 impl Default for RenderSettings {
@@ -70,6 +75,7 @@ impl Default for RenderSettings {
             channel: Channel::Gray,
             nee: true,
             rr_start: 3,
+            rr_min_survival: 0.0,
         }
     }
 }
@@ -287,6 +293,7 @@ impl Renderer {
                     &bsdf,
                     &frame,
                     wo,
+                    sp.position,
                     p_out,
                     sp.n_face,
                     opl_m,
@@ -319,7 +326,7 @@ impl Renderer {
             dir = wi_world.normalize();
             // Russian roulette: stop when the remaining flux is small (unbiased).
             if scatterings >= s.rr_start {
-                let q = throughput.min(1.0);
+                let q = throughput.min(1.0).max(s.rr_min_survival.min(1.0));
                 if !(q > 0.0) || rng.uniform() >= q {
                     break;
                 }
@@ -335,6 +342,11 @@ impl Renderer {
     /// Next-event estimation at a vertex with outgoing `wo` (local): every punctual light
     /// and one power-sampled point on the emitters (MIS against BSDF sampling). The
     /// contribution arrives at `(opl_m + n d) / c` with `scatterings` events.
+    ///
+    /// Directions, distances and cosines are taken from the surface point `p` itself;
+    /// only the shadow ray starts from the offset point `p_out`. (Taken from `p_out`, a
+    /// light closer to the surface than the ray offset would lie behind the origin and
+    /// light nothing.)
     #[allow(clippy::too_many_arguments)]
     fn next_event(
         &self,
@@ -342,6 +354,7 @@ impl Renderer {
         frame: &Frame,
         wo: Vec3,
         p: Vec3,
+        p_out: Vec3,
         n_face: Vec3,
         opl_m: f64,
         ior_here: f32,
@@ -368,8 +381,9 @@ impl Renderer {
                 continue;
             }
             rays += 1;
-            sink.ray(p, wi_world, d, RayKind::Shadow);
-            let tr = self.transmittance(p, wi_world, d);
+            let t_max = (light.position - p_out).dot(wi_world);
+            sink.ray(p_out, wi_world, t_max, RayKind::Shadow);
+            let tr = self.transmittance(p_out, wi_world, t_max);
             if tr > 0.0 {
                 let cos_i = frame.to_local(wi_world).z;
                 let value = throughput * f * cos_i * intensity / d2 * tr;
@@ -400,9 +414,10 @@ impl Renderer {
                         let (f, pdf_bsdf) = bsdf.eval(wo, wi);
                         if f > 0.0 {
                             rays += 1;
-                            let t_max = d - 2.0 * self.offset_m(es.position);
-                            sink.ray(p, wi_world, t_max, RayKind::Shadow);
-                            let tr = self.transmittance(p, wi_world, t_max);
+                            let t_max = (es.position - p_out).dot(wi_world)
+                                - 2.0 * self.offset_m(es.position);
+                            sink.ray(p_out, wi_world, t_max, RayKind::Shadow);
+                            let tr = self.transmittance(p_out, wi_world, t_max);
                             if tr > 0.0 {
                                 let pdf_light = es.pdf_area * d2 / cos_l;
                                 let w = power_heuristic(pdf_light, pdf_bsdf);
@@ -423,8 +438,11 @@ impl Renderer {
 
     /// Fraction of light passing straight from `p` along unit `dir` for `dist_m`: the
     /// product of `1 - coverage` of the partly covered surfaces crossed; 0 when an opaque
-    /// or refracting surface is in the way.
+    /// or refracting surface is in the way. 1 for `dist_m <= 0` (nothing fits in between).
     fn transmittance(&self, p: Vec3, dir: Vec3, dist_m: f32) -> f32 {
+        if !(dist_m > 0.0) {
+            return 1.0;
+        }
         let mut tr = 1.0f32;
         let blocked = self.accel.any_hit(p, dir, dist_m, |hit| {
             if self.surfaces.blocks_shadow_rays(hit.triangle) {

@@ -1,10 +1,12 @@
 //! Scenes built by hand for the analytic tests, and a one-call render.
 #![allow(dead_code)]
 
-use glam::{Affine3A, Vec2, Vec3};
+use glam::{Vec2, Vec3};
 use std::sync::Arc;
 use tprf::film::{FilmLayout, TimeAxis, TprfFilm};
-use tprf::scene::{Camera, Material, PunctualLight, Scene, Triangle, TriangleAttrs};
+use tprf::reference::furnace::Furnace;
+use tprf::reference::plane::Plane;
+use tprf::scene::{Camera, Scene, Triangle, TriangleAttrs};
 use tprf::transport::progressive::{Budget, render};
 use tprf::transport::{RenderSettings, Renderer};
 
@@ -32,112 +34,24 @@ pub fn push_tri(scene: &mut Scene, p: [Vec3; 3], material: u32) {
     });
 }
 
-/// An icosphere of radius `r_m` (subdivided `level` times), vertices on the sphere.
-pub fn icosphere(r_m: f32, level: u32) -> Vec<[Vec3; 3]> {
-    let t = (1.0 + 5f32.sqrt()) / 2.0;
-    let v = [
-        Vec3::new(-1.0, t, 0.0),
-        Vec3::new(1.0, t, 0.0),
-        Vec3::new(-1.0, -t, 0.0),
-        Vec3::new(1.0, -t, 0.0),
-        Vec3::new(0.0, -1.0, t),
-        Vec3::new(0.0, 1.0, t),
-        Vec3::new(0.0, -1.0, -t),
-        Vec3::new(0.0, 1.0, -t),
-        Vec3::new(t, 0.0, -1.0),
-        Vec3::new(t, 0.0, 1.0),
-        Vec3::new(-t, 0.0, -1.0),
-        Vec3::new(-t, 0.0, 1.0),
-    ];
-    let f = [
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    let mut tris: Vec<[Vec3; 3]> = f
-        .iter()
-        .map(|i| {
-            [
-                v[i[0]].normalize(),
-                v[i[1]].normalize(),
-                v[i[2]].normalize(),
-            ]
-        })
-        .collect();
-    for _ in 0..level {
-        tris = tris
-            .iter()
-            .flat_map(|&[a, b, c]| {
-                let ab = (a + b).normalize();
-                let bc = (b + c).normalize();
-                let ca = (c + a).normalize();
-                [[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]
-            })
-            .collect();
-    }
-    tris.iter().map(|t| t.map(|p| p * r_m)).collect()
-}
-
 /// Closed Lambertian sphere of radius `r_m` and albedo `rho`, with a point light of
 /// intensity `i_w_per_sr` and the camera both at the centre.
 pub fn furnace(r_m: f32, rho: f32, i_w_per_sr: f32) -> Scene {
-    let cam = Camera::look_at(Vec3::ZERO, Vec3::new(0.0, 0.0, -1.0), 60f32.to_radians());
-    let mut s = empty_scene(cam);
-    s.materials.push(Material::lambertian("wall", [rho; 3]));
-    for t in icosphere(r_m, 5) {
-        push_tri(&mut s, t, 0);
-    }
-    s.lights.push(PunctualLight {
-        name: "centre".into(),
-        position: Vec3::ZERO,
-        intensity_w_per_sr: [i_w_per_sr; 3],
-        spot: None,
-    });
-    s
+    Furnace::point(r_m as f64, rho as f64, i_w_per_sr as f64).scene()
 }
 
 /// A square Lambertian plane z = 0 of half-size `half_m`, albedo `rho`; camera at height
 /// `h_m` looking straight down with vertical fov `fov_deg`; point light of intensity
 /// `i_w_per_sr` at the camera.
 pub fn lit_plane(h_m: f32, rho: f32, i_w_per_sr: f32, half_m: f32, fov_deg: f32) -> Scene {
-    let eye = Vec3::new(0.0, 0.0, h_m);
-    let world_from_camera = Affine3A::from_translation(eye);
-    let cam = Camera {
-        world_from_camera,
-        yfov_rad: fov_deg.to_radians(),
-    };
-    let mut s = empty_scene(cam);
-    s.materials.push(Material::lambertian("plane", [rho; 3]));
-    let a = Vec3::new(-half_m, -half_m, 0.0);
-    let b = Vec3::new(half_m, -half_m, 0.0);
-    let c = Vec3::new(half_m, half_m, 0.0);
-    let d = Vec3::new(-half_m, half_m, 0.0);
-    push_tri(&mut s, [a, b, c], 0);
-    push_tri(&mut s, [a, c, d], 0);
-    s.lights.push(PunctualLight {
-        name: "colocated".into(),
-        position: eye,
-        intensity_w_per_sr: [i_w_per_sr; 3],
-        spot: None,
-    });
-    s
+    Plane::colocated(
+        h_m as f64,
+        rho as f64,
+        i_w_per_sr as f64,
+        half_m as f64,
+        fov_deg as f64,
+    )
+    .scene()
 }
 
 pub struct Rendered {
@@ -159,6 +73,19 @@ pub fn render_scene(
         seed,
         ..RenderSettings::default()
     };
+    render_with(scene, w, h, axis, spp, settings, bounces_separate)
+}
+
+/// Render `scene` at `w x h` with `spp` samples on the given axis with `settings`.
+pub fn render_with(
+    scene: Scene,
+    w: usize,
+    h: usize,
+    axis: TimeAxis,
+    spp: u64,
+    settings: RenderSettings,
+    bounces_separate: u32,
+) -> Rendered {
     let renderer = Renderer::new(Arc::new(scene), settings);
     let mut film = TprfFilm::new(FilmLayout {
         width: w,

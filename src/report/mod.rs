@@ -1,0 +1,12 @@
+//! Reports: measurements of the renderer for people and papers. A report reads the
+//! transport and the film (and the references); the renderer knows nothing of reports.
+//!
+//! - [`converge`]: error against run time for several estimator settings, against an
+//!   exact reference or a long render (`tprf converge`).
+//! - [`stability`]: stiff and extreme cases, each against an answer derived
+//!   independently (`tprf stability`).
+//! - [`plot`]: the log-log convergence plot.
+
+pub mod converge;
+pub mod plot;
+pub mod stability;
