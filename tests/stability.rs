@@ -63,3 +63,13 @@ fn cli_writes_the_table() {
     );
     assert!(!md.contains("| FAIL |"));
 }
+
+#[test]
+fn pulses_and_gates_conserve_energy_or_measure_exactly_zero() {
+    all_pass(tprf::report::sensor_cases::pulses_and_gates(Size::Test));
+}
+
+#[test]
+fn sensor_noise_and_huge_values_stay_finite_and_non_negative() {
+    all_pass(tprf::report::sensor_cases::sensor_extremes(Size::Test));
+}

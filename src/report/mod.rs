@@ -5,8 +5,10 @@
 //!   exact reference or a long render (`tprf converge`).
 //! - [`stability`]: stiff and extreme cases, each against an answer derived
 //!   independently (`tprf stability`).
+//! - [`sensor_cases`]: the suite's sensor rows (pulses, gates, noise, huge values).
 //! - [`plot`]: the log-log convergence plot.
 
 pub mod converge;
 pub mod plot;
+pub mod sensor_cases;
 pub mod stability;

@@ -143,6 +143,8 @@ pub fn cases() -> Vec<(&'static str, Case)> {
         ("point light near a wall", light_near_wall),
         ("grazing angles", grazing),
         ("coincident and degenerate faces", bad_faces),
+        ("pulses and gates", super::sensor_cases::pulses_and_gates),
+        ("sensor extremes", super::sensor_cases::sensor_extremes),
     ]
 }
 

@@ -321,7 +321,8 @@ impl Exposure {
                 ..
             } => {
                 let start = finite("exposure.start_s", *start_s)?;
-                let width = positive("exposure.width_s", *width_s)?;
+                // A zero-width gate is allowed: it is open for no time and measures 0.
+                let width = non_negative("exposure.width_s", *width_s)?;
                 let step = finite("exposure.step_s", step_s.unwrap_or(width))?;
                 let gain = non_negative("exposure.gain", *gain)?;
                 (0..n)
@@ -397,7 +398,7 @@ impl Exposure {
                 )));
             }
             if let Gate::Box { start_s, end_s, .. } = g
-                && !(start_s.is_finite() && end_s.is_finite() && end_s > start_s)
+                && !(start_s.is_finite() && end_s.is_finite() && end_s >= start_s)
             {
                 return Err(SensorError::Invalid(format!(
                     "exposure gate {i}: [{start_s}, {end_s}) s is not a representable interval"

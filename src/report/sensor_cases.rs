@@ -1,0 +1,368 @@
+//! The sensor's rows of the stability suite: pulses and gates at extreme widths, and
+//! noise and values at extreme sizes. The TPRF cubes here are made by hand (impulses
+//! of known weight in known bins), so every expected value is exact or a closed form.
+
+use super::stability::{Check, Row, Size};
+use crate::film::TimeAxis;
+use crate::sensor::{Exposure, LightPulse, Noise, Sensor, SensorModel, TimeOrigin};
+
+/// A cube `[h, w, T]` where pixel `p` holds weight `(p + 1)` split over three bins
+/// (0.5, 0.3, 0.2 of it) near the middle of the window; returns it with its per-pixel
+/// energies.
+fn impulse_cube(w: usize, h: usize, bins: usize) -> (Vec<f32>, Vec<f64>) {
+    let mut cube = vec![0.0f32; w * h * bins];
+    let mut energy = Vec::with_capacity(w * h);
+    for p in 0..w * h {
+        let e = (p + 1) as f64;
+        let b0 = bins / 3 + p % (bins / 3);
+        for (k, f) in [0.5, 0.3, 0.2].into_iter().enumerate() {
+            cube[p * bins + b0 + 7 * k] = (e * f) as f32;
+        }
+        energy.push(
+            cube[p * bins..(p + 1) * bins]
+                .iter()
+                .map(|&v| v as f64)
+                .sum(),
+        );
+    }
+    (cube, energy)
+}
+
+fn box_gate(origin: TimeOrigin, start_s: f64, width_s: f64) -> Exposure {
+    Exposure::Box {
+        origin,
+        start_s,
+        width_s,
+        step_s: None,
+        count: 1,
+        gain: 1.0,
+    }
+}
+
+/// Measure `cube` with `sensor`: (measurements, count of NaN/Inf), or the error text.
+fn measure(
+    sensor: Sensor,
+    axis: TimeAxis,
+    cube: &[f32],
+    w: usize,
+    h: usize,
+) -> Result<(Vec<f32>, u64), String> {
+    let model = SensorModel::new(sensor, axis).map_err(|e| e.to_string())?;
+    let m = model.measure(cube, w, h).map_err(|e| e.to_string())?;
+    let bad = m.values.iter().filter(|v| !v.is_finite()).count() as u64;
+    Ok((m.values, bad))
+}
+
+/// A row from a measurement that may have failed (a failure is a FAIL row saying why).
+fn row(
+    case: &str,
+    setting: String,
+    check: Check,
+    got: Result<(f64, u64), String>,
+    note: &str,
+) -> Row {
+    match got {
+        Ok((got, non_finite)) => Row {
+            case: case.into(),
+            setting,
+            check,
+            got,
+            non_finite,
+            note: note.into(),
+        },
+        Err(e) => Row {
+            case: case.into(),
+            setting,
+            check,
+            got: f64::NAN,
+            non_finite: 0,
+            note: format!("error: {e}"),
+        },
+    }
+}
+
+/// Largest relative deviation of `m` from `expected` (per pixel).
+fn max_rel(m: &[f32], expected: &[f64]) -> f64 {
+    m.iter()
+        .zip(expected)
+        .map(|(&g, &e)| (g as f64 - e).abs() / e.abs().max(1e-300))
+        .fold(0.0, f64::max)
+}
+
+/// Pulses and gates: energy conserved through a gate that holds all the light, for a
+/// delta and for Gaussians from 1e-3 to 1e3 bins wide; exactly zero through a gate of
+/// zero width and through gates before or after all the light.
+pub fn pulses_and_gates(size: Size) -> Vec<Row> {
+    let (w, h, bins) = match size {
+        Size::Test => (4, 4, 64),
+        Size::Full => (64, 64, 1024),
+    };
+    let dt = 1e-9;
+    let axis = TimeAxis::new(0.0, dt, bins).expect("a valid axis");
+    let (cube, energy) = impulse_cube(w, h, bins);
+    let window = bins as f64 * dt;
+    let case = "pulses and gates";
+    let mut rows = Vec::new();
+
+    // Delta light, one gate over the window: M = the pixel's energy.
+    let s = Sensor::new(
+        LightPulse::default(),
+        box_gate(TimeOrigin::Window, 0.0, window),
+    );
+    rows.push(row(
+        case,
+        "delta light, whole-window gate: max relative error of M over pixels".into(),
+        Check::AtMost { bound: 1e-6 },
+        measure(s, axis, &cube, w, h).map(|(m, bad)| (max_rel(&m, &energy), bad)),
+        "M = sum of the TPRF (f32 sums)",
+    ));
+
+    // Gaussian pulses centred at the trigger, a gate holding +-12 FWHM around the window.
+    for bins_wide in [1e-3, 1e-2, 1e-1, 1.0, 10.0, 100.0, 1e3] {
+        let fwhm = bins_wide * dt;
+        let margin = 12.0 * fwhm;
+        let s = Sensor::new(
+            LightPulse::Gaussian {
+                centre_s: 0.0,
+                fwhm_s: fwhm,
+                energy: 1.0,
+            },
+            box_gate(TimeOrigin::Pulse, -margin, window + 2.0 * margin),
+        );
+        rows.push(row(
+            case,
+            format!(
+                "Gaussian FWHM {bins_wide:e} bins, gate over all light: max relative error of M"
+            ),
+            Check::AtMost { bound: 1e-6 },
+            measure(s, axis, &cube, w, h).map(|(m, bad)| (max_rel(&m, &energy), bad)),
+            "energy conserved; Gaussian tails beyond 12 FWHM are < 1e-100",
+        ));
+    }
+
+    // Zero-width gate: open for no time.
+    let s = Sensor::new(
+        LightPulse::default(),
+        box_gate(TimeOrigin::Window, window / 2.0, 0.0),
+    );
+    rows.push(row(
+        case,
+        "zero-width gate in the middle of the returns: max |M|".into(),
+        Check::Within {
+            expected: 0.0,
+            tolerance: 0.0,
+        },
+        measure(s, axis, &cube, w, h)
+            .map(|(m, bad)| (m.iter().fold(0.0f64, |a, &v| a.max(v.abs() as f64)), bad)),
+        "exactly zero",
+    ));
+
+    // Gates entirely before and after the light's arrival (a 2-bin rectangular pulse).
+    let first = bins / 3;
+    let last = first + bins / 3 + 14;
+    let pulse = LightPulse::Rect {
+        start_s: 0.0,
+        width_s: 2.0 * dt,
+        energy: 1.0,
+    };
+    for (what, start, width) in [
+        (
+            "gate closing before the first arrival",
+            0.0,
+            first as f64 * dt,
+        ),
+        (
+            "gate opening after the last light",
+            (last + 3) as f64 * dt,
+            5.0 * dt,
+        ),
+    ] {
+        let s = Sensor::new(pulse.clone(), box_gate(TimeOrigin::Pulse, start, width));
+        rows.push(row(
+            case,
+            format!("{what}: max |M|"),
+            Check::Within {
+                expected: 0.0,
+                tolerance: 0.0,
+            },
+            measure(s, axis, &cube, w, h)
+                .map(|(m, bad)| (m.iter().fold(0.0f64, |a, &v| a.max(v.abs() as f64)), bad)),
+            "exactly zero: only bins where K_i is non-zero are read",
+        ));
+    }
+    rows
+}
+
+/// Noise and values at extreme sizes: sigma 0 and 1e6, an all-zero TPRF, huge values.
+pub fn sensor_extremes(size: Size) -> Vec<Row> {
+    let (w, h, bins) = match size {
+        Size::Test => (32, 32, 64),
+        Size::Full => (256, 256, 256),
+    };
+    let dt = 1e-9;
+    let axis = TimeAxis::new(0.0, dt, bins).expect("a valid axis");
+    let window = bins as f64 * dt;
+    let n = (w * h) as f64;
+    let case = "sensor extremes";
+    let whole = |noise: Noise| {
+        let mut s = Sensor::new(
+            LightPulse::default(),
+            box_gate(TimeOrigin::Window, 0.0, window),
+        );
+        s.noise = noise;
+        s
+    };
+    let mut rows = Vec::new();
+
+    // sigma = 0: M is the clean measurement, bit for bit.
+    let (cube, energy) = impulse_cube(w, h, bins);
+    rows.push(row(
+        case,
+        "sigma 0: max relative error of M".into(),
+        Check::AtMost { bound: 1e-6 },
+        measure(
+            whole(Noise {
+                sigma: 0.0,
+                seed: 1,
+                photons_per_energy: 0.0,
+            }),
+            axis,
+            &cube,
+            w,
+            h,
+        )
+        .map(|(m, bad)| (max_rel(&m, &energy), bad)),
+        "no noise added",
+    ));
+
+    // sigma = 1e6 over small signals: M = max(0, N(mu, sigma)) with mu << sigma, whose
+    // mean is sigma / sqrt(2 pi); M >= 0 everywhere.
+    let sigma = 1e6;
+    let expected = sigma / (2.0 * std::f64::consts::PI).sqrt();
+    let sd = sigma * (0.5 - 1.0 / (2.0 * std::f64::consts::PI)).sqrt();
+    let got = measure(
+        whole(Noise {
+            sigma,
+            seed: 7,
+            photons_per_energy: 0.0,
+        }),
+        axis,
+        &cube,
+        w,
+        h,
+    )
+    .map(|(m, bad)| {
+        let negative = m.iter().filter(|&&v| v < 0.0).count() as u64;
+        (m.iter().map(|&v| v as f64).sum::<f64>() / n, bad + negative)
+    });
+    rows.push(row(
+        case,
+        "sigma 1e6: mean of M (negative values counted as bad)".into(),
+        Check::Within {
+            expected,
+            tolerance: 5.0 * sd / n.sqrt() + energy.iter().sum::<f64>() / n,
+        },
+        got,
+        "E[max(0, N(0, s))] = s / sqrt(2 pi); 5 standard errors, plus the signal",
+    ));
+
+    // All-zero TPRF: exactly 0 without noise; with sigma 1, half the pixels clip to 0.
+    let zeros = vec![0.0f32; w * h * bins];
+    rows.push(row(
+        case,
+        "all-zero TPRF, sigma 0: max |M|".into(),
+        Check::Within {
+            expected: 0.0,
+            tolerance: 0.0,
+        },
+        measure(whole(Noise::default()), axis, &zeros, w, h)
+            .map(|(m, bad)| (m.iter().fold(0.0f64, |a, &v| a.max(v.abs() as f64)), bad)),
+        "exactly zero",
+    ));
+    let got = measure(
+        whole(Noise {
+            sigma: 1.0,
+            seed: 3,
+            photons_per_energy: 0.0,
+        }),
+        axis,
+        &zeros,
+        w,
+        h,
+    )
+    .map(|(m, bad)| {
+        (
+            m.iter().filter(|&&v| v == 0.0).count() as f64 / n,
+            bad + m.iter().filter(|&&v| v < 0.0).count() as u64,
+        )
+    });
+    rows.push(row(
+        case,
+        "all-zero TPRF, sigma 1: fraction of M clipped to 0".into(),
+        Check::Within {
+            expected: 0.5,
+            tolerance: 5.0 * 0.5 / n.sqrt(),
+        },
+        got,
+        "max(0, N(0, 1)) is 0 with probability 1/2; 5 binomial standard errors",
+    ));
+
+    // Huge values: 1e30 in every bin (f32 holds up to 3.4e38).
+    let huge = vec![1e30f32; w * h * bins];
+    let expected = 1e30 * bins as f64;
+    let got = measure(whole(Noise::default()), axis, &huge, w, h).map(|(m, bad)| {
+        (
+            m.iter()
+                .map(|&v| (v as f64 - expected).abs() / expected)
+                .fold(0.0, f64::max),
+            bad,
+        )
+    });
+    rows.push(row(
+        case,
+        format!("1e30 in every bin ({bins} bins): max relative error of M"),
+        Check::AtMost { bound: 1e-5 },
+        got,
+        "finite, no overflow",
+    ));
+    // Photon noise on huge values: finite and non-negative.
+    let got = measure(
+        whole(Noise {
+            sigma: 0.0,
+            seed: 5,
+            photons_per_energy: 1.0,
+        }),
+        axis,
+        &huge,
+        w,
+        h,
+    )
+    .map(|(m, bad)| {
+        (
+            m.iter()
+                .map(|&v| (v as f64 - expected).abs() / expected)
+                .fold(0.0, f64::max),
+            bad + m.iter().filter(|&&v| v < 0.0).count() as u64,
+        )
+    });
+    rows.push(row(
+        case,
+        "1e30 in every bin, Poisson photon noise: max relative deviation of M".into(),
+        Check::AtMost { bound: 1e-5 },
+        got,
+        "relative photon noise 1/sqrt(N) is ~1e-16 here",
+    ));
+    rows
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn impulse_cube_energies() {
+        let (cube, e) = impulse_cube(2, 1, 30);
+        assert_eq!(cube.len(), 60);
+        assert!((e[0] - 1.0).abs() < 1e-6 && (e[1] - 2.0).abs() < 1e-6);
+    }
+}
