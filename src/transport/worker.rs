@@ -227,6 +227,7 @@ fn run(job: &RenderJob, shared: &Shared, on_update: &dyn Fn()) -> Result<(), Str
         .build()
         .map_err(|e| format!("cannot start the render threads: {e}"))?;
     let mut elapsed = Duration::ZERO;
+    let mut retired: Option<Arc<FilmSnapshot>> = None;
     let mut spp_pass: u32 = 1;
     loop {
         if shared.stop.load(Ordering::Relaxed) {
@@ -253,11 +254,13 @@ fn run(job: &RenderJob, shared: &Shared, on_update: &dyn Fn()) -> Result<(), Str
         // Aim for passes of PASS_TARGET_S.
         let ratio = PASS_TARGET_S / pass_s.as_secs_f64().max(1e-4);
         spp_pass = ((spp as f64 * ratio).round() as u32).clamp(1, 256);
-        let snapshot = Arc::new(film.snapshot());
+        let snapshot = Arc::new(pool.install(|| film.snapshot()));
         let error = snapshot.error_estimate;
-        if let Ok(mut s) = shared.snapshot.lock() {
-            *s = Some(snapshot);
-        }
+        // The snapshot replaced now is kept one more pass and freed here, on the render
+        // thread: a reader holding it during its frame would otherwise free it there
+        // (unmapping a large film takes the UI tens of milliseconds).
+        let replaced = shared.snapshot.lock().ok().and_then(|mut s| s.replace(snapshot));
+        drop(std::mem::replace(&mut retired, replaced));
         let secs = elapsed.as_secs_f64();
         set_status(shared, |s| {
             s.state = WorkerState::Rendering;
