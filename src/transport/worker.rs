@@ -259,7 +259,11 @@ fn run(job: &RenderJob, shared: &Shared, on_update: &dyn Fn()) -> Result<(), Str
         // The snapshot replaced now is kept one more pass and freed here, on the render
         // thread: a reader holding it during its frame would otherwise free it there
         // (unmapping a large film takes the UI tens of milliseconds).
-        let replaced = shared.snapshot.lock().ok().and_then(|mut s| s.replace(snapshot));
+        let replaced = shared
+            .snapshot
+            .lock()
+            .ok()
+            .and_then(|mut s| s.replace(snapshot));
         drop(std::mem::replace(&mut retired, replaced));
         let secs = elapsed.as_secs_f64();
         set_status(shared, |s| {
