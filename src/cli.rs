@@ -648,7 +648,9 @@ fn sensor_from_args(a: &SensorArgs) -> Result<Sensor> {
 }
 
 /// Reads `tprf.npy` and `tprf.json` of a render folder: the cube, width, height, axis.
-fn read_cube(dir: &std::path::Path) -> Result<(Vec<f32>, usize, usize, TimeAxis)> {
+/// Unlike [`export::read_cube`] it needs only the time window in the JSON, so cubes
+/// written by other tools can be measured too.
+fn read_any_cube(dir: &std::path::Path) -> Result<(Vec<f32>, usize, usize, TimeAxis)> {
     let json_path = dir.join("tprf.json");
     let text = std::fs::read(&json_path)
         .with_context(|| format!("cannot read {}", json_path.display()))?;
@@ -773,7 +775,7 @@ fn reference_depth(
 pub fn sensor(a: &SensorArgs) -> Result<()> {
     let start = Instant::now();
     let sensor = sensor_from_args(a)?;
-    let (cube, w, h, axis) = read_cube(&a.dir)?;
+    let (cube, w, h, axis) = read_any_cube(&a.dir)?;
     for &(y, x) in &a.pixels {
         if y >= h || x >= w {
             bail!("--pixel {y},{x} is outside the {h} x {w} image (row, column from 0)");

@@ -2,7 +2,7 @@
 //! time-slice frames). Every file is written to a temporary name and renamed, so an
 //! existing file is replaced atomically and a failed write loses nothing.
 
-use crate::film::{TimeAxis, TprfFilm};
+use crate::film::{FilmLayout, FilmSnapshot, TimeAxis, TprfFilm};
 use crate::transport::progressive::PassReport;
 use anyhow::{Context, Result};
 use npyz::WriterBuilder;
@@ -107,6 +107,68 @@ pub fn write_npy_f32(path: &Path, shape: &[u64], data: &[f32]) -> Result<()> {
         npy.finish()?;
         Ok(())
     })
+}
+
+/// Read a cube `tprf.npy` written by `tprf render` with the `tprf.json` beside it,
+/// checking that the array's shape is the metadata's `[H, W, T]`.
+pub fn read_cube(npy: &Path) -> Result<(CubeMetadata, Vec<f32>)> {
+    let meta_path = npy.with_file_name("tprf.json");
+    let meta: CubeMetadata = serde_json::from_slice(
+        &std::fs::read(&meta_path)
+            .with_context(|| format!("the cube needs its metadata {}", meta_path.display()))?,
+    )
+    .with_context(|| format!("{} is not tprf.json metadata", meta_path.display()))?;
+    let (shape, data) = read_npy_f32(npy)?;
+    let want = [meta.height as u64, meta.width as u64, meta.bins as u64];
+    if shape != want {
+        anyhow::bail!(
+            "{}: shape {:?} does not match its metadata [H, W, T] = {:?}",
+            npy.display(),
+            shape,
+            want
+        );
+    }
+    Ok((meta, data))
+}
+
+/// A folder written by `tprf render` as a film snapshot: the cube, and its per-bounce
+/// layers when `tprf_bounces.npy` is there.
+pub fn load_snapshot(dir: &Path) -> Result<(CubeMetadata, FilmSnapshot)> {
+    let (meta, cube) = read_cube(&dir.join("tprf.npy"))?;
+    let axis = meta.axis()?;
+    let bounces_path = dir.join("tprf_bounces.npy");
+    let (bounces, bounces_separate) = if meta.bounces_separate > 0 && bounces_path.exists() {
+        let (bshape, b) = read_npy_f32(&bounces_path)?;
+        let layers = meta.bounces_separate as u64 + 2;
+        if bshape
+            != [
+                layers,
+                meta.height as u64,
+                meta.width as u64,
+                meta.bins as u64,
+            ]
+        {
+            anyhow::bail!("tprf_bounces.npy has shape {bshape:?}");
+        }
+        (b, meta.bounces_separate)
+    } else {
+        (Vec::new(), 0)
+    };
+    let layout = FilmLayout {
+        width: meta.width,
+        height: meta.height,
+        axis,
+        bounces_separate,
+    };
+    let snapshot = FilmSnapshot::new(
+        layout,
+        meta.spp,
+        meta.passes.len() as u64,
+        cube,
+        bounces,
+        meta.error_estimate,
+    );
+    Ok((meta, snapshot))
 }
 
 /// Read a float32 array written by [`write_npy_f32`] (or numpy), with its shape.

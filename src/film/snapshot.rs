@@ -52,8 +52,7 @@ impl FilmSnapshot {
                 (sum as f32, best.map(|(b, _)| b))
             })
             .unzip();
-        let stride = cube.len().div_ceil(ROBUST_MAX_SAMPLES).max(1);
-        let robust_max = quantile_positive(cube.iter().step_by(stride).copied(), 0.999);
+        let robust_max = robust_max(&cube);
         FilmSnapshot {
             layout,
             spp,
@@ -173,6 +172,13 @@ impl FilmSnapshot {
     pub fn robust_max(&self) -> Option<f64> {
         self.robust_max
     }
+}
+
+/// The 99.9 % quantile of the positive values, from at most 2^20 of them evenly spaced:
+/// a maximum that one outlier cannot set, for an exposure.
+pub fn robust_max(values: &[f32]) -> Option<f64> {
+    let stride = values.len().div_ceil(ROBUST_MAX_SAMPLES).max(1);
+    quantile_positive(values.iter().step_by(stride).copied(), 0.999)
 }
 
 /// The `q` quantile of the positive finite values, `None` when there are none.

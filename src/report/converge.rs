@@ -6,7 +6,7 @@
 //! budget, so settings compare per second of rendering, not per sample. The clock
 //! counts render passes only: the error measurements between passes are not charged.
 
-use crate::export::{CubeMetadata, read_npy_f32, write_atomic};
+use crate::export::{read_cube, write_atomic};
 use crate::film::{FilmLayout, TimeAxis, TimeFilter, TprfFilm};
 use crate::reference::{Analytic, ReferenceCube};
 use crate::scene::{Channel, Scene};
@@ -444,7 +444,7 @@ pub fn resolve_target(
     reference: Option<&str>,
     film: &FilmRequest,
 ) -> anyhow::Result<Target> {
-    use anyhow::{Context, bail};
+    use anyhow::bail;
     let reference = match (reference, scene) {
         (Some(r), _) => r,
         (None, Some(s)) if s.starts_with("analytic:") => s,
@@ -506,23 +506,8 @@ pub fn resolve_target(
     let Some(scene_name) = scene.filter(|s| !s.starts_with("analytic")) else {
         bail!("a .npy reference needs the SCENE it was rendered from");
     };
-    let meta_path = npy.with_file_name("tprf.json");
-    let meta: CubeMetadata =
-        serde_json::from_slice(&std::fs::read(&meta_path).with_context(|| {
-            format!("the reference needs its metadata {}", meta_path.display())
-        })?)
-        .with_context(|| format!("{} is not tprf.json metadata", meta_path.display()))?;
+    let (meta, data) = read_cube(&npy)?;
     let axis = meta.axis()?;
-    let (shape, data) = read_npy_f32(&npy)?;
-    let want = [meta.height as u64, meta.width as u64, meta.bins as u64];
-    if shape != want {
-        bail!(
-            "{}: shape {:?} does not match its metadata [H, W, T] = {:?}",
-            npy.display(),
-            shape,
-            want
-        );
-    }
     if let Some(i) = data.iter().position(|v| !v.is_finite()) {
         bail!("{}: value {i} is not finite", npy.display());
     }
@@ -543,7 +528,10 @@ pub fn resolve_target(
         "green" => Channel::Green,
         "blue" => Channel::Blue,
         "gray" => Channel::Gray,
-        other => bail!("{}: unknown channel '{other}'", meta_path.display()),
+        other => bail!(
+            "{}: unknown channel '{other}'",
+            npy.with_file_name("tprf.json").display()
+        ),
     };
     let scene = crate::scene::load(scene_name)?;
     Ok(Target {

@@ -13,6 +13,7 @@ use crate::reference::furnace::Furnace;
 use crate::reference::gauss_legendre;
 use crate::reference::plane::{Plane, Rect};
 use crate::scene::{Camera, Scene, Triangle, TriangleAttrs};
+use crate::transport::progressive::{self, Budget};
 use crate::transport::{RenderSettings, Renderer};
 use crate::units::C_M_PER_S;
 use glam::{Vec2, Vec3};
@@ -156,7 +157,7 @@ pub fn run_all(size: Size) -> Vec<Row> {
 // ---------------------------------------------------------------------------------------
 // Helpers.
 
-/// Render `scene` at `w x h`, `spp` samples in passes of at most 16.
+/// Render `scene` at `w x h`, `spp` samples in the progressive passes of `tprf render`.
 fn render(
     scene: Scene,
     w: usize,
@@ -174,10 +175,9 @@ fn render(
         bounces_separate,
     })
     .expect("stability films are small");
-    while film.spp() < spp {
-        let n = (spp - film.spp()).min(16) as u32;
-        renderer.render_pass(&mut film, n);
-    }
+    progressive::render(&renderer, &mut film, Budget::Spp(spp), |_, _| {
+        std::ops::ControlFlow::Continue(())
+    });
     film
 }
 

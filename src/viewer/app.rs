@@ -375,7 +375,7 @@ impl TprfApp {
     }
 
     fn open_cube(&mut self, dir: &Path) {
-        match load_cube(dir) {
+        match export::load_snapshot(dir) {
             Ok((meta, snapshot)) => {
                 self.bin = self.bin.min(snapshot.axis().bins.saturating_sub(1));
                 self.source = Source::Cube {
@@ -1336,59 +1336,6 @@ impl TprfApp {
             self.messages.push(format!("{e:#}"));
         }
     }
-}
-
-/// Read a cube folder written by `tprf render`.
-pub fn load_cube(dir: &Path) -> anyhow::Result<(CubeMetadata, FilmSnapshot)> {
-    use anyhow::Context;
-    let meta: CubeMetadata = serde_json::from_slice(
-        &std::fs::read(dir.join("tprf.json"))
-            .with_context(|| format!("reading {}", dir.join("tprf.json").display()))?,
-    )
-    .context("tprf.json")?;
-    let axis = meta.axis()?;
-    let (shape, cube) = export::read_npy_f32(&dir.join("tprf.npy"))?;
-    if shape != [meta.height as u64, meta.width as u64, meta.bins as u64] {
-        anyhow::bail!(
-            "tprf.npy has shape {shape:?}, tprf.json says [{}, {}, {}]",
-            meta.height,
-            meta.width,
-            meta.bins
-        );
-    }
-    let bounces_path = dir.join("tprf_bounces.npy");
-    let (bounces, bounces_separate) = if meta.bounces_separate > 0 && bounces_path.exists() {
-        let (bshape, b) = export::read_npy_f32(&bounces_path)?;
-        let layers = meta.bounces_separate as u64 + 2;
-        if bshape
-            != [
-                layers,
-                meta.height as u64,
-                meta.width as u64,
-                meta.bins as u64,
-            ]
-        {
-            anyhow::bail!("tprf_bounces.npy has shape {bshape:?}");
-        }
-        (b, meta.bounces_separate)
-    } else {
-        (Vec::new(), 0)
-    };
-    let layout = crate::film::FilmLayout {
-        width: meta.width,
-        height: meta.height,
-        axis,
-        bounces_separate,
-    };
-    let snapshot = FilmSnapshot::new(
-        layout,
-        meta.spp,
-        meta.passes.len() as u64,
-        cube,
-        bounces,
-        meta.error_estimate,
-    );
-    Ok((meta, snapshot))
 }
 
 impl eframe::App for TprfApp {

@@ -58,6 +58,9 @@ struct Measured {
     millis: f64,
     /// 99.9 % quantile of the positive measurements: one exposure for all gates.
     robust_max: Option<f64>,
+    /// Finite range of the depth image (m), and the largest |multipath error| (m).
+    depth_range: (f32, f32),
+    error_abs_max: f32,
     noise_field: NoiseField,
 }
 
@@ -115,8 +118,7 @@ fn measure_all(
         .measure_clean(&snap.cube, snap.width(), snap.height())
         .map_err(|e| e.to_string())?;
     model.apply_noise_cached(&mut m, &mut noise_field);
-    let stride = m.values.len().div_ceil(1 << 20).max(1);
-    let robust_max = colormap::quantile_positive(m.values.iter().step_by(stride).copied(), 0.999);
+    let robust_max = crate::film::robust_max(&m.values);
     let depth_m = model.first_return_depth(&m);
     let amcw = model.amcw(&m);
     let amcw_error_m = amcw.as_ref().map(|a| {
@@ -129,6 +131,15 @@ fn measure_all(
         );
         a.depth_m.iter().zip(&truth).map(|(d, t)| d - t).collect()
     });
+    let depth = depth_m
+        .as_deref()
+        .or(amcw.as_ref().map(|a| a.depth_m.as_slice()));
+    let depth_range = depth.map_or((0.0, 0.0), finite_range);
+    let error_abs_max = amcw_error_m.as_ref().map_or(0.0, |e: &Vec<f32>| {
+        e.iter()
+            .filter(|x| x.is_finite())
+            .fold(0.0f32, |a, x| a.max(x.abs()))
+    });
     Ok(Measured {
         snapshot: 0,
         sensor: model.sensor().clone(),
@@ -138,6 +149,8 @@ fn measure_all(
         amcw_error_m,
         millis: started.elapsed().as_secs_f64() * 1e3,
         robust_max,
+        depth_range,
+        error_abs_max,
         noise_field,
     })
 }
@@ -279,29 +292,30 @@ impl SensorState {
     pub fn pixel_trace(&self, tprf: &[f32]) -> Option<PixelTrace> {
         self.model.as_ref()?.pixel_trace(tprf).ok()
     }
+}
 
-    fn texture(
-        &mut self,
-        ctx: &egui::Context,
-        name: &'static str,
-        key: u64,
-        make: impl FnOnce() -> egui::ColorImage,
-    ) -> TextureHandle {
-        if let Some((_, k, t)) = self.textures.iter().find(|(n, _, _)| *n == name)
-            && *k == key
-        {
-            return t.clone();
-        }
-        let image = make();
-        if let Some((_, k, t)) = self.textures.iter_mut().find(|(n, _, _)| *n == name) {
-            t.set(image, TextureOptions::NEAREST);
-            *k = key;
-            return t.clone();
-        }
-        let t = ctx.load_texture(name, image, TextureOptions::NEAREST);
-        self.textures.push((name, key, t.clone()));
-        t
+/// The texture `name`, rebuilt with `make` when its key changed.
+fn texture(
+    textures: &mut Vec<(&'static str, u64, TextureHandle)>,
+    ctx: &egui::Context,
+    name: &'static str,
+    key: u64,
+    make: impl FnOnce() -> egui::ColorImage,
+) -> TextureHandle {
+    if let Some((_, k, t)) = textures.iter().find(|(n, _, _)| *n == name)
+        && *k == key
+    {
+        return t.clone();
     }
+    let image = make();
+    if let Some((_, k, t)) = textures.iter_mut().find(|(n, _, _)| *n == name) {
+        t.set(image, TextureOptions::NEAREST);
+        *k = key;
+        return t.clone();
+    }
+    let t = ctx.load_texture(name, image, TextureOptions::NEAREST);
+    textures.push((name, key, t.clone()));
+    t
 }
 
 // ---------------------------------------------------------------------------------
@@ -678,27 +692,6 @@ const EXPOSURE_KINDS: &[(&str, &str)] = &[
     ("amcw", "AMCW sinusoids"),
 ];
 
-fn light_kind(l: &LightPulse) -> &'static str {
-    match l {
-        LightPulse::Delta { .. } => "delta",
-        LightPulse::Gaussian { .. } => "gaussian",
-        LightPulse::Rect { .. } => "rect",
-        LightPulse::Exponential { .. } => "exponential",
-        LightPulse::LaserDiode { .. } => "laser_diode",
-        LightPulse::Sinc2 { .. } => "sinc2",
-        LightPulse::PiecewiseLinear { .. } => "piecewise_linear",
-    }
-}
-
-fn exposure_kind(e: &Exposure) -> &'static str {
-    match e {
-        Exposure::Box { .. } => "box",
-        Exposure::Gaussian { .. } => "gaussian",
-        Exposure::PiecewiseLinear { .. } => "piecewise_linear",
-        Exposure::Amcw { .. } => "amcw",
-    }
-}
-
 fn label_of(table: &[(&str, &'static str)], key: &str) -> &'static str {
     table
         .iter()
@@ -767,7 +760,7 @@ pub fn controls_ui(
     let speed = dt_s * 1e9 / 4.0;
 
     ui.label(RichText::new("Light(t)").color(LIGHT_COLOR).strong());
-    let kind = light_kind(&sensor.light);
+    let kind = sensor.light.kind_name();
     let mut new_kind = kind;
     egui::ComboBox::from_id_salt("light-kind")
         .selected_text(label_of(LIGHT_KINDS, kind))
@@ -847,7 +840,7 @@ pub fn controls_ui(
         });
 
     ui.label(RichText::new("Exposure_i(t)").color(GATE_COLOR).strong());
-    let kind = exposure_kind(&sensor.exposure);
+    let kind = sensor.exposure.kind_name();
     let mut new_kind = kind;
     egui::ComboBox::from_id_salt("exposure-kind")
         .selected_text(label_of(EXPOSURE_KINDS, kind))
@@ -1233,12 +1226,30 @@ pub fn images_ui(
     snap: &Arc<FilmSnapshot>,
 ) -> Option<(usize, usize)> {
     let (w, h) = (snap.width(), snap.height());
+    // The textures are taken out for the frame so the measurements can be borrowed.
+    let mut textures = std::mem::take(&mut state.textures);
+    let mut gate_sel = state.gate;
+    let clicked = measurement_images(ui, state, snap, &mut textures, &mut gate_sel, w, h);
+    state.textures = textures;
+    state.gate = gate_sel;
+    clicked
+}
+
+#[allow(clippy::too_many_arguments)]
+fn measurement_images(
+    ui: &mut egui::Ui,
+    state: &SensorState,
+    snap: &Arc<FilmSnapshot>,
+    textures: &mut Vec<(&'static str, u64, TextureHandle)>,
+    gate_sel: &mut usize,
+    w: usize,
+    h: usize,
+) -> Option<(usize, usize)> {
     let (Some(model), Some(plane)) = (state.model.as_ref(), state.shown_plane(snap)) else {
         ui.label(state.error.clone().unwrap_or_else(|| "Measuring…".into()));
         return None;
     };
     let current = state.is_current(snap);
-    let plane = plane.to_vec();
     let gates = model.gate_count();
     let gate = state.gate.min(gates.saturating_sub(1));
     let hash = |x: &dyn std::fmt::Debug| {
@@ -1248,41 +1259,25 @@ pub fn images_ui(
         hasher.finish()
     };
     let plane_key = hash(&(Arc::as_ptr(snap) as usize, model.sensor(), gate, current));
+    let measured = state.measured.as_ref();
     // One exposure over all gates (from the full measurement, even a stale one).
-    let all_max = state
-        .measured
-        .as_ref()
+    let all_max = measured
         .and_then(|m| m.robust_max)
         .or_else(|| colormap::quantile_positive(plane.iter().copied(), 0.999));
-    let (depth, amcw_error, derived_key, millis) = match &state.measured {
-        Some(m) => (
-            m.depth_m
-                .clone()
-                .or_else(|| m.amcw.as_ref().map(|a| a.depth_m.clone())),
-            m.amcw_error_m.clone(),
-            hash(&(m.snapshot, &m.sensor)),
-            m.millis,
-        ),
-        None => (None, None, 0, 0.0),
-    };
-    let plane_ms = state.plane.as_ref().map_or(0.0, |p| p.millis);
-    let status = if current {
-        format!("all {gates} gates measured in {millis:.0} ms")
-    } else {
-        format!("gate {gate} measured in {plane_ms:.1} ms; all gates updating…")
+    let status = match measured {
+        Some(m) if current => format!("all {gates} gates measured in {:.0} ms", m.millis),
+        _ => {
+            let plane_ms = state.plane.as_ref().map_or(0.0, |p| p.millis);
+            format!("gate {gate} measured in {plane_ms:.1} ms; all gates updating…")
+        }
     };
     let ctx = ui.ctx().clone();
     let mut clicked = None;
     ui.horizontal(|ui| {
         let l = ui.label(format!("gate i (of {gates})"));
-        ui.add(egui::Slider::new(
-            &mut state.gate,
-            0..=gates.saturating_sub(1),
-        ))
-        .labelled_by(l.id);
-        if let Some(m) = &state.model {
-            ui.label(gate_time_label(m, gate));
-        }
+        ui.add(egui::Slider::new(gate_sel, 0..=gates.saturating_sub(1)))
+            .labelled_by(l.id);
+        ui.label(gate_time_label(model, gate));
         ui.label(RichText::new(&status).weak().small());
     });
     let avail = ui.available_size();
@@ -1296,54 +1291,65 @@ pub fn images_ui(
                 log: false,
                 decades: 3.0,
             };
-            let key = plane_key;
-            let tex = state.texture(&ctx, "measurement", key, || {
+            let tex = texture(textures, &ctx, "measurement", plane_key, || {
                 egui::ColorImage::from_rgba_unmultiplied(
                     [w, h],
-                    &colormap::colorize(&plane, &tone, ColorMap::Inferno),
+                    &colormap::colorize(plane, &tone, ColorMap::Inferno),
                 )
             });
             if let Some(p) = pick(ui, &tex, w, h, max, "measurement image") {
                 clicked = Some(p);
             }
         });
-        if let Some(depth) = depth {
-            ui.vertical(|ui| {
-                let (lo, hi) = finite_range(&depth);
-                let title = if amcw_error.is_some() {
-                    "AMCW depth (m)"
+        let Some(m) = measured else {
+            return;
+        };
+        let Some(depth) = m
+            .depth_m
+            .as_deref()
+            .or(m.amcw.as_ref().map(|a| a.depth_m.as_slice()))
+        else {
+            return;
+        };
+        let key = hash(&(m.snapshot, &m.sensor));
+        ui.vertical(|ui| {
+            let (lo, hi) = m.depth_range;
+            let title = if m.amcw_error_m.is_some() {
+                "AMCW depth (m)"
+            } else {
+                "first-return depth (m)"
+            };
+            ui.label(RichText::new(format!("{title}: {lo:.3} … {hi:.3}")).strong());
+            let small = Vec2::new(
+                max.x,
+                if m.amcw_error_m.is_some() {
+                    max.y / 2.0 - 20.0
                 } else {
-                    "first-return depth (m)"
-                };
-                ui.label(RichText::new(format!("{title}: {lo:.3} … {hi:.3}")).strong());
-                let key = derived_key;
-                let small = Vec2::new(
-                    max.x,
-                    if amcw_error.is_some() {
-                        max.y / 2.0 - 20.0
-                    } else {
-                        max.y
-                    },
+                    max.y
+                },
+            );
+            let tex = texture(textures, &ctx, "depth", key, || {
+                depth_image(depth, w, h, lo, hi)
+            });
+            if let Some(p) = pick(ui, &tex, w, h, small, "depth image") {
+                clicked = Some(p);
+            }
+            if let Some(err) = &m.amcw_error_m {
+                let a = m.error_abs_max;
+                ui.label(
+                    RichText::new(format!(
+                        "multipath error: AMCW − true first return, ±{a:.3} m"
+                    ))
+                    .strong(),
                 );
-                let tex = state.texture(&ctx, "depth", key, || depth_image(&depth, w, h, lo, hi));
-                if let Some(p) = pick(ui, &tex, w, h, small, "depth image") {
+                let tex = texture(textures, &ctx, "amcw-error", key, || {
+                    error_image(err, w, h, a)
+                });
+                if let Some(p) = pick(ui, &tex, w, h, small, "multipath error image") {
                     clicked = Some(p);
                 }
-                if let Some(err) = &amcw_error {
-                    let a = finite_range(&err.iter().map(|e| e.abs()).collect::<Vec<_>>()).1;
-                    ui.label(
-                        RichText::new(format!(
-                            "multipath error: AMCW − true first return, ±{a:.3} m"
-                        ))
-                        .strong(),
-                    );
-                    let tex = state.texture(&ctx, "amcw-error", key, || error_image(err, w, h, a));
-                    if let Some(p) = pick(ui, &tex, w, h, small, "multipath error image") {
-                        clicked = Some(p);
-                    }
-                }
-            });
-        }
+            }
+        });
     });
     clicked
 }
