@@ -23,12 +23,12 @@ use std::ops::ControlFlow;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
 use std::time::Instant;
-use tprf::accel::Accel;
-use tprf::film::{FilmLayout, TimeAxis, TprfFilm};
-use tprf::scene::{Material, Scene, Triangle, TriangleAttrs};
-use tprf::transport::progressive::{self, Budget};
-use tprf::transport::sampler::Sampler;
-use tprf::transport::{RayKind, RenderSettings, Renderer, Sink, WindowRequest, auto_window};
+use tprf_core::accel::Accel;
+use tprf_core::film::{FilmLayout, TimeAxis, TprfFilm};
+use tprf_core::scene::{Material, Scene, Triangle, TriangleAttrs};
+use tprf_core::transport::progressive::{self, Schedule};
+use tprf_core::transport::sampler::Sampler;
+use tprf_core::transport::{RayKind, RenderSettings, Renderer, Sink, WindowRequest, auto_window};
 
 // ---------------------------------------------------------------------------------------
 // Heap accounting: live and peak bytes of the system allocator.
@@ -113,9 +113,9 @@ fn human(bytes: f64) -> String {
 /// 0.15 m +- 10 % on the floor's centre line. Flat-shaded (geometric normals).
 fn cornell_blob(lat: usize, lon: usize) -> Scene {
     use std::f32::consts::{PI, TAU};
-    let mut scene = tprf::scene::load("builtin:cornell").expect("builtin:cornell");
+    let mut scene = tprf_core::scene::load("builtin:cornell").expect("builtin:cornell");
     // Keep the walls: triangles whose three vertices lie on one face of the box.
-    let h = 0.5 * tprf::scene::builtin::CORNELL_SIZE_M;
+    let h = 0.5 * tprf_core::scene::builtin::CORNELL_SIZE_M;
     let planes = [(0, -h), (0, h), (1, 0.0), (1, 2.0 * h), (2, -h)];
     let on_wall = |t: &Triangle| {
         planes
@@ -405,13 +405,13 @@ fn run_case(case: &Case, make_scene: impl FnOnce() -> Scene) -> Figures {
     let render = best_of(|| {
         let mut film = TprfFilm::new(layout).expect("film");
         let rays_before = renderer.rays_traced();
-        reports = progressive::render(&renderer, &mut film, Budget::Spp(case.spp), |_, _| {
+        reports = progressive::render(&renderer, &mut film, &Schedule::spp(case.spp), |_, _| {
             ControlFlow::Continue(())
         });
         rays = renderer.rays_traced() - rays_before;
         eprintln!(
             "  rendered in {:.2} s",
-            reports.last().expect("one pass").seconds
+            reports.last().expect("one pass").render_s
         );
     });
     let last = *reports.last().expect("one pass");
@@ -523,7 +523,7 @@ fn main() {
         .iter()
         .map(|(case, blob)| match blob {
             None => run_case(case, || {
-                tprf::scene::load("builtin:cornell").expect("builtin:cornell")
+                tprf_core::scene::load("builtin:cornell").expect("builtin:cornell")
             }),
             Some((lat, lon)) => run_case(case, || cornell_blob(*lat, *lon)),
         })

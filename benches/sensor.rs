@@ -8,9 +8,9 @@
 
 use std::time::Instant;
 
-use tprf::film::TimeAxis;
-use tprf::sensor::light::FWHM_PER_SIGMA;
-use tprf::sensor::{Exposure, LightPulse, NoiseField, Sensor, SensorModel, TimeOrigin};
+use tprf_core::film::TimeAxis;
+use tprf_core::sensor::light::FWHM_PER_SIGMA;
+use tprf_core::sensor::{Exposure, LightPulse, NoiseField, Sensor, SensorModel, TimeOrigin};
 
 const BINS: usize = 1024;
 const DT_S: f64 = 10e-12;

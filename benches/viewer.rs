@@ -11,8 +11,8 @@ use eframe::egui::{Pos2, Vec2};
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use std::time::{Duration, Instant};
-use tprf::sensor::{LightPulse, Sensor};
 use tprf::viewer::{Mode, Start, TprfApp, ViewerSettings};
+use tprf_core::sensor::{LightPulse, Sensor};
 
 fn quantile(sorted: &[f64], q: f64) -> f64 {
     sorted[((sorted.len() - 1) as f64 * q).round() as usize]

@@ -8,9 +8,9 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use tprf::film::TimeAxis;
-use tprf::oned::{ImpulseOptions, World, binned};
-use tprf::sensor::{Sensor, SensorModel};
+use tprf_core::film::TimeAxis;
+use tprf_core::oned::{ImpulseOptions, World, binned};
+use tprf_core::sensor::{Sensor, SensorModel};
 
 const W: f64 = 640.0;
 const H: f64 = 240.0;

@@ -1,23 +1,25 @@
 //! The command line: `tprf render`, `tprf oned`, `tprf sensor`. Errors end here, printed
 //! once.
 
-use crate::export::{self, BIN_VALUE, CameraMetadata, CubeMetadata};
-use crate::film::TimeAxis;
-use crate::film::{FilmLayout, TprfFilm};
-use crate::scene::{self, Channel};
-use crate::sensor::{
-    self, Derived, Exposure, FirstReturn, LightPulse, Sensor, SensorModel, derived,
-};
-use crate::transport::progressive::{self, Budget};
-use crate::transport::{RenderSettings, Renderer, WindowRequest, auto_window};
-use crate::units::{C_M_PER_S, format_time, parse_time_s};
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
+use std::io::Write;
 use std::ops::ControlFlow;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
+use tprf_core::export::{self, BIN_VALUE, CameraMetadata, CubeMetadata};
+use tprf_core::film::TimeAxis;
+use tprf_core::film::{FilmLayout, TprfFilm};
+use tprf_core::oned::{ImpulseOptions, InterfaceKind, World, WorldError, binned};
+use tprf_core::scene::{self, Channel};
+use tprf_core::sensor::{
+    self, Derived, Exposure, FirstReturn, LightPulse, Sensor, SensorModel, derived,
+};
+use tprf_core::transport::progressive::{self, Schedule};
+use tprf_core::transport::{RenderSettings, Renderer, WindowRequest, auto_window};
+use tprf_core::units::{C_M_PER_S, format_time, parse_time_s};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -100,9 +102,14 @@ pub struct RenderArgs {
     /// tprf_bounces.npy [K+2, H, W, T].
     #[arg(long, default_value_t = 0)]
     pub bounces_separate: u32,
-    /// The spectral band the one-channel cube records.
-    #[arg(long, value_enum, default_value_t = Channel::Gray)]
+    /// The spectral band the one-channel cube records: red, green, blue or gray.
+    #[arg(long, default_value_t = Channel::Gray, value_parser = parse_channel)]
     pub channel: Channel,
+}
+
+fn parse_channel(s: &str) -> Result<Channel, String> {
+    s.parse()
+        .map_err(|e: tprf_core::scene::UnknownChannel| e.to_string())
 }
 
 #[derive(Args, Debug)]
@@ -324,29 +331,29 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create {}", a.out.display()))?;
 
-    let budget = match (a.spp, a.seconds) {
-        (_, Some(s)) => Budget::Seconds(s),
-        (Some(n), None) => Budget::Spp(n),
-        (None, None) => Budget::Spp(64),
+    let schedule = match (a.spp, a.seconds) {
+        (_, Some(s)) => Schedule::seconds(s),
+        (Some(n), None) => Schedule::spp(n),
+        (None, None) => Schedule::spp(64),
     };
-    let bar = match budget {
-        Budget::Spp(n) => ProgressBar::new(n),
-        Budget::Seconds(s) => ProgressBar::new((s * 10.0).ceil() as u64),
+    let bar = match (schedule.spp_target, schedule.time_budget_s) {
+        (Some(n), _) => ProgressBar::new(n),
+        (None, s) => ProgressBar::new((s.unwrap_or(0.0) * 10.0).ceil() as u64),
     };
     bar.set_style(
         ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar())
             .progress_chars("=> "),
     );
-    let reports = progressive::render(&renderer, &mut film, budget, |r, _| {
-        bar.set_position(match budget {
-            Budget::Spp(_) => r.spp,
-            Budget::Seconds(_) => (r.seconds * 10.0) as u64,
+    let reports = progressive::render(&renderer, &mut film, &schedule, |r, _| {
+        bar.set_position(match schedule.spp_target {
+            Some(_) => r.spp,
+            None => (r.wall_s * 10.0) as u64,
         });
         bar.set_message(format!(
             "{} spp, {:.1} Mrays/s",
             r.spp,
-            r.rays as f64 / r.seconds.max(1e-9) / 1e6
+            r.rays as f64 / r.render_s.max(1e-9) / 1e6
         ));
         ControlFlow::Continue(())
     });
@@ -386,7 +393,7 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
         spp: film.spp(),
         seed: a.seed,
         c_m_per_s: C_M_PER_S,
-        channel: format!("{:?}", a.channel).to_lowercase(),
+        channel: a.channel.name().into(),
         value: BIN_VALUE.into(),
         scene: a.scene.clone(),
         camera: CameraMetadata {
@@ -401,7 +408,8 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
         rays_traced: renderer.rays_traced(),
         paths_traced: last.map_or(0, |r| r.paths),
         error_estimate: film.half_error_estimate(),
-        passes: reports,
+        passes: reports.len() as u64,
+        render_seconds: last.map_or(0.0, |r| r.render_s),
         notes: scene.notes.clone(),
     };
     export::write_json(&a.out.join("tprf.json"), &meta)?;
@@ -421,7 +429,7 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
 
 /// `tprf converge`.
 pub fn converge(a: &ConvergeArgs) -> Result<()> {
-    use crate::report::converge::{
+    use tprf_core::report::converge::{
         EstimatorSetting, FilmRequest, RunConfig, resolve_target, run_setting, summarise,
         summary_text, write_outputs,
     };
@@ -518,7 +526,7 @@ pub fn converge(a: &ConvergeArgs) -> Result<()> {
 
 /// `tprf stability`.
 pub fn stability(a: &StabilityArgs) -> Result<()> {
-    use crate::report::stability::{Size, cases, markdown};
+    use tprf_core::report::stability::{Size, cases, markdown};
     if a.threads == Some(0) {
         bail!("--threads must be at least 1");
     }
@@ -582,7 +590,130 @@ pub fn oned(a: &OnedArgs) -> Result<()> {
         )),
         _ => None,
     };
-    crate::oned::run_cli(&a.world, bins, &mut std::io::stdout().lock())
+    print_oned(&a.world, bins, &mut std::io::stdout().lock())
+}
+
+/// `tprf oned`'s output: reads the world file at `path`, prints its impulse train (time in
+/// ns, optical path length in m, weight, order) and, with `bins = Some((t0_s, dt_s,
+/// count))`, the binned TPRF (bin index, bin start in ns, integrated weight). Lines
+/// starting with `#` are comments; the rest are whitespace-separated columns.
+pub fn print_oned(
+    path: &Path,
+    bins: Option<(f64, f64, usize)>,
+    out: &mut impl Write,
+) -> anyhow::Result<()> {
+    if let Some((t0_s, dt_s, _)) = bins {
+        anyhow::ensure!(t0_s.is_finite(), "bin start t0 = {t0_s} s is not finite");
+        anyhow::ensure!(
+            dt_s > 0.0 && dt_s.is_finite(),
+            "bin width dt = {dt_s} s must be a positive finite number"
+        );
+    }
+    let world = World::from_path(path).map_err(|e| match e {
+        WorldError::Io { .. } => anyhow::Error::new(e),
+        other => anyhow::anyhow!("{}: {other}", path.display()),
+    })?;
+    let opts = ImpulseOptions::default();
+    let train = world.impulse_train(&opts);
+
+    writeln!(out, "# tprf 1-D world: {}", path.display())?;
+    writeln!(
+        out,
+        "# eye at {} m looking {}; light at {} m",
+        world.eye_m(),
+        world.look(),
+        world.light_m()
+    )?;
+    for (i, interface) in world.interfaces().iter().enumerate() {
+        let ior_right = world.segment_ior().get(i + 1).copied().unwrap_or(1.0);
+        match interface.kind {
+            InterfaceKind::Real => writeln!(
+                out,
+                "# interface {} at {} m: left r {} t {}, right r {} t {}; ior right of it {}",
+                interface.name,
+                interface.x_m,
+                interface.left.reflectance,
+                interface.left.transmittance,
+                interface.right.reflectance,
+                interface.right.transmittance,
+                ior_right
+            )?,
+            kind => writeln!(
+                out,
+                "# interface {} at {} m: {kind}; ior right of it {}",
+                interface.name, interface.x_m, ior_right
+            )?,
+        }
+    }
+    let e = &train.energy;
+    writeln!(
+        out,
+        "# energy ({} emitted, 1 each way): escaped {:.6e}, absorbed {:.6e}, cut {:.3e} \
+         (weight {:.3e}, time {:.3e}, order {:.3e}, packets {:.3e})",
+        e.emitted,
+        e.escaped,
+        e.absorbed,
+        e.cut_total(),
+        e.cut_weight,
+        e.cut_time,
+        e.cut_order,
+        e.cut_packets
+    )?;
+    if train.truncated {
+        writeln!(
+            out,
+            "# WARNING: more than {} live packets in one order: the train is incomplete",
+            opts.max_packets
+        )?;
+    }
+    let seen: f64 = train.impulses.iter().map(|i| i.weight).sum();
+    writeln!(
+        out,
+        "# impulses: {} (total weight {:.12e}; cut-offs: weight < {:e}, order > {})",
+        train.impulses.len(),
+        seen,
+        opts.min_weight,
+        opts.max_order
+    )?;
+    writeln!(
+        out,
+        "# {:>20} {:>20} {:>20} {:>6}",
+        "time_ns", "opl_m", "weight", "order"
+    )?;
+    for impulse in &train.impulses {
+        writeln!(
+            out,
+            "  {:>20.9} {:>20.9} {:>20.12e} {:>6}",
+            impulse.time_s * 1e9,
+            impulse.opl_m(),
+            impulse.weight,
+            impulse.order
+        )?;
+    }
+
+    if let Some((t0_s, dt_s, count)) = bins {
+        let values = binned(&train.impulses, t0_s, dt_s, count);
+        let inside: f64 = values.iter().sum();
+        writeln!(
+            out,
+            "# binned TPRF: t0 {:.9} ns, dt {:.9} ns, {} bins (weight in the window {:.12e})",
+            t0_s * 1e9,
+            dt_s * 1e9,
+            count,
+            inside
+        )?;
+        writeln!(out, "# {:>8} {:>20} {:>20}", "bin", "start_ns", "value")?;
+        for (b, value) in values.iter().enumerate() {
+            writeln!(
+                out,
+                "  {:>8} {:>20.9} {:>20.12e}",
+                b,
+                (t0_s + b as f64 * dt_s) * 1e9,
+                value
+            )?;
+        }
+    }
+    Ok(())
 }
 
 /// `tprf view` (and `tprf` alone): the window.

@@ -1,20 +1,7 @@
-//! tprf: transient rendering (Smith, Skorupski & Davis 2008).
+//! tprf: the desktop studio and command line over [`tprf_core`].
 //!
-//! Data flow, each arrow one-way (see ARCHITECTURE.md):
-//! `scene -> accel -> transport -> film -> (sensor, viewer, export)`.
+//! The renderer, film, sensor and files live in `tprf-core` (no window, no argument
+//! parser); this crate adds the egui/eframe viewer and the `tprf` command.
 
-// `!(x > 0.0)` is how this crate rejects NaN along with the non-positive values.
-#![allow(clippy::neg_cmp_op_on_partial_ord)]
-
-pub mod accel;
 pub mod cli;
-pub mod export;
-pub mod film;
-pub mod oned;
-pub mod reference;
-pub mod report;
-pub mod scene;
-pub mod sensor;
-pub mod transport;
-pub mod units;
 pub mod viewer;

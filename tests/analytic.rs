@@ -4,9 +4,9 @@
 
 mod common;
 use common::*;
-use tprf::film::TimeAxis;
-use tprf::reference::furnace::Furnace;
-use tprf::reference::plane::Plane;
+use tprf_core::film::TimeAxis;
+use tprf_core::reference::furnace::Furnace;
+use tprf_core::reference::plane::Plane;
 
 #[test]
 fn plane_lit_by_colocated_light_matches_single_bounce_answer() {
@@ -21,7 +21,7 @@ fn plane_lit_by_colocated_light_matches_single_bounce_answer() {
     for y in 0..hp {
         for x in 0..w {
             // The single-bounce answer `L = rho I h / (pi r^3)` at `t = 2 r / c`, integrated
-            // over the pixel footprint (tprf::reference::plane).
+            // over the pixel footprint (tprf_core::reference::plane).
             let m = Plane::colocated(h_m as f64, rho as f64, i as f64, 50.0, fov as f64)
                 .pixel_moments(x, y, w, hp);
             let (l_ref, t_ref, l_sd, t_sd) = (m.mean, m.mean_arrival_s, m.sd, m.sd_arrival_s);
@@ -53,7 +53,7 @@ fn plane_lit_by_colocated_light_matches_single_bounce_answer() {
     }
 }
 
-/// Semi-analytic transient furnace (tprf::reference::furnace): the k-th scattering term
+/// Semi-analytic transient furnace (tprf_core::reference::furnace): the k-th scattering term
 /// has steady radiance `rho^k I / (pi R^2)` and arrives at `(2R + S_{k-1}) / c`, `S_{k-1}`
 /// the sum of k-1 independent chords with density `d / (2 R^2)` on [0, 2R].
 fn furnace_reference(r_m: f64, rho: f64, i: f64, axis: &TimeAxis) -> Vec<f64> {
@@ -141,7 +141,7 @@ fn furnace_total_energy_matches_closed_form() {
 /// F = ((n - 1) / (n + 1))^2 at normal incidence; the k-th arrives at
 /// `(1 m + (2k + 1) n d + gap) / c`: the slab delays by n d / c per crossing.
 /// Mean TPRF over all pixels of a film.
-fn mean_tprf(film: &tprf::film::TprfFilm) -> Vec<f64> {
+fn mean_tprf(film: &tprf_core::film::TprfFilm) -> Vec<f64> {
     let l = film.layout();
     let n = l.pixels() as f64;
     let mut mean = vec![0.0; l.axis.bins];
@@ -160,7 +160,7 @@ fn mean_tprf(film: &tprf::film::TprfFilm) -> Vec<f64> {
 /// estimation (emitter sampling + MIS) and without (BSDF sampling only) alike.
 #[test]
 fn emitting_furnace_matches_the_renewal_reference_with_and_without_nee() {
-    use tprf::transport::RenderSettings;
+    use tprf_core::transport::RenderSettings;
     let f = Furnace::emitting(1.0, 0.8, 1.5);
     let axis = f.default_axis(60).unwrap();
     let reference = f.tprf(&axis);
@@ -192,10 +192,10 @@ fn emitting_furnace_matches_the_renewal_reference_with_and_without_nee() {
 }
 
 /// The paper's Figure 4 world built in 3-D (mirrors with alpha coverage, an emitting
-/// plane at L): every bin against the exact impulse train of tprf::oned.
+/// plane at L): every bin against the exact impulse train of tprf_core::oned.
 #[test]
 fn oned_world_in_3d_matches_the_exact_impulse_train() {
-    use tprf::reference::oned_scene::{OnedScene, figure4_world};
+    use tprf_core::reference::oned_scene::{OnedScene, figure4_world};
     let o = OnedScene::new(figure4_world()).unwrap();
     let axis = o.default_axis(256).unwrap();
     let reference = o.tprf(&axis);
@@ -225,7 +225,7 @@ fn oned_world_in_3d_matches_the_exact_impulse_train() {
 /// furnace's energy in a window holding all but 1e-6 of it is `rho I / (pi R^2 (1 - rho))`.
 #[test]
 fn russian_roulette_floor_and_no_roulette_are_unbiased() {
-    use tprf::transport::RenderSettings;
+    use tprf_core::transport::RenderSettings;
     let f = Furnace::point(1.0, 0.7, 1.0);
     let axis = TimeAxis::new(0.0, 100.0 / C, 1).unwrap();
     for (rr_start, floor) in [(1, 0.5f32), (0, 0.9), (2, 1.0)] {
@@ -251,7 +251,7 @@ fn russian_roulette_floor_and_no_roulette_are_unbiased() {
 #[test]
 fn glass_slab_delays_by_n_d_over_c() {
     use glam::{Affine3A, Vec3};
-    use tprf::scene::{Camera, Material};
+    use tprf_core::scene::{Camera, Material};
     let (n, d, gap, le) = (1.5f32, 0.3f32, 0.5f32, 2.0f32);
     let cam = Camera {
         world_from_camera: Affine3A::from_translation(Vec3::new(0.0, 0.0, 1.0)),
@@ -269,7 +269,7 @@ fn glass_slab_delays_by_n_d_over_c() {
     let mut floor = Material::lambertian("floor", [0.0; 3]);
     floor.emissive = [le; 3];
     s.materials.push(floor);
-    let quad = |s: &mut tprf::scene::Scene, z: f32, up: bool, m: u32| {
+    let quad = |s: &mut tprf_core::scene::Scene, z: f32, up: bool, m: u32| {
         let (a, b, c, dd) = (
             Vec3::new(-5.0, -5.0, z),
             Vec3::new(5.0, -5.0, z),
@@ -328,7 +328,7 @@ fn glass_slab_delays_by_n_d_over_c() {
 #[test]
 fn partly_covered_layer_passes_light_undelayed() {
     use glam::{Affine3A, Vec3};
-    use tprf::scene::{AlphaMode, Camera, Material, PunctualLight};
+    use tprf_core::scene::{AlphaMode, Camera, Material, PunctualLight};
     let (big_h, h1, a, rho, i) = (10.0f32, 4.0f32, 0.5f32, 0.6f32, 100.0f32);
     let cam = Camera {
         world_from_camera: Affine3A::from_translation(Vec3::new(0.0, 0.0, big_h)),

@@ -5,7 +5,7 @@
 use glam::{DVec3, Vec3};
 use std::f64::consts::PI;
 use std::path::PathBuf;
-use tprf::scene::{Scene, Triangle, builtin, gltf_save};
+use tprf_core::scene::{Scene, Triangle, builtin, gltf_save};
 
 /// Distance along the ray `o + t d` (t > 1e-9) to the triangle, Moller-Trumbore in f64.
 fn hit(o: DVec3, d: DVec3, t: &Triangle) -> Option<f64> {
@@ -434,7 +434,7 @@ fn canopy_asset() {
 /// triangles (to f32 rounding), materials, light and camera.
 fn round_trip(name: &str) {
     let built = builtin::load(name).unwrap();
-    let loaded = tprf::scene::gltf_load::load_gltf(&asset_path(name)).unwrap();
+    let loaded = tprf_core::scene::gltf_load::load_gltf(&asset_path(name)).unwrap();
     assert_eq!(
         loaded.triangles.len(),
         built.triangles.len(),

@@ -36,11 +36,11 @@ fn render_writes_cube_metadata_and_pngs() {
         "2",
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let (shape, data) = tprf::export::read_npy_f32(&dir.join("tprf.npy")).unwrap();
+    let (shape, data) = tprf_core::export::read_npy_f32(&dir.join("tprf.npy")).unwrap();
     assert_eq!(shape, vec![16, 24, 32]);
     assert!(data.iter().all(|v| v.is_finite() && *v >= 0.0));
     assert!(data.iter().any(|&v| v > 0.0));
-    let (bshape, bdata) = tprf::export::read_npy_f32(&dir.join("tprf_bounces.npy")).unwrap();
+    let (bshape, bdata) = tprf_core::export::read_npy_f32(&dir.join("tprf_bounces.npy")).unwrap();
     assert_eq!(bshape, vec![4, 16, 24, 32]);
     // The per-bounce layers add up to the cube.
     let n = data.len();

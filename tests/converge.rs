@@ -3,16 +3,18 @@
 //! estimate tracks the true error, and `tprf converge` writes its files and refuses
 //! bad input with a clear error.
 
+use std::ops::ControlFlow;
 use std::path::Path;
 use std::process::Command;
 use std::sync::Arc;
-use tprf::film::{FilmLayout, TimeAxis, TimeFilter, TprfFilm};
-use tprf::reference::Analytic;
-use tprf::report::converge::{
+use tprf_core::film::{FilmLayout, TimeAxis, TimeFilter, TprfFilm};
+use tprf_core::reference::Analytic;
+use tprf_core::report::converge::{
     Checkpoint, EstimatorSetting, FilmRequest, RunConfig, fit_loglog, measure, resolve_target,
     run_setting,
 };
-use tprf::transport::{RenderSettings, Renderer};
+use tprf_core::transport::progressive::{Schedule, render};
+use tprf_core::transport::{RenderSettings, Renderer};
 
 /// Render `spec`'s scene on a small film, measuring after 4, 8, ..., 4^k spp.
 fn errors_by_spp(spec: &str, w: usize, h: usize, bins: usize, max_spp: u64) -> Vec<Checkpoint> {
@@ -34,11 +36,9 @@ fn errors_by_spp(spec: &str, w: usize, h: usize, bins: usize, max_spp: u64) -> V
     let mut out = Vec::new();
     let mut target = 4;
     while target <= max_spp {
-        // Equal passes keep the two halves balanced.
-        while film.spp() < target {
-            let n = ((target - film.spp()) / 2).max(1) as u32;
-            renderer.render_pass(&mut film, n);
-        }
+        render(&renderer, &mut film, &Schedule::spp(target), |_, _| {
+            ControlFlow::Continue(())
+        });
         out.push(measure(spec, 0.0, &film, &reference));
         target *= 4;
     }
@@ -140,13 +140,13 @@ fn the_tent_filter_has_a_bias_floor_against_box_bins() {
     let mut film = TprfFilm::new(layout)
         .unwrap()
         .with_time_filter(TimeFilter::Tent);
-    for _ in 0..16 {
-        renderer.render_pass(&mut film, 32);
-    }
+    render(&renderer, &mut film, &Schedule::spp(512), |_, _| {
+        ControlFlow::Continue(())
+    });
     let c = measure("tent", 0.0, &film, &reference);
     // Where 2R/c falls in its bin sets the share the tent moves: at least the part of
     // the delta's weight that leaves its bin.
-    let x = (2.0 / tprf::units::C_M_PER_S - axis.t0_s) / axis.dt_s;
+    let x = (2.0 / tprf_core::units::C_M_PER_S - axis.t0_s) / axis.dt_s;
     let moved = (x.fract() - 0.5).abs();
     assert!(moved > 0.05, "the test needs the delta off a bin centre");
     assert!(c.rel_l2_cube > 0.5 * moved, "{} vs {moved}", c.rel_l2_cube);
@@ -237,11 +237,12 @@ fn cli_writes_csv_plot_and_summary_against_analytic_and_npy_references() {
     let bad_shape = dir.join("bad");
     std::fs::create_dir_all(&bad_shape).unwrap();
     std::fs::copy(cube.join("tprf.json"), bad_shape.join("tprf.json")).unwrap();
-    tprf::export::write_npy_f32(&bad_shape.join("tprf.npy"), &[8, 4, 16], &[0.0; 512]).unwrap();
+    tprf_core::export::write_npy_f32(&bad_shape.join("tprf.npy"), &[8, 4, 16], &[0.0; 512])
+        .unwrap();
     let o2 = out2.to_str().unwrap();
     let bad_npy = bad_shape.join("tprf.npy");
     let no_meta = dir.join("lonely.npy");
-    tprf::export::write_npy_f32(&no_meta, &[1, 1, 1], &[0.0]).unwrap();
+    tprf_core::export::write_npy_f32(&no_meta, &[1, 1, 1], &[0.0]).unwrap();
     for (args, want) in [
         (
             vec!["converge", "--reference", "analytic:teapot", "--out", o2],

@@ -4,10 +4,10 @@
 use glam::Vec3;
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
-use tprf::scene::gltf_load::load_gltf;
-use tprf::scene::{AlphaMode, Scene, SceneError};
+use tprf_core::scene::gltf_load::load_gltf;
+use tprf_core::scene::{AlphaMode, Scene, SceneError};
 
-const SCENES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/scenes");
+const SCENES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/scenes");
 
 fn close(a: Vec3, b: Vec3) -> bool {
     (a - b).length() < 1e-5
@@ -490,7 +490,7 @@ fn material_factors_and_extensions() {
     assert_eq!(plain.alpha_mode, AlphaMode::Opaque);
     assert!(plain.double_sided && !m("lamp").double_sided);
     assert!(plain.base_color_texture.is_none() && !plain.is_emissive());
-    assert_eq!(m("default"), &tprf::scene::Material::default());
+    assert_eq!(m("default"), &tprf_core::scene::Material::default());
     // The lamp lights the scene: no co-located light added.
     assert!(scene.lights.is_empty() && !has_note(&scene, "no light"));
 }

@@ -4,7 +4,8 @@
 
 mod common;
 use common::*;
-use tprf::film::{FilmLayout, TimeAxis, TimeFilter, TprfFilm};
+use tprf_core::film::{FilmLayout, TimeAxis, TimeFilter, TprfFilm};
+use tprf_core::transport::progressive::Schedule;
 
 fn in_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
     rayon::ThreadPoolBuilder::new()
@@ -133,12 +134,12 @@ fn bins_accumulate_1e8_samples_without_loss() {
 fn tent_filter_conserves_energy_and_keeps_centred_deltas_in_one_bin() {
     // Same seed, same paths: the tent film's sum over bins equals the box film's.
     let axis = TimeAxis::new(0.0, 0.5 / C, 40).unwrap();
-    let settings = tprf::transport::RenderSettings {
+    let settings = tprf_core::transport::RenderSettings {
         seed: 8,
         ..Default::default()
     };
     let renderer =
-        tprf::transport::Renderer::new(std::sync::Arc::new(furnace(1.0, 0.7, 1.0)), settings);
+        tprf_core::transport::Renderer::new(std::sync::Arc::new(furnace(1.0, 0.7, 1.0)), settings);
     let layout = FilmLayout {
         width: 6,
         height: 5,
@@ -148,9 +149,9 @@ fn tent_filter_conserves_energy_and_keeps_centred_deltas_in_one_bin() {
     let mut films = [TimeFilter::Box, TimeFilter::Tent]
         .map(|f| TprfFilm::new(layout).unwrap().with_time_filter(f));
     for film in &mut films {
-        for _ in 0..3 {
-            renderer.render_pass(film, 4);
-        }
+        tprf_core::transport::progressive::render(&renderer, film, &Schedule::spp(12), |_, _| {
+            std::ops::ControlFlow::Continue(())
+        });
     }
     let [boxed, tent] = &films;
     for (a, b) in boxed.steady().iter().zip(tent.steady()) {

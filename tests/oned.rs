@@ -13,11 +13,12 @@
 
 use std::path::{Path, PathBuf};
 
-use tprf::oned::{
+use tprf::cli::print_oned;
+use tprf_core::oned::{
     Direction, Impulse, ImpulseOptions, InterfaceKind, InterfaceSpec, Side, World, WorldError,
-    WorldFile, binned, binned_by_order, run_cli,
+    WorldFile, binned, binned_by_order,
 };
-use tprf::units::C_M_PER_S;
+use tprf_core::units::C_M_PER_S;
 
 const C: f64 = C_M_PER_S;
 
@@ -578,7 +579,7 @@ fn figure4_asset_runs_through_the_cli() {
     assert!(rel_close(train[1].weight, 0.6 * 0.6 * 0.8, 1e-12));
 
     let mut out = Vec::new();
-    let result = run_cli(&path, Some((0.0, 1e-9, 400)), &mut out);
+    let result = print_oned(&path, Some((0.0, 1e-9, 400)), &mut out);
     assert!(result.is_ok(), "{result:?}");
     let text = String::from_utf8_lossy(&out);
     let rows: Vec<&str> = text.lines().filter(|l| !l.starts_with('#')).collect();
@@ -607,7 +608,7 @@ fn figure4_asset_runs_through_the_cli() {
 
     // Without bins: only the impulses.
     let mut out = Vec::new();
-    assert!(run_cli(&path, None, &mut out).is_ok());
+    assert!(print_oned(&path, None, &mut out).is_ok());
     let text = String::from_utf8_lossy(&out);
     assert_eq!(
         text.lines().filter(|l| !l.starts_with('#')).count(),
@@ -790,8 +791,8 @@ fn bad_files_give_errors_not_panics() {
         Err(WorldError::Io { .. })
     ));
     let mut out = Vec::new();
-    assert!(run_cli(&missing, None, &mut out).is_err());
+    assert!(print_oned(&missing, None, &mut out).is_err());
     let figure4 = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/oned/figure4.json");
-    assert!(run_cli(&figure4, Some((0.0, 0.0, 10)), &mut out).is_err());
-    assert!(run_cli(&figure4, Some((f64::NAN, 1e-9, 10)), &mut out).is_err());
+    assert!(print_oned(&figure4, Some((0.0, 0.0, 10)), &mut out).is_err());
+    assert!(print_oned(&figure4, Some((f64::NAN, 1e-9, 10)), &mut out).is_err());
 }

@@ -10,14 +10,14 @@
 
 use std::f64::consts::{PI, SQRT_2, TAU};
 
-use tprf::film::TimeAxis;
-use tprf::oned::{ImpulseOptions, World, binned};
-use tprf::sensor::light::FWHM_PER_SIGMA;
-use tprf::sensor::noise::standard_normal;
-use tprf::sensor::{
+use tprf_core::film::TimeAxis;
+use tprf_core::oned::{ImpulseOptions, World, binned};
+use tprf_core::sensor::light::FWHM_PER_SIGMA;
+use tprf_core::sensor::noise::standard_normal;
+use tprf_core::sensor::{
     Exposure, LightPulse, Noise, Point, Sensor, SensorError, SensorModel, TimeOrigin, Update,
 };
-use tprf::units::C_M_PER_S;
+use tprf_core::units::C_M_PER_S;
 
 const NS: f64 = 1e-9;
 
@@ -784,7 +784,7 @@ mod cli {
                 cube[(y * w + x) * bins + 40 + 10 * x] = 1.0 + y as f32;
             }
         }
-        tprf::export::write_npy_f32(
+        tprf_core::export::write_npy_f32(
             &dir.join("tprf.npy"),
             &[h as u64, w as u64, bins as u64],
             &cube,
@@ -793,7 +793,7 @@ mod cli {
         let meta = serde_json::json!({
             "t0_s": 10e-9, "dt_s": 0.1e-9, "bins": bins, "width": w, "height": h,
         });
-        tprf::export::write_json(&dir.join("tprf.json"), &meta).expect("write json");
+        tprf_core::export::write_json(&dir.join("tprf.json"), &meta).expect("write json");
     }
 
     fn json(path: &Path) -> serde_json::Value {
@@ -822,7 +822,8 @@ mod cli {
             out.to_str().expect("utf-8"),
         ]);
         assert!(o.status.success(), "{}", stderr(&o));
-        let (shape, values) = tprf::export::read_npy_f32(&out.join("sensor.npy")).expect("npy");
+        let (shape, values) =
+            tprf_core::export::read_npy_f32(&out.join("sensor.npy")).expect("npy");
         assert_eq!(shape, vec![256, 3, 5]);
         assert!(values.iter().all(|v| *v >= 0.0));
         // Each pixel's impulse of weight 1 + y: the gates sum to it.
@@ -833,7 +834,7 @@ mod cli {
                 "pixel {px}: {sum}"
             );
         }
-        let (dshape, depth) = tprf::export::read_npy_f32(&out.join("depth.npy")).expect("npy");
+        let (dshape, depth) = tprf_core::export::read_npy_f32(&out.join("depth.npy")).expect("npy");
         assert_eq!(dshape, vec![3, 5]);
         // The impulse of column x is at bin 40 + 10 x: 14.05 ns + x ns.
         for (px, d) in depth.iter().enumerate() {
@@ -884,7 +885,7 @@ mod cli {
             o_str,
         ]);
         assert!(o.status.success(), "{}", stderr(&o));
-        let (shape, _) = tprf::export::read_npy_f32(&out.join("sensor.npy")).expect("npy");
+        let (shape, _) = tprf_core::export::read_npy_f32(&out.join("sensor.npy")).expect("npy");
         assert_eq!(shape, vec![8, 2, 4]);
         assert_eq!(json(&out.join("sensor.json"))["sensor"]["noise"]["seed"], 3);
         for (args, mention) in [
@@ -1001,7 +1002,8 @@ mod cli {
         assert!(how.contains("single-scattering"), "{how}");
         // Interreflections arrive later than the direct return: the AMCW depth is
         // mostly too far.
-        let (_, err) = tprf::export::read_npy_f32(&out.join("multipath_error.npy")).expect("npy");
+        let (_, err) =
+            tprf_core::export::read_npy_f32(&out.join("multipath_error.npy")).expect("npy");
         let finite: Vec<f32> = err.into_iter().filter(|e| e.is_finite()).collect();
         assert!(!finite.is_empty());
         let positive = finite.iter().filter(|e| **e > 0.0).count();

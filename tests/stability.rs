@@ -1,7 +1,7 @@
 //! Stiff and extreme cases at test size (`tprf stability` runs them larger): every row
 //! against an answer derived independently of the renderer, no NaN or infinity.
 
-use tprf::report::stability::{Row, Size, markdown};
+use tprf_core::report::stability::{Row, Size, markdown};
 
 fn all_pass(rows: Vec<Row>) {
     assert!(!rows.is_empty());
@@ -11,22 +11,22 @@ fn all_pass(rows: Vec<Row>) {
 
 #[test]
 fn stiff_furnaces_follow_the_albedo_laws() {
-    all_pass(tprf::report::stability::stiff_furnace(Size::Test));
+    all_pass(tprf_core::report::stability::stiff_furnace(Size::Test));
 }
 
 #[test]
 fn scenes_at_1mm_1m_and_10km_agree() {
-    all_pass(tprf::report::stability::scales(Size::Test));
+    all_pass(tprf_core::report::stability::scales(Size::Test));
 }
 
 #[test]
 fn one_bin_and_100000_bins_conserve_energy() {
-    all_pass(tprf::report::stability::bins(Size::Test));
+    all_pass(tprf_core::report::stability::bins(Size::Test));
 }
 
 #[test]
 fn a_point_light_1e_6_m_from_a_wall_stays_finite_and_lights_it() {
-    let rows = tprf::report::stability::light_near_wall(Size::Test);
+    let rows = tprf_core::report::stability::light_near_wall(Size::Test);
     // The pixels away from the light's foot converge normally; the foot's pixel is
     // unbiased with a documented, bounded error.
     all_pass(rows);
@@ -34,12 +34,12 @@ fn a_point_light_1e_6_m_from_a_wall_stays_finite_and_lights_it() {
 
 #[test]
 fn grazing_light_and_view_match_the_single_bounce_answer() {
-    all_pass(tprf::report::stability::grazing(Size::Test));
+    all_pass(tprf_core::report::stability::grazing(Size::Test));
 }
 
 #[test]
 fn coincident_and_degenerate_faces_change_nothing() {
-    all_pass(tprf::report::stability::bad_faces(Size::Test));
+    all_pass(tprf_core::report::stability::bad_faces(Size::Test));
 }
 
 #[test]
@@ -66,10 +66,12 @@ fn cli_writes_the_table() {
 
 #[test]
 fn pulses_and_gates_conserve_energy_or_measure_exactly_zero() {
-    all_pass(tprf::report::sensor_cases::pulses_and_gates(Size::Test));
+    all_pass(tprf_core::report::sensor_cases::pulses_and_gates(
+        Size::Test,
+    ));
 }
 
 #[test]
 fn sensor_noise_and_huge_values_stay_finite_and_non_negative() {
-    all_pass(tprf::report::sensor_cases::sensor_extremes(Size::Test));
+    all_pass(tprf_core::report::sensor_cases::sensor_extremes(Size::Test));
 }

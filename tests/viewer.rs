@@ -11,9 +11,9 @@ use eframe::egui::{Event, Key, Modifiers, PointerButton, Pos2, Vec2};
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use std::time::{Duration, Instant};
-use tprf::sensor::{Exposure, LightPulse, Sensor, TimeOrigin};
-use tprf::transport::worker::WorkerState;
 use tprf::viewer::{Mode, Selection, Start, TprfApp, ViewerSettings};
+use tprf_core::sensor::{Exposure, LightPulse, Sensor, TimeOrigin};
+use tprf_core::transport::worker::WorkerState;
 
 fn small_settings(scene: &str, side: usize, bins: usize, spp: u64) -> ViewerSettings {
     ViewerSettings {

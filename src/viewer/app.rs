@@ -4,19 +4,19 @@ use super::Start;
 use super::colormap::{self, ColorMap, ExposureMode, Tone};
 use super::sensor_ui::{self, SensorState};
 use super::timeline::{TimeRuler, bin_label, nice_ticks_s};
-use crate::export::{self, CubeMetadata};
-use crate::film::{FilmSnapshot, TimeAxis};
-use crate::scene::Channel;
-use crate::sensor::Sensor;
-use crate::transport::worker::{RenderJob, RenderWorker, WorkerState, WorkerStatus};
-use crate::transport::{RenderSettings, WindowRequest};
-use crate::units::{C_M_PER_S, format_time, parse_time_s};
 use eframe::egui::{self, Color32, RichText, Sense, TextureHandle, TextureOptions, Vec2};
 use egui_plot::{Legend, Line, Plot, PlotPoints, VLine};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
+use tprf_core::export::{self, CubeMetadata};
+use tprf_core::film::{FilmSnapshot, TimeAxis};
+use tprf_core::scene::Channel;
+use tprf_core::sensor::Sensor;
+use tprf_core::transport::worker::{RenderJob, RenderWorker, WorkerState, WorkerStatus};
+use tprf_core::transport::{RenderSettings, WindowRequest};
+use tprf_core::units::{C_M_PER_S, format_time, parse_time_s};
 
 /// Everything the viewer remembers between runs (eframe storage).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -627,7 +627,7 @@ impl TprfApp {
             {
                 self.open_cube(&p);
             }
-            for name in crate::scene::builtin::NAMES {
+            for name in tprf_core::scene::builtin::NAMES {
                 if ui.button(format!("builtin:{name}")).clicked() {
                     self.open_scene(format!("builtin:{name}"));
                 }

@@ -44,11 +44,11 @@ impl Tone {
     }
 }
 
-pub use crate::film::quantile_positive;
+pub use tprf_core::film::quantile_positive;
 
 /// sRGB-encode a linear value in [0, 1].
 fn srgb(x: f64) -> u8 {
-    crate::export::srgb8(x)
+    tprf_core::export::srgb8(x)
 }
 
 /// RGBA8 pixels of a scalar image.

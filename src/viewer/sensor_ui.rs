@@ -5,15 +5,15 @@
 //! redone only when the sensor or the film snapshot changed.
 
 use super::colormap::{self, ColorMap, Tone};
-use crate::film::{FilmSnapshot, TimeAxis};
-use crate::sensor::{
-    AmcwImage, Exposure, LightPulse, Measurements, NoiseField, PixelTrace, Point, Sensor,
-    SensorModel, TimeOrigin, derived,
-};
 use eframe::egui::{self, Color32, RichText, Sense, TextureHandle, TextureOptions, Vec2};
 use egui_plot::{Line, Plot, PlotPoint, PlotPoints, Points, VLine};
 use std::sync::Arc;
 use std::time::Instant;
+use tprf_core::film::{FilmSnapshot, TimeAxis};
+use tprf_core::sensor::{
+    AmcwImage, Exposure, LightPulse, Measurements, NoiseField, PixelTrace, Point, Sensor,
+    SensorModel, TimeOrigin, derived,
+};
 
 const LIGHT_COLOR: Color32 = Color32::from_rgb(0xff, 0xc8, 0x3d);
 const GATE_COLOR: Color32 = Color32::from_rgb(0x4d, 0xc3, 0xff);
@@ -118,7 +118,7 @@ fn measure_all(
         .measure_clean(&snap.cube, snap.width(), snap.height())
         .map_err(|e| e.to_string())?;
     model.apply_noise_cached(&mut m, &mut noise_field);
-    let robust_max = crate::film::robust_max(&m.values);
+    let robust_max = tprf_core::film::robust_max(&m.values);
     let depth_m = model.first_return_depth(&m);
     let amcw = model.amcw(&m);
     let amcw_error_m = amcw.as_ref().map(|a| {
@@ -227,8 +227,9 @@ impl SensorState {
                 .is_none_or(|p| p.snapshot != key || p.gate != gate || p.sensor != *model.sensor());
             if stale && let Some(k) = model.kernels().get(gate) {
                 let started = Instant::now();
-                let packed = crate::sensor::PackedKernels::new(std::slice::from_ref(k), axis.bins);
-                if let Ok(m) = crate::sensor::measure::measure_clean(
+                let packed =
+                    tprf_core::sensor::PackedKernels::new(std::slice::from_ref(k), axis.bins);
+                if let Ok(m) = tprf_core::sensor::measure::measure_clean(
                     &packed,
                     &snap.cube,
                     snap.width(),
@@ -712,7 +713,7 @@ pub fn controls_ui(
         ui.label(RichText::new(&sensor.name).strong());
     }
     ui.horizontal_wrapped(|ui| {
-        for (name, _) in crate::sensor::BUILTIN_PRESETS {
+        for (name, _) in tprf_core::sensor::BUILTIN_PRESETS {
             if ui
                 .button(*name)
                 .on_hover_text(format!("builtin:{name}"))
@@ -748,7 +749,7 @@ pub fn controls_ui(
                 .map_err(|e| e.to_string())
                 .and_then(|t| {
                     use std::io::Write;
-                    crate::export::write_atomic(&p, |f| Ok(f.write_all(t.as_bytes())?))
+                    tprf_core::export::write_atomic(&p, |f| Ok(f.write_all(t.as_bytes())?))
                         .map_err(|e| format!("{e:#}"))
                 });
             if let Err(e) = r {
@@ -856,7 +857,7 @@ pub fn controls_ui(
         sensor.derived = Default::default();
         sensor.derived.amcw_depth = new_kind == "amcw";
     }
-    let max_gates = crate::sensor::MAX_GATES;
+    let max_gates = tprf_core::sensor::MAX_GATES;
     egui::Grid::new("exposure-grid")
         .num_columns(2)
         .show(ui, |ui| match &mut sensor.exposure {

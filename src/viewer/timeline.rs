@@ -1,8 +1,8 @@
 //! The time axis on screen: a pure mapping between bins, seconds and screen x, rebuilt
 //! each frame (testable without egui), and the timeline widget under the image.
 
-use crate::film::TimeAxis;
-use crate::units::C_M_PER_S;
+use tprf_core::film::TimeAxis;
+use tprf_core::units::C_M_PER_S;
 
 /// Maps bins to screen x in `[left, right]` (bin centres spread over the width).
 #[derive(Clone, Copy, Debug, PartialEq)]

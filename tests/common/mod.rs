@@ -3,12 +3,12 @@
 
 use glam::{Vec2, Vec3};
 use std::sync::Arc;
-use tprf::film::{FilmLayout, TimeAxis, TprfFilm};
-use tprf::reference::furnace::Furnace;
-use tprf::reference::plane::Plane;
-use tprf::scene::{Camera, Scene, Triangle, TriangleAttrs};
-use tprf::transport::progressive::{Budget, render};
-use tprf::transport::{RenderSettings, Renderer};
+use tprf_core::film::{FilmLayout, TimeAxis, TprfFilm};
+use tprf_core::reference::furnace::Furnace;
+use tprf_core::reference::plane::Plane;
+use tprf_core::scene::{Camera, Scene, Triangle, TriangleAttrs};
+use tprf_core::transport::progressive::{Schedule, render};
+use tprf_core::transport::{RenderSettings, Renderer};
 
 pub const C: f64 = 299_792_458.0;
 
@@ -94,7 +94,7 @@ pub fn render_with(
         bounces_separate,
     })
     .expect("film");
-    render(&renderer, &mut film, Budget::Spp(spp), |_, _| {
+    render(&renderer, &mut film, &Schedule::spp(spp), |_, _| {
         std::ops::ControlFlow::Continue(())
     });
     Rendered {

@@ -13,7 +13,7 @@ use crate::reference::furnace::Furnace;
 use crate::reference::gauss_legendre;
 use crate::reference::plane::{Plane, Rect};
 use crate::scene::{Camera, Scene, Triangle, TriangleAttrs};
-use crate::transport::progressive::{self, Budget};
+use crate::transport::progressive::{self, Schedule};
 use crate::transport::{RenderSettings, Renderer};
 use crate::units::C_M_PER_S;
 use glam::{Vec2, Vec3};
@@ -175,7 +175,7 @@ fn render(
         bounces_separate,
     })
     .expect("stability films are small");
-    progressive::render(&renderer, &mut film, Budget::Spp(spp), |_, _| {
+    progressive::render(&renderer, &mut film, &Schedule::spp(spp), |_, _| {
         std::ops::ControlFlow::Continue(())
     });
     film

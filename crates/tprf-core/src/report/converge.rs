@@ -10,14 +10,14 @@ use crate::export::{read_cube, write_atomic};
 use crate::film::{FilmLayout, TimeAxis, TimeFilter, TprfFilm};
 use crate::reference::{Analytic, ReferenceCube};
 use crate::scene::{Channel, Scene};
-use crate::transport::progressive::pass_spp;
+use crate::transport::progressive::{self, PassSize, Schedule};
 use crate::transport::{RenderSettings, Renderer};
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::io::Write as _;
+use std::ops::ControlFlow;
 use std::path::Path;
 use std::sync::Arc;
-use std::time::Instant;
 
 /// One estimator setting to compare: a label and what it changes from the defaults.
 #[derive(Clone, Debug, PartialEq)]
@@ -229,20 +229,21 @@ pub fn run_setting(
     let per_decade = config.per_decade.max(1) as f64;
     let grid = |k: i64| 10f64.powf(k as f64 / per_decade);
     let mut next_k: Option<i64> = None;
-    let mut rendered = 0.0f64;
     let mut out = Vec::new();
-    loop {
-        let spp = pass_spp(film.passes(), config.pass_cap);
-        let start = Instant::now();
-        renderer.render_pass(&mut film, spp);
-        rendered += start.elapsed().as_secs_f64();
-        let done = rendered >= budget;
-        let due = match next_k {
-            None => true,
-            Some(k) => rendered >= grid(k),
-        };
+    let schedule = Schedule {
+        pass_size: PassSize::Doubling {
+            cap: config.pass_cap,
+        },
+        spp_target: None,
+        time_budget_s: None,
+    };
+    // The clock is the renderer's own (`render_s`): measuring is not charged.
+    progressive::render(&renderer, &mut film, &schedule, |report, film| {
+        let rendered = report.render_s;
+        let done = !(rendered < budget);
+        let due = next_k.is_none_or(|k| rendered >= grid(k));
         if due || done {
-            let c = measure(&setting.label, rendered, &film, reference);
+            let c = measure(&setting.label, rendered, film, reference);
             on_checkpoint(&c);
             out.push(c);
             // The first grid time after now.
@@ -253,9 +254,11 @@ pub fn run_setting(
             next_k = Some(k);
         }
         if done {
-            break;
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
         }
-    }
+    });
     Ok(out)
 }
 

@@ -25,7 +25,7 @@ use glam::{Vec2, Vec3};
 
 /// The paper's Figure 4 world (`assets/oned/figure4.json`).
 pub fn figure4_world() -> World {
-    World::from_json_str(include_str!("../../assets/oned/figure4.json"))
+    World::from_json_str(include_str!("../../../../assets/oned/figure4.json"))
         .expect("the bundled Figure 4 world is valid")
 }
 

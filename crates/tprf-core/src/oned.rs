@@ -10,7 +10,7 @@
 //! In one dimension every term of the Neumann series `R = R0 + G R0 + G G R0 + ...`
 //! (section 4.1) is a finite sum of delayed, weighted deltas, so the TPRF of section 5,
 //! `TPRF(t) = I*(E, w, t)`, is an exact train of weighted impulses. [`World::impulses`]
-//! enumerates it; [`binned`] integrates it over time bins; [`run_cli`] prints both.
+//! enumerates it; [`binned`] integrates it over time bins.
 //!
 //! Conventions:
 //! - The eye looking right sees the light that arrives at E *from the right*, i.e.
@@ -30,7 +30,6 @@
 use std::collections::BTreeMap;
 use std::collections::BTreeSet;
 use std::fmt;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
@@ -1067,127 +1066,6 @@ pub fn binned_by_order(impulses: &[Impulse], t0_s: f64, dt_s: f64, bins: usize) 
         }
     }
     out
-}
-
-/// Command-line entry: reads the world file at `path`, prints its impulse train (time in
-/// ns, optical path length in m, weight, order) and, with `bins = Some((t0_s, dt_s,
-/// count))`, the binned TPRF (bin index, bin start in ns, integrated weight). Lines
-/// starting with `#` are comments; the rest are whitespace-separated columns.
-pub fn run_cli(
-    path: &Path,
-    bins: Option<(f64, f64, usize)>,
-    out: &mut impl Write,
-) -> anyhow::Result<()> {
-    if let Some((t0_s, dt_s, _)) = bins {
-        anyhow::ensure!(t0_s.is_finite(), "bin start t0 = {t0_s} s is not finite");
-        anyhow::ensure!(
-            dt_s > 0.0 && dt_s.is_finite(),
-            "bin width dt = {dt_s} s must be a positive finite number"
-        );
-    }
-    let world = World::from_path(path).map_err(|e| match e {
-        WorldError::Io { .. } => anyhow::Error::new(e),
-        other => anyhow::anyhow!("{}: {other}", path.display()),
-    })?;
-    let opts = ImpulseOptions::default();
-    let train = world.impulse_train(&opts);
-
-    writeln!(out, "# tprf 1-D world: {}", path.display())?;
-    writeln!(
-        out,
-        "# eye at {} m looking {}; light at {} m",
-        world.eye_m, world.look, world.light_m
-    )?;
-    for (i, interface) in world.interfaces.iter().enumerate() {
-        let ior_right = world.segment_ior.get(i + 1).copied().unwrap_or(1.0);
-        match interface.kind {
-            InterfaceKind::Real => writeln!(
-                out,
-                "# interface {} at {} m: left r {} t {}, right r {} t {}; ior right of it {}",
-                interface.name,
-                interface.x_m,
-                interface.left.reflectance,
-                interface.left.transmittance,
-                interface.right.reflectance,
-                interface.right.transmittance,
-                ior_right
-            )?,
-            kind => writeln!(
-                out,
-                "# interface {} at {} m: {kind}; ior right of it {}",
-                interface.name, interface.x_m, ior_right
-            )?,
-        }
-    }
-    let e = &train.energy;
-    writeln!(
-        out,
-        "# energy ({} emitted, 1 each way): escaped {:.6e}, absorbed {:.6e}, cut {:.3e} \
-         (weight {:.3e}, time {:.3e}, order {:.3e}, packets {:.3e})",
-        e.emitted,
-        e.escaped,
-        e.absorbed,
-        e.cut_total(),
-        e.cut_weight,
-        e.cut_time,
-        e.cut_order,
-        e.cut_packets
-    )?;
-    if train.truncated {
-        writeln!(
-            out,
-            "# WARNING: more than {} live packets in one order: the train is incomplete",
-            opts.max_packets
-        )?;
-    }
-    let seen: f64 = train.impulses.iter().map(|i| i.weight).sum();
-    writeln!(
-        out,
-        "# impulses: {} (total weight {:.12e}; cut-offs: weight < {:e}, order > {})",
-        train.impulses.len(),
-        seen,
-        opts.min_weight,
-        opts.max_order
-    )?;
-    writeln!(
-        out,
-        "# {:>20} {:>20} {:>20} {:>6}",
-        "time_ns", "opl_m", "weight", "order"
-    )?;
-    for impulse in &train.impulses {
-        writeln!(
-            out,
-            "  {:>20.9} {:>20.9} {:>20.12e} {:>6}",
-            impulse.time_s * 1e9,
-            impulse.opl_m(),
-            impulse.weight,
-            impulse.order
-        )?;
-    }
-
-    if let Some((t0_s, dt_s, count)) = bins {
-        let values = binned(&train.impulses, t0_s, dt_s, count);
-        let inside: f64 = values.iter().sum();
-        writeln!(
-            out,
-            "# binned TPRF: t0 {:.9} ns, dt {:.9} ns, {} bins (weight in the window {:.12e})",
-            t0_s * 1e9,
-            dt_s * 1e9,
-            count,
-            inside
-        )?;
-        writeln!(out, "# {:>8} {:>20} {:>20}", "bin", "start_ns", "value")?;
-        for (b, value) in values.iter().enumerate() {
-            writeln!(
-                out,
-                "  {:>8} {:>20.9} {:>20.12e}",
-                b,
-                (t0_s + b as f64 * dt_s) * 1e9,
-                value
-            )?;
-        }
-    }
-    Ok(())
 }
 
 #[cfg(test)]

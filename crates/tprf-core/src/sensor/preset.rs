@@ -32,9 +32,15 @@ use super::noise::Noise;
 
 /// The presets shipped in `assets/sensors/`, by name (`builtin:NAME`).
 pub const BUILTIN_PRESETS: &[(&str, &str)] = &[
-    ("gated", include_str!("../../assets/sensors/gated.toml")),
-    ("lidar", include_str!("../../assets/sensors/lidar.toml")),
-    ("amcw", include_str!("../../assets/sensors/amcw.toml")),
+    (
+        "gated",
+        include_str!("../../../../assets/sensors/gated.toml"),
+    ),
+    (
+        "lidar",
+        include_str!("../../../../assets/sensors/lidar.toml"),
+    ),
+    ("amcw", include_str!("../../../../assets/sensors/amcw.toml")),
 ];
 
 /// A whole TPRF sensor: light, gates, noise, derived outputs. It is plain data

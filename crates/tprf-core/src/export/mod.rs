@@ -3,7 +3,6 @@
 //! existing file is replaced atomically and a failed write loses nothing.
 
 use crate::film::{FilmLayout, FilmSnapshot, TimeAxis, TprfFilm};
-use crate::transport::progressive::PassReport;
 use anyhow::{Context, Result};
 use npyz::WriterBuilder;
 use serde::{Deserialize, Serialize};
@@ -34,14 +33,34 @@ pub struct CubeMetadata {
     /// 1..=K = that many scattering events, K+1 = more.
     pub bounces_separate: u32,
     pub threads: usize,
+    /// Wall time of the render, seconds (scene loading and writing included).
     pub wall_seconds: f64,
+    /// Time inside render passes, seconds.
+    #[serde(default)]
+    pub render_seconds: f64,
     pub rays_traced: u64,
     pub paths_traced: u64,
     /// Error of the cube estimated from two independent halves of the samples (relative
     /// RMS), when both halves have samples.
     pub error_estimate: Option<f64>,
-    pub passes: Vec<PassReport>,
+    /// Render passes made.
+    #[serde(default, deserialize_with = "pass_count")]
+    pub passes: u64,
     pub notes: Vec<String>,
+}
+
+/// `passes` as a count; cubes written before it was summarised list one record per pass.
+fn pass_count<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<u64, D::Error> {
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Passes {
+        Count(u64),
+        List(Vec<serde::de::IgnoredAny>),
+    }
+    Ok(match Passes::deserialize(d)? {
+        Passes::Count(n) => n,
+        Passes::List(l) => l.len() as u64,
+    })
 }
 
 /// The camera as written to metadata.
@@ -163,7 +182,7 @@ pub fn load_snapshot(dir: &Path) -> Result<(CubeMetadata, FilmSnapshot)> {
     let snapshot = FilmSnapshot::new(
         layout,
         meta.spp,
-        meta.passes.len() as u64,
+        meta.passes,
         cube,
         bounces,
         meta.error_estimate,

@@ -347,7 +347,7 @@ impl Scene {
 }
 
 /// The single spectral band the transient cube records.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Channel {
     Red,
@@ -359,6 +359,19 @@ pub enum Channel {
 }
 
 impl Channel {
+    /// Every band, with the name [`Channel::name`] gives it.
+    pub const ALL: [Channel; 4] = [Channel::Red, Channel::Green, Channel::Blue, Channel::Gray];
+
+    /// The band's name in files and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Channel::Red => "red",
+            Channel::Green => "green",
+            Channel::Blue => "blue",
+            Channel::Gray => "gray",
+        }
+    }
+
     /// This band's value of a linear RGB triple.
     pub fn pick(self, rgb: [f32; 3]) -> f32 {
         match self {
@@ -367,6 +380,27 @@ impl Channel {
             Channel::Blue => rgb[2],
             Channel::Gray => 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2],
         }
+    }
+}
+
+impl std::fmt::Display for Channel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A band name that is not one of [`Channel::ALL`].
+#[derive(Debug, thiserror::Error)]
+#[error("unknown channel '{0}' (known: red, green, blue, gray)")]
+pub struct UnknownChannel(pub String);
+
+impl std::str::FromStr for Channel {
+    type Err = UnknownChannel;
+    fn from_str(s: &str) -> Result<Channel, UnknownChannel> {
+        Channel::ALL
+            .into_iter()
+            .find(|c| c.name().eq_ignore_ascii_case(s.trim()))
+            .ok_or_else(|| UnknownChannel(s.to_string()))
     }
 }
 

@@ -20,7 +20,12 @@ pub struct FilmSnapshot {
     steady: Vec<f32>,
     peak_bin: Vec<Option<u32>>,
     robust_max: Option<f64>,
+    /// See [`FilmSnapshot::generation`].
+    generation: u64,
 }
+
+/// The next [`FilmSnapshot::generation`]; 0 is never handed out.
+static NEXT_GENERATION: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
 
 /// At most this many values are looked at for [`FilmSnapshot::robust_max`].
 const ROBUST_MAX_SAMPLES: usize = 1 << 20;
@@ -63,7 +68,15 @@ impl FilmSnapshot {
             steady,
             peak_bin,
             robust_max,
+            generation: NEXT_GENERATION.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
         }
+    }
+
+    /// A number no other snapshot made by this process has (clones share it): what
+    /// readers key caches on. An address (`Arc::as_ptr`) is not an identity: once a
+    /// snapshot is freed the allocator may hand the same address to the next one.
+    pub fn generation(&self) -> u64 {
+        self.generation
     }
 
     pub fn axis(&self) -> &TimeAxis {

@@ -4,9 +4,11 @@
 //! pass: the worker holds its locks only to swap a pointer.
 
 use super::integrator::{RenderSettings, Renderer};
+use super::progressive::{self, Schedule};
 use super::window::{WindowRequest, auto_window};
 use crate::film::{FilmLayout, FilmSnapshot, TimeAxis, TprfFilm};
 use crate::scene::{self, Scene};
+use std::ops::ControlFlow;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
@@ -42,7 +44,7 @@ pub struct WorkerStatus {
     pub state: WorkerState,
     pub spp: u64,
     pub passes: u64,
-    /// Seconds spent rendering (pauses excluded).
+    /// Wall seconds since rendering began (pauses excluded, snapshot making included).
     pub elapsed_s: f64,
     pub passes_per_s: f64,
     pub rays: u64,
@@ -74,7 +76,7 @@ const PASS_TARGET_S: f64 = 0.25;
 impl RenderWorker {
     /// Start rendering `job`; `on_update` is called after each published change (the
     /// viewer passes its repaint request).
-    pub fn spawn(job: RenderJob, on_update: impl Fn() + Send + 'static) -> RenderWorker {
+    pub fn spawn(job: RenderJob, on_update: impl Fn() + Send + Sync + 'static) -> RenderWorker {
         let shared = Arc::new(Shared {
             snapshot: Mutex::new(None),
             status: Mutex::new(WorkerStatus {
@@ -174,7 +176,7 @@ fn set_status(shared: &Shared, f: impl FnOnce(&mut WorkerStatus)) {
     }
 }
 
-fn run(job: &RenderJob, shared: &Shared, on_update: &dyn Fn()) -> Result<(), String> {
+fn run(job: &RenderJob, shared: &Shared, on_update: &(dyn Fn() + Sync)) -> Result<(), String> {
     let scene: Scene = scene::load(&job.scene).map_err(|e| e.to_string())?;
     let notes = scene.notes.clone();
     let triangles = scene.triangles.len();
@@ -226,57 +228,56 @@ fn run(job: &RenderJob, shared: &Shared, on_update: &dyn Fn()) -> Result<(), Str
         .thread_name(|i| format!("tprf-pass-{i}"))
         .build()
         .map_err(|e| format!("cannot start the render threads: {e}"))?;
-    let mut elapsed = Duration::ZERO;
     let mut retired: Option<Arc<FilmSnapshot>> = None;
-    let mut spp_pass: u32 = 1;
-    loop {
-        if shared.stop.load(Ordering::Relaxed) {
-            return Ok(());
-        }
-        if job.spp_target.is_some_and(|n| film.spp() >= n) {
-            set_status(shared, |s| s.state = WorkerState::Done);
-            on_update();
-            return Ok(());
-        }
-        if shared.paused.load(Ordering::Relaxed) {
-            set_status(shared, |s| s.state = WorkerState::Paused);
-            std::thread::sleep(Duration::from_millis(30));
-            continue;
-        }
-        let spp = match job.spp_target {
-            Some(n) => spp_pass.min(n.saturating_sub(film.spp()).min(u32::MAX as u64) as u32),
-            None => spp_pass,
-        };
-        let start = Instant::now();
-        pool.install(|| renderer.render_pass(&mut film, spp));
-        let pass_s = start.elapsed();
-        elapsed += pass_s;
-        // Aim for passes of PASS_TARGET_S.
-        let ratio = PASS_TARGET_S / pass_s.as_secs_f64().max(1e-4);
-        spp_pass = ((spp as f64 * ratio).round() as u32).clamp(1, 256);
-        let snapshot = Arc::new(pool.install(|| film.snapshot()));
-        let error = snapshot.error_estimate;
-        // The snapshot replaced now is kept one more pass and freed here, on the render
-        // thread: a reader holding it during its frame would otherwise free it there
-        // (unmapping a large film takes the UI tens of milliseconds).
-        let replaced = shared
-            .snapshot
-            .lock()
-            .ok()
-            .and_then(|mut s| s.replace(snapshot));
-        drop(std::mem::replace(&mut retired, replaced));
-        let secs = elapsed.as_secs_f64();
-        set_status(shared, |s| {
-            s.state = WorkerState::Rendering;
-            s.spp = film.spp();
-            s.passes = film.passes();
-            s.elapsed_s = secs;
-            s.passes_per_s = film.passes() as f64 / secs.max(1e-9);
-            s.rays = renderer.rays_traced();
-            if let Some(e) = error {
-                s.error_history.push((secs, e));
-            }
+    let mut paused_time = Duration::ZERO;
+    let schedule = Schedule::paced(PASS_TARGET_S, job.spp_target);
+    let mut stopped = shared.stop.load(Ordering::Relaxed);
+    if !stopped {
+        pool.install(|| {
+            progressive::render(&renderer, &mut film, &schedule, |report, film| {
+                // Snapshots are made here, on the render pool, not by the reader.
+                let snapshot = Arc::new(film.snapshot());
+                let error = snapshot.error_estimate;
+                // The snapshot replaced now is kept one more pass and freed here, on the
+                // render thread: a reader holding it during its frame would otherwise free
+                // it there (unmapping a large film takes the UI tens of milliseconds).
+                let replaced = shared
+                    .snapshot
+                    .lock()
+                    .ok()
+                    .and_then(|mut s| s.replace(snapshot));
+                drop(std::mem::replace(&mut retired, replaced));
+                let secs = (report.wall_s - paused_time.as_secs_f64()).max(0.0);
+                set_status(shared, |s| {
+                    s.state = WorkerState::Rendering;
+                    s.spp = report.spp;
+                    s.passes = film.passes();
+                    s.elapsed_s = secs;
+                    s.passes_per_s = film.passes() as f64 / secs.max(1e-9);
+                    s.rays = report.rays;
+                    if let Some(e) = error {
+                        s.error_history.push((secs, e));
+                    }
+                });
+                on_update();
+                let pause_start = Instant::now();
+                while shared.paused.load(Ordering::Relaxed) && !shared.stop.load(Ordering::Relaxed)
+                {
+                    set_status(shared, |s| s.state = WorkerState::Paused);
+                    std::thread::sleep(Duration::from_millis(30));
+                }
+                paused_time += pause_start.elapsed();
+                if shared.stop.load(Ordering::Relaxed) {
+                    stopped = true;
+                    return ControlFlow::Break(());
+                }
+                ControlFlow::Continue(())
+            });
         });
+    }
+    if !stopped {
+        set_status(shared, |s| s.state = WorkerState::Done);
         on_update();
     }
+    Ok(())
 }

@@ -1,0 +1,155 @@
+//! The one way to run a render: passes of samples added to every pixel of a film until
+//! the schedule is met or the caller stops it, with a report after each pass.
+//!
+//! The command line, the viewer's worker, the convergence and stability reports, the
+//! tests and the benchmarks all render through [`render`]; they differ only in the
+//! [`Schedule`] and in what their `on_pass` callback does (a progress bar, publishing a
+//! snapshot, measuring an error, waiting while paused). The callback is also how a
+//! render is cancelled: it returns [`ControlFlow::Break`].
+
+use super::integrator::Renderer;
+use crate::film::TprfFilm;
+use std::ops::ControlFlow;
+use std::time::{Duration, Instant};
+
+/// How many samples per pixel each pass adds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PassSize {
+    /// 1, 1, 2, 2, 4, 4, ... up to `cap`: a fixed schedule, so the same settings give
+    /// the same film (bit for bit) on any machine and thread count. Pairs keep the two
+    /// halves of the film (even and odd passes) balanced.
+    Doubling { cap: u32 },
+    /// Passes of about `seconds` each, sized from the rate the last pass measured
+    /// (1 to 256 samples per pixel): a fresh preview at a steady pace. Pass sizes then
+    /// depend on the machine's speed, and so do the film's random streams.
+    Paced { seconds: f64 },
+}
+
+/// When a render stops. With neither an spp target nor a time budget it runs until
+/// `on_pass` breaks.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Schedule {
+    pub pass_size: PassSize,
+    /// Stop at exactly this many samples per pixel (the last pass is cut to fit).
+    pub spp_target: Option<u64>,
+    /// Stop at the end of the first pass that ends after this many seconds of wall time
+    /// (callbacks included; at least one pass is made).
+    pub time_budget_s: Option<f64>,
+}
+
+impl Schedule {
+    /// Exactly `spp` samples per pixel in doubling passes (capped at 16 per pass).
+    pub fn spp(spp: u64) -> Schedule {
+        Schedule {
+            pass_size: PassSize::Doubling { cap: 16 },
+            spp_target: Some(spp),
+            time_budget_s: None,
+        }
+    }
+
+    /// Doubling passes (capped at 16 per pass) until `seconds` of wall time have passed.
+    pub fn seconds(seconds: f64) -> Schedule {
+        Schedule {
+            pass_size: PassSize::Doubling { cap: 16 },
+            spp_target: None,
+            time_budget_s: Some(seconds),
+        }
+    }
+
+    /// Passes of about `seconds` each, for an interactive preview, until `spp_target`.
+    pub fn paced(seconds: f64, spp_target: Option<u64>) -> Schedule {
+        Schedule {
+            pass_size: PassSize::Paced { seconds },
+            spp_target,
+            time_budget_s: None,
+        }
+    }
+}
+
+/// State after a pass.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PassReport {
+    /// Index of the pass just made (0 for the first pass into an empty film).
+    pub pass: u64,
+    /// Samples per pixel in the film after it.
+    pub spp: u64,
+    /// Samples per pixel this pass added.
+    pub pass_spp: u32,
+    /// Wall time since [`render`] was called, seconds (callbacks included).
+    pub wall_s: f64,
+    /// Time spent inside passes, seconds (callbacks excluded): the renderer's own time.
+    pub render_s: f64,
+    /// Rays the renderer has traced since it was made.
+    pub rays: u64,
+    /// Camera paths traced by this call to [`render`].
+    pub paths: u64,
+}
+
+/// Samples per pixel of pass `pass` in [`PassSize::Doubling`]: 1, 1, 2, 2, 4, 4, ...
+/// up to `cap`.
+pub fn doubling_spp(pass: u64, cap: u32) -> u32 {
+    let doubling = (pass / 2).min(31) as u32;
+    (1u32 << doubling).min(cap.max(1))
+}
+
+/// Largest pass of [`PassSize::Paced`], samples per pixel.
+const MAX_PACED_SPP: u32 = 256;
+
+/// Run passes of `renderer` into `film` until `schedule` is met or `on_pass` breaks;
+/// returns the report of every pass made. A film that already holds samples goes on
+/// from where it is (its pass index and spp).
+pub fn render(
+    renderer: &Renderer,
+    film: &mut TprfFilm,
+    schedule: &Schedule,
+    mut on_pass: impl FnMut(&PassReport, &TprfFilm) -> ControlFlow<()>,
+) -> Vec<PassReport> {
+    let start = Instant::now();
+    let mut reports = Vec::new();
+    let mut render_time = Duration::ZERO;
+    let mut paths = 0u64;
+    let mut paced_spp = 1u32;
+    loop {
+        let pass = film.passes();
+        let mut spp = match schedule.pass_size {
+            PassSize::Doubling { cap } => doubling_spp(pass, cap),
+            PassSize::Paced { .. } => paced_spp,
+        };
+        if let Some(target) = schedule.spp_target {
+            let left = target.saturating_sub(film.spp());
+            if left == 0 {
+                break;
+            }
+            spp = spp.min(left.min(u32::MAX as u64) as u32);
+        }
+        let pass_start = Instant::now();
+        let stats = renderer.render_pass(film, spp);
+        let pass_time = pass_start.elapsed();
+        render_time += pass_time;
+        paths += stats.paths;
+        if let PassSize::Paced { seconds } = schedule.pass_size {
+            let ratio = seconds / pass_time.as_secs_f64().max(1e-4);
+            paced_spp = ((spp as f64 * ratio).round().max(1.0) as u32).min(MAX_PACED_SPP);
+        }
+        let mut report = PassReport {
+            pass,
+            spp: film.spp(),
+            pass_spp: spp,
+            wall_s: start.elapsed().as_secs_f64(),
+            render_s: render_time.as_secs_f64(),
+            rays: renderer.rays_traced(),
+            paths,
+        };
+        let flow = on_pass(&report, film);
+        report.wall_s = start.elapsed().as_secs_f64();
+        reports.push(report);
+        if flow.is_break() {
+            break;
+        }
+        // `!(wall < budget)`: a NaN budget stops after one pass rather than never.
+        if schedule.time_budget_s.is_some_and(|s| !(report.wall_s < s)) {
+            break;
+        }
+    }
+    reports
+}
