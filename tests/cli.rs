@@ -71,7 +71,9 @@ fn render_writes_cube_metadata_and_pngs() {
     }
     assert_eq!(meta["spp"], 4);
     assert_eq!(meta["bins"], 32);
-    assert_eq!(meta["passes"].as_array().unwrap().last().unwrap()["spp"], 4);
+    // Doubling passes cut to keep the two halves equal: 1, 1, then 1, 1 (not 2, 2).
+    assert_eq!(meta["passes"], 4);
+    assert!(meta["render_seconds"].as_f64().unwrap() > 0.0);
     let png = image::open(dir.join("steady.png")).unwrap();
     assert_eq!((png.width(), png.height()), (24, 16));
     assert!(dir.join("frames/0000.png").exists() && dir.join("frames/0031.png").exists());

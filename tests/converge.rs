@@ -45,7 +45,8 @@ fn errors_by_spp(spec: &str, w: usize, h: usize, bins: usize, max_spp: u64) -> V
     out
 }
 
-fn check_rate(spec: &str, w: usize, h: usize, bins: usize, max_spp: u64) {
+/// `band`: how far (a factor) the two-half estimate may be from the true error.
+fn check_rate(spec: &str, w: usize, h: usize, bins: usize, max_spp: u64, band: f64) {
     let c = errors_by_spp(spec, w, h, bins, max_spp);
     assert!(c.iter().all(|c| c.non_finite == 0));
     let fit = fit_loglog(c.iter().map(|c| (c.spp as f64, c.rel_l2_cube))).unwrap();
@@ -61,33 +62,47 @@ fn check_rate(spec: &str, w: usize, h: usize, bins: usize, max_spp: u64) {
         "{spec}: error did not fall"
     );
     assert!(last.rel_l1_cube < first.rel_l1_cube && last.rel_l2_steady < first.rel_l2_steady);
-    // The estimate without a reference is within a factor 1.5 of the true error.
-    let e = last.half_estimate.unwrap();
+    // The estimate without a reference is within a factor `band` of the true error
+    // (geometric mean over the checkpoints: the square root of a sum over few lit bins
+    // scatters, and is low on average, by Jensen's inequality).
+    let ratios: Vec<f64> = c
+        .iter()
+        .map(|c| c.half_estimate.unwrap() / c.rel_l2_cube)
+        .collect();
+    let mean_ratio = (ratios.iter().map(|r| r.ln()).sum::<f64>() / ratios.len() as f64).exp();
     assert!(
-        e < 1.5 * last.rel_l2_cube && e > last.rel_l2_cube / 1.5,
-        "{spec}: two-half estimate {e} vs error {}",
-        last.rel_l2_cube
+        mean_ratio < band && mean_ratio > 1.0 / band,
+        "{spec}: two-half estimate / error {mean_ratio} (per checkpoint {ratios:?})"
     );
 }
 
 #[test]
 fn furnace_error_falls_as_spp_to_the_minus_half() {
-    check_rate("analytic:furnace?rho=0.5", 8, 8, 32, 1024);
+    check_rate("analytic:furnace?rho=0.5", 8, 8, 32, 1024, 1.5);
 }
 
 #[test]
 fn emitting_furnace_error_falls_as_spp_to_the_minus_half() {
-    check_rate("analytic:furnace?rho=0.8&light=area&r=2", 6, 6, 32, 1024);
+    check_rate(
+        "analytic:furnace?rho=0.8&light=area&r=2",
+        6,
+        6,
+        32,
+        1024,
+        1.5,
+    );
 }
 
 #[test]
 fn plane_error_falls_as_spp_to_the_minus_half() {
-    check_rate("analytic:plane", 8, 6, 24, 1024);
+    check_rate("analytic:plane", 8, 6, 24, 1024, 1.5);
 }
 
 #[test]
 fn oned_error_falls_as_spp_to_the_minus_half() {
-    check_rate("analytic:oned", 2, 2, 128, 16384);
+    // 4 pixels of a few impulses each: the error is a sum over few bins, and so is its
+    // estimate, so they agree only within a factor 2.
+    check_rate("analytic:oned", 2, 2, 128, 16384, 2.0);
 }
 
 #[test]

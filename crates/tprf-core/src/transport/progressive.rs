@@ -120,7 +120,14 @@ pub fn render(
             if left == 0 {
                 break;
             }
-            spp = spp.min(left.min(u32::MAX as u64) as u32);
+            // Even passes fill one half of the film and odd passes the other: an even pass
+            // takes at most half of what is left, so the last pair ends balanced too.
+            let share = if pass % 2 == 0 {
+                left.div_ceil(2)
+            } else {
+                left
+            };
+            spp = spp.min(share.min(u32::MAX as u64) as u32);
         }
         let pass_start = Instant::now();
         let stats = renderer.render_pass(film, spp);
