@@ -3,6 +3,7 @@
 
 mod filter;
 mod snapshot;
+pub mod sparse;
 mod store;
 mod time_axis;
 
