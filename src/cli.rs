@@ -409,6 +409,7 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
         paths_traced: last.map_or(0, |r| r.paths),
         error_estimate: film.half_error_estimate(),
         passes: reports.len() as u64,
+        left_out: last.map_or_else(Default::default, |r| r.left_out),
         render_seconds: last.map_or(0.0, |r| r.render_s),
         notes: scene.notes.clone(),
     };

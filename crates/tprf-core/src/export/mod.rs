@@ -2,7 +2,7 @@
 //! time-slice frames). Every file is written to a temporary name and renamed, so an
 //! existing file is replaced atomically and a failed write loses nothing.
 
-use crate::film::{FilmLayout, FilmSnapshot, TimeAxis, TprfFilm};
+use crate::film::{FilmLayout, FilmSnapshot, LeftOutCounts, TimeAxis, TprfFilm};
 use anyhow::{Context, Result};
 use npyz::WriterBuilder;
 use serde::{Deserialize, Serialize};
@@ -43,6 +43,9 @@ pub struct CubeMetadata {
     /// Error of the cube estimated from two independent halves of the samples (relative
     /// RMS), when both halves have samples.
     pub error_estimate: Option<f64>,
+    /// Work left out because its light could not arrive inside the window.
+    #[serde(default)]
+    pub left_out: LeftOutCounts,
     /// Render passes made.
     #[serde(default, deserialize_with = "pass_count")]
     pub passes: u64,

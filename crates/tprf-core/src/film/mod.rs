@@ -9,5 +9,7 @@ mod time_axis;
 
 pub use filter::TimeFilter;
 pub use snapshot::{FilmSnapshot, quantile_positive, robust_max};
-pub use store::{FilmLayout, PixelSink, TprfFilm, available_memory_bytes};
+pub use store::{
+    FilmLayout, LeftOut, LeftOutCounts, PassTally, PixelSink, TprfFilm, available_memory_bytes,
+};
 pub use time_axis::TimeAxis;

@@ -56,6 +56,46 @@ pub struct PixelSink<'a> {
     filter: TimeFilter,
     /// Sum of contributions that arrived before or after the window (for diagnostics).
     pub outside: f64,
+    /// Work the integrator left out (see [`PassTally`]).
+    left_out: LeftOutCounts,
+}
+
+/// Work the integrator leaves out, and why: none of it could change the film.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LeftOut {
+    /// A shadow ray whose contribution would arrive after the window: not traced.
+    ShadowRayLate,
+    /// A shadow ray whose contribution would arrive before the window: not traced.
+    ShadowRayEarly,
+    /// A path whose optical length already reaches past the window: ended.
+    PathPastWindow,
+}
+
+/// Work left out because its light could not arrive inside the window, counted.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct LeftOutCounts {
+    /// Shadow rays not traced: their light would arrive after the window.
+    pub shadow_rays_late: u64,
+    /// Shadow rays not traced: their light would arrive before the window.
+    pub shadow_rays_early: u64,
+    /// Paths ended because their optical length already reached past the window.
+    pub paths_past_window: u64,
+}
+
+impl std::ops::AddAssign for LeftOutCounts {
+    fn add_assign(&mut self, o: LeftOutCounts) {
+        self.shadow_rays_late += o.shadow_rays_late;
+        self.shadow_rays_early += o.shadow_rays_early;
+        self.paths_past_window += o.paths_past_window;
+    }
+}
+
+/// What one pass delivered outside the film, summed over its pixels.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PassTally {
+    /// Mean per pixel of the contributions that arrived outside the window.
+    pub outside_per_pixel: f64,
+    pub left_out: LeftOutCounts,
 }
 
 impl PixelSink<'_> {
@@ -98,6 +138,34 @@ impl PixelSink<'_> {
     pub fn window_end_s(&self) -> f64 {
         self.axis.end_s()
     }
+
+    /// Start of the time window, seconds.
+    #[inline]
+    pub fn window_start_s(&self) -> f64 {
+        self.axis.t0_s
+    }
+
+    /// Count work the integrator left out.
+    #[inline]
+    pub fn left_out(&mut self, why: LeftOut) {
+        let c = &mut self.left_out;
+        match why {
+            LeftOut::ShadowRayLate => c.shadow_rays_late += 1,
+            LeftOut::ShadowRayEarly => c.shadow_rays_early += 1,
+            LeftOut::PathPastWindow => c.paths_past_window += 1,
+        }
+    }
+}
+
+/// A row's sums: what arrived outside the window, and the work left out.
+fn row_tally(sinks: &[PixelSink<'_>]) -> (f64, LeftOutCounts) {
+    let mut left_out = LeftOutCounts::default();
+    let mut outside = 0.0;
+    for s in sinks {
+        outside += s.outside;
+        left_out += s.left_out;
+    }
+    (outside, left_out)
 }
 
 /// The TPRF cache: accumulated sample sums and counts.
@@ -195,8 +263,9 @@ impl TprfFilm {
     /// Run one pass: `render_row(y, sinks)` gets one sink per pixel of row `y`. Rows run in
     /// parallel on the current rayon pool; each pixel is written by one task in a fixed
     /// order, so the result does not depend on the thread count. `spp_in_pass` is how
-    /// many samples each pixel received. Returns the sum of what arrived outside the window.
-    pub fn run_pass<F>(&mut self, spp_in_pass: u64, render_row: F) -> f64
+    /// many samples each pixel received. Returns what arrived outside the window and the
+    /// work left out.
+    pub fn run_pass<F>(&mut self, spp_in_pass: u64, render_row: F) -> PassTally
     where
         F: Fn(usize, &mut [PixelSink<'_>]) + Sync,
     {
@@ -206,9 +275,10 @@ impl TprfFilm {
         let layers = layout.bounce_layers();
         let half = (self.passes % 2) as usize;
         let filter = self.filter;
-        let rows = self.halves[half].par_chunks_mut(w * t);
-        let outside: f64 = if layers == 0 {
-            rows.enumerate()
+        let row_bins = self.halves[half].par_chunks_mut(w * t);
+        let rows: Vec<(f64, LeftOutCounts)> = if layers == 0 {
+            row_bins
+                .enumerate()
                 .map(|(y, row)| {
                     let mut sinks: Vec<PixelSink<'_>> = row
                         .chunks_mut(t)
@@ -219,16 +289,16 @@ impl TprfFilm {
                             bounce_bins: &mut [],
                             filter,
                             outside: 0.0,
+                            left_out: LeftOutCounts::default(),
                         })
                         .collect();
                     render_row(y, &mut sinks);
-                    sinks.iter().map(|s| s.outside).sum::<f64>()
+                    row_tally(&sinks)
                 })
-                .collect::<Vec<f64>>()
-                .iter()
-                .sum()
+                .collect::<Vec<_>>()
         } else {
-            rows.zip(self.bounces.par_chunks_mut(w * layers * t))
+            row_bins
+                .zip(self.bounces.par_chunks_mut(w * layers * t))
                 .enumerate()
                 .map(|(y, (row, brow))| {
                     let mut sinks: Vec<PixelSink<'_>> = row
@@ -241,18 +311,24 @@ impl TprfFilm {
                             bounce_bins,
                             filter,
                             outside: 0.0,
+                            left_out: LeftOutCounts::default(),
                         })
                         .collect();
                     render_row(y, &mut sinks);
-                    sinks.iter().map(|s| s.outside).sum::<f64>()
+                    row_tally(&sinks)
                 })
-                .collect::<Vec<f64>>()
-                .iter()
-                .sum()
+                .collect::<Vec<_>>()
         };
         self.spp[half] += spp_in_pass;
         self.passes += 1;
-        outside / (layout.pixels() as f64).max(1.0)
+        // Summed in row order: the same total for any thread count.
+        let mut tally = PassTally::default();
+        for (outside, left_out) in rows {
+            tally.outside_per_pixel += outside;
+            tally.left_out += left_out;
+        }
+        tally.outside_per_pixel /= (layout.pixels() as f64).max(1.0);
+        tally
     }
 
     fn index(&self, x: usize, y: usize) -> usize {

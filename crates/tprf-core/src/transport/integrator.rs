@@ -7,7 +7,7 @@ use super::lights::Lights;
 use super::sampler::Sampler;
 use super::surface::Surfaces;
 use crate::accel::Accel;
-use crate::film::{PixelSink, TprfFilm};
+use crate::film::{LeftOut, LeftOutCounts, PixelSink, TprfFilm};
 use crate::scene::{Channel, Scene};
 use crate::units::C_M_PER_S;
 use glam::Vec3;
@@ -21,6 +21,15 @@ pub trait Sink {
     fn add(&mut self, arrival_s: f64, value: f64, scatterings: u32);
     /// Latest arrival time that still counts, seconds.
     fn window_end_s(&self) -> f64;
+    /// Earliest arrival time that counts, seconds: a contribution arriving before it is
+    /// not recorded, so its shadow ray is not traced.
+    fn window_start_s(&self) -> f64 {
+        f64::NEG_INFINITY
+    }
+    /// Work left out because its light could not arrive inside the window: called once
+    /// per shadow ray not traced or path ended. Does nothing by default.
+    #[inline(always)]
+    fn left_out(&mut self, _why: LeftOut) {}
     /// A ray about to be traced: from `origin` along unit `dir` up to `t_max_m` metres
     /// (infinite for path rays). Does nothing by default (and then costs nothing); the
     /// engine benchmark records the rays to replay them against the BVH alone.
@@ -45,6 +54,14 @@ impl Sink for PixelSink<'_> {
     #[inline]
     fn window_end_s(&self) -> f64 {
         PixelSink::window_end_s(self)
+    }
+    #[inline]
+    fn window_start_s(&self) -> f64 {
+        PixelSink::window_start_s(self)
+    }
+    #[inline]
+    fn left_out(&mut self, why: LeftOut) {
+        PixelSink::left_out(self, why);
     }
 }
 
@@ -87,6 +104,8 @@ pub struct PassStats {
     pub rays: u64,
     /// Mean per pixel of what arrived outside the time window.
     pub outside_per_pixel: f64,
+    /// Shadow rays not traced and paths ended: their light could not reach the window.
+    pub left_out: LeftOutCounts,
 }
 
 /// Largest number of straight pass-throughs (alpha coverage) along one segment chain.
@@ -101,6 +120,19 @@ pub struct Renderer {
     /// Ray-offset length scale: 1e-6 of the scene's bounding diagonal, metres.
     eps_m: f32,
     rays: AtomicU64,
+}
+
+/// Whether a contribution arriving at `arrival_s` falls clearly outside `sink`'s window
+/// (strictly: an arrival on the edge is left to the film to bin), and on which side.
+#[inline]
+fn outside(sink: &impl Sink, arrival_s: f64) -> Option<LeftOut> {
+    if arrival_s > sink.window_end_s() {
+        Some(LeftOut::ShadowRayLate)
+    } else if arrival_s < sink.window_start_s() {
+        Some(LeftOut::ShadowRayEarly)
+    } else {
+        None
+    }
 }
 
 /// Power heuristic (beta = 2) weight of strategy `a` against `b`.
@@ -178,7 +210,7 @@ impl Renderer {
         let (w, h) = (layout.width, layout.height);
         let pass = film.passes();
         let rays_before = self.rays_traced();
-        let outside = film.run_pass(spp as u64, |y, sinks| {
+        let tally = film.run_pass(spp as u64, |y, sinks| {
             for (x, sink) in sinks.iter_mut().enumerate() {
                 let mut rng = Sampler::new(self.settings.seed, pass, (y * w + x) as u64);
                 let mut rays = 0u64;
@@ -191,7 +223,8 @@ impl Renderer {
         PassStats {
             paths: (w * h) as u64 * spp as u64,
             rays: self.rays_traced() - rays_before,
-            outside_per_pixel: outside,
+            outside_per_pixel: tally.outside_per_pixel,
+            left_out: tally.left_out,
         }
     }
 
@@ -241,6 +274,7 @@ impl Renderer {
             };
             opl_m += hit.t_m as f64 * ior_here as f64;
             if opl_m > window_end_opl_m {
+                sink.left_out(LeftOut::PathPastWindow);
                 break; // already too late to arrive inside the window
             }
             let sp = self.surfaces.at(&hit, origin, dir);
@@ -380,6 +414,11 @@ impl Renderer {
             if f <= 0.0 || intensity <= 0.0 {
                 continue;
             }
+            let arrival_s = (opl_m + d as f64 * ior_here as f64) / C_M_PER_S;
+            if let Some(why) = outside(sink, arrival_s) {
+                sink.left_out(why);
+                continue;
+            }
             rays += 1;
             let t_max = (light.position - p_out).dot(wi_world);
             sink.ray(p_out, wi_world, t_max, RayKind::Shadow);
@@ -387,11 +426,7 @@ impl Renderer {
             if tr > 0.0 {
                 let cos_i = frame.to_local(wi_world).z;
                 let value = throughput * f * cos_i * intensity / d2 * tr;
-                sink.add(
-                    (opl_m + d as f64 * ior_here as f64) / C_M_PER_S,
-                    value as f64,
-                    scatterings,
-                );
+                sink.add(arrival_s, value as f64, scatterings);
             }
         }
         if self.lights.has_emitters() {
@@ -412,7 +447,12 @@ impl Renderer {
                     if le > 0.0 && cos_l > 0.0 && wi_world.dot(n_face) > 0.0 {
                         let wi = frame.to_local(wi_world);
                         let (f, pdf_bsdf) = bsdf.eval(wo, wi);
-                        if f > 0.0 {
+                        let arrival_s = (opl_m + d as f64 * ior_here as f64) / C_M_PER_S;
+                        let late = outside(sink, arrival_s);
+                        if let Some(why) = late.filter(|_| f > 0.0) {
+                            sink.left_out(why);
+                        }
+                        if f > 0.0 && late.is_none() {
                             rays += 1;
                             let t_max = (es.position - p_out).dot(wi_world)
                                 - 2.0 * self.offset_m(es.position);
@@ -422,11 +462,7 @@ impl Renderer {
                                 let pdf_light = es.pdf_area * d2 / cos_l;
                                 let w = power_heuristic(pdf_light, pdf_bsdf);
                                 let value = throughput * f * wi.z * le * w * tr / pdf_light;
-                                sink.add(
-                                    (opl_m + d as f64 * ior_here as f64) / C_M_PER_S,
-                                    value as f64,
-                                    scatterings,
-                                );
+                                sink.add(arrival_s, value as f64, scatterings);
                             }
                         }
                     }

@@ -8,7 +8,7 @@
 //! render is cancelled: it returns [`ControlFlow::Break`].
 
 use super::integrator::Renderer;
-use crate::film::TprfFilm;
+use crate::film::{LeftOutCounts, TprfFilm};
 use std::ops::ControlFlow;
 use std::time::{Duration, Instant};
 
@@ -83,6 +83,8 @@ pub struct PassReport {
     pub rays: u64,
     /// Camera paths traced by this call to [`render`].
     pub paths: u64,
+    /// Work left out by this call to [`render`] (light that could not reach the window).
+    pub left_out: LeftOutCounts,
 }
 
 /// Samples per pixel of pass `pass` in [`PassSize::Doubling`]: 1, 1, 2, 2, 4, 4, ...
@@ -108,6 +110,7 @@ pub fn render(
     let mut reports = Vec::new();
     let mut render_time = Duration::ZERO;
     let mut paths = 0u64;
+    let mut left_out = LeftOutCounts::default();
     let mut paced_spp = 1u32;
     loop {
         let pass = film.passes();
@@ -134,6 +137,7 @@ pub fn render(
         let pass_time = pass_start.elapsed();
         render_time += pass_time;
         paths += stats.paths;
+        left_out += stats.left_out;
         if let PassSize::Paced { seconds } = schedule.pass_size {
             let ratio = seconds / pass_time.as_secs_f64().max(1e-4);
             paced_spp = ((spp as f64 * ratio).round().max(1.0) as u32).min(MAX_PACED_SPP);
@@ -146,6 +150,7 @@ pub fn render(
             render_s: render_time.as_secs_f64(),
             rays: renderer.rays_traced(),
             paths,
+            left_out,
         };
         let flow = on_pass(&report, film);
         report.wall_s = start.elapsed().as_secs_f64();
