@@ -692,8 +692,8 @@ fn main() {
             layout.height,
             layout.axis.bins,
             layout.bounce_layers(),
-            human(layout.bytes() as f64),
-            layout.bytes() as f64 / cells,
+            human(layout.dense_bytes() as f64),
+            layout.dense_bytes() as f64 / cells,
         );
     }
     let record_s: f64 = figures.iter().map(|f| f.record_s).sum();

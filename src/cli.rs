@@ -330,6 +330,27 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
     let mut film = TprfFilm::new(layout).map_err(anyhow::Error::msg)?;
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create {}", a.out.display()))?;
+    // The cube is written dense: refuse now, not after the render, what cannot be written.
+    let (w, h, t) = (a.width as u64, a.height as u64, axis.bins as u64);
+    let file_bytes = export::npy_f32_bytes(&[h, w, t]).saturating_add(export::npy_f32_bytes(&[
+        layout.bounce_layers() as u64,
+        h,
+        w,
+        t,
+    ]));
+    if let Some(free) = export::disk_free_bytes(&a.out)
+        && file_bytes > free
+    {
+        bail!(
+            "the cube files for {} x {} pixels x {} bins need {:.1} GiB, and {} has {:.1} GiB free; lower the resolution or the bins",
+            a.width,
+            a.height,
+            axis.bins,
+            file_bytes as f64 / (1u64 << 30) as f64,
+            a.out.display(),
+            free as f64 / (1u64 << 30) as f64
+        );
+    }
 
     let schedule = match (a.spp, a.seconds) {
         (_, Some(s)) => Schedule::seconds(s),
@@ -360,15 +381,10 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
     bar.finish_and_clear();
     let last = reports.last().copied();
 
-    let (w, h, t) = (a.width as u64, a.height as u64, axis.bins as u64);
-    export::write_npy_f32(&a.out.join("tprf.npy"), &[h, w, t], &film.cube_f32())?;
+    let snap = film.snapshot();
+    export::write_snapshot_npy(&a.out.join("tprf.npy"), &snap, false)?;
     if layout.bounce_layers() > 0 {
-        let l = layout.bounce_layers() as u64;
-        export::write_npy_f32(
-            &a.out.join("tprf_bounces.npy"),
-            &[l, h, w, t],
-            &film.bounce_cube_f32(),
-        )?;
+        export::write_snapshot_npy(&a.out.join("tprf_bounces.npy"), &snap, true)?;
     }
     let steady = film.steady();
     let exposure = 0.8 * export::exposure_for(steady.iter().copied(), 0.99);
@@ -380,7 +396,7 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
         exposure,
     )?;
     if a.frames {
-        export::write_frames(&a.out, &film)?;
+        export::write_frames(&a.out, &snap)?;
     }
     let cam = &scene.camera;
     let meta = CubeMetadata {
@@ -410,6 +426,7 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
         error_estimate: film.half_error_estimate(),
         passes: reports.len() as u64,
         left_out: last.map_or_else(Default::default, |r| r.left_out),
+        store: film.store_stats(),
         render_seconds: last.map_or(0.0, |r| r.render_s),
         notes: scene.notes.clone(),
     };

@@ -24,13 +24,23 @@ fn same_output_for_one_and_two_threads() {
     let two = in_pool(2, || {
         render_scene(furnace(1.0, 0.7, 1.0), 10, 7, axis, 6, 42, 3)
     });
-    let (a, b) = (one.film.cube_f32(), two.film.cube_f32());
+    let (a, b) = (
+        one.film.snapshot().dense(None),
+        two.film.snapshot().dense(None),
+    );
     assert!(a.iter().any(|&v| v > 0.0));
     assert!(
         a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()),
         "cubes differ"
     );
-    let (a, b) = (one.film.bounce_cube_f32(), two.film.bounce_cube_f32());
+    let dense_layers = |f: &TprfFilm| {
+        let s = f.snapshot();
+        (0..s.layers())
+            .flat_map(|l| s.dense(Some(l)))
+            .collect::<Vec<f32>>()
+    };
+    let (a, b) = (dense_layers(&one.film), dense_layers(&two.film));
+    assert!(a.iter().any(|&v| v > 0.0));
     assert!(
         a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()),
         "bounce layers differ"
@@ -114,10 +124,10 @@ fn bins_accumulate_1e8_samples_without_loss() {
     })
     .unwrap();
     let n: u64 = 100_000_000;
-    film.run_pass(1, |_, sinks| {
+    film.run_pass(1, |_, _, sink| {
         for i in 0..n {
             // Values that an f32 accumulator would lose entirely once the sum is large.
-            sinks[0].add(0.5, 1.0 + (i % 7) as f64 * 1e-3, 1);
+            sink.add(0.5, 1.0 + (i % 7) as f64 * 1e-3, 1);
         }
     });
     let expected: f64 = (0..7u64)
@@ -177,9 +187,9 @@ fn tent_filter_conserves_energy_and_keeps_centred_deltas_in_one_bin() {
     })
     .unwrap()
     .with_time_filter(TimeFilter::Tent);
-    film.run_pass(1, |_, sinks| {
-        sinks[0].add(axis.bin_center_s(3), 2.0, 1);
-        sinks[0].add(axis.bin_center_s(5) + 0.25 * axis.dt_s, 1.0, 1);
+    film.run_pass(1, |_, _, sink| {
+        sink.add(axis.bin_center_s(3), 2.0, 1);
+        sink.add(axis.bin_center_s(5) + 0.25 * axis.dt_s, 1.0, 1);
     });
     let t = film.pixel_tprf(0, 0);
     assert_eq!(t[3], 2.0);

@@ -114,21 +114,13 @@ fn measure_all(
     mut noise_field: NoiseField,
 ) -> Result<Measured, String> {
     let started = Instant::now();
-    let mut m = model
-        .measure_clean(&snap.cube, snap.width(), snap.height())
-        .map_err(|e| e.to_string())?;
+    let mut m = model.measure_clean_film(snap);
     model.apply_noise_cached(&mut m, &mut noise_field);
     let robust_max = tprf_core::film::robust_max(&m.values);
     let depth_m = model.first_return_depth(&m);
     let amcw = model.amcw(&m);
     let amcw_error_m = amcw.as_ref().map(|a| {
-        let truth = derived::tprf_first_return_depth(
-            &snap.cube,
-            snap.width(),
-            snap.height(),
-            snap.axis(),
-            &Default::default(),
-        );
+        let truth = derived::tprf_first_return_depth_film(snap, &Default::default());
         a.depth_m.iter().zip(&truth).map(|(d, t)| d - t).collect()
     });
     let depth = depth_m
@@ -229,12 +221,8 @@ impl SensorState {
                 let started = Instant::now();
                 let packed =
                     tprf_core::sensor::PackedKernels::new(std::slice::from_ref(k), axis.bins);
-                if let Ok(m) = tprf_core::sensor::measure::measure_clean(
-                    &packed,
-                    &snap.cube,
-                    snap.width(),
-                    snap.height(),
-                ) {
+                {
+                    let m = tprf_core::sensor::measure::measure_clean_film(&packed, snap);
                     self.plane = Some(Plane {
                         snapshot: key,
                         sensor: model.sensor().clone(),

@@ -2,7 +2,7 @@
 //! time-slice frames). Every file is written to a temporary name and renamed, so an
 //! existing file is replaced atomically and a failed write loses nothing.
 
-use crate::film::{FilmLayout, FilmSnapshot, LeftOutCounts, TimeAxis, TprfFilm};
+use crate::film::{FilmLayout, FilmSnapshot, LeftOutCounts, StoreStats, TimeAxis};
 use anyhow::{Context, Result};
 use npyz::WriterBuilder;
 use serde::{Deserialize, Serialize};
@@ -46,6 +46,9 @@ pub struct CubeMetadata {
     /// Work left out because its light could not arrive inside the window.
     #[serde(default)]
     pub left_out: LeftOutCounts,
+    /// Bins and bytes the film stored, against a dense cube.
+    #[serde(default)]
+    pub store: StoreStats,
     /// Render passes made.
     #[serde(default, deserialize_with = "pass_count")]
     pub passes: u64,
@@ -117,6 +120,35 @@ pub fn write_atomic(
     result.with_context(|| format!("writing {}", path.display()))
 }
 
+/// Bytes of a float32 `.npy` file of `shape` (its data; the header adds under 1 KiB).
+pub fn npy_f32_bytes(shape: &[u64]) -> u64 {
+    shape.iter().fold(4u64, |acc, &d| acc.saturating_mul(d))
+}
+
+/// Space free for an unprivileged writer on the file system holding `dir`, bytes;
+/// `None` where it cannot be told.
+pub fn disk_free_bytes(dir: &Path) -> Option<u64> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::ffi::OsStrExt;
+        let c = std::ffi::CString::new(dir.as_os_str().as_bytes()).ok()?;
+        let mut st = std::mem::MaybeUninit::<libc::statvfs>::uninit();
+        // SAFETY: `c` is a valid NUL-terminated path and `st` a buffer statvfs fills.
+        let rc = unsafe { libc::statvfs(c.as_ptr(), st.as_mut_ptr()) };
+        if rc != 0 {
+            return None;
+        }
+        // SAFETY: statvfs returned 0, so it filled `st`.
+        let st = unsafe { st.assume_init() };
+        Some((st.f_bavail as u64).saturating_mul(st.f_frsize as u64))
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = dir;
+        None
+    }
+}
+
 /// Write a float32 C-order array.
 pub fn write_npy_f32(path: &Path, shape: &[u64], data: &[f32]) -> Result<()> {
     write_atomic(path, |w| {
@@ -126,6 +158,40 @@ pub fn write_npy_f32(path: &Path, shape: &[u64], data: &[f32]) -> Result<()> {
             .writer(w)
             .begin_nd()?;
         npy.extend(data.iter().copied())?;
+        npy.finish()?;
+        Ok(())
+    })
+}
+
+/// Write a snapshot's cube as a float32 C-order `.npy`: `[H, W, T]` for the total
+/// (`layer` `None`) or `[L, H, W, T]` for all per-bounce layers (`layer` `Some(_)` is
+/// ignored beyond choosing that form). Rows are made dense one at a time, so the only
+/// cube-sized memory is the file.
+pub fn write_snapshot_npy(path: &Path, snap: &FilmSnapshot, layers: bool) -> Result<()> {
+    let (w, h, t) = (
+        snap.width() as u64,
+        snap.height() as u64,
+        snap.axis().bins as u64,
+    );
+    let (shape, planes): (Vec<u64>, Vec<Option<usize>>) = if layers {
+        let l = snap.layers();
+        (vec![l as u64, h, w, t], (0..l).map(Some).collect())
+    } else {
+        (vec![h, w, t], vec![None])
+    };
+    write_atomic(path, |out| {
+        let mut npy = npyz::WriteOptions::<f32>::new()
+            .default_dtype()
+            .shape(&shape)
+            .writer(out)
+            .begin_nd()?;
+        let mut row = Vec::new();
+        for plane in planes {
+            for y in 0..snap.height() {
+                snap.row_dense(y, plane, &mut row);
+                npy.extend(row.iter().copied())?;
+            }
+        }
         npy.finish()?;
         Ok(())
     })
@@ -182,12 +248,12 @@ pub fn load_snapshot(dir: &Path) -> Result<(CubeMetadata, FilmSnapshot)> {
         axis,
         bounces_separate,
     };
-    let snapshot = FilmSnapshot::new(
+    let snapshot = FilmSnapshot::from_dense(
         layout,
         meta.spp,
         meta.passes,
-        cube,
-        bounces,
+        &cube,
+        &bounces,
         meta.error_estimate,
     );
     Ok((meta, snapshot))
@@ -261,16 +327,16 @@ pub fn write_png_gray(
 }
 
 /// Write `frames/0000.png ...`: one PNG per time bin, one shared exposure (the 99.9 %
-/// quantile of the whole cube maps to white) so brightness compares across frames.
-pub fn write_frames(dir: &Path, film: &TprfFilm) -> Result<()> {
+/// quantile of the cube's positive bins maps to white) so brightness compares across
+/// frames.
+pub fn write_frames(dir: &Path, snap: &FilmSnapshot) -> Result<()> {
     let frames = dir.join("frames");
     std::fs::create_dir_all(&frames)
         .with_context(|| format!("cannot create {}", frames.display()))?;
-    let cube = film.cube_f32();
-    let exposure = exposure_for(cube.iter().map(|&v| v as f64), 0.999);
-    let l = film.layout();
+    let exposure = snap.robust_max().map_or(1.0, |m| 1.0 / m);
+    let l = &snap.layout;
     for b in 0..l.axis.bins {
-        let slice = film.slice(b);
+        let slice: Vec<f64> = snap.slice(b).into_iter().map(f64::from).collect();
         write_png_gray(
             &frames.join(format!("{b:04}.png")),
             l.width,

@@ -1,15 +1,19 @@
 //! Film: the TPRF store. Time-binned accumulators per pixel (pbrt's "film": how samples
-//! accumulate), kept apart from the sensor (what is measured from them).
+//! accumulate), kept apart from the sensor (what is measured from them). Memory follows
+//! the bins that received light: each pixel keeps runs of non-zero bins.
 
 mod filter;
+mod layout;
+mod row;
+mod sink;
 mod snapshot;
 pub mod sparse;
 mod store;
 mod time_axis;
 
 pub use filter::TimeFilter;
+pub use layout::FilmLayout;
+pub use sink::{LeftOut, LeftOutCounts, PixelSink};
 pub use snapshot::{FilmSnapshot, quantile_positive, robust_max};
-pub use store::{
-    FilmLayout, LeftOut, LeftOutCounts, PassTally, PixelSink, TprfFilm, available_memory_bytes,
-};
+pub use store::{BYTES_PER_PIXEL, PassTally, StoreStats, TprfFilm, available_memory_bytes};
 pub use time_axis::TimeAxis;

@@ -1,7 +1,14 @@
-//! A read-only copy of the film's current estimate (f32 means), handed to readers on
-//! other threads (the viewer, the sensor) while the renderer keeps adding samples.
+//! A reader's view of the film's current estimate, handed to other threads (the viewer,
+//! the sensor, exports) while the renderer keeps adding samples. It shares the film's
+//! immutable rows, so making one copies nothing; means are formed as they are read.
+//!
+//! This is the one read interface of the film: a pixel's TPRF and its span, its runs of
+//! stored bins, a time slice, the steady image, per-bounce curves, rows as dense arrays
+//! for files. Nothing outside the film knows how bins are stored.
 
+use super::row::{FilmRow, NO_PEAK};
 use super::{FilmLayout, TimeAxis};
+use std::sync::Arc;
 
 /// The film's mean values at one moment.
 #[derive(Clone, Debug)]
@@ -9,14 +16,14 @@ pub struct FilmSnapshot {
     pub layout: FilmLayout,
     pub spp: u64,
     pub passes: u64,
-    /// `[H, W, T]`, row 0 = top: bin integrals of radiance (DESIGN.md).
-    pub cube: Vec<f32>,
-    /// `[L, H, W, T]` per-bounce layers (empty when not recorded).
-    pub bounces: Vec<f32>,
     /// Relative RMS error estimated from the two half-sample buffers.
     pub error_estimate: Option<f64>,
-    /// Per-snapshot summaries, computed once by whoever makes the snapshot (the render
-    /// thread) so readers drawing every frame never scan the cube.
+    rows: Vec<Arc<FilmRow>>,
+    /// What a stored sum is divided by to give a mean: `spp` for a live film, 1 for a
+    /// cube read from a file (which stores means).
+    norm: f64,
+    /// Summaries made once, when the snapshot is made, so readers drawing every frame
+    /// never scan the cube.
     steady: Vec<f32>,
     peak_bin: Vec<Option<u32>>,
     robust_max: Option<f64>,
@@ -31,40 +38,83 @@ static NEXT_GENERATION: std::sync::atomic::AtomicU64 = std::sync::atomic::Atomic
 const ROBUST_MAX_SAMPLES: usize = 1 << 20;
 
 impl FilmSnapshot {
-    /// A snapshot of `cube` (`[H, W, T]`) and `bounces` (`[L, H, W, T]` or empty); computes
-    /// the steady image, the peak bins and the robust maximum in parallel.
-    pub fn new(
+    /// A snapshot sharing a film's rows (sums of `spp` samples per pixel).
+    pub(super) fn from_rows(
         layout: FilmLayout,
         spp: u64,
         passes: u64,
-        cube: Vec<f32>,
-        bounces: Vec<f32>,
+        rows: Vec<Arc<FilmRow>>,
+        error_estimate: Option<f64>,
+    ) -> FilmSnapshot {
+        FilmSnapshot::summarised(layout, spp, passes, rows, spp.max(1) as f64, error_estimate)
+    }
+
+    /// A snapshot of means read from a file: `cube` `[H, W, T]` and `bounces`
+    /// `[L, H, W, T]` or empty (zeros are not stored).
+    pub fn from_dense(
+        layout: FilmLayout,
+        spp: u64,
+        passes: u64,
+        cube: &[f32],
+        bounces: &[f32],
         error_estimate: Option<f64>,
     ) -> FilmSnapshot {
         use rayon::prelude::*;
-        let t = layout.axis.bins.max(1);
-        let (steady, peak_bin): (Vec<f32>, Vec<Option<u32>>) = cube
-            .par_chunks(t)
-            .map(|p| {
-                let mut best: Option<(u32, f32)> = None;
-                let mut sum = 0.0f64;
-                for (b, &v) in p.iter().enumerate() {
-                    sum += v as f64;
-                    if v > 0.0 && best.is_none_or(|(_, m)| v > m) {
-                        best = Some((b as u32, v));
-                    }
+        let (w, h, t) = (layout.width, layout.height, layout.axis.bins);
+        let plane = w * h * t;
+        let layers = if plane > 0 { bounces.len() / plane } else { 0 };
+        let rows: Vec<Arc<FilmRow>> = (0..h)
+            .into_par_iter()
+            .map(|y| {
+                let span = y * w * t..(y + 1) * w * t;
+                let mut row = FilmRow::from_dense(cube.get(span.clone()).unwrap_or(&[]), w, t);
+                for l in 0..layers {
+                    let s = l * plane + span.start..l * plane + span.end;
+                    row.push_dense_layer(bounces.get(s).unwrap_or(&[]), w, t);
                 }
-                (sum as f32, best.map(|(b, _)| b))
+                Arc::new(row)
             })
-            .unzip();
-        let robust_max = robust_max(&cube);
+            .collect();
+        let layout = FilmLayout {
+            bounces_separate: if layers >= 2 { (layers - 2) as u32 } else { 0 },
+            ..layout
+        };
+        FilmSnapshot::summarised(layout, spp, passes, rows, 1.0, error_estimate)
+    }
+
+    fn summarised(
+        layout: FilmLayout,
+        spp: u64,
+        passes: u64,
+        rows: Vec<Arc<FilmRow>>,
+        norm: f64,
+        error_estimate: Option<f64>,
+    ) -> FilmSnapshot {
+        let steady = rows
+            .iter()
+            .flat_map(|r| r.steady_sum.iter().map(|s| (s / norm) as f32))
+            .collect();
+        let peak_bin = rows
+            .iter()
+            .flat_map(|r| r.peak_bin.iter().map(|&b| (b != NO_PEAK).then_some(b)))
+            .collect();
+        let stored: usize = rows.iter().map(|r| r.stored_bins()).sum();
+        let stride = stored.div_ceil(ROBUST_MAX_SAMPLES).max(1);
+        let sample = rows.iter().flat_map(|r| {
+            r.halves
+                .values()
+                .iter()
+                .step_by(stride)
+                .map(|[a, b]| ((a + b) / norm) as f32)
+        });
+        let robust_max = quantile_positive(sample, 0.999);
         FilmSnapshot {
             layout,
             spp,
             passes,
-            cube,
-            bounces,
             error_estimate,
+            rows,
+            norm,
             steady,
             peak_bin,
             robust_max,
@@ -93,28 +143,108 @@ impl FilmSnapshot {
 
     /// Number of per-bounce layers (0 when not recorded).
     pub fn layers(&self) -> usize {
-        let per = self.cube.len();
-        self.bounces.len().checked_div(per).unwrap_or(0)
+        self.rows.first().map_or(0, |r| r.layers.len())
     }
 
-    /// The TPRF of pixel `(x, y)`, or an empty slice outside the image.
-    pub fn pixel(&self, x: usize, y: usize) -> &[f32] {
-        let (w, h, t) = (self.layout.width, self.layout.height, self.layout.axis.bins);
-        if x >= w || y >= h {
-            return &[];
-        }
-        let i = (y * w + x) * t;
-        self.cube.get(i..i + t).unwrap_or(&[])
+    fn row(&self, x: usize, y: usize) -> Option<&FilmRow> {
+        self.rows
+            .get(y)
+            .map(|r| &**r)
+            .filter(|_| x < self.layout.width)
     }
 
-    /// Layer `l` of pixel `(x, y)`'s per-bounce TPRFs, or an empty slice.
-    pub fn pixel_layer(&self, l: usize, x: usize, y: usize) -> &[f32] {
-        let (w, h, t) = (self.layout.width, self.layout.height, self.layout.axis.bins);
-        if x >= w || y >= h || l >= self.layers() {
-            return &[];
+    /// Pixel `(x, y)`'s runs of stored bins in increasing order: `f(first bin, means)`.
+    /// Bins not visited hold 0. This is how a reader touches only the light (the
+    /// sensor's measurement, a sparse export).
+    pub fn for_each_run(&self, x: usize, y: usize, mut f: impl FnMut(usize, &[f32])) {
+        let Some(row) = self.row(x, y) else { return };
+        let mut buf = Vec::new();
+        for (start, values) in row.halves.pixel_runs(x) {
+            buf.clear();
+            buf.extend(values.iter().map(|[a, b]| ((a + b) / self.norm) as f32));
+            f(start, &buf);
         }
-        let i = ((l * h + y) * w + x) * t;
-        self.bounces.get(i..i + t).unwrap_or(&[])
+    }
+
+    /// Pixel `(x, y)`'s first and last stored bins; `None` when dark or outside.
+    pub fn pixel_span(&self, x: usize, y: usize) -> Option<(usize, usize)> {
+        self.row(x, y)?.halves.pixel_span(x)
+    }
+
+    /// Bins stored for pixel `(x, y)`.
+    pub fn pixel_stored_bins(&self, x: usize, y: usize) -> usize {
+        self.row(x, y).map_or(0, |r| r.halves.pixel_stored_bins(x))
+    }
+
+    /// The TPRF of pixel `(x, y)`, all `T` bins; empty outside the image.
+    pub fn pixel(&self, x: usize, y: usize) -> Vec<f32> {
+        let Some(row) = self.row(x, y) else {
+            return Vec::new();
+        };
+        let mut out = vec![0.0; self.layout.axis.bins];
+        for (start, values) in row.halves.pixel_runs(x) {
+            for (o, [a, b]) in out.iter_mut().skip(start).zip(values) {
+                *o = ((a + b) / self.norm) as f32;
+            }
+        }
+        out
+    }
+
+    /// Layer `l` of pixel `(x, y)`'s per-bounce TPRFs, all `T` bins; empty outside the
+    /// image or the layers.
+    pub fn pixel_layer(&self, l: usize, x: usize, y: usize) -> Vec<f32> {
+        let Some(layer) = self.row(x, y).and_then(|r| r.layers.get(l)) else {
+            return Vec::new();
+        };
+        let mut out = vec![0.0; self.layout.axis.bins];
+        for (start, values) in layer.pixel_runs(x) {
+            for (o, v) in out.iter_mut().skip(start).zip(values) {
+                *o = (v / self.norm) as f32;
+            }
+        }
+        out
+    }
+
+    /// Row `y` as a dense `[W, T]` array of means into `out` (layer `None` for the
+    /// total): how files and dense readers take the cube a row at a time.
+    pub fn row_dense(&self, y: usize, layer: Option<usize>, out: &mut Vec<f32>) {
+        let (w, t) = (self.layout.width, self.layout.axis.bins);
+        out.clear();
+        out.resize(w * t, 0.0);
+        let Some(row) = self.rows.get(y) else { return };
+        for (x, dst) in out.chunks_exact_mut(t.max(1)).enumerate() {
+            match layer {
+                None => {
+                    for (start, values) in row.halves.pixel_runs(x) {
+                        for (o, [a, b]) in dst.iter_mut().skip(start).zip(values) {
+                            *o = ((a + b) / self.norm) as f32;
+                        }
+                    }
+                }
+                Some(l) => {
+                    let Some(layer) = row.layers.get(l) else {
+                        return;
+                    };
+                    for (start, values) in layer.pixel_runs(x) {
+                        for (o, v) in dst.iter_mut().skip(start).zip(values) {
+                            *o = (v / self.norm) as f32;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// The whole cube `[H, W, T]` as one dense array (layer `None` for the total). For
+    /// cubes that fit; files are written a row at a time with [`FilmSnapshot::row_dense`].
+    pub fn dense(&self, layer: Option<usize>) -> Vec<f32> {
+        let mut out = Vec::with_capacity(self.layout.cells() as usize);
+        let mut row = Vec::new();
+        for y in 0..self.layout.height {
+            self.row_dense(y, layer, &mut row);
+            out.extend_from_slice(&row);
+        }
+        out
     }
 
     /// Mean TPRF over the pixels of the box `[x0, x1] x [y0, y1]` (clamped to the image);
@@ -142,7 +272,7 @@ impl FilmSnapshot {
                 };
                 if p.len() == t {
                     n += 1;
-                    for (o, v) in out.iter_mut().zip(p) {
+                    for (o, v) in out.iter_mut().zip(&p) {
                         *o += *v as f64;
                     }
                 }
@@ -154,18 +284,24 @@ impl FilmSnapshot {
         out
     }
 
-    /// Time slice of bin `b`: `[H * W]`.
+    /// Time slice of bin `b`: `[H * W]`. Each pixel's runs are walked up to `b`: the
+    /// work follows the stored runs, not the cube.
     pub fn slice(&self, b: usize) -> Vec<f32> {
-        let t = self.layout.axis.bins;
-        if b >= t {
+        use rayon::prelude::*;
+        let w = self.layout.width;
+        if b >= self.layout.axis.bins {
             return vec![0.0; self.layout.pixels()];
         }
-        // A strided gather, one cache line per pixel: spread over the threads.
-        use rayon::prelude::*;
-        self.cube
-            .par_chunks_exact(t)
-            .with_min_len(4096)
-            .map(|p| p[b])
+        let norm = self.norm;
+        self.rows
+            .par_iter()
+            .flat_map_iter(|row| {
+                (0..w).map(move |x| {
+                    row.halves
+                        .get(x, b)
+                        .map_or(0.0, |[a, c]| ((a + c) / norm) as f32)
+                })
+            })
             .collect()
     }
 
@@ -184,6 +320,11 @@ impl FilmSnapshot {
     /// maximum that one firefly cannot set, for a global exposure.
     pub fn robust_max(&self) -> Option<f64> {
         self.robust_max
+    }
+
+    /// Bins stored, against the dense cube's `H x W x T`.
+    pub fn stored_bins(&self) -> u64 {
+        self.rows.iter().map(|r| r.stored_bins() as u64).sum()
     }
 }
 
@@ -219,14 +360,8 @@ mod tests {
             bounces_separate: 0,
         };
         // Pixel 0: 1, 3, 2 (peak bin 1, sum 6); pixel 1 dark.
-        let snap = FilmSnapshot::new(
-            layout,
-            4,
-            1,
-            vec![1.0, 3.0, 2.0, 0.0, 0.0, 0.0],
-            Vec::new(),
-            None,
-        );
+        let snap =
+            FilmSnapshot::from_dense(layout, 4, 1, &[1.0, 3.0, 2.0, 0.0, 0.0, 0.0], &[], None);
         assert_eq!(snap.steady(), &[6.0, 0.0]);
         assert_eq!(snap.peak_bins(), &[Some(1), None]);
         assert_eq!(snap.robust_max(), Some(3.0));
@@ -234,6 +369,13 @@ mod tests {
         assert_eq!(snap.slice(7), vec![0.0, 0.0]);
         assert_eq!(snap.layers(), 0);
         assert_eq!(snap.box_mean(0, 0, 1, 0, None), vec![0.5, 1.5, 1.0]);
+        assert_eq!(snap.pixel(0, 0), vec![1.0, 3.0, 2.0]);
+        assert_eq!(snap.pixel(1, 0), vec![0.0; 3]);
+        assert!(snap.pixel(2, 0).is_empty());
+        assert_eq!(snap.pixel_span(0, 0), Some((0, 2)));
+        assert_eq!(snap.pixel_span(1, 0), None);
+        assert_eq!(snap.stored_bins(), 3);
+        assert_eq!(snap.dense(None), vec![1.0, 3.0, 2.0, 0.0, 0.0, 0.0]);
     }
 
     #[test]

@@ -68,6 +68,11 @@ impl<V: Copy> SparseRow<V> {
             + self.values.capacity() * std::mem::size_of::<V>()
     }
 
+    /// Every stored value of the row, pixel after pixel.
+    pub fn values(&self) -> &[V] {
+        &self.values
+    }
+
     /// Bins stored for pixel `x` (0 outside the row).
     pub fn pixel_stored_bins(&self, x: usize) -> usize {
         self.pixels.get(x).map_or(0, |p| p.value_count as usize)
@@ -158,7 +163,33 @@ pub struct RowBuilder<V> {
     x: usize,
 }
 
+impl<V: Copy> Default for RowBuilder<V> {
+    fn default() -> Self {
+        RowBuilder::with_capacity(0, 0, 0)
+    }
+}
+
 impl<V: Copy> RowBuilder<V> {
+    /// The row built so far as a new row with no spare capacity; the builder is emptied
+    /// and keeps its buffers for the next row (a pass reuses one builder per task).
+    pub fn take_exact(&mut self, width: usize) -> SparseRow<V> {
+        while self.row.pixels.len() < width {
+            self.end_pixel();
+        }
+        let row = SparseRow {
+            pixels: self.row.pixels[..width].to_vec(),
+            runs: self.row.runs.to_vec(),
+            values: self.row.values.to_vec(),
+        };
+        self.row.pixels.clear();
+        self.row.runs.clear();
+        self.row.values.clear();
+        self.pixel = PixelEntry::default();
+        self.end_bin = 0;
+        self.x = 0;
+        row
+    }
+
     /// A builder for a row of `width` pixels expecting about `runs` runs and `values`
     /// values (the old row's counts plus the pass's new bins: the vectors are then
     /// allocated once, with no spare capacity).

@@ -1,94 +1,19 @@
-//! The TPRF store: per pixel, per time bin, the sum of sample contributions, in f64.
+//! The TPRF store: per pixel, per time bin, the sum of sample contributions, in f64,
+//! kept only for the bins that received light (sparse runs per pixel, `sparse.rs`).
 //!
 //! Samples of even passes and of odd passes go to two independent halves, so the error
 //! of the mean can be estimated without a reference (their difference). The cube a user
 //! sees is `(half0 + half1) / samples`: a bin then holds the integral over the bin of the
-//! pixel's radiance (W / (m^2 sr) times seconds per unit pulse energy... i.e. summed over
-//! bins it is the steady-state radiance for a unit pulse; DESIGN.md).
+//! pixel's radiance (W m^-2 sr^-1 s per unit pulse energy): summed over bins it is the
+//! steady-state radiance for a unit pulse (DESIGN.md).
+//!
+//! The film is a list of immutable rows (`row.rs`); a pass builds new rows and a
+//! [`FilmSnapshot`] shares them, so publishing a snapshot copies nothing.
 
-use super::{FilmSnapshot, TimeAxis, TimeFilter};
+use super::row::{FilmRow, RowWork, render_row};
+use super::{FilmLayout, FilmSnapshot, LeftOutCounts, PixelSink, TimeAxis, TimeFilter};
 use rayon::prelude::*;
-
-/// The shape of a film.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FilmLayout {
-    pub width: usize,
-    pub height: usize,
-    pub axis: TimeAxis,
-    /// `0`: no per-bounce layers. `K > 0`: layers for 0 (emitter seen directly),
-    /// 1, ..., K scattering events and one for "more than K" (`K + 2` layers in all).
-    pub bounces_separate: u32,
-}
-
-impl FilmLayout {
-    pub fn pixels(&self) -> usize {
-        self.width * self.height
-    }
-
-    /// Number of per-bounce layers (0 when not asked for).
-    pub fn bounce_layers(&self) -> usize {
-        if self.bounces_separate == 0 {
-            0
-        } else {
-            self.bounces_separate as usize + 2
-        }
-    }
-
-    /// The layer a contribution with `scatterings` events lands in.
-    #[inline]
-    pub fn layer_of(&self, scatterings: u32) -> usize {
-        scatterings.min(self.bounces_separate + 1) as usize
-    }
-
-    /// Bytes the store needs (two f64 halves plus the bounce layers).
-    pub fn bytes(&self) -> usize {
-        let t = self.axis.bins;
-        self.pixels() * t * 8 * (2 + self.bounce_layers())
-    }
-}
-
-/// Where one pixel's samples of one pass go: its bins in one half, and its bounce layers.
-pub struct PixelSink<'a> {
-    axis: TimeAxis,
-    layout: FilmLayout,
-    bins: &'a mut [f64],
-    bounce_bins: &'a mut [f64],
-    filter: TimeFilter,
-    /// Sum of contributions that arrived before or after the window (for diagnostics).
-    pub outside: f64,
-    /// Work the integrator left out (see [`PassTally`]).
-    left_out: LeftOutCounts,
-}
-
-/// Work the integrator leaves out, and why: none of it could change the film.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum LeftOut {
-    /// A shadow ray whose contribution would arrive after the window: not traced.
-    ShadowRayLate,
-    /// A shadow ray whose contribution would arrive before the window: not traced.
-    ShadowRayEarly,
-    /// A path whose optical length already reaches past the window: ended.
-    PathPastWindow,
-}
-
-/// Work left out because its light could not arrive inside the window, counted.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub struct LeftOutCounts {
-    /// Shadow rays not traced: their light would arrive after the window.
-    pub shadow_rays_late: u64,
-    /// Shadow rays not traced: their light would arrive before the window.
-    pub shadow_rays_early: u64,
-    /// Paths ended because their optical length already reached past the window.
-    pub paths_past_window: u64,
-}
-
-impl std::ops::AddAssign for LeftOutCounts {
-    fn add_assign(&mut self, o: LeftOutCounts) {
-        self.shadow_rays_late += o.shadow_rays_late;
-        self.shadow_rays_early += o.shadow_rays_early;
-        self.paths_past_window += o.paths_past_window;
-    }
-}
+use std::sync::Arc;
 
 /// What one pass delivered outside the film, summed over its pixels.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -98,84 +23,30 @@ pub struct PassTally {
     pub left_out: LeftOutCounts,
 }
 
-impl PixelSink<'_> {
-    /// Add one contribution `value` (radiance of one sample, W / (m^2 sr) per unit pulse
-    /// energy) arriving at `arrival_s` after `scatterings` scattering events, binned by
-    /// the film's [`TimeFilter`] (box: the whole value in the bin holding `arrival_s`).
-    #[inline]
-    pub fn add(&mut self, arrival_s: f64, value: f64, scatterings: u32) {
-        if self.filter == TimeFilter::Tent {
-            match self.axis.tent_split(arrival_s) {
-                Some(split) => {
-                    let l = self.layout.layer_of(scatterings) * self.axis.bins;
-                    for (b, w) in split {
-                        if w > 0.0 {
-                            self.bins[b] += w * value;
-                            if !self.bounce_bins.is_empty() {
-                                self.bounce_bins[l + b] += w * value;
-                            }
-                        }
-                    }
-                }
-                None => self.outside += value,
-            }
-            return;
-        }
-        match self.axis.bin_of(arrival_s) {
-            Some(b) => {
-                self.bins[b] += value;
-                if !self.bounce_bins.is_empty() {
-                    let l = self.layout.layer_of(scatterings);
-                    self.bounce_bins[l * self.axis.bins + b] += value;
-                }
-            }
-            None => self.outside += value,
-        }
-    }
-
-    /// End of the time window, seconds: a path already later than this cannot contribute.
-    #[inline]
-    pub fn window_end_s(&self) -> f64 {
-        self.axis.end_s()
-    }
-
-    /// Start of the time window, seconds.
-    #[inline]
-    pub fn window_start_s(&self) -> f64 {
-        self.axis.t0_s
-    }
-
-    /// Count work the integrator left out.
-    #[inline]
-    pub fn left_out(&mut self, why: LeftOut) {
-        let c = &mut self.left_out;
-        match why {
-            LeftOut::ShadowRayLate => c.shadow_rays_late += 1,
-            LeftOut::ShadowRayEarly => c.shadow_rays_early += 1,
-            LeftOut::PathPastWindow => c.paths_past_window += 1,
-        }
-    }
+/// How much of the dense cube the film stores.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct StoreStats {
+    /// Bins stored (non-zero bins of the halves).
+    pub stored_bins: u64,
+    /// Bins of the dense cube, `H x W x T`.
+    pub dense_bins: u64,
+    /// Runs of consecutive stored bins.
+    pub runs: u64,
+    /// Heap bytes the store holds.
+    pub bytes: u64,
+    /// Bytes a dense store of the same shape would hold.
+    pub dense_bytes: u64,
 }
 
-/// A row's sums: what arrived outside the window, and the work left out.
-fn row_tally(sinks: &[PixelSink<'_>]) -> (f64, LeftOutCounts) {
-    let mut left_out = LeftOutCounts::default();
-    let mut outside = 0.0;
-    for s in sinks {
-        outside += s.outside;
-        left_out += s.left_out;
-    }
-    (outside, left_out)
-}
+/// Bytes per pixel the film holds whatever it stores: the run directory, steady sum and
+/// peak bin (see [`FilmRow`]).
+pub const BYTES_PER_PIXEL: u64 = 16 + 8 + 4;
 
 /// The TPRF cache: accumulated sample sums and counts.
 #[derive(Clone, Debug)]
 pub struct TprfFilm {
     layout: FilmLayout,
-    /// `[half][row][col][bin]`.
-    halves: [Vec<f64>; 2],
-    /// `[row][col][layer][bin]`, empty without per-bounce layers.
-    bounces: Vec<f64>,
+    rows: Vec<Arc<FilmRow>>,
     /// Samples per pixel in each half.
     spp: [u64; 2],
     passes: u64,
@@ -183,44 +54,30 @@ pub struct TprfFilm {
 }
 
 impl TprfFilm {
-    /// A zeroed film. Fails (rather than aborting) when the allocation is impossible.
+    /// An empty film. Fails (rather than aborting) when even its per-pixel directory
+    /// cannot be had.
     pub fn new(layout: FilmLayout) -> Result<TprfFilm, String> {
-        let n = layout
-            .pixels()
-            .checked_mul(layout.axis.bins)
+        let base = (layout.pixels() as u64)
+            .checked_mul(BYTES_PER_PIXEL + 16 * layout.bounce_layers() as u64)
             .ok_or("film size overflows")?;
-        // Refuse what would only fit by swapping (or be killed): an allocation larger than
-        // the free memory succeeds on Linux and fails page by page later.
         if let Some(free) = available_memory_bytes()
-            && layout.bytes() as u64 > free / 10 * 9
+            && base > free / 10 * 9
         {
             return Err(format!(
-                "the TPRF store for {} x {} pixels x {} bins needs {:.1} GiB, and {:.1} GiB is free; lower the resolution or the bins",
+                "a film of {} x {} pixels needs at least {:.1} GiB, and {:.1} GiB is free; lower the resolution",
                 layout.width,
                 layout.height,
-                layout.axis.bins,
-                layout.bytes() as f64 / (1u64 << 30) as f64,
+                base as f64 / (1u64 << 30) as f64,
                 free as f64 / (1u64 << 30) as f64
             ));
         }
-        let alloc = |len: usize| -> Result<Vec<f64>, String> {
-            let mut v = Vec::new();
-            v.try_reserve_exact(len).map_err(|_| {
-                format!(
-                    "cannot allocate the TPRF store: {} x {} pixels x {} bins needs {:.1} GiB",
-                    layout.width,
-                    layout.height,
-                    layout.axis.bins,
-                    layout.bytes() as f64 / (1u64 << 30) as f64
-                )
-            })?;
-            v.resize(len, 0.0);
-            Ok(v)
-        };
+        if layout.axis.bins > u32::MAX as usize - 1 {
+            return Err(format!("{} bins is too many", layout.axis.bins));
+        }
+        let empty = Arc::new(FilmRow::empty(layout.width, layout.bounce_layers()));
         Ok(TprfFilm {
             layout,
-            halves: [alloc(n)?, alloc(n)?],
-            bounces: alloc(n * layout.bounce_layers())?,
+            rows: vec![empty; layout.height],
             spp: [0, 0],
             passes: 0,
             filter: TimeFilter::Box,
@@ -260,168 +117,158 @@ impl TprfFilm {
         self.passes
     }
 
-    /// Run one pass: `render_row(y, sinks)` gets one sink per pixel of row `y`. Rows run in
-    /// parallel on the current rayon pool; each pixel is written by one task in a fixed
-    /// order, so the result does not depend on the thread count. `spp_in_pass` is how
-    /// many samples each pixel received. Returns what arrived outside the window and the
-    /// work left out.
-    pub fn run_pass<F>(&mut self, spp_in_pass: u64, render_row: F) -> PassTally
+    /// Run one pass: `render_pixel(x, y, sink)` for every pixel, each pixel's samples
+    /// into its sink. Rows run in parallel on the current rayon pool, the pixels of a
+    /// row in order, so the result does not depend on the thread count. `spp_in_pass`
+    /// is how many samples each pixel received. Returns what arrived outside the window
+    /// and the work left out.
+    pub fn run_pass<F>(&mut self, spp_in_pass: u64, render_pixel: F) -> PassTally
     where
-        F: Fn(usize, &mut [PixelSink<'_>]) + Sync,
+        F: Fn(usize, usize, &mut PixelSink<'_>) + Sync,
     {
         let layout = self.layout;
-        let t = layout.axis.bins;
-        let w = layout.width;
-        let layers = layout.bounce_layers();
         let half = (self.passes % 2) as usize;
         let filter = self.filter;
-        let row_bins = self.halves[half].par_chunks_mut(w * t);
-        let rows: Vec<(f64, LeftOutCounts)> = if layers == 0 {
-            row_bins
-                .enumerate()
-                .map(|(y, row)| {
-                    let mut sinks: Vec<PixelSink<'_>> = row
-                        .chunks_mut(t)
-                        .map(|bins| PixelSink {
-                            axis: layout.axis,
-                            layout,
-                            bins,
-                            bounce_bins: &mut [],
-                            filter,
-                            outside: 0.0,
-                            left_out: LeftOutCounts::default(),
-                        })
-                        .collect();
-                    render_row(y, &mut sinks);
-                    row_tally(&sinks)
-                })
-                .collect::<Vec<_>>()
-        } else {
-            row_bins
-                .zip(self.bounces.par_chunks_mut(w * layers * t))
-                .enumerate()
-                .map(|(y, (row, brow))| {
-                    let mut sinks: Vec<PixelSink<'_>> = row
-                        .chunks_mut(t)
-                        .zip(brow.chunks_mut(layers * t))
-                        .map(|(bins, bounce_bins)| PixelSink {
-                            axis: layout.axis,
-                            layout,
-                            bins,
-                            bounce_bins,
-                            filter,
-                            outside: 0.0,
-                            left_out: LeftOutCounts::default(),
-                        })
-                        .collect();
-                    render_row(y, &mut sinks);
-                    row_tally(&sinks)
-                })
-                .collect::<Vec<_>>()
-        };
-        self.spp[half] += spp_in_pass;
-        self.passes += 1;
-        // Summed in row order: the same total for any thread count.
+        let mut spp_after = self.spp;
+        spp_after[half] += spp_in_pass;
+        let results: Vec<(Arc<FilmRow>, super::row::RowTally)> = self
+            .rows
+            .par_iter()
+            .enumerate()
+            .map_init(
+                || RowWork::new(&layout),
+                |work, (y, old)| {
+                    let (row, tally) = render_row(
+                        old,
+                        y,
+                        &layout,
+                        filter,
+                        half,
+                        spp_after,
+                        work,
+                        &render_pixel,
+                    );
+                    (Arc::new(row), tally)
+                },
+            )
+            .collect();
+        // Summed in row order: the same totals for any thread count.
         let mut tally = PassTally::default();
-        for (outside, left_out) in rows {
-            tally.outside_per_pixel += outside;
-            tally.left_out += left_out;
+        for (row, (new, t)) in self.rows.iter_mut().zip(results) {
+            *row = new;
+            tally.outside_per_pixel += t.outside;
+            tally.left_out += t.left_out;
         }
         tally.outside_per_pixel /= (layout.pixels() as f64).max(1.0);
+        self.spp = spp_after;
+        self.passes += 1;
         tally
     }
 
-    fn index(&self, x: usize, y: usize) -> usize {
-        (y * self.layout.width + x) * self.layout.axis.bins
+    fn row(&self, y: usize) -> Option<&FilmRow> {
+        self.rows.get(y).map(|r| &**r)
     }
 
-    /// The TPRF of pixel `(x, y)` (row 0 = top): bin integrals of radiance, mean over samples.
+    /// What a sum is divided by to give a mean.
+    fn norm(&self) -> f64 {
+        self.spp().max(1) as f64
+    }
+
+    /// The TPRF of pixel `(x, y)` (row 0 = top): bin integrals of radiance, mean over
+    /// samples, all `T` bins (zeros where nothing arrived); empty outside the image.
     pub fn pixel_tprf(&self, x: usize, y: usize) -> Vec<f64> {
-        let n = self.spp().max(1) as f64;
-        let i = self.index(x, y);
-        let t = self.layout.axis.bins;
-        (0..t)
-            .map(|b| (self.halves[0][i + b] + self.halves[1][i + b]) / n)
-            .collect()
-    }
-
-    /// The per-bounce TPRFs of pixel `(x, y)`: `layers x bins`, empty without layers.
-    pub fn pixel_bounces(&self, x: usize, y: usize) -> Vec<Vec<f64>> {
-        let layers = self.layout.bounce_layers();
-        let t = self.layout.axis.bins;
-        let n = self.spp().max(1) as f64;
-        let base = (y * self.layout.width + x) * layers * t;
-        (0..layers)
-            .map(|l| (0..t).map(|b| self.bounces[base + l * t + b] / n).collect())
-            .collect()
-    }
-
-    /// The whole cube `[H, W, T]` in f64 (row 0 = top): means over all samples.
-    pub fn cube_f64(&self) -> Vec<f64> {
-        let n = self.spp().max(1) as f64;
-        self.halves[0]
-            .par_iter()
-            .zip(self.halves[1].par_iter())
-            .map(|(a, b)| (a + b) / n)
-            .collect()
-    }
-
-    /// The whole cube `[H, W, T]` as f32 (row 0 = top).
-    pub fn cube_f32(&self) -> Vec<f32> {
-        let n = self.spp().max(1) as f64;
-        self.halves[0]
-            .par_iter()
-            .zip(self.halves[1].par_iter())
-            .map(|(a, b)| ((a + b) / n) as f32)
-            .collect()
-    }
-
-    /// The per-bounce cube `[L, H, W, T]` as f32, empty without layers.
-    pub fn bounce_cube_f32(&self) -> Vec<f32> {
-        let layers = self.layout.bounce_layers();
-        let t = self.layout.axis.bins;
-        let pixels = self.layout.pixels();
-        let n = self.spp().max(1) as f64;
-        let mut out = Vec::with_capacity(self.bounces.len());
-        for l in 0..layers {
-            for p in 0..pixels {
-                let base = (p * layers + l) * t;
-                out.extend(self.bounces[base..base + t].iter().map(|v| (v / n) as f32));
+        let Some(row) = self.row(y).filter(|_| x < self.layout.width) else {
+            return Vec::new();
+        };
+        let n = self.norm();
+        let mut out = vec![0.0; self.layout.axis.bins];
+        for (start, values) in row.halves.pixel_runs(x) {
+            for (o, [a, b]) in out.iter_mut().skip(start).zip(values) {
+                *o = (a + b) / n;
             }
         }
         out
     }
 
-    /// A copy of the current means for readers on other threads.
+    /// The per-bounce TPRFs of pixel `(x, y)`: `layers x bins`, empty without layers.
+    pub fn pixel_bounces(&self, x: usize, y: usize) -> Vec<Vec<f64>> {
+        let Some(row) = self.row(y).filter(|_| x < self.layout.width) else {
+            return Vec::new();
+        };
+        let n = self.norm();
+        row.layers
+            .iter()
+            .map(|layer| {
+                let mut out = vec![0.0; self.layout.axis.bins];
+                for (start, values) in layer.pixel_runs(x) {
+                    for (o, v) in out.iter_mut().skip(start).zip(values) {
+                        *o = v / n;
+                    }
+                }
+                out
+            })
+            .collect()
+    }
+
+    /// The whole cube `[H, W, T]` in f64 (row 0 = top): means over all samples. Dense:
+    /// for small films (tests, reports); readers of large films go through
+    /// [`TprfFilm::snapshot`].
+    pub fn cube_f64(&self) -> Vec<f64> {
+        let (w, h) = (self.layout.width, self.layout.height);
+        let mut out = Vec::with_capacity(self.layout.cells() as usize);
+        for y in 0..h {
+            for x in 0..w {
+                out.extend(self.pixel_tprf(x, y));
+            }
+        }
+        out
+    }
+
+    /// A reader's view of the current means, for other threads: it shares the film's
+    /// rows (nothing is copied) and keeps them while the film moves on.
     pub fn snapshot(&self) -> FilmSnapshot {
-        FilmSnapshot::new(
+        FilmSnapshot::from_rows(
             self.layout,
             self.spp(),
             self.passes,
-            self.cube_f32(),
-            self.bounce_cube_f32(),
+            self.rows.clone(),
             self.half_error_estimate(),
         )
     }
 
     /// Steady-state image `[H, W]`: per pixel the sum over bins (in f64).
     pub fn steady(&self) -> Vec<f64> {
-        let n = self.spp().max(1) as f64;
-        let t = self.layout.axis.bins;
-        self.halves[0]
-            .par_chunks(t)
-            .zip(self.halves[1].par_chunks(t))
-            .map(|(a, b)| (a.iter().sum::<f64>() + b.iter().sum::<f64>()) / n)
+        let n = self.norm();
+        self.rows
+            .iter()
+            .flat_map(|r| r.steady_sum.iter().map(move |s| s / n))
             .collect()
     }
 
     /// Time slice `[H, W]` for bin `b`.
     pub fn slice(&self, b: usize) -> Vec<f64> {
-        let n = self.spp().max(1) as f64;
-        let t = self.layout.axis.bins;
-        (0..self.layout.pixels())
-            .map(|p| (self.halves[0][p * t + b] + self.halves[1][p * t + b]) / n)
+        let n = self.norm();
+        let w = self.layout.width;
+        self.rows
+            .iter()
+            .flat_map(|r| (0..w).map(move |x| r.halves.get(x, b).map_or(0.0, |[a, c]| (a + c) / n)))
             .collect()
+    }
+
+    /// How much the store holds against a dense cube.
+    pub fn store_stats(&self) -> StoreStats {
+        let mut s = StoreStats {
+            dense_bins: self.layout.cells(),
+            dense_bytes: self.layout.dense_bytes(),
+            ..StoreStats::default()
+        };
+        for r in &self.rows {
+            s.stored_bins += r.stored_bins() as u64;
+            s.runs += r.runs() as u64;
+            s.bytes += r.heap_bytes() as u64;
+        }
+        s.bytes += (self.rows.capacity() * std::mem::size_of::<Arc<FilmRow>>()) as u64;
+        s
     }
 
     /// Relative RMS error of the cube estimated from the two independent halves, no
@@ -435,15 +282,9 @@ impl TprfFilm {
         }
         let (na, nb) = (na as f64, nb as f64);
         let n = na + nb;
-        let (diff2, norm2) = self.halves[0]
-            .par_iter()
-            .zip(self.halves[1].par_iter())
-            .map(|(a, b)| {
-                let d = a / na - b / nb;
-                let m = (a + b) / n;
-                (d * d, m * m)
-            })
-            .reduce(|| (0.0, 0.0), |x, y| (x.0 + y.0, x.1 + y.1));
+        let (diff2, norm2) = self.rows.iter().fold((0.0, 0.0), |acc, r| {
+            (acc.0 + r.err_terms.0, acc.1 + r.err_terms.1)
+        });
         if norm2 == 0.0 {
             return Some(0.0);
         }

@@ -566,9 +566,9 @@ pub fn bins(size: Size) -> Vec<Row> {
         bounces_separate: 0,
     })
     .expect("tiny film");
-    film.run_pass(1, |_, sinks| {
+    film.run_pass(1, |_, _, sink| {
         for i in 0..n {
-            sinks[0].add(0.5, 1.0 + (i % 7) as f64 / 1024.0, 1);
+            sink.add(0.5, 1.0 + (i % 7) as f64 / 1024.0, 1);
         }
     });
     let exact_1024: u64 = (0..7u64)

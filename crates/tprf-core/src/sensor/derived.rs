@@ -19,6 +19,7 @@ use std::f64::consts::{PI, TAU};
 use super::exposure::{Exposure, Gate};
 use super::measure::Measurements;
 use super::{SensorError, non_negative};
+use crate::film::FilmSnapshot;
 use crate::film::TimeAxis;
 use crate::units::C_M_PER_S;
 
@@ -173,6 +174,23 @@ pub fn tprf_first_return_depth(
             first_return_time(&waveform, &times, p).map_or(f32::NAN, |t| depth_m(t) as f32)
         })
         .collect()
+}
+
+/// [`tprf_first_return_depth`] of a film snapshot, a row at a time.
+pub fn tprf_first_return_depth_film(snap: &FilmSnapshot, p: &FirstReturn) -> Vec<f32> {
+    let mut row = Vec::new();
+    let mut out = Vec::with_capacity(snap.width() * snap.height());
+    for y in 0..snap.height() {
+        snap.row_dense(y, None, &mut row);
+        out.extend(tprf_first_return_depth(
+            &row,
+            snap.width(),
+            1,
+            snap.axis(),
+            p,
+        ));
+    }
+    out
 }
 
 /// Depth of the centroid in time of every pixel's TPRF, `[H, W]` metres (NaN for

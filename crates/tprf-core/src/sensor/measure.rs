@@ -7,6 +7,7 @@ use rayon::prelude::*;
 
 use super::SensorError;
 use super::kernel::SparseKernel;
+use crate::film::FilmSnapshot;
 
 /// The kernels in one f32 buffer, with each one's span of bins.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -274,6 +275,60 @@ pub fn measure_clean(
         width,
         values,
     })
+}
+
+/// [`measure_clean`] of a film snapshot, reading only its stored runs of bins: for each
+/// pixel, each run, each gate whose kernel overlaps the run, the dot product over the
+/// overlap. The cost follows the bins that received light, not the cube.
+pub fn measure_clean_film(kernels: &PackedKernels, snap: &FilmSnapshot) -> Measurements {
+    let (width, height) = (snap.width(), snap.height());
+    let gates = kernels.gates();
+    let pixels = width * height;
+    let mut values = vec![0f32; gates * pixels];
+    if pixels == 0 || gates == 0 || kernels.bins == 0 || snap.axis().bins != kernels.bins {
+        return Measurements {
+            gates,
+            height,
+            width,
+            values,
+        };
+    }
+    let mut rows: Vec<Vec<&mut [f32]>> = (0..height).map(|_| Vec::with_capacity(gates)).collect();
+    for plane in values.chunks_mut(pixels) {
+        for (out, row) in rows.iter_mut().zip(plane.chunks_mut(width)) {
+            out.push(row);
+        }
+    }
+    let live: Vec<(usize, &Span)> = kernels
+        .spans
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| s.len > 0)
+        .collect();
+    rows.into_par_iter().enumerate().for_each(|(y, mut out)| {
+        for x in 0..width {
+            snap.for_each_run(x, y, |start, run| {
+                let end = start + run.len();
+                for &(i, s) in &live {
+                    let lo = start.max(s.first);
+                    let hi = end.min(s.first + s.len);
+                    if lo >= hi {
+                        continue;
+                    }
+                    let w = &kernels.weights[s.offset + lo - s.first..s.offset + hi - s.first];
+                    if let Some(o) = out.get_mut(i).and_then(|r| r.get_mut(x)) {
+                        *o += dot(&run[lo - start..hi - start], w);
+                    }
+                }
+            });
+        }
+    });
+    Measurements {
+        gates,
+        height,
+        width,
+        values,
+    }
 }
 
 #[cfg(test)]

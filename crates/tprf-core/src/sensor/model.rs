@@ -9,10 +9,11 @@ use super::derived::{self, AmcwImage};
 use super::exposure::{Exposure, Gate};
 use super::kernel::{BinTransfer, SparseKernel, compute_kernels, kernel_bins};
 use super::light::Light;
-use super::measure::{Measurements, PackedKernels, measure_clean};
+use super::measure::{Measurements, PackedKernels, measure_clean, measure_clean_film};
 use super::noise::NoiseField;
 use super::preset::Sensor;
 use super::{SensorError, TimeAxis};
+use crate::film::FilmSnapshot;
 
 /// Most kernel weights (gates x bins each reads) a model may hold: 2^26, 0.5 GiB in
 /// f64 (e.g. 64 dense gates over 2^20 bins).
@@ -157,6 +158,11 @@ impl SensorModel {
         height: usize,
     ) -> Result<Measurements, SensorError> {
         measure_clean(&self.packed, cube, width, height)
+    }
+
+    /// [`SensorModel::measure_clean`] of a film snapshot, reading only its stored bins.
+    pub fn measure_clean_film(&self, snap: &FilmSnapshot) -> Measurements {
+        measure_clean_film(&self.packed, snap)
     }
 
     /// The sensor model `M_i = max(0, Noise + sum_b TPRF[b] K_i[b])` for a cube

@@ -210,15 +210,13 @@ impl Renderer {
         let (w, h) = (layout.width, layout.height);
         let pass = film.passes();
         let rays_before = self.rays_traced();
-        let tally = film.run_pass(spp as u64, |y, sinks| {
-            for (x, sink) in sinks.iter_mut().enumerate() {
-                let mut rng = Sampler::new(self.settings.seed, pass, (y * w + x) as u64);
-                let mut rays = 0u64;
-                for _ in 0..spp {
-                    rays += self.trace_sample(x, y, w, h, &mut rng, sink);
-                }
-                self.rays.fetch_add(rays, Ordering::Relaxed);
+        let tally = film.run_pass(spp as u64, |x, y, sink| {
+            let mut rng = Sampler::new(self.settings.seed, pass, (y * w + x) as u64);
+            let mut rays = 0u64;
+            for _ in 0..spp {
+                rays += self.trace_sample(x, y, w, h, &mut rng, sink);
             }
+            self.rays.fetch_add(rays, Ordering::Relaxed);
         });
         PassStats {
             paths: (w * h) as u64 * spp as u64,

@@ -159,17 +159,6 @@ impl Drop for RenderWorker {
     }
 }
 
-/// Memory a render session holds at most: the store, plus two f32 snapshots (the one a
-/// reader holds and the one being made).
-fn session_bytes(layout: &FilmLayout) -> u64 {
-    let cells = (layout.pixels() * layout.axis.bins) as u64;
-    layout.bytes() as u64 + 2 * cells * 4 * (1 + layout.bounce_layers() as u64)
-}
-
-fn gib(bytes: u64) -> String {
-    format!("{:.1} GiB", bytes as f64 / (1u64 << 30) as f64)
-}
-
 fn set_status(shared: &Shared, f: impl FnOnce(&mut WorkerStatus)) {
     if let Ok(mut s) = shared.status.lock() {
         f(&mut s);
@@ -182,34 +171,12 @@ fn run(job: &RenderJob, shared: &Shared, on_update: &(dyn Fn() + Sync)) -> Resul
     let triangles = scene.triangles.len();
     let renderer = Renderer::new(Arc::new(scene), job.settings);
     let axis = auto_window(&renderer, job.window)?;
-    let mut notes = notes;
-    let mut layout = FilmLayout {
+    let layout = FilmLayout {
         width: job.width,
         height: job.height,
         axis,
         bounces_separate: job.bounces_separate,
     };
-    if let Some(available) = crate::film::available_memory_bytes() {
-        let budget = available / 10 * 8;
-        if session_bytes(&layout) > budget && layout.bounces_separate > 0 {
-            layout.bounces_separate = 0;
-            notes.push(format!(
-                "per-bounce curves off: with them this film would need {}, more than the {} this machine has free",
-                gib(session_bytes(&FilmLayout { bounces_separate: job.bounces_separate, ..layout })),
-                gib(available)
-            ));
-        }
-        if session_bytes(&layout) > budget {
-            return Err(format!(
-                "{} x {} pixels x {} bins needs {} of memory, more than the {} free; lower the resolution or the bins",
-                layout.width,
-                layout.height,
-                layout.axis.bins,
-                gib(session_bytes(&layout)),
-                gib(available)
-            ));
-        }
-    }
     let mut film = TprfFilm::new(layout)?;
     set_status(shared, |s| {
         s.state = WorkerState::Rendering;
