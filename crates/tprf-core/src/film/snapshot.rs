@@ -62,7 +62,7 @@ impl FilmSnapshot {
         use rayon::prelude::*;
         let (w, h, t) = (layout.width, layout.height, layout.axis.bins);
         let plane = w * h * t;
-        let layers = if plane > 0 { bounces.len() / plane } else { 0 };
+        let layers = bounces.len().checked_div(plane).unwrap_or(0);
         let rows: Vec<Arc<FilmRow>> = (0..h)
             .into_par_iter()
             .map(|y| {

@@ -125,7 +125,7 @@ pub fn render(
             }
             // Even passes fill one half of the film and odd passes the other: an even pass
             // takes at most half of what is left, so the last pair ends balanced too.
-            let share = if pass % 2 == 0 {
+            let share = if pass.is_multiple_of(2) {
                 left.div_ceil(2)
             } else {
                 left
