@@ -26,13 +26,13 @@ fn rng(seed: u64) -> impl FnMut() -> u64 {
 /// A dark pixel now and then, runs of bins and lone bins, some in the same bin twice.
 fn contributions(pass: u64, x: usize, y: usize) -> Vec<(usize, f64, u32)> {
     let mut r = rng(pass * 1000 + (y * W + x) as u64 + 1);
-    if (x + y) % 5 == 0 {
+    if (x + y).is_multiple_of(5) {
         return Vec::new();
     }
     let n = (r() % 12) as usize;
     (0..n)
         .map(|_| {
-            let b = if r() % 3 == 0 {
+            let b = if r().is_multiple_of(3) {
                 (r() % T as u64) as usize
             } else {
                 10 + (x + pass as usize) % 7 + (r() % 4) as usize
