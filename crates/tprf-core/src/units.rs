@@ -3,13 +3,20 @@
 /// Speed of light in vacuum, m/s (exact, SI).
 pub const C_M_PER_S: f64 = 299_792_458.0;
 
-/// A quantity on the time axis given with a unit: `2ns`, `150ps`, `3.5m`, `10 cm`.
+/// A quantity on the time axis given with a unit: `2ns`, `150ps`, `3.5m`, `10 cm`,
+/// `3.5e-9s`, `1e6 s`.
 /// Time units `s ms us ns ps fs`; optical-path-length units `m cm mm km`, converted to
 /// time with `t = opl / c`. Returns seconds.
 pub fn parse_time_s(text: &str) -> Result<f64, String> {
     let t = text.trim();
+    // The unit is the trailing run of letters, so that `3.5e-9s` and `1e6 s` parse.
+    let is_unit = |ch: char| ch.is_ascii_alphabetic() || ch == 'µ';
     let split = t
-        .find(|ch: char| ch.is_ascii_alphabetic() || ch == 'µ')
+        .char_indices()
+        .rev()
+        .take_while(|&(_, ch)| is_unit(ch))
+        .last()
+        .map(|(i, _)| i)
         .ok_or_else(|| format!("'{text}' has no unit (use s ms us ns ps fs, or m cm mm km)"))?;
     let (num, unit) = t.split_at(split);
     let value: f64 = num
@@ -71,5 +78,10 @@ mod tests {
         assert!(parse_time_s("3").is_err());
         assert!(parse_time_s("3 furlongs").is_err());
         assert!(parse_time_s("nanns").is_err());
+        assert_eq!(parse_time_s("3.5e-9s").unwrap(), 3.5e-9);
+        assert_eq!(parse_time_s("1e6 s").unwrap(), 1e6);
+        assert!((parse_time_s("2E-3m").unwrap() * C_M_PER_S - 2e-3).abs() < 1e-15);
+        assert!(parse_time_s("1e9").is_err());
+        assert!(parse_time_s("inf s").is_err());
     }
 }
