@@ -202,3 +202,62 @@ impl TprfApp {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tprf_core::film::{FilmLayout, TimeAxis};
+
+    /// A video written in the background: one PNG per bin and the GIF, reported back
+    /// as a message without the caller waiting.
+    #[test]
+    fn video_is_written_in_the_background_and_reported() {
+        let dir = std::env::temp_dir().join(format!("tprf-export-test-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let layout = FilmLayout {
+            width: 3,
+            height: 2,
+            axis: TimeAxis::new(0.0, 1e-9, 4).unwrap(),
+            bounces_separate: 0,
+        };
+        let cube = (0..24).map(|i| i as f32).collect();
+        let snap = Arc::new(FilmSnapshot::new(layout, 1, 1, cube, Vec::new(), None));
+        let tone = tone::global_tone(&Default::default(), &snap);
+        let mut exports = Exports::default();
+        let (out, s) = (dir.clone(), snap.clone());
+        exports
+            .spawn(&egui::Context::default(), "video".into(), move || {
+                write_video(&out, &s, &tone, colormap::ColorMap::Inferno)
+            })
+            .unwrap();
+        let start = std::time::Instant::now();
+        let messages = loop {
+            let m = exports.finished();
+            if !m.is_empty() {
+                break m;
+            }
+            assert!(start.elapsed().as_secs() < 30, "no message from the writer");
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        };
+        assert_eq!(messages, vec!["saved video".to_string()]);
+        for name in ["0000.png", "0003.png", "tprf.gif"] {
+            assert!(dir.join(name).is_file(), "{name} missing");
+        }
+        assert!(!dir.join("0004.png").exists());
+        // A failure is a message too.
+        exports
+            .spawn(&egui::Context::default(), "x".into(), || {
+                anyhow::bail!("disk full")
+            })
+            .unwrap();
+        let start = std::time::Instant::now();
+        while exports.busy() {
+            assert!(start.elapsed().as_secs() < 30, "the writer did not end");
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+        assert_eq!(exports.finished(), vec!["disk full".to_string()]);
+        drop(exports);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
