@@ -44,10 +44,7 @@ fn run(label: &str, settings: ViewerSettings, frames: usize) {
         let _ = h.ctx.tessellate(shapes, 1.0);
         let spent = t.elapsed();
         times_ms.push(spent.as_secs_f64() * 1e3);
-        let snap = h
-            .state()
-            .snapshot()
-            .map(|s| std::sync::Arc::as_ptr(&s) as usize);
+        let snap = h.state().snapshot().map(|s| s.generation());
         if snap != last {
             snapshots += 1;
             last = snap;

@@ -10,8 +10,11 @@
 use eframe::egui::{Event, Key, Modifiers, PointerButton, Pos2, Vec2};
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
+use tprf::viewer::sensor::SensorState;
 use tprf::viewer::{Mode, Selection, Start, TprfApp, ViewerSettings};
+use tprf_core::film::{FilmLayout, FilmSnapshot, TimeAxis};
 use tprf_core::sensor::{Exposure, LightPulse, Sensor, TimeOrigin};
 use tprf_core::transport::worker::WorkerState;
 
@@ -608,4 +611,102 @@ fn sensor_mode_measures_the_cached_film_within_a_frame() {
     h.step();
     h.get_by_label("envelope editor");
     h.get_by_label("measurement image");
+}
+
+/// A `side x side` film of `bins` bins where pixel `p`, bin `b` holds `scale * (p + b + 1)`.
+fn ramp_snapshot(side: usize, bins: usize, scale: f32) -> FilmSnapshot {
+    let layout = FilmLayout {
+        width: side,
+        height: side,
+        axis: TimeAxis::new(1e-9, 1e-10, bins).unwrap(),
+        bounces_separate: 0,
+    };
+    let cube: Vec<f32> = (0..side * side * bins)
+        .map(|i| scale * ((i / bins) + (i % bins) + 1) as f32)
+        .collect();
+    FilmSnapshot::from_dense(layout, 1, 1, &cube, &[], None)
+}
+
+/// The viewer keys what it caches on the snapshot's generation, not its address: a
+/// snapshot freed and a new one made at the same address (as the render worker does
+/// every pass) shows the new one's values, not the cached ones.
+#[test]
+fn a_new_snapshot_at_a_freed_ones_address_is_not_taken_for_it() {
+    let (side, bins) = (6, 10);
+    let window_s = 1e-10 * bins as f64;
+    // One gate over the whole window: the gate's image is the steady image.
+    let sensor = Sensor::new(
+        LightPulse::Delta {
+            t_s: 0.0,
+            energy: 1.0,
+        },
+        Exposure::Box {
+            origin: TimeOrigin::Window,
+            start_s: 0.0,
+            width_s: window_s,
+            step_s: None,
+            count: 1,
+            gain: 1.0,
+        },
+    );
+    let steady = |snap: &FilmSnapshot| -> Vec<f64> {
+        (0..side * side)
+            .map(|p| {
+                snap.pixel(p % side, p / side)
+                    .iter()
+                    .map(|&v| v as f64)
+                    .sum()
+            })
+            .collect()
+    };
+    let assert_shows = |state: &SensorState, snap: &FilmSnapshot, what: &str| {
+        let plane = state
+            .shown_plane(snap)
+            .expect("the gate on screen is measured");
+        for (p, (got, want)) in plane.iter().zip(steady(snap)).enumerate() {
+            assert!(
+                (*got as f64 - want).abs() <= 1e-5 * want,
+                "{what}, pixel {p}: shows {got}, the film has {want}"
+            );
+        }
+    };
+
+    let mut state = SensorState::default();
+    let a = Arc::new(ramp_snapshot(side, bins, 1.0));
+    // Another snapshot's data, made before `a` is freed so its own buffers do not take
+    // `a`'s place.
+    let b_data = ramp_snapshot(side, bins, 3.0);
+    state.update(&sensor, &a);
+    assert_shows(&state, &a, "first snapshot");
+    // All gates measured in the background; then the measuring thread lets go of `a`.
+    let start = Instant::now();
+    while !state.is_current(&a) || Arc::strong_count(&a) > 1 {
+        assert!(start.elapsed() < Duration::from_secs(30), "no measurement");
+        std::thread::sleep(Duration::from_millis(2));
+        state.update(&sensor, &a);
+    }
+    assert_shows(&state, &a, "first snapshot, all gates");
+    let (addr, generation) = (Arc::as_ptr(&a), a.generation());
+    drop(a);
+
+    // New snapshots until one lands where `a` was (kept alive meanwhile, so the
+    // allocator moves on); clones share their generation.
+    let mut tries = Vec::new();
+    let b = loop {
+        let b = Arc::new(b_data.clone());
+        if Arc::as_ptr(&b) == addr || tries.len() >= 100_000 {
+            break b;
+        }
+        tries.push(b);
+    };
+    if Arc::as_ptr(&b) == addr {
+        eprintln!("address reused after {} tries", tries.len());
+    } else {
+        eprintln!("the allocator never reused the address: generations compared only");
+    }
+    drop(tries);
+    assert_ne!(b.generation(), generation);
+    assert!(!state.is_current(&b), "measurements of a freed snapshot");
+    state.update(&sensor, &b);
+    assert_shows(&state, &b, "second snapshot at the first one's address");
 }

@@ -33,7 +33,7 @@ impl Tone {
     /// Map a value to [0, 1].
     pub fn map(&self, v: f64) -> f64 {
         let x = v * self.scale;
-        if !(x > 0.0) || !x.is_finite() {
+        if x.is_nan() || x <= 0.0 || !x.is_finite() {
             return if x == f64::INFINITY { 1.0 } else { 0.0 };
         }
         if self.log {

@@ -1,14 +1,37 @@
 //! The viewer: an egui/eframe window over a TPRF film. Immediate mode: each frame it
 //! reads the latest snapshot and status from the render worker (or a cube loaded from
 //! disk) and draws; it mirrors no film data. It talks to the renderer only by starting,
-//! pausing and dropping a [`RenderWorker`], and never waits for it.
+//! pausing and dropping a [`RenderWorker`](tprf_core::transport::worker::RenderWorker),
+//! and never waits for it.
+//!
+//! - `app`: [`TprfApp`] and the order in which a frame draws its panels;
+//! - `settings`: [`ViewerSettings`] (persisted), [`Mode`], the render job they describe;
+//! - `source`: where the film comes from (a render worker or a cube on disk);
+//! - `selection`: the pixel or box plotted ([`Selection`]);
+//! - `playback`: the scrubber's bin over time, keys and the playback clock;
+//! - `tone`, `textures`: film values to pixels, and textures keyed on what they show;
+//! - `panels`: one file per panel (top bar, controls, scrubber, images, plots, status);
+//! - `exports`: PNG, video and CSV files saved from the window, images encoded in the
+//!   background;
+//! - [`colormap`], [`timeline`]: pure colour and time-axis mappings;
+//! - [`sensor`]: the sensor tab (model, background measurement, envelope editor).
 
 mod app;
 pub mod colormap;
-pub mod sensor_ui;
+mod exports;
+mod panels;
+mod playback;
+mod selection;
+pub mod sensor;
+mod settings;
+mod source;
+mod textures;
 pub mod timeline;
+mod tone;
 
-pub use app::{Mode, Selection, TprfApp, ViewerSettings};
+pub use app::TprfApp;
+pub use selection::Selection;
+pub use settings::{Mode, ViewerSettings};
 
 use eframe::egui;
 use std::path::PathBuf;

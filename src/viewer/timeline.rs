@@ -1,5 +1,6 @@
 //! The time axis on screen: a pure mapping between bins, seconds and screen x, rebuilt
-//! each frame (testable without egui), and the timeline widget under the image.
+//! each frame (testable without egui), round tick times and bin labels. The widget that
+//! draws it is the scrubber (`panels/scrubber.rs`).
 
 use tprf_core::film::TimeAxis;
 use tprf_core::units::C_M_PER_S;

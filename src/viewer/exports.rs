@@ -1,0 +1,263 @@
+//! Files saved from the window: the time slice or steady image as PNG, every bin as PNG
+//! frames plus an animated GIF, the plotted curves as CSV. Images are encoded on a named
+//! background thread that reports back through a channel polled each frame; the UI
+//! thread never waits for one.
+
+use super::app::TprfApp;
+use super::colormap;
+use super::tone::{self, View};
+use eframe::egui;
+use std::path::Path;
+use std::sync::Arc;
+use std::sync::mpsc::{Receiver, Sender, channel};
+use std::thread::JoinHandle;
+use tprf_core::export;
+use tprf_core::film::FilmSnapshot;
+use tprf_core::units::C_M_PER_S;
+
+/// Frames per second of the GIF.
+const GIF_FPS: u32 = 30;
+
+/// The background writers and the messages they sent when done.
+pub(super) struct Exports {
+    done_tx: Sender<String>,
+    done_rx: Receiver<String>,
+    running: Vec<JoinHandle<()>>,
+}
+
+impl Default for Exports {
+    fn default() -> Self {
+        let (done_tx, done_rx) = channel();
+        Exports {
+            done_tx,
+            done_rx,
+            running: Vec::new(),
+        }
+    }
+}
+
+impl Exports {
+    /// Run `write` on a thread named `tprf-export`; when it ends, its message ("saved
+    /// WHAT" or the error) is sent back and the window repainted. Returns an error
+    /// message when no thread could be started.
+    fn spawn(
+        &mut self,
+        ctx: &egui::Context,
+        what: String,
+        write: impl FnOnce() -> anyhow::Result<()> + Send + 'static,
+    ) -> Result<(), String> {
+        let (tx, ctx) = (self.done_tx.clone(), ctx.clone());
+        let handle = std::thread::Builder::new()
+            .name("tprf-export".into())
+            .spawn(move || {
+                let message = match write() {
+                    Ok(()) => format!("saved {what}"),
+                    Err(e) => format!("{e:#}"),
+                };
+                // The window may be gone; then nobody is waiting for the message.
+                let _ = tx.send(message);
+                ctx.request_repaint();
+            })
+            .map_err(|e| format!("cannot start the export thread: {e}"))?;
+        self.running.push(handle);
+        Ok(())
+    }
+
+    /// Messages of the writers that finished since the last call; never waits.
+    pub(super) fn finished(&mut self) -> Vec<String> {
+        self.running.retain(|h| !h.is_finished());
+        self.done_rx.try_iter().collect()
+    }
+
+    /// Whether a file is still being written.
+    pub(super) fn busy(&self) -> bool {
+        self.running.iter().any(|h| !h.is_finished())
+    }
+}
+
+impl Drop for Exports {
+    /// Files being written when the window closes are finished first.
+    fn drop(&mut self) {
+        for h in self.running.drain(..) {
+            let _ = h.join();
+        }
+    }
+}
+
+/// `rgba` (`w x h`, RGBA8) as a PNG at `path`, written atomically.
+fn write_png_rgba(path: &Path, w: usize, h: usize, rgba: Vec<u8>) -> anyhow::Result<()> {
+    let img = image::RgbaImage::from_raw(w as u32, h as u32, rgba)
+        .ok_or_else(|| anyhow::anyhow!("image size mismatch"))?;
+    export::write_atomic(path, |out| {
+        img.write_to(out, image::ImageFormat::Png)?;
+        Ok(())
+    })
+}
+
+/// Every bin of `snap` through `tone` and `map` as `dir/NNNN.png` and the animated
+/// `dir/tprf.gif` (looping, [`GIF_FPS`] frames a second).
+fn write_video(
+    dir: &Path,
+    snap: &FilmSnapshot,
+    tone: &colormap::Tone,
+    map: colormap::ColorMap,
+) -> anyhow::Result<()> {
+    let (w, h) = (snap.width() as u32, snap.height() as u32);
+    let mut frames = Vec::with_capacity(snap.axis().bins);
+    for b in 0..snap.axis().bins {
+        let rgba = colormap::colorize(&snap.slice(b), tone, map);
+        let img = image::RgbaImage::from_raw(w, h, rgba)
+            .ok_or_else(|| anyhow::anyhow!("image size mismatch"))?;
+        export::write_atomic(&dir.join(format!("{b:04}.png")), |out| {
+            img.write_to(out, image::ImageFormat::Png)?;
+            Ok(())
+        })?;
+        frames.push(image::Frame::from_parts(
+            img,
+            0,
+            0,
+            image::Delay::from_numer_denom_ms(1000, GIF_FPS),
+        ));
+    }
+    export::write_atomic(&dir.join("tprf.gif"), |out| {
+        let mut enc = image::codecs::gif::GifEncoder::new(out);
+        enc.set_repeat(image::codecs::gif::Repeat::Infinite)?;
+        enc.encode_frames(frames)?;
+        Ok(())
+    })
+}
+
+impl TprfApp {
+    /// Ask for a file and save `view` of `snap` there as shown (encoded in the
+    /// background).
+    pub(super) fn save_view_png(&mut self, view: View, snap: &Arc<FilmSnapshot>) {
+        let Some(path) = rfd::FileDialog::new()
+            .add_filter("PNG", &["png"])
+            .set_file_name("tprf.png")
+            .save_file()
+        else {
+            return;
+        };
+        let rgba = tone::view_pixels(view, snap, self.bin, &self.settings);
+        let (w, h) = (snap.width(), snap.height());
+        let what = path.display().to_string();
+        let write = move || write_png_rgba(&path, w, h, rgba);
+        if let Err(e) = self.exports.spawn(&self.ctx, what, write) {
+            self.messages.push(e);
+        }
+    }
+
+    /// Ask for a folder and write every bin there as a PNG plus an animated GIF, with
+    /// one global exposure (coloured and encoded in the background).
+    pub(super) fn save_video(&mut self, snap: &Arc<FilmSnapshot>) {
+        let Some(dir) = rfd::FileDialog::new().pick_folder() else {
+            return;
+        };
+        let tone = tone::global_tone(&self.settings, snap);
+        let map = self.settings.colormap;
+        let snap = snap.clone();
+        let what = format!(
+            "{} frames and tprf.gif in {}",
+            snap.axis().bins,
+            dir.display()
+        );
+        let write = move || write_video(&dir, &snap, &tone, map);
+        if let Err(e) = self.exports.spawn(&self.ctx, what, write) {
+            self.messages.push(e);
+        }
+    }
+
+    /// Ask for a file and write the plotted curves there: one row per bin with its
+    /// start (s), centre (ns) and optical path length (m), one column per curve.
+    pub(super) fn export_csv(&mut self, snap: &FilmSnapshot) {
+        let Some(path) = rfd::FileDialog::new()
+            .add_filter("CSV", &["csv"])
+            .set_file_name("tprf.csv")
+            .save_file()
+        else {
+            return;
+        };
+        let curves = self.plotted_curves(snap);
+        let axis = *snap.axis();
+        let mut header: Vec<String> = ["bin", "t_start_s", "t_center_ns", "opl_m"]
+            .map(String::from)
+            .into();
+        header.extend(
+            curves
+                .iter()
+                .map(|(name, _, _)| format!("\"{}\"", name.replace('"', "'"))),
+        );
+        let rows = (0..axis.bins).map(|b| {
+            let t_s = axis.bin_center_s(b);
+            let mut row = vec![b as f64, axis.bin_start_s(b), t_s * 1e9, t_s * C_M_PER_S];
+            row.extend(
+                curves
+                    .iter()
+                    .map(|(_, _, v)| v.get(b).copied().unwrap_or(0.0)),
+            );
+            row
+        });
+        if let Err(e) = export::write_csv(&path, &header, rows) {
+            self.messages.push(format!("{e:#}"));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tprf_core::film::{FilmLayout, TimeAxis};
+
+    /// A video written in the background: one PNG per bin and the GIF, reported back
+    /// as a message without the caller waiting.
+    #[test]
+    fn video_is_written_in_the_background_and_reported() {
+        let dir = std::env::temp_dir().join(format!("tprf-export-test-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let layout = FilmLayout {
+            width: 3,
+            height: 2,
+            axis: TimeAxis::new(0.0, 1e-9, 4).unwrap(),
+            bounces_separate: 0,
+        };
+        let cube: Vec<f32> = (0..24).map(|i| i as f32).collect();
+        let snap = Arc::new(FilmSnapshot::from_dense(layout, 1, 1, &cube, &[], None));
+        let tone = tone::global_tone(&Default::default(), &snap);
+        let mut exports = Exports::default();
+        let (out, s) = (dir.clone(), snap.clone());
+        exports
+            .spawn(&egui::Context::default(), "video".into(), move || {
+                write_video(&out, &s, &tone, colormap::ColorMap::Inferno)
+            })
+            .unwrap();
+        let start = std::time::Instant::now();
+        let messages = loop {
+            let m = exports.finished();
+            if !m.is_empty() {
+                break m;
+            }
+            assert!(start.elapsed().as_secs() < 30, "no message from the writer");
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        };
+        assert_eq!(messages, vec!["saved video".to_string()]);
+        for name in ["0000.png", "0003.png", "tprf.gif"] {
+            assert!(dir.join(name).is_file(), "{name} missing");
+        }
+        assert!(!dir.join("0004.png").exists());
+        // A failure is a message too.
+        exports
+            .spawn(&egui::Context::default(), "x".into(), || {
+                anyhow::bail!("disk full")
+            })
+            .unwrap();
+        let start = std::time::Instant::now();
+        while exports.busy() {
+            assert!(start.elapsed().as_secs() < 30, "the writer did not end");
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+        assert_eq!(exports.finished(), vec!["disk full".to_string()]);
+        drop(exports);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

@@ -1,0 +1,33 @@
+//! The error estimate (two half buffers) against render time, log-log, under the TPRF
+//! plot while a render runs.
+
+use crate::viewer::app::TprfApp;
+use eframe::egui::{self, RichText};
+use egui_plot::{Line, Plot, PlotPoints};
+
+impl TprfApp {
+    /// Nothing for a loaded cube or before the first estimate.
+    pub(crate) fn error_plot_ui(&mut self, ui: &mut egui::Ui) {
+        let Some(status) = self.status() else {
+            return;
+        };
+        if status.error_history.is_empty() {
+            return;
+        }
+        ui.label(RichText::new("Error estimate (two half buffers) against time").small());
+        let pts: PlotPoints = status
+            .error_history
+            .iter()
+            .filter(|(t, e)| *t > 0.0 && *e > 0.0)
+            .map(|(t, e)| [t.log10(), e.log10()])
+            .collect();
+        Plot::new("error-plot")
+            .height(110.0)
+            .allow_drag(false)
+            .allow_zoom(false)
+            .allow_scroll(false)
+            .x_axis_label("log10 s")
+            .y_axis_label("log10 rel. error")
+            .show(ui, |plot_ui| plot_ui.line(Line::new("error", pts)));
+    }
+}

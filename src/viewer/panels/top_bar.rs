@@ -1,0 +1,65 @@
+//! The top bar: the mode, opening a scene or a cube, and the render's pause and restart.
+
+use crate::viewer::app::TprfApp;
+use crate::viewer::settings::Mode;
+use crate::viewer::source::Source;
+use eframe::egui;
+
+impl TprfApp {
+    /// Mode tabs, "Open glTF…", "Open cube…", the built-in scenes, pause/restart.
+    pub(crate) fn top_bar_ui(&mut self, ui: &mut egui::Ui) {
+        ui.horizontal_wrapped(|ui| {
+            ui.strong("tprf");
+            ui.separator();
+            ui.selectable_value(&mut self.settings.mode, Mode::Transient, "Transient")
+                .on_hover_text("Light in flight: time slices and TPRF plots");
+            ui.selectable_value(&mut self.settings.mode, Mode::Sensor, "Sensor")
+                .on_hover_text(
+                    "Light(t), Exposure_i(t) and the measurements M_i, from the cached TPRFs",
+                );
+            ui.separator();
+            if ui
+                .button("Open glTF…")
+                .on_hover_text("Render a .gltf/.glb scene (or drop one on the window)")
+                .clicked()
+                && let Some(p) = rfd::FileDialog::new()
+                    .add_filter("glTF", &["gltf", "glb"])
+                    .pick_file()
+            {
+                self.open_scene(p.display().to_string());
+            }
+            if ui
+                .button("Open cube…")
+                .on_hover_text("Show a folder written by `tprf render`")
+                .clicked()
+                && let Some(p) = rfd::FileDialog::new().pick_folder()
+            {
+                self.open_cube(&p);
+            }
+            for name in tprf_core::scene::builtin::NAMES {
+                if ui.button(format!("builtin:{name}")).clicked() {
+                    self.open_scene(format!("builtin:{name}"));
+                }
+            }
+            ui.separator();
+            match &self.source {
+                Source::Live(w) => {
+                    let paused = w.is_paused();
+                    if ui
+                        .button(if paused { "▶ Resume" } else { "⏸ Pause" })
+                        .clicked()
+                    {
+                        w.set_paused(!paused);
+                    }
+                    if ui.button("⟲ Restart").clicked() {
+                        self.restart();
+                    }
+                }
+                Source::Cube { dir, .. } => {
+                    ui.label(format!("cube: {}", dir.display()));
+                }
+                Source::None => {}
+            }
+        });
+    }
+}

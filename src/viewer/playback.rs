@@ -1,0 +1,98 @@
+//! The scrubber's bin over time: stepping (wrapping or stopping at the ends), the arrow
+//! and space keys, and the playback clock that advances `play_bins_per_s` bins a second.
+
+use super::app::TprfApp;
+use super::settings::Mode;
+use eframe::egui;
+
+/// Bin `bin + delta` of `bins` (`bins > 0`): wrapped round when `looping`, else held at
+/// the first or last bin.
+fn stepped_bin(bin: usize, delta: i64, bins: usize, looping: bool) -> usize {
+    let b = bin as i64 + delta;
+    if looping {
+        b.rem_euclid(bins as i64) as usize
+    } else {
+        b.clamp(0, bins as i64 - 1) as usize
+    }
+}
+
+impl TprfApp {
+    /// Move the scrubber `delta` bins in a window of `bins` (nothing when there are none).
+    pub(super) fn step(&mut self, delta: i64, bins: usize) {
+        if bins > 0 {
+            self.bin = stepped_bin(self.bin, delta, bins, self.settings.looping);
+        }
+    }
+
+    /// Arrows step a bin (the gate shown, in sensor mode) and pause; space plays or
+    /// pauses. Keys typed into a text field are left to it.
+    pub(super) fn handle_keys(&mut self, ctx: &egui::Context, bins: usize) {
+        if ctx.egui_wants_keyboard_input() {
+            return;
+        }
+        let (left, right, space) = ctx.input(|i| {
+            (
+                i.key_pressed(egui::Key::ArrowLeft),
+                i.key_pressed(egui::Key::ArrowRight),
+                i.key_pressed(egui::Key::Space),
+            )
+        });
+        if self.settings.mode == Mode::Sensor {
+            // In sensor mode the arrows step the gate shown.
+            let gates = self.sensor.model().map_or(1, |m| m.gate_count());
+            if left {
+                self.sensor.gate = self.sensor.gate.saturating_sub(1);
+            }
+            if right {
+                self.sensor.gate = (self.sensor.gate + 1).min(gates.saturating_sub(1));
+            }
+            return;
+        }
+        if left {
+            self.playing = false;
+            self.step(-1, bins);
+        }
+        if right {
+            self.playing = false;
+            self.step(1, bins);
+        }
+        if space {
+            self.playing = !self.playing;
+        }
+    }
+
+    /// While playing, advance by `play_bins_per_s` times the frame time (at most 0.1 s
+    /// a frame), whole bins at a time; without looping, stop at the last bin. Asks for
+    /// the next frame.
+    pub(super) fn advance_playback(&mut self, ctx: &egui::Context, bins: usize) {
+        if !self.playing || bins == 0 {
+            return;
+        }
+        let dt = ctx.input(|i| i.stable_dt).min(0.1);
+        self.play_accum += dt * self.settings.play_bins_per_s;
+        let steps = self.play_accum.floor();
+        if steps >= 1.0 {
+            self.play_accum -= steps;
+            let before = self.bin;
+            self.step(steps as i64, bins);
+            if !self.settings.looping && self.bin == before {
+                self.playing = false;
+            }
+        }
+        ctx.request_repaint();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::stepped_bin;
+
+    #[test]
+    fn steps_wrap_when_looping_and_stop_otherwise() {
+        assert_eq!(stepped_bin(0, -1, 10, true), 9);
+        assert_eq!(stepped_bin(9, 3, 10, true), 2);
+        assert_eq!(stepped_bin(0, -1, 10, false), 0);
+        assert_eq!(stepped_bin(8, 5, 10, false), 9);
+        assert_eq!(stepped_bin(4, 1, 10, false), 5);
+    }
+}

@@ -1,0 +1,313 @@
+//! The sensor's controls in the left panel: presets, loading and saving a sensor file,
+//! the light pulse, the gate sequence and the noise, each kind with its own fields.
+
+use super::kinds::{EXPOSURE_KINDS, LIGHT_KINDS, exposure_of_kind, label_of, light_of_kind};
+use super::{GATE_COLOR, LIGHT_COLOR};
+use eframe::egui::{self, RichText};
+use tprf_core::film::TimeAxis;
+use tprf_core::sensor::{Exposure, LightPulse, Sensor};
+
+/// A time in ns, stored in seconds.
+fn time_ns(ui: &mut egui::Ui, label: &str, t_s: &mut f64, speed_ns: f64) {
+    let l = ui.label(label);
+    let mut ns = *t_s * 1e9;
+    if ui
+        .add(
+            egui::DragValue::new(&mut ns)
+                .speed(speed_ns)
+                .suffix(" ns")
+                .max_decimals(4),
+        )
+        .labelled_by(l.id)
+        .changed()
+        && ns.is_finite()
+    {
+        *t_s = ns * 1e-9;
+    }
+    ui.end_row();
+}
+
+/// A number in `range`, dragged at `speed` per pixel.
+fn number(
+    ui: &mut egui::Ui,
+    label: &str,
+    v: &mut f64,
+    range: std::ops::RangeInclusive<f64>,
+    speed: f64,
+) {
+    let l = ui.label(label);
+    ui.add(egui::DragValue::new(v).range(range).speed(speed))
+        .labelled_by(l.id);
+    ui.end_row();
+}
+
+/// A count from 1 to `max`.
+fn count(ui: &mut egui::Ui, label: &str, v: &mut u64, max: u64) {
+    let l = ui.label(label);
+    ui.add(egui::DragValue::new(v).range(1..=max))
+        .labelled_by(l.id);
+    ui.end_row();
+}
+
+/// The sensor's controls (left panel): presets, light, gates, noise. Returns a message
+/// to show when a preset file could not be read or written.
+pub(crate) fn controls_ui(
+    ui: &mut egui::Ui,
+    sensor: &mut Sensor,
+    axis: Option<&TimeAxis>,
+) -> Option<String> {
+    let mut message = None;
+    ui.heading("Sensor");
+    if !sensor.name.is_empty() {
+        ui.label(RichText::new(&sensor.name).strong());
+    }
+    ui.horizontal_wrapped(|ui| {
+        for (name, _) in tprf_core::sensor::BUILTIN_PRESETS {
+            if ui
+                .button(*name)
+                .on_hover_text(format!("builtin:{name}"))
+                .clicked()
+            {
+                match Sensor::builtin(name) {
+                    Ok(s) => *sensor = s,
+                    Err(e) => message = Some(e.to_string()),
+                }
+            }
+        }
+        if ui
+            .button("Load…")
+            .on_hover_text("A sensor file (TOML)")
+            .clicked()
+            && let Some(p) = rfd::FileDialog::new()
+                .add_filter("sensor", &["toml"])
+                .pick_file()
+        {
+            match Sensor::from_path(&p) {
+                Ok(s) => *sensor = s,
+                Err(e) => message = Some(e.to_string()),
+            }
+        }
+        if ui.button("Save…").clicked()
+            && let Some(p) = rfd::FileDialog::new()
+                .add_filter("sensor", &["toml"])
+                .set_file_name("sensor.toml")
+                .save_file()
+        {
+            let r = sensor
+                .to_toml_string()
+                .map_err(|e| e.to_string())
+                .and_then(|t| {
+                    use std::io::Write;
+                    tprf_core::export::write_atomic(&p, |f| Ok(f.write_all(t.as_bytes())?))
+                        .map_err(|e| format!("{e:#}"))
+                });
+            if let Err(e) = r {
+                message = Some(format!("cannot save {}: {e}", p.display()));
+            }
+        }
+    });
+    let dt_s = axis.map_or(1e-10, |a| a.dt_s);
+    let speed = dt_s * 1e9 / 4.0;
+
+    ui.label(RichText::new("Light(t)").color(LIGHT_COLOR).strong());
+    let kind = sensor.light.kind_name();
+    let mut new_kind = kind;
+    egui::ComboBox::from_id_salt("light-kind")
+        .selected_text(label_of(LIGHT_KINDS, kind))
+        .show_ui(ui, |ui| {
+            for (k, l) in LIGHT_KINDS {
+                ui.selectable_value(&mut new_kind, k, *l);
+            }
+        });
+    if new_kind != kind {
+        // A new pulse leaves at the trigger, t = 0, like the rendered one.
+        sensor.light = light_of_kind(new_kind, 0.0, dt_s);
+    }
+    egui::Grid::new("light-grid")
+        .num_columns(2)
+        .show(ui, |ui| match &mut sensor.light {
+            LightPulse::Delta { t_s, energy } => {
+                time_ns(ui, "time", t_s, speed);
+                number(ui, "energy", energy, 0.0..=1e12, 0.01);
+            }
+            LightPulse::Gaussian {
+                centre_s,
+                fwhm_s,
+                energy,
+            } => {
+                time_ns(ui, "centre", centre_s, speed);
+                time_ns(ui, "FWHM", fwhm_s, speed);
+                number(ui, "energy", energy, 0.0..=1e12, 0.01);
+            }
+            LightPulse::Rect {
+                start_s,
+                width_s,
+                energy,
+            } => {
+                time_ns(ui, "start", start_s, speed);
+                time_ns(ui, "width", width_s, speed);
+                number(ui, "energy", energy, 0.0..=1e12, 0.01);
+            }
+            LightPulse::Exponential {
+                onset_s,
+                tau_s,
+                energy,
+            } => {
+                time_ns(ui, "onset", onset_s, speed);
+                time_ns(ui, "decay τ", tau_s, speed);
+                number(ui, "energy", energy, 0.0..=1e12, 0.01);
+            }
+            LightPulse::LaserDiode {
+                onset_s,
+                rise_s,
+                fall_s,
+                energy,
+            } => {
+                time_ns(ui, "onset", onset_s, speed);
+                time_ns(ui, "rise", rise_s, speed);
+                time_ns(ui, "fall", fall_s, speed);
+                number(ui, "energy", energy, 0.0..=1e12, 0.01);
+            }
+            LightPulse::Sinc2 {
+                centre_s,
+                width_s,
+                lobes,
+                energy,
+            } => {
+                time_ns(ui, "centre", centre_s, speed);
+                time_ns(ui, "first zero", width_s, speed);
+                let l = ui.label("side lobes");
+                ui.add(egui::DragValue::new(lobes).range(0..=64))
+                    .labelled_by(l.id);
+                ui.end_row();
+                number(ui, "energy", energy, 0.0..=1e12, 0.01);
+            }
+            LightPulse::PiecewiseLinear { points, energy } => {
+                ui.label(format!("{} knots: drag them on the plot", points.len()));
+                ui.end_row();
+                number(ui, "energy", energy, 0.0..=1e12, 0.01);
+            }
+        });
+
+    ui.label(RichText::new("Exposure_i(t)").color(GATE_COLOR).strong());
+    let kind = sensor.exposure.kind_name();
+    let mut new_kind = kind;
+    egui::ComboBox::from_id_salt("exposure-kind")
+        .selected_text(label_of(EXPOSURE_KINDS, kind))
+        .show_ui(ui, |ui| {
+            for (k, l) in EXPOSURE_KINDS {
+                ui.selectable_value(&mut new_kind, k, *l);
+            }
+        });
+    if new_kind != kind
+        && let Some(axis) = axis
+    {
+        sensor.exposure = exposure_of_kind(new_kind, axis);
+        sensor.derived = Default::default();
+        sensor.derived.amcw_depth = new_kind == "amcw";
+    }
+    let max_gates = tprf_core::sensor::MAX_GATES;
+    egui::Grid::new("exposure-grid")
+        .num_columns(2)
+        .show(ui, |ui| match &mut sensor.exposure {
+            Exposure::Box {
+                start_s,
+                width_s,
+                step_s,
+                count: n,
+                gain,
+                ..
+            } => {
+                time_ns(ui, "start", start_s, speed);
+                time_ns(ui, "width", width_s, speed);
+                let mut step = step_s.unwrap_or(*width_s);
+                time_ns(ui, "step", &mut step, speed);
+                if step_s.is_some() || step != *width_s {
+                    *step_s = Some(step);
+                }
+                count(ui, "gates", n, max_gates);
+                number(ui, "gain", gain, 0.0..=1e12, 0.01);
+            }
+            Exposure::Gaussian {
+                centre_s,
+                fwhm_s,
+                step_s,
+                count: n,
+                peak,
+                ..
+            } => {
+                time_ns(ui, "centre", centre_s, speed);
+                time_ns(ui, "FWHM", fwhm_s, speed);
+                let mut step = step_s.unwrap_or(*fwhm_s);
+                time_ns(ui, "step", &mut step, speed);
+                if step_s.is_some() || step != *fwhm_s {
+                    *step_s = Some(step);
+                }
+                count(ui, "gates", n, max_gates);
+                number(ui, "peak", peak, 0.0..=1e12, 0.01);
+            }
+            Exposure::PiecewiseLinear {
+                points,
+                step_s,
+                count: n,
+                ..
+            } => {
+                ui.label(format!("{} knots: drag them on the plot", points.len()));
+                ui.end_row();
+                time_ns(ui, "step", step_s, speed);
+                count(ui, "gates", n, max_gates);
+            }
+            Exposure::Amcw {
+                freq_hz,
+                phase_steps,
+                phase0_deg,
+                modulation,
+            } => {
+                let mut mhz = *freq_hz * 1e-6;
+                let l = ui.label("frequency");
+                if ui
+                    .add(
+                        egui::DragValue::new(&mut mhz)
+                            .range(1e-3..=1e5)
+                            .speed(0.1)
+                            .suffix(" MHz"),
+                    )
+                    .labelled_by(l.id)
+                    .changed()
+                {
+                    *freq_hz = mhz * 1e6;
+                }
+                ui.end_row();
+                count(ui, "phase steps", phase_steps, 64);
+                number(ui, "phase 0 (deg)", phase0_deg, -360.0..=360.0, 1.0);
+                number(ui, "modulation", modulation, 0.0..=1.0, 0.01);
+            }
+        });
+
+    ui.label(RichText::new("Noise").strong());
+    egui::Grid::new("noise-grid").num_columns(2).show(ui, |ui| {
+        let l = ui.label("σ (additive)");
+        ui.add(
+            egui::DragValue::new(&mut sensor.noise.sigma)
+                .range(0.0..=1e12)
+                .speed(1e-4)
+                .max_decimals(6),
+        )
+        .labelled_by(l.id);
+        ui.end_row();
+        let l = ui.label("photons / energy");
+        ui.add(
+            egui::DragValue::new(&mut sensor.noise.photons_per_energy)
+                .range(0.0..=1e15)
+                .speed(1.0),
+        )
+        .labelled_by(l.id)
+        .on_hover_text("Poisson photon noise; 0 = off");
+        ui.end_row();
+        let l = ui.label("seed");
+        ui.add(egui::DragValue::new(&mut sensor.noise.seed))
+            .labelled_by(l.id);
+        ui.end_row();
+    });
+    message
+}

@@ -1,0 +1,180 @@
+//! What the sensor tab keeps between frames: the model with its kernels, the image of
+//! the gate on screen, and the latest measurement of all gates, each keyed on the film
+//! snapshot's [`FilmSnapshot::generation`] (an address would be reused by the next one).
+
+use super::handles::Handle;
+use super::measure::{Measured, background_pool, measure_all};
+use crate::viewer::textures::TextureCache;
+use std::sync::Arc;
+use std::sync::mpsc::{Receiver, TryRecvError, channel};
+use std::time::Instant;
+use tprf_core::film::FilmSnapshot;
+use tprf_core::sensor::{Measurements, NoiseField, PixelTrace, Sensor, SensorModel};
+
+/// The shown gate's image, measured on the UI thread right after an edit.
+pub(super) struct Plane {
+    /// The film's [`FilmSnapshot::generation`].
+    snapshot: u64,
+    sensor: Sensor,
+    gate: usize,
+    values: Vec<f32>,
+    pub(super) millis: f64,
+}
+
+/// What the sensor tab keeps between frames: the model with its kernels, the latest
+/// measurements and their textures. The sensor being edited lives in the settings.
+///
+/// An edit is shown within the frame: the image of the gate on screen is measured at
+/// once (one kernel over the film). All N gates, the noise and the derived depth are
+/// measured on a background thread and replace it when done; the UI never waits.
+#[derive(Default)]
+pub struct SensorState {
+    pub(super) model: Option<SensorModel>,
+    pub(super) measured: Option<Measured>,
+    pub(super) plane: Option<Plane>,
+    job: Option<Receiver<Measured>>,
+    noise_field: Option<NoiseField>,
+    pub error: Option<String>,
+    /// The gate shown, `i`.
+    pub gate: usize,
+    /// The editor's handle being dragged.
+    pub(super) drag: Option<Handle>,
+    pub(super) textures: TextureCache<u64>,
+}
+
+impl SensorState {
+    /// Bring the model and the measurements up to date with `sensor` and `snap`; an
+    /// invalid sensor leaves the last good ones and says why. Never waits.
+    pub fn update(&mut self, sensor: &Sensor, snap: &Arc<FilmSnapshot>) {
+        let axis = *snap.axis();
+        let model = match self.model.take() {
+            Some(mut m) => {
+                let r = m.set_axis(axis).and_then(|_| m.update(sensor));
+                self.error = r.err().map(|e| e.to_string());
+                m
+            }
+            None => match SensorModel::new(sensor.clone(), axis) {
+                Ok(m) => {
+                    self.error = None;
+                    m
+                }
+                Err(e) => {
+                    self.error = Some(e.to_string());
+                    return;
+                }
+            },
+        };
+        self.gate = self.gate.min(model.gate_count().saturating_sub(1));
+        let key = snap.generation();
+        // A finished background measurement.
+        if let Some(rx) = &self.job {
+            match rx.try_recv() {
+                Ok(mut done) => {
+                    self.noise_field = Some(std::mem::take(&mut done.noise_field));
+                    self.measured = Some(done);
+                    self.job = None;
+                }
+                Err(TryRecvError::Disconnected) => self.job = None,
+                Err(TryRecvError::Empty) => {}
+            }
+        }
+        if !self.is_current_for(key, model.sensor()) {
+            if self.job.is_none() {
+                self.spawn_measurement(&model, snap);
+            }
+            // The gate on screen, now.
+            let gate = self.gate;
+            let stale = self
+                .plane
+                .as_ref()
+                .is_none_or(|p| p.snapshot != key || p.gate != gate || p.sensor != *model.sensor());
+            if stale && let Some(k) = model.kernels().get(gate) {
+                let started = Instant::now();
+                let packed =
+                    tprf_core::sensor::PackedKernels::new(std::slice::from_ref(k), axis.bins);
+                {
+                    let m = tprf_core::sensor::measure::measure_clean_film(&packed, snap);
+                    self.plane = Some(Plane {
+                        snapshot: key,
+                        sensor: model.sensor().clone(),
+                        gate,
+                        values: m.values,
+                        millis: started.elapsed().as_secs_f64() * 1e3,
+                    });
+                }
+            }
+        }
+        self.model = Some(model);
+    }
+
+    /// Measure all gates of `snap` through `model` on a thread named `tprf-sensor`
+    /// (the work itself on [`background_pool`]); the result comes back through `job`.
+    fn spawn_measurement(&mut self, model: &SensorModel, snap: &Arc<FilmSnapshot>) {
+        let (tx, rx) = channel();
+        let (job_model, job_snap) = (model.clone(), snap.clone());
+        let field = self.noise_field.take().unwrap_or_default();
+        let spawned = std::thread::Builder::new()
+            .name("tprf-sensor".into())
+            .spawn(move || {
+                // On its own threads, so the gate measured for the frame does not queue
+                // behind it on the global pool.
+                let result = match background_pool() {
+                    Some(pool) => pool.install(|| measure_all(&job_model, &job_snap, field)),
+                    None => measure_all(&job_model, &job_snap, field),
+                };
+                if let Ok(m) = result {
+                    let _ = tx.send(m);
+                }
+            });
+        match spawned {
+            Ok(_) => self.job = Some(rx),
+            Err(e) => self.error = Some(format!("cannot start the measurement thread: {e}")),
+        }
+    }
+
+    /// Whether the measurement of all gates is that of film `generation` and `sensor`.
+    fn is_current_for(&self, generation: u64, sensor: &Sensor) -> bool {
+        self.measured
+            .as_ref()
+            .is_some_and(|m| m.snapshot == generation && m.sensor == *sensor)
+    }
+
+    /// Whether the measurements of all gates are those of the current sensor and film.
+    pub fn is_current(&self, snap: &FilmSnapshot) -> bool {
+        self.model
+            .as_ref()
+            .is_some_and(|m| self.is_current_for(snap.generation(), m.sensor()))
+    }
+
+    /// The image of the gate on screen, `[H, W]`, as the window shows it now: from the
+    /// full measurement when it is current, else measured for this frame (no noise).
+    pub fn shown_plane(&self, snap: &FilmSnapshot) -> Option<&[f32]> {
+        if self.is_current(snap) {
+            return self.measured.as_ref().map(|m| m.m.plane(self.gate));
+        }
+        let model = self.model.as_ref()?;
+        self.plane
+            .as_ref()
+            .filter(|p| {
+                p.snapshot == snap.generation()
+                    && p.gate == self.gate
+                    && p.sensor == *model.sensor()
+            })
+            .map(|p| p.values.as_slice())
+    }
+
+    /// The sensor model of the last valid sensor, with its kernels.
+    pub fn model(&self) -> Option<&SensorModel> {
+        self.model.as_ref()
+    }
+
+    /// The latest measurements `[N, H, W]`.
+    pub fn measurements(&self) -> Option<&Measurements> {
+        self.measured.as_ref().map(|m| &m.m)
+    }
+
+    /// One pixel's trace through the sensor: TPRF, TPRF * Light, M_i before noise.
+    pub fn pixel_trace(&self, tprf: &[f32]) -> Option<PixelTrace> {
+        self.model.as_ref()?.pixel_trace(tprf).ok()
+    }
+}

@@ -1,0 +1,158 @@
+//! What the window remembers between runs ([`ViewerSettings`], eframe storage), its
+//! sanitizing, and the render job the settings describe.
+
+use super::colormap::{ColorMap, ExposureMode};
+use serde::{Deserialize, Serialize};
+use tprf_core::scene::Channel;
+use tprf_core::sensor::Sensor;
+use tprf_core::transport::worker::RenderJob;
+use tprf_core::transport::{RenderSettings, WindowRequest};
+use tprf_core::units::parse_time_s;
+
+/// Everything the viewer remembers between runs (eframe storage).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct ViewerSettings {
+    pub scene: String,
+    pub width: usize,
+    pub height: usize,
+    pub bins: usize,
+    /// Window start and bin width with units ("" = automatic).
+    pub t0: String,
+    pub dt: String,
+    /// Samples per pixel to stop at (0 = keep going).
+    pub spp_target: u64,
+    pub max_bounces: u32,
+    pub channel: Channel,
+    pub seed: u64,
+    /// Playback speed, bins per second.
+    pub play_bins_per_s: f32,
+    pub looping: bool,
+    pub exposure: ExposureMode,
+    /// Exposure offset in stops.
+    pub ev: f32,
+    pub log_image: bool,
+    pub colormap: ColorMap,
+    pub plot_log: bool,
+    /// Per-bounce curves shown: 1, 2, 3, >3 scattering events.
+    pub show_bounces: [bool; 4],
+    /// What the window shows: light in flight, or the sensor's measurements.
+    pub mode: Mode,
+    /// The sensor being edited (Light, gates, noise).
+    pub sensor: Sensor,
+}
+
+/// The window's two views of the film.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Mode {
+    /// Time slices, steady and rainbow images, TPRF plots.
+    Transient,
+    /// Light(t), Exposure_i(t) and the measurements M_i (the paper's section 6).
+    Sensor,
+}
+
+impl Default for ViewerSettings {
+    fn default() -> Self {
+        ViewerSettings {
+            scene: "builtin:cornell".into(),
+            width: 128,
+            height: 128,
+            bins: 256,
+            t0: String::new(),
+            dt: String::new(),
+            spp_target: 0,
+            max_bounces: 1024,
+            channel: Channel::Gray,
+            seed: 0,
+            play_bins_per_s: 30.0,
+            looping: true,
+            exposure: ExposureMode::PerFrame,
+            ev: 0.0,
+            log_image: false,
+            colormap: ColorMap::Inferno,
+            plot_log: false,
+            show_bounces: [true, true, true, true],
+            mode: Mode::Transient,
+            sensor: Sensor::builtin("lidar").expect("the built-in LiDAR preset parses"),
+        }
+    }
+}
+
+/// Largest image side the viewer accepts.
+pub(super) const MAX_SIDE: usize = 4096;
+/// Largest bin count the viewer accepts.
+pub(super) const MAX_BINS: usize = 16384;
+
+impl ViewerSettings {
+    /// Clamp values a stored file or a widget could have made absurd.
+    pub(super) fn sanitized(mut self) -> Self {
+        self.width = self.width.clamp(1, MAX_SIDE);
+        self.height = self.height.clamp(1, MAX_SIDE);
+        self.bins = self.bins.clamp(1, MAX_BINS);
+        self.max_bounces = self.max_bounces.clamp(1, 100_000);
+        if !(self.play_bins_per_s.is_finite() && self.play_bins_per_s > 0.0) {
+            self.play_bins_per_s = 30.0;
+        }
+        if !self.ev.is_finite() {
+            self.ev = 0.0;
+        }
+        self
+    }
+
+    /// These settings with the render ones (scene, size, window, spp, bounces, band,
+    /// seed) taken from `other`: what "Apply & restart" applies. Display and sensor
+    /// settings take effect at once and are not part of it.
+    pub(super) fn with_render_of(&self, other: &ViewerSettings) -> ViewerSettings {
+        ViewerSettings {
+            scene: other.scene.clone(),
+            width: other.width,
+            height: other.height,
+            bins: other.bins,
+            t0: other.t0.clone(),
+            dt: other.dt.clone(),
+            spp_target: other.spp_target,
+            max_bounces: other.max_bounces,
+            channel: other.channel,
+            seed: other.seed,
+            ..self.clone()
+        }
+    }
+
+    /// The render job these settings describe, or what is wrong with them.
+    pub(super) fn job(&self) -> Result<RenderJob, String> {
+        let parse = |s: &str, what: &str| -> Result<Option<f64>, String> {
+            if s.trim().is_empty() {
+                Ok(None)
+            } else {
+                parse_time_s(s)
+                    .map(Some)
+                    .map_err(|e| format!("{what}: {e}"))
+            }
+        };
+        let t0_s = parse(&self.t0, "window start")?;
+        let dt_s = parse(&self.dt, "bin width")?;
+        if let Some(dt) = dt_s
+            && dt <= 0.0
+        {
+            return Err("bin width must be > 0".into());
+        }
+        Ok(RenderJob {
+            scene: self.scene.clone(),
+            width: self.width,
+            height: self.height,
+            window: WindowRequest {
+                t0_s,
+                dt_s,
+                bins: self.bins,
+            },
+            bounces_separate: 3,
+            settings: RenderSettings {
+                max_bounces: self.max_bounces,
+                seed: self.seed,
+                channel: self.channel,
+                ..Default::default()
+            },
+            spp_target: (self.spp_target > 0).then_some(self.spp_target),
+        })
+    }
+}

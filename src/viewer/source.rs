@@ -1,0 +1,125 @@
+//! Where the film comes from: a render worker started from the settings, or a cube
+//! written by `tprf render` and loaded from disk; opening scenes, cubes and dropped files.
+
+use super::app::TprfApp;
+use eframe::egui;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use tprf_core::export::{self, CubeMetadata};
+use tprf_core::film::FilmSnapshot;
+use tprf_core::transport::worker::{RenderWorker, WorkerStatus};
+
+/// Where the film comes from.
+pub(super) enum Source {
+    /// A render in progress (or done) on a background thread.
+    Live(RenderWorker),
+    /// A cube loaded from `dir`: no renderer runs.
+    Cube {
+        dir: PathBuf,
+        snapshot: Arc<FilmSnapshot>,
+        meta: Box<CubeMetadata>,
+    },
+    /// Nothing yet (the settings could not start a render).
+    None,
+}
+
+impl TprfApp {
+    /// The film on screen now.
+    pub fn snapshot(&self) -> Option<Arc<FilmSnapshot>> {
+        match &self.source {
+            Source::Live(w) => w.latest(),
+            Source::Cube { snapshot, .. } => Some(snapshot.clone()),
+            Source::None => None,
+        }
+    }
+
+    /// The render worker's progress (None for a loaded cube).
+    pub fn status(&self) -> Option<WorkerStatus> {
+        match &self.source {
+            Source::Live(w) => w.status(),
+            _ => None,
+        }
+    }
+
+    /// Take the render settings being edited into effect and restart, or say why not.
+    pub(super) fn apply_pending(&mut self) {
+        let pending = self.settings.with_render_of(&self.pending).sanitized();
+        match pending.job() {
+            Ok(_) => {
+                self.settings = pending.clone();
+                self.pending = pending;
+                self.restart();
+            }
+            Err(e) => self.messages.push(e),
+        }
+    }
+
+    /// (Re)start the render of the current settings; the old worker is dropped (it ends
+    /// by itself after its pass) and the window goes on drawing.
+    pub(super) fn restart(&mut self) {
+        match self.settings.job() {
+            Ok(job) => {
+                let ctx = self.ctx.clone();
+                self.source = Source::Live(RenderWorker::spawn(job, move || ctx.request_repaint()));
+            }
+            Err(e) => self.messages.push(e),
+        }
+    }
+
+    /// Show the cube in `dir` instead of rendering; an unreadable one is a message.
+    pub(super) fn open_cube(&mut self, dir: &Path) {
+        match export::load_snapshot(dir) {
+            Ok((meta, snapshot)) => {
+                self.bin = self.bin.min(snapshot.axis().bins.saturating_sub(1));
+                self.source = Source::Cube {
+                    dir: dir.to_path_buf(),
+                    snapshot: Arc::new(snapshot),
+                    meta: Box::new(meta),
+                };
+                self.selection = None;
+                self.pins.clear();
+            }
+            Err(e) => self
+                .messages
+                .push(format!("cannot open cube {}: {e:#}", dir.display())),
+        }
+    }
+
+    /// Render `scene` (`builtin:NAME` or a glTF path) with the other settings kept.
+    pub(super) fn open_scene(&mut self, scene: String) {
+        self.pending.scene = scene;
+        self.selection = None;
+        self.pins.clear();
+        self.apply_pending();
+    }
+
+    /// Files dropped on the window: a folder opens as a cube, a .gltf/.glb renders.
+    pub(super) fn handle_dropped_files(&mut self, ctx: &egui::Context) {
+        let dropped: Vec<PathBuf> = ctx.input(|i| {
+            i.raw
+                .dropped_files
+                .iter()
+                .map(|f| f.path().to_path_buf())
+                .filter(|p| !p.as_os_str().is_empty())
+                .collect()
+        });
+        for path in dropped {
+            if path.is_dir() {
+                self.open_cube(&path);
+            } else if matches!(
+                path.extension()
+                    .and_then(|e| e.to_str())
+                    .map(|e| e.to_ascii_lowercase())
+                    .as_deref(),
+                Some("gltf" | "glb")
+            ) {
+                self.open_scene(path.display().to_string());
+            } else {
+                self.messages.push(format!(
+                    "{}: drop a .gltf/.glb file or a cube folder",
+                    path.display()
+                ));
+            }
+        }
+    }
+}
