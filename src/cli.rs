@@ -863,12 +863,7 @@ fn write_signed_png(
 
 /// The `q` quantile of the finite values (0 if none).
 fn quantile(values: impl Iterator<Item = f64>, q: f64) -> f64 {
-    let mut v: Vec<f64> = values.filter(|x| x.is_finite()).collect();
-    if v.is_empty() {
-        return 0.0;
-    }
-    let k = ((v.len() - 1) as f64 * q).round() as usize;
-    *v.select_nth_unstable_by(k, f64::total_cmp).1
+    tprf_core::film::quantile(values, q).unwrap_or(0.0)
 }
 
 /// The AMCW depth reference: the single-scattering layer's centroid when the render

@@ -7,6 +7,6 @@ mod store;
 mod time_axis;
 
 pub use filter::TimeFilter;
-pub use snapshot::{FilmSnapshot, quantile_positive, robust_max};
+pub use snapshot::{FilmSnapshot, quantile, quantile_positive, robust_max};
 pub use store::{FilmLayout, PixelSink, TprfFilm, available_memory_bytes};
 pub use time_axis::TimeAxis;
