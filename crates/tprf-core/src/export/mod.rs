@@ -10,6 +10,8 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
+pub mod sensor;
+
 /// Everything `tprf.json` records about a cube.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct CubeMetadata {
