@@ -10,6 +10,8 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
+pub mod sensor;
+
 /// Everything `tprf.json` records about a cube.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct CubeMetadata {
@@ -286,13 +288,7 @@ pub fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
 
 /// The exposure that maps the `q` quantile of the positive values to 1 (1 if none).
 pub fn exposure_for(values: impl Iterator<Item = f64>, q: f64) -> f64 {
-    let mut v: Vec<f64> = values.filter(|x| *x > 0.0 && x.is_finite()).collect();
-    if v.is_empty() {
-        return 1.0;
-    }
-    let k = ((v.len() - 1) as f64 * q.clamp(0.0, 1.0)).round() as usize;
-    let (_, x, _) = v.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
-    if *x > 0.0 { 1.0 / *x } else { 1.0 }
+    crate::film::quantile(values.filter(|x| *x > 0.0), q).map_or(1.0, |x| 1.0 / x)
 }
 
 /// Linear value -> sRGB-encoded 8-bit (clamped to [0, 1] first).

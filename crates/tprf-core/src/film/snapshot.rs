@@ -335,15 +335,24 @@ pub fn robust_max(values: &[f32]) -> Option<f64> {
     quantile_positive(values.iter().step_by(stride).copied(), 0.999)
 }
 
-/// The `q` quantile of the positive finite values, `None` when there are none.
+/// The `q` quantile of the finite values (NaN and infinities are left out), by nearest
+/// rank: with the `n` finite values sorted, `v[k]` for `k = round((n - 1) q)`, `q`
+/// clamped to `[0, 1]`. So `q = 0` gives the smallest, `q = 1` the largest, `q = 0.5`
+/// the median (the upper middle value when `n` is even). `None` when there is no finite
+/// value. The one quantile of tprf: exposures, robust maxima and depth-image ranges all
+/// use it.
+pub fn quantile(values: impl Iterator<Item = f64>, q: f64) -> Option<f64> {
+    let mut v: Vec<f64> = values.filter(|x| x.is_finite()).collect();
+    let last = v.len().checked_sub(1)?;
+    let k = (last as f64 * q.clamp(0.0, 1.0)).round() as usize;
+    let (_, x, _) = v.select_nth_unstable_by(k, f64::total_cmp);
+    Some(*x)
+}
+
+/// [`quantile`] of the positive finite values (zeros and negatives left out), `None`
+/// when there are none.
 pub fn quantile_positive(values: impl Iterator<Item = f32>, q: f64) -> Option<f64> {
-    let mut v: Vec<f32> = values.filter(|x| *x > 0.0 && x.is_finite()).collect();
-    if v.is_empty() {
-        return None;
-    }
-    let k = ((v.len() - 1) as f64 * q.clamp(0.0, 1.0)).round() as usize;
-    let (_, x, _) = v.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
-    Some(*x as f64)
+    quantile(values.filter(|x| *x > 0.0).map(f64::from), q)
 }
 
 #[cfg(test)]
@@ -384,5 +393,11 @@ mod tests {
         assert_eq!(quantile_positive(v.into_iter(), 1.0), Some(4.0));
         assert_eq!(quantile_positive(v.into_iter(), 0.0), Some(1.0));
         assert_eq!(quantile_positive([0.0f32; 3].into_iter(), 0.5), None);
+        let w = [f64::NAN, -2.0, 0.0, 5.0, 1.0, f64::INFINITY];
+        assert_eq!(quantile(w.into_iter(), 0.0), Some(-2.0));
+        assert_eq!(quantile(w.into_iter(), 0.5), Some(1.0));
+        assert_eq!(quantile(w.into_iter(), 1.0), Some(5.0));
+        assert_eq!(quantile(w.into_iter(), 7.0), Some(5.0));
+        assert_eq!(quantile([f64::NAN].into_iter(), 0.5), None);
     }
 }

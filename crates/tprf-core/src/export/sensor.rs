@@ -1,0 +1,404 @@
+//! The files of `tprf sensor`: the cube it reads ([`read_any_cube`]) and what it writes
+//! ([`write_sensor_outputs`]): the measurement `sensor.npy` `[N, H, W]`, the derived
+//! depth images (`depth.*`, `amcw_*`, `true_depth.npy`, `multipath_error.*`), the
+//! traces of chosen pixels (`pixel_Y_X.csv`, `pixel_Y_X_gates.csv`) and `sensor.json`,
+//! which describes them all.
+
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+
+use super::{read_npy_f32, write_csv, write_json, write_npy_f32, write_png_rgb};
+use crate::film::{TimeAxis, quantile};
+use crate::sensor::{FirstReturn, Measurements, SensorModel, derived};
+
+/// The time window of a cube as `tprf.json` records it; other keys are ignored, so a
+/// cube written by another tool needs only these.
+#[derive(serde::Deserialize)]
+struct CubeWindow {
+    t0_s: f64,
+    dt_s: f64,
+    bins: usize,
+    #[serde(default)]
+    width: Option<usize>,
+    #[serde(default)]
+    height: Option<usize>,
+}
+
+/// Reads `tprf.npy` and `tprf.json` of a render folder: the cube `[H, W, T]`, width,
+/// height, axis. Unlike [`super::read_cube`] it needs only the time window in the JSON
+/// (`t0_s`, `dt_s`, `bins`; `width` and `height` are checked when present), so cubes
+/// written by other tools can be measured too.
+pub fn read_any_cube(dir: &Path) -> Result<(Vec<f32>, usize, usize, TimeAxis)> {
+    let json_path = dir.join("tprf.json");
+    let text = std::fs::read(&json_path)
+        .with_context(|| format!("cannot read {}", json_path.display()))?;
+    let meta: CubeWindow = serde_json::from_slice(&text)
+        .with_context(|| format!("{}: expected t0_s, dt_s and bins", json_path.display()))?;
+    let axis = TimeAxis::new(meta.t0_s, meta.dt_s, meta.bins)
+        .map_err(anyhow::Error::msg)
+        .with_context(|| json_path.display().to_string())?;
+    let npy_path = dir.join("tprf.npy");
+    let (shape, cube) = read_npy_f32(&npy_path)?;
+    let (h, w, t) = match shape[..] {
+        [h, w, t] => (h as usize, w as usize, t as usize),
+        _ => bail!(
+            "{} has shape {shape:?}; expected [H, W, T]",
+            npy_path.display()
+        ),
+    };
+    if t != axis.bins
+        || meta.width.is_some_and(|mw| mw != w)
+        || meta.height.is_some_and(|mh| mh != h)
+    {
+        bail!(
+            "{} is [{h}, {w}, {t}] but {} says {} x {} pixels, {} bins",
+            npy_path.display(),
+            json_path.display(),
+            meta.height.map_or("?".into(), |v| v.to_string()),
+            meta.width.map_or("?".into(), |v| v.to_string()),
+            axis.bins
+        );
+    }
+    Ok((cube, w, h, axis))
+}
+
+/// A measurement made by `tprf sensor`, with what it was made from: everything
+/// [`write_sensor_outputs`] writes.
+pub struct SensorRun<'a> {
+    /// The sensor compiled for the cube's time axis.
+    pub model: &'a SensorModel,
+    /// The measurements `M_i`, noise included.
+    pub measurements: &'a Measurements,
+    /// The noise-free cube `[H, W, T]` that was measured.
+    pub cube: &'a [f32],
+    pub width: usize,
+    pub height: usize,
+    /// The render folder the cube came from: recorded in `sensor.json`, and its
+    /// `tprf_bounces.npy`, when present, gives the AMCW reference depth.
+    pub cube_dir: &'a Path,
+    /// Pixels (row from the top, column from the left) whose traces are written as CSV;
+    /// each must lie inside the image.
+    pub pixels: &'a [(usize, usize)],
+    /// Seconds spent compiling the kernels, measuring and adding noise.
+    pub kernels_s: f64,
+    pub measurement_s: f64,
+    pub noise_s: f64,
+    /// When the run started: `sensor.json`'s total time runs from here to its writing.
+    pub started: Instant,
+}
+
+/// The AMCW multipath error `|amcw_depth - true_depth|`, metres (wrapped into half the
+/// ambiguity range), over the pixels.
+#[derive(Clone, Copy, Debug)]
+pub struct MultipathError {
+    pub median_abs_m: f64,
+    pub p95_abs_m: f64,
+    /// The unambiguous range `c / (2 f)`, metres.
+    pub ambiguity_m: f64,
+}
+
+/// What [`write_sensor_outputs`] wrote.
+#[derive(Clone, Debug)]
+pub struct SensorOutputs {
+    /// The names of the files written into the output folder, `sensor.json` included.
+    pub files: Vec<String>,
+    /// The AMCW depth's error, when the sensor has AMCW gates.
+    pub multipath: Option<MultipathError>,
+}
+
+/// Writes the files of a `tprf sensor` run into `out` (created if missing; files in it
+/// are replaced):
+/// - `sensor.npy`: float32 `[N, H, W]`, row 0 = top, the measurements;
+/// - with a first-return output: `depth.npy` (`c (t_return - light mean time) / 2`,
+///   metres, NaN where no return) and `depth.png`;
+/// - with AMCW gates: `amcw_phase.npy`, `amcw_amplitude.npy`, `amcw_depth.npy`,
+///   `true_depth.npy`, `multipath_error.npy` (`[H, W]` each), `amcw_depth.png` and
+///   `multipath_error.png`;
+/// - per requested pixel `Y,X`: `pixel_Y_X.csv` and `pixel_Y_X_gates.csv`;
+/// - `sensor.json`: the model, the cube's window, the gates and their kernels, the
+///   derived outputs, the file list and the timings.
+pub fn write_sensor_outputs(out: &Path, run: &SensorRun) -> Result<SensorOutputs> {
+    let SensorRun {
+        model,
+        measurements: m,
+        cube,
+        width: w,
+        height: h,
+        cube_dir,
+        pixels,
+        ..
+    } = *run;
+    let axis = *model.axis();
+    let n = model.gate_count();
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let mut files = vec!["sensor.npy".to_string(), "sensor.json".to_string()];
+    write_npy_f32(
+        &out.join("sensor.npy"),
+        &[n as u64, h as u64, w as u64],
+        &m.values,
+    )?;
+
+    let mut derived_json = serde_json::Map::new();
+    if let Some(depth) = model.first_return_depth(m) {
+        write_npy_f32(&out.join("depth.npy"), &[h as u64, w as u64], &depth)?;
+        write_depth_png(&out.join("depth.png"), w, h, &depth)?;
+        files.extend(["depth.npy".into(), "depth.png".into()]);
+        let found = depth.iter().filter(|d| d.is_finite()).count();
+        derived_json.insert(
+            "first_return".into(),
+            serde_json::json!({
+                "depth": "c (t_return - light mean time) / 2, metres; NaN: no return",
+                "pixels_with_return": found,
+                "light_mean_s": model.light().mean_s(),
+            }),
+        );
+    }
+    let mut multipath = None;
+    if let Some(amcw) = model.amcw(m) {
+        let (reference, how) = reference_depth(cube_dir, cube, w, h, &axis)?;
+        let error: Vec<f32> = amcw
+            .depth_m
+            .iter()
+            .zip(&reference)
+            .map(|(&d, &r)| {
+                derived::wrapped_difference(f64::from(d), f64::from(r), amcw.ambiguity_m) as f32
+            })
+            .collect();
+        let shape = [h as u64, w as u64];
+        write_npy_f32(&out.join("amcw_phase.npy"), &shape, &amcw.phase_rad)?;
+        write_npy_f32(&out.join("amcw_amplitude.npy"), &shape, &amcw.amplitude)?;
+        write_npy_f32(&out.join("amcw_depth.npy"), &shape, &amcw.depth_m)?;
+        write_npy_f32(&out.join("true_depth.npy"), &shape, &reference)?;
+        write_npy_f32(&out.join("multipath_error.npy"), &shape, &error)?;
+        write_depth_png(&out.join("amcw_depth.png"), w, h, &amcw.depth_m)?;
+        let abs_quantile = |q| quantile(error.iter().map(|e| f64::from(e.abs())), q).unwrap_or(0.0);
+        let (median, p95) = (abs_quantile(0.5), abs_quantile(0.95));
+        write_signed_png(
+            &out.join("multipath_error.png"),
+            w,
+            h,
+            &error,
+            abs_quantile(0.99),
+        )?;
+        files.extend(
+            [
+                "amcw_phase.npy",
+                "amcw_amplitude.npy",
+                "amcw_depth.npy",
+                "true_depth.npy",
+                "multipath_error.npy",
+                "amcw_depth.png",
+                "multipath_error.png",
+            ]
+            .map(String::from),
+        );
+        multipath = Some(MultipathError {
+            median_abs_m: median,
+            p95_abs_m: p95,
+            ambiguity_m: amcw.ambiguity_m,
+        });
+        derived_json.insert(
+            "amcw".into(),
+            serde_json::json!({
+                "phase": "radians in [0, 2 pi), the light's own phase removed",
+                "depth": "c phase / (4 pi f), metres, in [0, ambiguity_m)",
+                "ambiguity_m": amcw.ambiguity_m,
+                "phase_offset_rad": model.amcw_phase_offset_rad(),
+                "true_depth": how,
+                "multipath_error": "amcw_depth - true_depth wrapped into [-ambiguity/2, ambiguity/2), metres",
+                "multipath_error_median_abs_m": median,
+                "multipath_error_p95_abs_m": p95,
+            }),
+        );
+    }
+
+    for &(y, x) in pixels {
+        if y >= h || x >= w {
+            bail!("pixel {y},{x} is outside the {h} x {w} image (row, column from 0)");
+        }
+        let written = write_pixel_csv(out, model, m, cube, w, y, x)?;
+        files.extend(written);
+    }
+
+    let gates: Vec<serde_json::Value> = model
+        .gates()
+        .iter()
+        .zip(model.kernels())
+        .enumerate()
+        .map(|(i, (g, k))| {
+            serde_json::json!({
+                "index": i,
+                "centre_s": g.centre_s(),
+                "support_s": g.support_s().map(|(lo, hi)| [lo, hi]),
+                "kernel_first_bin": k.first_bin,
+                "kernel_bins": k.weights.len(),
+                "kernel_sum": k.weights.iter().sum::<f64>(),
+            })
+        })
+        .collect();
+    let light = model.light();
+    let (lo, hi) = light.support_s();
+    let json = serde_json::json!({
+        "format": "tprf sensor v1: sensor.npy float32 [N, H, W], row 0 = top",
+        "model": "M_i = max(0, Noise + sum_b TPRF[b] K_i[b]), K_i[b] the mean over bin b of \
+                  K_i(tau) = integral Light(t - tau) Exposure_i(t) dt",
+        "value": "measurement in the unit of a cube bin (radiance x seconds per unit pulse \
+                  energy) times the light's energy",
+        "sensor": model.sensor(),
+        "cube": {
+            "dir": cube_dir.display().to_string(),
+            "t0_s": axis.t0_s,
+            "dt_s": axis.dt_s,
+            "bins": axis.bins,
+            "width": w,
+            "height": h,
+        },
+        "light": {
+            "energy": light.energy(),
+            "mean_s": light.mean_s(),
+            "support_s": [lo, hi],
+            "delta_at_s": light.delta_time_s(),
+        },
+        "gates": gates,
+        "bins_read_per_pixel": model.packed().reads_per_pixel(),
+        "derived": derived_json,
+        "files": files,
+        "seconds": {
+            "kernels": run.kernels_s,
+            "measurement": run.measurement_s,
+            "noise": run.noise_s,
+            "total": run.started.elapsed().as_secs_f64(),
+        },
+    });
+    write_json(&out.join("sensor.json"), &json)?;
+    Ok(SensorOutputs { files, multipath })
+}
+
+/// A depth image as grey PNG, linear in depth from the 1 % to the 99 % quantile:
+/// nearest white, farthest dark grey, no depth black.
+fn write_depth_png(path: &Path, w: usize, h: usize, depth: &[f32]) -> Result<()> {
+    let values = || depth.iter().map(|&d| f64::from(d));
+    let (lo, hi) = (
+        quantile(values(), 0.01).unwrap_or(0.0),
+        quantile(values(), 0.99).unwrap_or(0.0),
+    );
+    let span = (hi - lo).max(1e-12);
+    let mut rgb = Vec::with_capacity(3 * depth.len());
+    for &d in depth {
+        let g = if d.is_finite() {
+            let t = ((hi - f64::from(d)) / span).clamp(0.0, 1.0);
+            (255.0 * (0.15 + 0.85 * t)).round() as u8
+        } else {
+            0
+        };
+        rgb.extend([g, g, g]);
+    }
+    write_png_rgb(path, w, h, rgb)
+}
+
+/// A signed image as PNG: blue below 0, white at 0, red above, saturating at
+/// `+- scale`; NaN black.
+fn write_signed_png(path: &Path, w: usize, h: usize, values: &[f32], scale: f64) -> Result<()> {
+    let mut rgb = Vec::with_capacity(3 * values.len());
+    for &v in values {
+        let px = if v.is_finite() {
+            let t = (f64::from(v) / scale.max(1e-300)).clamp(-1.0, 1.0);
+            let fade = (255.0 * (1.0 - t.abs())).round() as u8;
+            if t < 0.0 {
+                [fade, fade, 255]
+            } else {
+                [255, fade, fade]
+            }
+        } else {
+            [0, 0, 0]
+        };
+        rgb.extend(px);
+    }
+    write_png_rgb(path, w, h, rgb)
+}
+
+/// The AMCW depth reference: the single-scattering layer's centroid when the render
+/// kept per-bounce layers (`dir/tprf_bounces.npy`), else the first return of the
+/// noise-free TPRF; with a sentence saying which, for `sensor.json`.
+fn reference_depth(
+    dir: &Path,
+    cube: &[f32],
+    w: usize,
+    h: usize,
+    axis: &TimeAxis,
+) -> Result<(Vec<f32>, &'static str)> {
+    let path = dir.join("tprf_bounces.npy");
+    if path.exists() {
+        let (shape, layers) = read_npy_f32(&path)?;
+        let n = w * h * axis.bins;
+        if shape.len() == 4
+            && shape[0] >= 3
+            && shape[1..] == [h as u64, w as u64, axis.bins as u64]
+            && let Some(single) = layers.get(n..2 * n)
+        {
+            return Ok((
+                derived::tprf_centroid_depth(single, w, h, axis),
+                "centroid of the single-scattering layer (layer 1 of tprf_bounces.npy)",
+            ));
+        }
+    }
+    Ok((
+        derived::tprf_first_return_depth(cube, w, h, axis, &FirstReturn::default()),
+        "first return of the noise-free TPRF (render with --bounces-separate 1 for the \
+         exact single-scattering depth)",
+    ))
+}
+
+/// `pixel_Y_X.csv` (per bin: time, TPRF, TPRF * Light, each gate's share of M_i) and
+/// `pixel_Y_X_gates.csv` (per gate: centre, M_i before and after noise); returns the
+/// two file names.
+fn write_pixel_csv(
+    out: &Path,
+    model: &SensorModel,
+    m: &Measurements,
+    cube: &[f32],
+    w: usize,
+    y: usize,
+    x: usize,
+) -> Result<Vec<String>> {
+    let axis = *model.axis();
+    let start = (y * w + x) * axis.bins;
+    let tprf = cube
+        .get(start..start + axis.bins)
+        .context("pixel outside the cube")?;
+    let trace = model.pixel_trace(tprf)?;
+    let kernels = model.kernels();
+    let mut header: Vec<String> = ["bin", "t_start_s", "t_centre_s", "tprf", "tprf_light"]
+        .map(String::from)
+        .to_vec();
+    header.extend((0..kernels.len()).map(|i| format!("gate_{i}")));
+    let rows = (0..axis.bins).map(|b| {
+        let mut row = vec![
+            b as f64,
+            axis.bin_start_s(b),
+            axis.bin_center_s(b),
+            trace.tprf[b],
+            trace.tprf_light[b],
+        ];
+        row.extend(kernels.iter().map(|k| trace.tprf[b] * k.get(b)));
+        row
+    });
+    let name = format!("pixel_{y}_{x}.csv");
+    write_csv(&out.join(&name), &header, rows)?;
+
+    let noisy = m.pixel(y, x);
+    let header = ["gate", "centre_s", "m_clean", "m"].map(String::from);
+    let rows = model.gates().iter().enumerate().map(|(i, g)| {
+        vec![
+            i as f64,
+            g.centre_s().unwrap_or(f64::NAN),
+            trace.m_clean[i],
+            noisy.get(i).map_or(f64::NAN, |&v| f64::from(v)),
+        ]
+    });
+    let gates_name = format!("pixel_{y}_{x}_gates.csv");
+    write_csv(&out.join(&gates_name), &header, rows)?;
+    Ok(vec![name, gates_name])
+}

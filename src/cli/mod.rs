@@ -1,0 +1,75 @@
+//! The command line: `tprf render`, `tprf oned`, `tprf view`, `tprf sensor`,
+//! `tprf converge`, `tprf stability`, one file per command with its arguments. The
+//! work is done by `tprf_core` (and the viewer); a command checks its arguments, calls
+//! the library, reports progress, and its errors end here, printed once.
+
+mod args;
+pub mod converge;
+pub mod oned;
+pub mod render;
+pub mod sensor;
+pub mod stability;
+pub mod view;
+
+use clap::{Parser, Subcommand};
+
+use converge::ConvergeArgs;
+use oned::OnedArgs;
+pub use oned::print_oned;
+use render::RenderArgs;
+use sensor::SensorArgs;
+use stability::StabilityArgs;
+use view::ViewArgs;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "tprf",
+    version,
+    about = "Transient rendering: light in flight, TPRF cubes and time-of-flight sensors"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Option<Command>,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Render a transient cube (TPRF per pixel) of a scene.
+    Render(RenderArgs),
+    /// The paper's 1-D world: print the exact impulse train (and the binned TPRF).
+    Oned(OnedArgs),
+    /// Measure a rendered cube with a time-of-flight sensor (light pulse, exposure
+    /// gates, noise): the paper's TPRF sensor, without re-rendering.
+    Sensor(SensorArgs),
+    /// Error against run time: render progressively and compare with a reference at
+    /// checkpoints evenly spaced in log time; writes converge.csv, converge.png and
+    /// summary.md.
+    Converge(ConvergeArgs),
+    /// Stiff and extreme cases against independently derived answers; writes
+    /// stability.md (case, setting, expected, got, relative error, NaN/Inf, verdict).
+    Stability(StabilityArgs),
+    /// Open the viewer on a cube folder written by `tprf render` (no rendering), or on a
+    /// scene to render (a .gltf/.glb path or builtin:NAME). No argument: the last scene.
+    View(ViewArgs),
+}
+
+/// Entry point of the `tprf` binary.
+pub fn main() -> std::process::ExitCode {
+    let cli = Cli::parse();
+    let result = match &cli.command {
+        Some(Command::Render(a)) => render::run(a),
+        Some(Command::Oned(a)) => oned::run(a),
+        Some(Command::Converge(a)) => converge::run(a),
+        Some(Command::Stability(a)) => stability::run(a),
+        Some(Command::View(a)) => view::run(a),
+        Some(Command::Sensor(a)) => sensor::run(a),
+        None => view::run(&ViewArgs { what: None }),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,272 @@
+//! `tprf render`: a scene into a transient cube folder (`tprf.npy`, `tprf.json`,
+//! `steady.png`, optional per-bounce layers and frames), with a progress bar.
+
+use std::ops::ControlFlow;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use tprf_core::export::{self, BIN_VALUE, CameraMetadata, CubeMetadata};
+use tprf_core::film::{FilmLayout, TprfFilm};
+use tprf_core::scene::{self, Channel};
+use tprf_core::transport::progressive::{self, PassReport, Schedule};
+use tprf_core::transport::{RenderSettings, Renderer, WindowRequest, auto_window};
+use tprf_core::units::{C_M_PER_S, format_time};
+
+use super::args::{thread_pool, time_s};
+
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// A .gltf/.glb path or builtin:NAME (builtin:cornell, builtin:canopy).
+    pub scene: String,
+    /// Output folder (created if missing; files in it are replaced).
+    #[arg(long)]
+    pub out: PathBuf,
+    #[arg(long, default_value_t = 256)]
+    pub width: usize,
+    #[arg(long, default_value_t = 256)]
+    pub height: usize,
+    /// Samples per pixel (default 64 unless --seconds is given).
+    #[arg(long, conflicts_with = "seconds")]
+    pub spp: Option<u64>,
+    /// Render for this many seconds of wall time instead of a fixed spp.
+    #[arg(long)]
+    pub seconds: Option<f64>,
+    /// Number of time bins.
+    #[arg(long, default_value_t = 256)]
+    pub bins: usize,
+    /// Start of the time window, with a unit: s ms us ns ps fs, or m cm mm km of optical
+    /// path (default: just before the first arrival).
+    #[arg(long)]
+    pub t0: Option<String>,
+    /// Bin width, with a unit as for --t0 (default: the window that holds 99.5 % of a pilot
+    /// render's energy, divided into --bins).
+    #[arg(long)]
+    pub dt: Option<String>,
+    /// Largest number of scattering events on a path (Russian roulette ends most earlier).
+    #[arg(long, default_value_t = 1024)]
+    pub max_bounces: u32,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Worker threads (default: all cores). The output does not depend on it.
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Also write frames/0000.png ... (one per bin, shared exposure).
+    #[arg(long)]
+    pub frames: bool,
+    /// Per-bounce layers: bounce 0 (emitters seen directly), 1..K and the rest, in
+    /// tprf_bounces.npy [K+2, H, W, T].
+    #[arg(long, default_value_t = 0)]
+    pub bounces_separate: u32,
+    /// The spectral band the one-channel cube records: red, green, blue or gray.
+    #[arg(long, default_value_t = Channel::Gray, value_parser = parse_channel)]
+    pub channel: Channel,
+}
+
+fn parse_channel(s: &str) -> Result<Channel, String> {
+    s.parse()
+        .map_err(|e: tprf_core::scene::UnknownChannel| e.to_string())
+}
+
+/// Largest image side accepted.
+const MAX_SIDE: usize = 16384;
+
+fn check_render_args(a: &RenderArgs) -> Result<()> {
+    if a.width == 0 || a.height == 0 || a.width > MAX_SIDE || a.height > MAX_SIDE {
+        bail!(
+            "--width and --height must be in 1..={MAX_SIDE} (got {} x {})",
+            a.width,
+            a.height
+        );
+    }
+    if let Some(s) = a.seconds
+        && !(s.is_finite() && s > 0.0)
+    {
+        bail!("--seconds must be a positive number (got {s})");
+    }
+    if a.spp == Some(0) {
+        bail!("--spp must be at least 1");
+    }
+    if a.threads == Some(0) {
+        bail!("--threads must be at least 1");
+    }
+    Ok(())
+}
+
+/// `tprf render`.
+pub fn run(a: &RenderArgs) -> Result<()> {
+    check_render_args(a)?;
+    let pool = thread_pool(a.threads)?;
+    pool.install(|| render_in_pool(a, pool.current_num_threads()))
+}
+
+fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
+    let start = Instant::now();
+    let t0_s = a.t0.as_deref().map(|t| time_s(t, "--t0")).transpose()?;
+    let dt_s = a.dt.as_deref().map(|t| time_s(t, "--dt")).transpose()?;
+    let scene = scene::load(&a.scene)?;
+    for note in &scene.notes {
+        eprintln!("note: {note}");
+    }
+    let settings = RenderSettings {
+        max_bounces: a.max_bounces,
+        seed: a.seed,
+        channel: a.channel,
+        ..Default::default()
+    };
+    let scene = Arc::new(scene);
+    let renderer = Renderer::new(scene.clone(), settings);
+    let axis = auto_window(
+        &renderer,
+        WindowRequest {
+            t0_s,
+            dt_s,
+            bins: a.bins,
+        },
+    )
+    .map_err(anyhow::Error::msg)?;
+    eprintln!(
+        "time axis: {} bins of {} from {} ({:.4} m to {:.4} m of optical path)",
+        axis.bins,
+        format_time(axis.dt_s),
+        format_time(axis.t0_s),
+        axis.t0_s * C_M_PER_S,
+        axis.end_s() * C_M_PER_S
+    );
+    let layout = FilmLayout {
+        width: a.width,
+        height: a.height,
+        axis,
+        bounces_separate: a.bounces_separate,
+    };
+    let mut film = TprfFilm::new(layout).map_err(anyhow::Error::msg)?;
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("cannot create {}", a.out.display()))?;
+    // The cube is written dense: refuse now, not after the render, what cannot be written.
+    let (w, h, t) = (a.width as u64, a.height as u64, axis.bins as u64);
+    let file_bytes = export::npy_f32_bytes(&[h, w, t]).saturating_add(export::npy_f32_bytes(&[
+        layout.bounce_layers() as u64,
+        h,
+        w,
+        t,
+    ]));
+    if let Some(free) = export::disk_free_bytes(&a.out)
+        && file_bytes > free
+    {
+        bail!(
+            "the cube files for {} x {} pixels x {} bins need {:.1} GiB, and {} has {:.1} GiB free; lower the resolution or the bins",
+            a.width,
+            a.height,
+            axis.bins,
+            file_bytes as f64 / (1u64 << 30) as f64,
+            a.out.display(),
+            free as f64 / (1u64 << 30) as f64
+        );
+    }
+
+    let schedule = match (a.spp, a.seconds) {
+        (_, Some(s)) => Schedule::seconds(s),
+        (Some(n), None) => Schedule::spp(n),
+        (None, None) => Schedule::spp(64),
+    };
+    let reports = render_with_progress(&renderer, &mut film, &schedule);
+    let last = reports.last().copied();
+
+    let snap = film.snapshot();
+    export::write_snapshot_npy(&a.out.join("tprf.npy"), &snap, false)?;
+    if layout.bounce_layers() > 0 {
+        export::write_snapshot_npy(&a.out.join("tprf_bounces.npy"), &snap, true)?;
+    }
+    let steady = film.steady();
+    let exposure = 0.8 * export::exposure_for(steady.iter().copied(), 0.99);
+    export::write_png_gray(
+        &a.out.join("steady.png"),
+        a.width,
+        a.height,
+        &steady,
+        exposure,
+    )?;
+    if a.frames {
+        export::write_frames(&a.out, &snap)?;
+    }
+    let cam = &scene.camera;
+    let meta = CubeMetadata {
+        format: "tprf cube v1: tprf.npy float32 [H, W, T], row 0 = top".into(),
+        t0_s: axis.t0_s,
+        dt_s: axis.dt_s,
+        bins: axis.bins,
+        width: a.width,
+        height: a.height,
+        spp: film.spp(),
+        seed: a.seed,
+        c_m_per_s: C_M_PER_S,
+        channel: a.channel.name().into(),
+        value: BIN_VALUE.into(),
+        scene: a.scene.clone(),
+        camera: CameraMetadata {
+            position_m: cam.position().to_array(),
+            world_from_camera: glam::Mat4::from(cam.world_from_camera).to_cols_array(),
+            yfov_deg: cam.yfov_rad.to_degrees(),
+        },
+        max_bounces: a.max_bounces,
+        bounces_separate: a.bounces_separate,
+        threads,
+        wall_seconds: start.elapsed().as_secs_f64(),
+        rays_traced: renderer.rays_traced(),
+        paths_traced: last.map_or(0, |r| r.paths),
+        error_estimate: film.half_error_estimate(),
+        passes: reports.len() as u64,
+        left_out: last.map_or_else(Default::default, |r| r.left_out),
+        store: film.store_stats(),
+        render_seconds: last.map_or(0.0, |r| r.render_s),
+        notes: scene.notes.clone(),
+    };
+    export::write_json(&a.out.join("tprf.json"), &meta)?;
+    eprintln!(
+        "wrote {} ({} spp, {:.1} s, {:.2} Mrays/s{})",
+        a.out.display(),
+        film.spp(),
+        meta.wall_seconds,
+        meta.rays_traced as f64 / meta.wall_seconds.max(1e-9) / 1e6,
+        meta.error_estimate.map_or(String::new(), |e| format!(
+            ", error estimate {:.2} %",
+            100.0 * e
+        ))
+    );
+    Ok(())
+}
+
+/// The progressive passes of `schedule` into `film`, with a progress bar on stderr (in
+/// spp, or in tenths of a second for a time budget); the passes' reports.
+fn render_with_progress(
+    renderer: &Renderer,
+    film: &mut TprfFilm,
+    schedule: &Schedule,
+) -> Vec<PassReport> {
+    let bar = match (schedule.spp_target, schedule.time_budget_s) {
+        (Some(n), _) => ProgressBar::new(n),
+        (None, s) => ProgressBar::new((s.unwrap_or(0.0) * 10.0).ceil() as u64),
+    };
+    bar.set_style(
+        ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    let reports = progressive::render(renderer, film, schedule, |r, _| {
+        bar.set_position(match schedule.spp_target {
+            Some(_) => r.spp,
+            None => (r.wall_s * 10.0) as u64,
+        });
+        bar.set_message(format!(
+            "{} spp, {:.1} Mrays/s",
+            r.spp,
+            r.rays as f64 / r.render_s.max(1e-9) / 1e6
+        ));
+        ControlFlow::Continue(())
+    });
+    bar.finish_and_clear();
+    reports
+}

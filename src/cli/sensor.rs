@@ -1,0 +1,169 @@
+//! `tprf sensor`: measure a rendered cube with a time-of-flight sensor; the files are
+//! written by [`tprf_core::export::sensor`].
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use tprf_core::export::sensor::{SensorRun, read_any_cube, write_sensor_outputs};
+use tprf_core::sensor::{Derived, Exposure, LightPulse, Sensor, SensorModel};
+use tprf_core::units::format_time;
+
+#[derive(Args, Debug)]
+pub struct SensorArgs {
+    /// A `tprf render` output folder: tprf.npy float32 [H, W, T] and tprf.json (t0_s,
+    /// dt_s, bins); tprf_bounces.npy, when present, gives the AMCW reference depth.
+    pub dir: PathBuf,
+    /// The sensor: a TOML file (see docs/sensor.md) or builtin:gated, builtin:lidar,
+    /// builtin:amcw. The options below override its parts.
+    #[arg(long)]
+    pub preset: Option<String>,
+    /// The light pulse as KIND:key=value,... e.g. gaussian:centre=5ns,fwhm=2ns (kinds:
+    /// delta gaussian rect exponential laser_diode sinc2 piecewise_linear). Default: a
+    /// unit delta at t = 0.
+    #[arg(long)]
+    pub light: Option<String>,
+    /// The gates as KIND:key=value,... e.g. box:start=10ns,width=1ns,count=32 or
+    /// amcw:freq=20MHz,phase_steps=4 (kinds: box gaussian piecewise_linear amcw).
+    #[arg(long)]
+    pub exposure: Option<String>,
+    /// Standard deviation of the additive Gaussian noise, in measurement units.
+    #[arg(long)]
+    pub noise_sigma: Option<f64>,
+    /// Photon noise: photons per unit of measurement (0: off).
+    #[arg(long)]
+    pub photons_per_energy: Option<f64>,
+    /// Seed of the noise.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Also write pixel_Y_X.csv and pixel_Y_X_gates.csv for pixel Y,X (row from the
+    /// top, column from the left). Repeatable.
+    #[arg(long = "pixel", value_name = "Y,X", value_parser = parse_pixel)]
+    pub pixels: Vec<(usize, usize)>,
+    /// Output folder (created if missing; files in it are replaced).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+fn parse_pixel(text: &str) -> Result<(usize, usize), String> {
+    let (y, x) = text
+        .split_once(',')
+        .ok_or_else(|| format!("'{text}' is not Y,X"))?;
+    let y = y
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{y}' is not a row index"))?;
+    let x = x
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{x}' is not a column index"))?;
+    Ok((y, x))
+}
+
+/// The sensor of `tprf sensor`: the preset (or a delta light and `--exposure`), with
+/// the options' overrides.
+fn sensor_from_args(a: &SensorArgs) -> Result<Sensor> {
+    let mut sensor = match (&a.preset, &a.exposure) {
+        (Some(p), _) => Sensor::load(p).with_context(|| format!("--preset {p}"))?,
+        (None, Some(spec)) => Sensor::new(
+            LightPulse::default(),
+            Exposure::from_spec(spec).context("--exposure")?,
+        ),
+        (None, None) => bail!(
+            "give --preset (a TOML file, or builtin:lidar, builtin:gated, builtin:amcw) or \
+             --exposure KIND:key=value,... (e.g. box:start=10ns,width=1ns,count=32)"
+        ),
+    };
+    if let Some(spec) = &a.light {
+        sensor.light = LightPulse::from_spec(spec).context("--light")?;
+    }
+    if let Some(spec) = &a.exposure {
+        sensor.exposure = Exposure::from_spec(spec).context("--exposure")?;
+        // The preset's derived outputs may not fit the new gates.
+        let gates = sensor.exposure.gates(0.0).context("--exposure")?;
+        if let Err(e) = sensor.derived.validate(&sensor.exposure, &gates) {
+            eprintln!("note: the preset's derived outputs are dropped: {e}");
+            sensor.derived = Derived::default();
+        }
+    }
+    if let Some(x) = a.noise_sigma {
+        sensor.noise.sigma = x;
+    }
+    if let Some(x) = a.photons_per_energy {
+        sensor.noise.photons_per_energy = x;
+    }
+    if let Some(x) = a.seed {
+        sensor.noise.seed = x;
+    }
+    Ok(sensor)
+}
+
+/// `tprf sensor`.
+pub fn run(a: &SensorArgs) -> Result<()> {
+    let start = Instant::now();
+    let sensor = sensor_from_args(a)?;
+    let (cube, w, h, axis) = read_any_cube(&a.dir)?;
+    for &(y, x) in &a.pixels {
+        if y >= h || x >= w {
+            bail!("--pixel {y},{x} is outside the {h} x {w} image (row, column from 0)");
+        }
+    }
+    let t_kernels = Instant::now();
+    let model = SensorModel::new(sensor, axis)?;
+    let kernels_s = t_kernels.elapsed().as_secs_f64();
+    let t_measure = Instant::now();
+    let mut m = model.measure_clean(&cube, w, h)?;
+    let measure_s = t_measure.elapsed().as_secs_f64();
+    let t_noise = Instant::now();
+    model.apply_noise(&mut m);
+    let noise_s = t_noise.elapsed().as_secs_f64();
+    let n = model.gate_count();
+
+    let unread = model
+        .kernels()
+        .iter()
+        .filter(|k| k.weights.is_empty())
+        .count();
+    if unread > 0 {
+        eprintln!(
+            "note: {unread} of {n} gates see no light from the cube's window ({} .. {}); \
+             their measurements are noise only",
+            format_time(axis.t0_s),
+            format_time(axis.end_s())
+        );
+    }
+
+    let written = write_sensor_outputs(
+        &a.out,
+        &SensorRun {
+            model: &model,
+            measurements: &m,
+            cube: &cube,
+            width: w,
+            height: h,
+            cube_dir: &a.dir,
+            pixels: &a.pixels,
+            kernels_s,
+            measurement_s: measure_s,
+            noise_s,
+            started: start,
+        },
+    )?;
+    if let Some(e) = written.multipath {
+        eprintln!(
+            "AMCW: multipath error |amcw_depth - true_depth| median {:.4} m, 95 % {:.4} m \
+             (ambiguity range {:.3} m)",
+            e.median_abs_m, e.p95_abs_m, e.ambiguity_m
+        );
+    }
+    eprintln!(
+        "wrote {} ({n} gates x {h} x {w}; kernels {:.1} ms, measurement {:.1} ms, noise \
+         {:.1} ms)",
+        a.out.display(),
+        kernels_s * 1e3,
+        measure_s * 1e3,
+        noise_s * 1e3
+    );
+    Ok(())
+}

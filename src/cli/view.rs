@@ -1,0 +1,24 @@
+//! `tprf view` (and `tprf` alone): the window on a cube folder or a scene.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Result;
+use clap::Args;
+
+use crate::viewer::Start;
+
+#[derive(Args, Debug)]
+pub struct ViewArgs {
+    /// A cube folder, a glTF file or builtin:NAME.
+    pub what: Option<String>,
+}
+
+/// `tprf view` (and `tprf` alone): the window.
+pub fn run(a: &ViewArgs) -> Result<()> {
+    let start = match &a.what {
+        None => Start::Default,
+        Some(w) if Path::new(w).is_dir() => Start::Cube(PathBuf::from(w)),
+        Some(w) => Start::Scene(w.clone()),
+    };
+    crate::viewer::run(start).map_err(|e| anyhow::anyhow!("cannot open the window: {e}"))
+}
