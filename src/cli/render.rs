@@ -9,7 +9,7 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use tprf_core::export::{self, BIN_VALUE, CameraMetadata, CubeMetadata};
+use tprf_core::export::{self, BIN_VALUE, CameraMetadata, CubeFormat, CubeMetadata};
 use tprf_core::film::{FilmLayout, TprfFilm};
 use tprf_core::scene::{self, Channel};
 use tprf_core::transport::progressive::{self, PassReport, Schedule};
@@ -61,6 +61,11 @@ pub struct RenderArgs {
     /// tprf_bounces.npy [K+2, H, W, T].
     #[arg(long, default_value_t = 0)]
     pub bounces_separate: u32,
+    /// How the cube is written: `npy` (tprf.npy, one dense float32 array), `zarr`
+    /// (tprf.zarr, chunked and compressed, only where light arrived), or `auto`: npy
+    /// up to 4 GiB, zarr above.
+    #[arg(long, default_value = "auto", value_parser = parse_format)]
+    pub format: CubeFormat,
     /// The spectral band the one-channel cube records: red, green, blue or gray.
     #[arg(long, default_value_t = Channel::Gray, value_parser = parse_channel)]
     pub channel: Channel,
@@ -145,15 +150,24 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
     let mut film = TprfFilm::new(layout).map_err(anyhow::Error::msg)?;
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create {}", a.out.display()))?;
-    // The cube is written dense: refuse now, not after the render, what cannot be written.
     let (w, h, t) = (a.width as u64, a.height as u64, axis.bins as u64);
+    let format = a.format.resolve(&[h, w, t]);
+    if format == CubeFormat::Zarr && layout.bounce_layers() > 0 {
+        bail!(
+            "--bounces-separate is written only with tprf.npy so far: add --format npy \
+             (the cube is {:.1} GiB dense)",
+            export::npy_f32_bytes(&[h, w, t]) as f64 / (1u64 << 30) as f64
+        );
+    }
+    // A dense cube: refuse now, not after the render, what cannot be written.
     let file_bytes = export::npy_f32_bytes(&[h, w, t]).saturating_add(export::npy_f32_bytes(&[
         layout.bounce_layers() as u64,
         h,
         w,
         t,
     ]));
-    if let Some(free) = export::disk_free_bytes(&a.out)
+    if format == CubeFormat::Npy
+        && let Some(free) = export::disk_free_bytes(&a.out)
         && file_bytes > free
     {
         bail!(
@@ -176,10 +190,6 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
     let last = reports.last().copied();
 
     let snap = film.snapshot();
-    export::write_snapshot_npy(&a.out.join("tprf.npy"), &snap, false)?;
-    if layout.bounce_layers() > 0 {
-        export::write_snapshot_npy(&a.out.join("tprf_bounces.npy"), &snap, true)?;
-    }
     let steady = film.steady();
     let exposure = 0.8 * export::exposure_for(steady.iter().copied(), 0.99);
     export::write_png_gray(
@@ -194,7 +204,11 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
     }
     let cam = &scene.camera;
     let meta = CubeMetadata {
-        format: "tprf cube v1: tprf.npy float32 [H, W, T], row 0 = top".into(),
+        format: match format {
+            CubeFormat::Zarr => "tprf cube v1: tprf.zarr (Zarr v3) float32 [H, W, T], row 0 = top",
+            _ => "tprf cube v1: tprf.npy float32 [H, W, T], row 0 = top",
+        }
+        .into(),
         t0_s: axis.t0_s,
         dt_s: axis.dt_s,
         bins: axis.bins,
@@ -224,6 +238,24 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
         render_seconds: last.map_or(0.0, |r| r.render_s),
         notes: scene.notes.clone(),
     };
+    // The other format's cube, left by an earlier render, would be read instead.
+    let (npy, zarr) = (a.out.join("tprf.npy"), a.out.join(export::zarr::ZARR_NAME));
+    if format == CubeFormat::Zarr {
+        export::zarr::write_snapshot_zarr(&zarr, &snap, &meta)?;
+        remove_stale(&npy)?;
+        remove_stale(&a.out.join("tprf_bounces.npy"))?;
+    } else {
+        export::write_snapshot_npy(&npy, &snap, false)?;
+        if layout.bounce_layers() > 0 {
+            export::write_snapshot_npy(&a.out.join("tprf_bounces.npy"), &snap, true)?;
+        } else {
+            remove_stale(&a.out.join("tprf_bounces.npy"))?;
+        }
+        if zarr.is_dir() {
+            std::fs::remove_dir_all(&zarr)
+                .with_context(|| format!("cannot remove the stale {}", zarr.display()))?;
+        }
+    }
     export::write_json(&a.out.join("tprf.json"), &meta)?;
     eprintln!(
         "wrote {} ({} spp, {:.1} s, {:.2} Mrays/s{})",
@@ -237,6 +269,20 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
         ))
     );
     Ok(())
+}
+
+fn parse_format(s: &str) -> Result<CubeFormat, String> {
+    s.parse()
+}
+
+/// Remove `path` if it is there.
+fn remove_stale(path: &std::path::Path) -> Result<()> {
+    match std::fs::remove_file(path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+            Err(e).with_context(|| format!("cannot remove the stale {}", path.display()))
+        }
+        _ => Ok(()),
+    }
 }
 
 /// The progressive passes of `schedule` into `film`, with a progress bar on stderr (in

@@ -11,6 +11,7 @@ use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 pub mod sensor;
+pub mod zarr;
 
 /// Everything `tprf.json` records about a cube.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -152,6 +153,44 @@ pub fn disk_free_bytes(dir: &Path) -> Option<u64> {
     }
 }
 
+/// How a render's cube is written.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum CubeFormat {
+    /// `tprf.npy` when the dense array is at most [`NPY_MAX_BYTES`], else `tprf.zarr`.
+    #[default]
+    Auto,
+    /// `tprf.npy`: one dense float32 array, what numpy users load in one line.
+    Npy,
+    /// `tprf.zarr`: chunked and compressed, only where light arrived.
+    Zarr,
+}
+
+/// The largest cube [`CubeFormat::Auto`] writes as one dense `tprf.npy`: 4 GiB.
+pub const NPY_MAX_BYTES: u64 = 4 << 30;
+
+impl CubeFormat {
+    /// The concrete format for a cube of `[H, W, T]` float32.
+    pub fn resolve(self, shape: &[u64]) -> CubeFormat {
+        match self {
+            CubeFormat::Auto if npy_f32_bytes(shape) > NPY_MAX_BYTES => CubeFormat::Zarr,
+            CubeFormat::Auto => CubeFormat::Npy,
+            f => f,
+        }
+    }
+}
+
+impl std::str::FromStr for CubeFormat {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<CubeFormat, String> {
+        match s.trim() {
+            "auto" => Ok(CubeFormat::Auto),
+            "npy" => Ok(CubeFormat::Npy),
+            "zarr" => Ok(CubeFormat::Zarr),
+            other => Err(format!("unknown cube format '{other}' (auto, npy or zarr)")),
+        }
+    }
+}
+
 /// Write a float32 C-order array.
 pub fn write_npy_f32(path: &Path, shape: &[u64], data: &[f32]) -> Result<()> {
     write_atomic(path, |w| {
@@ -225,6 +264,12 @@ pub fn read_cube(npy: &Path) -> Result<(CubeMetadata, Vec<f32>)> {
 /// A folder written by `tprf render` as a film snapshot: the cube, and its per-bounce
 /// layers when `tprf_bounces.npy` is there.
 pub fn load_snapshot(dir: &Path) -> Result<(CubeMetadata, FilmSnapshot)> {
+    let zarr_path = dir.join(zarr::ZARR_NAME);
+    if !dir.join("tprf.npy").exists() && zarr_path.is_dir() {
+        let cube = zarr::ZarrCube::open(&zarr_path)?;
+        let snap = cube.snapshot()?;
+        return Ok((cube.meta, snap));
+    }
     let (meta, cube) = read_cube(&dir.join("tprf.npy"))?;
     let axis = meta.axis()?;
     let bounces_path = dir.join("tprf_bounces.npy");

@@ -63,6 +63,20 @@ impl FilmRow {
         }
     }
 
+    /// A row of means built pixel by pixel (first half, one sample), see
+    /// `SnapshotBuilder`.
+    pub(super) fn from_builder(mut b: RowBuilder<[f64; 2]>, width: usize) -> FilmRow {
+        let halves = b.take_exact(width);
+        let (steady_sum, peak_bin) = summaries(&halves);
+        FilmRow {
+            halves,
+            layers: Vec::new(),
+            steady_sum,
+            peak_bin,
+            err_terms: (0.0, 0.0),
+        }
+    }
+
     /// A layer row of means `[W, T]` added to a row made by [`FilmRow::from_dense`].
     pub fn push_dense_layer(&mut self, pixels: &[f32], width: usize, bins: usize) {
         let mut b = RowBuilder::default();

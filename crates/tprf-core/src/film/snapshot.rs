@@ -7,6 +7,7 @@
 //! for files. Nothing outside the film knows how bins are stored.
 
 use super::row::{FilmRow, NO_PEAK};
+use super::sparse::RowBuilder;
 use super::{FilmLayout, TimeAxis};
 use std::sync::Arc;
 
@@ -325,6 +326,63 @@ impl FilmSnapshot {
     /// Bins stored, against the dense cube's `H x W x T`.
     pub fn stored_bins(&self) -> u64 {
         self.rows.iter().map(|r| r.stored_bins() as u64).sum()
+    }
+}
+
+/// Builds a snapshot of means pixel by pixel, in any order of rows but in increasing
+/// `x` within a row (a tiled file is read tile by tile): only the non-zero bins are
+/// kept, so a cube larger than memory as a dense array can be loaded when its light is
+/// not.
+pub struct SnapshotBuilder {
+    layout: FilmLayout,
+    rows: Vec<RowBuilder<[f64; 2]>>,
+    next_x: Vec<usize>,
+}
+
+impl SnapshotBuilder {
+    pub fn new(layout: FilmLayout) -> SnapshotBuilder {
+        SnapshotBuilder {
+            layout,
+            rows: (0..layout.height).map(|_| RowBuilder::default()).collect(),
+            next_x: vec![0; layout.height],
+        }
+    }
+
+    /// Pixel `(x, y)`'s TPRF (`T` means). A pixel before the row's last one, or outside
+    /// the image, is ignored; pixels skipped stay dark.
+    pub fn push_pixel(&mut self, x: usize, y: usize, tprf: &[f32]) {
+        let (Some(row), Some(next)) = (self.rows.get_mut(y), self.next_x.get_mut(y)) else {
+            return;
+        };
+        if x < *next || x >= self.layout.width {
+            return;
+        }
+        while *next < x {
+            row.end_pixel();
+            *next += 1;
+        }
+        for (b, v) in tprf.iter().enumerate().take(self.layout.axis.bins) {
+            if *v != 0.0 {
+                row.push(b, [*v as f64, 0.0]);
+            }
+        }
+        row.end_pixel();
+        *next += 1;
+    }
+
+    /// The snapshot (recording `spp` and `passes` of the render it came from).
+    pub fn finish(self, spp: u64, passes: u64, error_estimate: Option<f64>) -> FilmSnapshot {
+        let w = self.layout.width;
+        let rows = self
+            .rows
+            .into_iter()
+            .map(|b| Arc::new(FilmRow::from_builder(b, w)))
+            .collect();
+        let layout = FilmLayout {
+            bounces_separate: 0,
+            ..self.layout
+        };
+        FilmSnapshot::summarised(layout, spp, passes, rows, 1.0, error_estimate)
     }
 }
 
