@@ -18,7 +18,7 @@ use tprf_core::sensor::{
     self, Derived, Exposure, FirstReturn, LightPulse, Sensor, SensorModel, derived,
 };
 use tprf_core::transport::progressive::{self, Schedule};
-use tprf_core::transport::{RenderSettings, Renderer, WindowRequest, auto_window};
+use tprf_core::transport::{RenderSettings, Renderer, WindowError, WindowRequest, auto_window};
 use tprf_core::units::{C_M_PER_S, format_time, parse_time_s};
 
 #[derive(Parser, Debug)]
@@ -312,7 +312,10 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
             bins: a.bins,
         },
     )
-    .map_err(anyhow::Error::msg)?;
+    .map_err(|e| match e {
+        WindowError::NoLight => anyhow::Error::from(e).context("--t0 and --dt"),
+        e => e.into(),
+    })?;
     eprintln!(
         "time axis: {} bins of {} from {} ({:.4} m to {:.4} m of optical path)",
         axis.bins,
@@ -464,7 +467,8 @@ pub fn converge(a: &ConvergeArgs) -> Result<()> {
             .map(|s| EstimatorSetting::parse(s).map_err(anyhow::Error::msg))
             .collect::<Result<_>>()?
     };
-    let target = resolve_target(a.scene.as_deref(), a.reference.as_deref(), &film)?;
+    let target = resolve_target(a.scene.as_deref(), a.reference.as_deref(), &film)
+        .map_err(converge_flags)?;
     let mut pool = rayon::ThreadPoolBuilder::new();
     if let Some(n) = a.threads {
         pool = pool.num_threads(n);
@@ -522,6 +526,22 @@ pub fn converge(a: &ConvergeArgs) -> Result<()> {
     eprint!("{}", summary_text(&summaries));
     eprintln!("wrote {}", a.out.display());
     Ok(())
+}
+
+/// `e` with the `tprf converge` arguments it concerns in front.
+fn converge_flags(e: tprf_core::report::ReportError) -> anyhow::Error {
+    use tprf_core::report::ReportError as E;
+    let flags = match &e {
+        E::NoReference => "--reference",
+        E::SceneWithAnalytic { .. } => "SCENE",
+        E::NoScene => {
+            return anyhow::anyhow!("a .npy reference needs the SCENE it was rendered from");
+        }
+        E::FilmSide { .. } => "--width and --height",
+        E::FilmFromCube => "--width, --height, --bins, --t0, --dt",
+        _ => return e.into(),
+    };
+    anyhow::Error::from(e).context(flags)
 }
 
 /// `tprf stability`.
@@ -831,7 +851,7 @@ fn write_depth_png(path: &std::path::Path, w: usize, h: usize, depth: &[f32]) ->
         };
         rgb.extend([g, g, g]);
     }
-    export::write_png_rgb(path, w, h, rgb)
+    Ok(export::write_png_rgb(path, w, h, rgb)?)
 }
 
 /// A signed image as PNG: blue below 0, white at 0, red above, saturating at
@@ -858,7 +878,7 @@ fn write_signed_png(
         };
         rgb.extend(px);
     }
-    export::write_png_rgb(path, w, h, rgb)
+    Ok(export::write_png_rgb(path, w, h, rgb)?)
 }
 
 /// The `q` quantile of the finite values (0 if none).

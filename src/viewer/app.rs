@@ -388,9 +388,11 @@ impl TprfApp {
                 self.selection = None;
                 self.pins.clear();
             }
-            Err(e) => self
-                .messages
-                .push(format!("cannot open cube {}: {e:#}", dir.display())),
+            Err(e) => self.messages.push(format!(
+                "cannot open cube {}: {:#}",
+                dir.display(),
+                anyhow::Error::from(e)
+            )),
         }
     }
 
@@ -859,6 +861,7 @@ impl TprfApp {
                     img.write_to(w, image::ImageFormat::Png)?;
                     Ok(())
                 })
+                .map_err(anyhow::Error::from)
             });
         if let Err(e) = result {
             self.messages.push(format!("{e:#}"));
@@ -900,7 +903,8 @@ impl TprfApp {
                 enc.set_repeat(image::codecs::gif::Repeat::Infinite)?;
                 enc.encode_frames(frames)?;
                 Ok(())
-            })
+            })?;
+            Ok(())
         })();
         if let Err(e) = result {
             self.messages.push(format!("{e:#}"));
@@ -1333,7 +1337,7 @@ impl TprfApp {
             Ok(())
         });
         if let Err(e) = result {
-            self.messages.push(format!("{e:#}"));
+            self.messages.push(format!("{:#}", anyhow::Error::from(e)));
         }
     }
 }

@@ -750,7 +750,7 @@ pub fn controls_ui(
                 .and_then(|t| {
                     use std::io::Write;
                     tprf_core::export::write_atomic(&p, |f| Ok(f.write_all(t.as_bytes())?))
-                        .map_err(|e| format!("{e:#}"))
+                        .map_err(|e| format!("{:#}", anyhow::Error::from(e)))
                 });
             if let Err(e) = r {
                 message = Some(format!("cannot save {}: {e}", p.display()));

@@ -6,7 +6,7 @@
 //! pixel's radiance (W / (m^2 sr) times seconds per unit pulse energy... i.e. summed over
 //! bins it is the steady-state radiance for a unit pulse; DESIGN.md).
 
-use super::{FilmSnapshot, TimeAxis, TimeFilter};
+use super::{FilmError, FilmSnapshot, TimeAxis, TimeFilter};
 use rayon::prelude::*;
 
 /// The shape of a film.
@@ -21,8 +21,9 @@ pub struct FilmLayout {
 }
 
 impl FilmLayout {
+    /// `width x height` (saturating at `usize::MAX`, which no allocation can meet).
     pub fn pixels(&self) -> usize {
-        self.width * self.height
+        self.width.saturating_mul(self.height)
     }
 
     /// Number of per-bounce layers (0 when not asked for).
@@ -40,10 +41,13 @@ impl FilmLayout {
         scatterings.min(self.bounces_separate + 1) as usize
     }
 
-    /// Bytes the store needs (two f64 halves plus the bounce layers).
+    /// Bytes the store needs (two f64 halves plus the bounce layers); saturates at
+    /// `usize::MAX` rather than overflowing.
     pub fn bytes(&self) -> usize {
         let t = self.axis.bins;
-        self.pixels() * t * 8 * (2 + self.bounce_layers())
+        self.pixels()
+            .saturating_mul(t)
+            .saturating_mul(8 * (2 + self.bounce_layers()))
     }
 }
 
@@ -116,36 +120,39 @@ pub struct TprfFilm {
 
 impl TprfFilm {
     /// A zeroed film. Fails (rather than aborting) when the allocation is impossible.
-    pub fn new(layout: FilmLayout) -> Result<TprfFilm, String> {
+    pub fn new(layout: FilmLayout) -> Result<TprfFilm, FilmError> {
+        let (width, height, bins) = (layout.width, layout.height, layout.axis.bins);
         let n = layout
             .pixels()
-            .checked_mul(layout.axis.bins)
-            .ok_or("film size overflows")?;
+            .checked_mul(bins)
+            .ok_or(FilmError::SizeOverflow {
+                width,
+                height,
+                bins,
+            })?;
+        let need_bytes = layout.bytes() as u64;
         // Refuse what would only fit by swapping (or be killed): an allocation larger than
         // the free memory succeeds on Linux and fails page by page later.
-        if let Some(free) = available_memory_bytes()
-            && layout.bytes() as u64 > free / 10 * 9
+        if let Some(free_bytes) = available_memory_bytes()
+            && need_bytes > free_bytes / 10 * 9
         {
-            return Err(format!(
-                "the TPRF store for {} x {} pixels x {} bins needs {:.1} GiB, and {:.1} GiB is free; lower the resolution or the bins",
-                layout.width,
-                layout.height,
-                layout.axis.bins,
-                layout.bytes() as f64 / (1u64 << 30) as f64,
-                free as f64 / (1u64 << 30) as f64
-            ));
+            return Err(FilmError::NotEnoughMemory {
+                width,
+                height,
+                bins,
+                need_bytes,
+                free_bytes,
+            });
         }
-        let alloc = |len: usize| -> Result<Vec<f64>, String> {
+        let alloc = |len: usize| -> Result<Vec<f64>, FilmError> {
             let mut v = Vec::new();
-            v.try_reserve_exact(len).map_err(|_| {
-                format!(
-                    "cannot allocate the TPRF store: {} x {} pixels x {} bins needs {:.1} GiB",
-                    layout.width,
-                    layout.height,
-                    layout.axis.bins,
-                    layout.bytes() as f64 / (1u64 << 30) as f64
-                )
-            })?;
+            v.try_reserve_exact(len)
+                .map_err(|_| FilmError::Allocation {
+                    width,
+                    height,
+                    bins,
+                    need_bytes,
+                })?;
             v.resize(len, 0.0);
             Ok(v)
         };

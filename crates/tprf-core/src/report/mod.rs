@@ -6,9 +6,14 @@
 //! - [`stability`]: stiff and extreme cases, each against an answer derived
 //!   independently (`tprf stability`).
 //! - [`sensor_cases`]: the suite's sensor rows (pulses, gates, noise, huge values).
-//! - [`plot`]: the log-log convergence plot.
+//! - [`plot`]: the log-log convergence plot of given curves.
+//!
+//! Errors are [`ReportError`]s.
 
 pub mod converge;
+mod error;
 pub mod plot;
 pub mod sensor_cases;
 pub mod stability;
+
+pub use error::ReportError;

@@ -5,9 +5,9 @@
 
 use super::integrator::{RenderSettings, Renderer};
 use super::progressive::{self, Schedule};
-use super::window::{WindowRequest, auto_window};
-use crate::film::{FilmLayout, FilmSnapshot, TimeAxis, TprfFilm};
-use crate::scene::{self, Scene};
+use super::window::{WindowError, WindowRequest, auto_window};
+use crate::film::{FilmError, FilmLayout, FilmSnapshot, TimeAxis, TprfFilm};
+use crate::scene::{self, Scene, SceneError};
 use std::ops::ControlFlow;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
@@ -35,7 +35,50 @@ pub enum WorkerState {
     Rendering,
     Paused,
     Done,
+    /// The message of the [`RenderError`] that ended it, its causes included.
     Failed(String),
+}
+
+/// Why a background render stopped before it began its passes.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    #[error(transparent)]
+    Window(#[from] WindowError),
+    #[error(transparent)]
+    Film(#[from] FilmError),
+    #[error(
+        "{width} x {height} pixels x {bins} bins needs {} of memory, more than the {} free; \
+         lower the resolution or the bins",
+        gib(*need_bytes),
+        gib(*free_bytes)
+    )]
+    NotEnoughMemory {
+        width: usize,
+        height: usize,
+        bins: usize,
+        need_bytes: u64,
+        free_bytes: u64,
+    },
+    #[error("cannot start the render threads")]
+    Threads(#[source] rayon::ThreadPoolBuildError),
+}
+
+/// `error` and its causes, `: `-separated (as `anyhow` prints them with `{:#}`).
+fn message_chain(error: &dyn std::error::Error) -> String {
+    let mut text = error.to_string();
+    let mut cause = error.source();
+    while let Some(e) = cause {
+        let more = e.to_string();
+        // A cause its parent's message already quotes is not repeated.
+        if !text.ends_with(&more) {
+            text.push_str(": ");
+            text.push_str(&more);
+        }
+        cause = e.source();
+    }
+    text
 }
 
 /// The worker's progress, copied out for readers.
@@ -103,7 +146,7 @@ impl RenderWorker {
                 if let Err(e) = result
                     && let Ok(mut s) = thread_shared.status.lock()
                 {
-                    s.state = WorkerState::Failed(e);
+                    s.state = WorkerState::Failed(message_chain(&e));
                 }
                 on_update();
             })
@@ -162,10 +205,12 @@ impl Drop for RenderWorker {
 /// Memory a render session holds at most: the store, plus two f32 snapshots (the one a
 /// reader holds and the one being made).
 fn session_bytes(layout: &FilmLayout) -> u64 {
-    let cells = (layout.pixels() * layout.axis.bins) as u64;
-    layout.bytes() as u64 + 2 * cells * 4 * (1 + layout.bounce_layers() as u64)
+    let cells = layout.pixels().saturating_mul(layout.axis.bins) as u64;
+    let snapshots = cells.saturating_mul(2 * 4 * (1 + layout.bounce_layers() as u64));
+    (layout.bytes() as u64).saturating_add(snapshots)
 }
 
+/// Bytes as `1.5 GiB` (2^30 bytes).
 fn gib(bytes: u64) -> String {
     format!("{:.1} GiB", bytes as f64 / (1u64 << 30) as f64)
 }
@@ -176,8 +221,8 @@ fn set_status(shared: &Shared, f: impl FnOnce(&mut WorkerStatus)) {
     }
 }
 
-fn run(job: &RenderJob, shared: &Shared, on_update: &(dyn Fn() + Sync)) -> Result<(), String> {
-    let scene: Scene = scene::load(&job.scene).map_err(|e| e.to_string())?;
+fn run(job: &RenderJob, shared: &Shared, on_update: &(dyn Fn() + Sync)) -> Result<(), RenderError> {
+    let scene: Scene = scene::load(&job.scene)?;
     let notes = scene.notes.clone();
     let triangles = scene.triangles.len();
     let renderer = Renderer::new(Arc::new(scene), job.settings);
@@ -200,14 +245,13 @@ fn run(job: &RenderJob, shared: &Shared, on_update: &(dyn Fn() + Sync)) -> Resul
             ));
         }
         if session_bytes(&layout) > budget {
-            return Err(format!(
-                "{} x {} pixels x {} bins needs {} of memory, more than the {} free; lower the resolution or the bins",
-                layout.width,
-                layout.height,
-                layout.axis.bins,
-                gib(session_bytes(&layout)),
-                gib(available)
-            ));
+            return Err(RenderError::NotEnoughMemory {
+                width: layout.width,
+                height: layout.height,
+                bins: layout.axis.bins,
+                need_bytes: session_bytes(&layout),
+                free_bytes: available,
+            });
         }
     }
     let mut film = TprfFilm::new(layout)?;
@@ -227,7 +271,7 @@ fn run(job: &RenderJob, shared: &Shared, on_update: &(dyn Fn() + Sync)) -> Resul
         .num_threads(threads)
         .thread_name(|i| format!("tprf-pass-{i}"))
         .build()
-        .map_err(|e| format!("cannot start the render threads: {e}"))?;
+        .map_err(RenderError::Threads)?;
     let mut retired: Option<Arc<FilmSnapshot>> = None;
     let mut paused_time = Duration::ZERO;
     let schedule = Schedule::paced(PASS_TARGET_S, job.spp_target);
