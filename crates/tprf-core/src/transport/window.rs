@@ -18,6 +18,8 @@ pub struct WindowRequest {
 /// Why no time axis could be chosen.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum WindowError {
+    #[error("the number of bins must be at least 1")]
+    NoBins,
     #[error(
         "no light reaches the camera in a pilot render: nothing to bin (check the lights, \
          or fix the window's start and bin width)"
@@ -67,8 +69,11 @@ fn nice_ceil(x: f64) -> f64 {
 /// 99.5 % of the pilot's energy, with a 2 % margin each side, and the bin width is
 /// rounded up to 1, 2, 2.5 or 5 x 10^k seconds.
 pub fn auto_window(renderer: &Renderer, req: WindowRequest) -> Result<TimeAxis, WindowError> {
-    if req.bins == 0 || req.bins > MAX_BINS {
-        // Refused before the pilot render, which would be wasted.
+    // Refused before the pilot render, which would be wasted.
+    if req.bins == 0 {
+        return Err(WindowError::NoBins);
+    }
+    if req.bins > MAX_BINS {
         return Err(FilmError::BinCount { bins: req.bins }.into());
     }
     if let (Some(t0), Some(dt)) = (req.t0_s, req.dt_s) {
