@@ -152,8 +152,6 @@ fn bad_input_gives_clear_errors() {
                 "1",
                 "--format",
                 "npy",
-                "--format",
-                "npy",
             ],
             "GiB",
         ),

@@ -949,7 +949,18 @@ fn malformed_structure_gives_errors_not_panics() {
         (
             "nan-matrix",
             |d| {
-                d["nodes"][0]["matrix"] = json!([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1e39])
+                // f32::MAX is finite, but its square is not: the world transform of a
+                // mesh under two such nodes overflows.
+                d["nodes"][0]["matrix"] =
+                    json!([3e38, 0, 0, 0, 0, 3e38, 0, 0, 0, 0, 3e38, 0, 0, 0, 0, 1]);
+                let mesh = d["nodes"][0]["mesh"].take();
+                d["nodes"][0].as_object_mut().unwrap().remove("mesh");
+                let child = d["nodes"].as_array().unwrap().len();
+                d["nodes"][0]["children"] = json!([child]);
+                d["nodes"]
+                    .as_array_mut()
+                    .unwrap()
+                    .push(json!({"mesh": mesh, "matrix": [3e38, 0, 0, 0, 0, 3e38, 0, 0, 0, 0, 3e38, 0, 0, 0, 0, 1]}));
             },
             "non-finite world transform",
         ),

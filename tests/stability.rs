@@ -1,5 +1,7 @@
 //! Stiff and extreme cases at test size (`tprf stability` runs them larger): every row
-//! against an answer derived independently of the renderer, no NaN or infinity.
+//! against an answer derived independently of the renderer or, for the scales and the
+//! 100 000 bins, against the renderer's own equivalent result (an invariance check); no
+//! NaN or infinity.
 
 use tprf_core::report::stability::{Row, Size, markdown};
 
@@ -66,12 +68,10 @@ fn cli_writes_the_table() {
 
 #[test]
 fn pulses_and_gates_conserve_energy_or_measure_exactly_zero() {
-    all_pass(tprf_core::report::sensor_cases::pulses_and_gates(
-        Size::Test,
-    ));
+    all_pass(tprf_core::report::stability::pulses_and_gates(Size::Test));
 }
 
 #[test]
 fn sensor_noise_and_huge_values_stay_finite_and_non_negative() {
-    all_pass(tprf_core::report::sensor_cases::sensor_extremes(Size::Test));
+    all_pass(tprf_core::report::stability::sensor_extremes(Size::Test));
 }

@@ -86,7 +86,8 @@ pub fn run(a: &ConvergeArgs) -> Result<()> {
             .map(|s| EstimatorSetting::parse(s).map_err(anyhow::Error::msg))
             .collect::<Result<_>>()?
     };
-    let target = resolve_target(a.scene.as_deref(), a.reference.as_deref(), &film)?;
+    let target = resolve_target(a.scene.as_deref(), a.reference.as_deref(), &film)
+        .map_err(converge_flags)?;
     let pool = thread_pool(a.threads)?;
     let config = RunConfig {
         seconds: a.seconds,
@@ -140,4 +141,20 @@ pub fn run(a: &ConvergeArgs) -> Result<()> {
     eprint!("{}", summary_text(&summaries));
     eprintln!("wrote {}", a.out.display());
     Ok(())
+}
+
+/// `e` with the `tprf converge` arguments it concerns in front.
+fn converge_flags(e: tprf_core::report::ReportError) -> anyhow::Error {
+    use tprf_core::report::ReportError as E;
+    let flags = match &e {
+        E::NoReference => "--reference",
+        E::SceneWithAnalytic { .. } => "SCENE",
+        E::NoScene => {
+            return anyhow::anyhow!("a .npy reference needs the SCENE it was rendered from");
+        }
+        E::FilmSide { .. } => "--width and --height",
+        E::FilmFromCube => "--width, --height, --bins, --t0, --dt",
+        _ => return e.into(),
+    };
+    anyhow::Error::from(e).context(flags)
 }

@@ -45,8 +45,9 @@ pub enum Command {
     /// checkpoints evenly spaced in log time; writes converge.csv, converge.png and
     /// summary.md.
     Converge(ConvergeArgs),
-    /// Stiff and extreme cases against independently derived answers; writes
-    /// stability.md (case, setting, expected, got, relative error, NaN/Inf, verdict).
+    /// Stiff and extreme cases against independently derived answers or invariances;
+    /// writes stability.md (case, setting, expected, got, relative error, NaN/Inf,
+    /// verdict, kind).
     Stability(StabilityArgs),
     /// Open the viewer on a cube folder written by `tprf render` (no rendering), or on a
     /// scene to render (a .gltf/.glb path or builtin:NAME). No argument: the last scene.

@@ -13,7 +13,7 @@ use tprf_core::export::{self, BIN_VALUE, CameraMetadata, CubeFormat, CubeMetadat
 use tprf_core::film::{FilmLayout, TprfFilm};
 use tprf_core::scene::{self, Channel};
 use tprf_core::transport::progressive::{self, PassReport, Schedule};
-use tprf_core::transport::{RenderSettings, Renderer, WindowRequest, auto_window};
+use tprf_core::transport::{RenderSettings, Renderer, WindowError, WindowRequest, auto_window};
 use tprf_core::units::{C_M_PER_S, format_time};
 
 use super::args::{thread_pool, time_s};
@@ -132,7 +132,10 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
             bins: a.bins,
         },
     )
-    .map_err(anyhow::Error::msg)?;
+    .map_err(|e| match e {
+        WindowError::NoLight => anyhow::Error::from(e).context("--t0 and --dt"),
+        e => e.into(),
+    })?;
     eprintln!(
         "time axis: {} bins of {} from {} ({:.4} m to {:.4} m of optical path)",
         axis.bins,

@@ -88,10 +88,10 @@ impl Drop for Exports {
 fn write_png_rgba(path: &Path, w: usize, h: usize, rgba: Vec<u8>) -> anyhow::Result<()> {
     let img = image::RgbaImage::from_raw(w as u32, h as u32, rgba)
         .ok_or_else(|| anyhow::anyhow!("image size mismatch"))?;
-    export::write_atomic(path, |out| {
+    Ok(export::write_atomic(path, |out| {
         img.write_to(out, image::ImageFormat::Png)?;
         Ok(())
-    })
+    })?)
 }
 
 /// Every bin of `snap` through `tone` and `map` as `dir/NNNN.png` and the animated
@@ -119,12 +119,12 @@ fn write_video(
             image::Delay::from_numer_denom_ms(1000, GIF_FPS),
         ));
     }
-    export::write_atomic(&dir.join("tprf.gif"), |out| {
+    Ok(export::write_atomic(&dir.join("tprf.gif"), |out| {
         let mut enc = image::codecs::gif::GifEncoder::new(out);
         enc.set_repeat(image::codecs::gif::Repeat::Infinite)?;
         enc.encode_frames(frames)?;
         Ok(())
-    })
+    })?)
 }
 
 impl TprfApp {

@@ -79,9 +79,11 @@ impl TprfApp {
                 self.selection = None;
                 self.pins.clear();
             }
-            Err(e) => self
-                .messages
-                .push(format!("cannot open cube {}: {e:#}", dir.display())),
+            Err(e) => self.messages.push(format!(
+                "cannot open cube {}: {:#}",
+                dir.display(),
+                anyhow::Error::from(e)
+            )),
         }
     }
 

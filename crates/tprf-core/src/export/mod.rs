@@ -2,8 +2,7 @@
 //! time-slice frames). Every file is written to a temporary name and renamed, so an
 //! existing file is replaced atomically and a failed write loses nothing.
 
-use crate::film::{FilmLayout, FilmSnapshot, LeftOutCounts, StoreStats, TimeAxis};
-use anyhow::{Context, Result};
+use crate::film::{FilmError, FilmLayout, FilmSnapshot, LeftOutCounts, StoreStats, TimeAxis};
 use npyz::WriterBuilder;
 use serde::{Deserialize, Serialize};
 use std::fs::File;
@@ -12,6 +11,89 @@ use std::path::{Path, PathBuf};
 
 pub mod sensor;
 pub mod zarr;
+
+/// Why a file could not be written or read. Messages name the file; the cause (an I/O,
+/// JSON or image error) is the [`std::error::Error::source`].
+#[derive(Debug, thiserror::Error)]
+pub enum ExportError {
+    #[error("cannot create {path}")]
+    Create {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("writing {path}")]
+    Write {
+        path: PathBuf,
+        #[source]
+        source: WriteError,
+    },
+    #[error("cannot rename {from} to {to}")]
+    Rename {
+        from: PathBuf,
+        to: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("cannot read {path}")]
+    Read {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("the cube needs its metadata {path}")]
+    NoMetadata {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{path} is not tprf.json metadata")]
+    Metadata {
+        path: PathBuf,
+        #[source]
+        source: serde_json::Error,
+    },
+    #[error("{path}: its time axis is invalid")]
+    Axis {
+        path: PathBuf,
+        #[source]
+        source: FilmError,
+    },
+    #[error("{path} is not a .npy file")]
+    NotNpy {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{path}: Fortran-order arrays are not supported")]
+    FortranOrder { path: PathBuf },
+    #[error("{path}: expected float32 data")]
+    NotF32 {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{path}: shape {shape:?} does not match its metadata {layout} = {expected:?}")]
+    Shape {
+        path: PathBuf,
+        shape: Vec<u64>,
+        /// The axes' names: `[H, W, T]`, `[layers, H, W, T]`.
+        layout: &'static str,
+        expected: Vec<u64>,
+    },
+    #[error("{path}: {message}")]
+    Zarr { path: PathBuf, message: String },
+    #[error("{bytes} bytes do not make a {width} x {height} image of {channels} channel(s)")]
+    ImageSize {
+        width: usize,
+        height: usize,
+        channels: usize,
+        bytes: usize,
+    },
+}
+
+/// What the writer given to [`write_atomic`] may fail with: any error (`?` converts).
+pub type WriteError = Box<dyn std::error::Error + Send + Sync>;
 
 /// Everything `tprf.json` records about a cube.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -82,8 +164,9 @@ pub struct CameraMetadata {
 }
 
 impl CubeMetadata {
-    pub fn axis(&self) -> Result<TimeAxis> {
-        TimeAxis::new(self.t0_s, self.dt_s, self.bins).map_err(anyhow::Error::msg)
+    /// The cube's time axis, checked ([`TimeAxis::new`]).
+    pub fn axis(&self) -> Result<TimeAxis, FilmError> {
+        TimeAxis::new(self.t0_s, self.dt_s, self.bins)
     }
 }
 
@@ -101,26 +184,47 @@ fn temp_path(path: &Path) -> PathBuf {
     path.with_file_name(name)
 }
 
-/// Write `path` through `write` into a temporary file, then rename over `path`.
+/// Write `path` through `write` into a temporary file (`NAME.tmp` beside it), then rename
+/// over `path`; on failure the temporary file is removed and `path` is untouched.
 pub fn write_atomic(
     path: &Path,
-    write: impl FnOnce(&mut BufWriter<File>) -> Result<()>,
-) -> Result<()> {
+    write: impl FnOnce(&mut BufWriter<File>) -> Result<(), WriteError>,
+) -> Result<(), ExportError> {
     let tmp = temp_path(path);
     let result = (|| {
-        let file =
-            File::create(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
-        let mut w = BufWriter::new(file);
-        write(&mut w)?;
-        w.flush()?;
-        w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
-        std::fs::rename(&tmp, path)
-            .with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))
+        let file = File::create(&tmp).map_err(|source| ExportError::Create {
+            path: tmp.clone(),
+            source,
+        })?;
+        let written = (|| -> Result<(), WriteError> {
+            let mut w = BufWriter::new(file);
+            write(&mut w)?;
+            w.flush()?;
+            w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
+            Ok(())
+        })();
+        written.map_err(|source| ExportError::Write {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        std::fs::rename(&tmp, path).map_err(|source| ExportError::Rename {
+            from: tmp.clone(),
+            to: path.to_path_buf(),
+            source,
+        })
     })();
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
-    result.with_context(|| format!("writing {}", path.display()))
+    result
+}
+
+/// Create folder `dir` and its parents (nothing if it exists).
+pub fn create_dir(dir: &Path) -> Result<(), ExportError> {
+    std::fs::create_dir_all(dir).map_err(|source| ExportError::Create {
+        path: dir.to_path_buf(),
+        source,
+    })
 }
 
 /// Bytes of a float32 `.npy` file of `shape` (its data; the header adds under 1 KiB).
@@ -192,7 +296,7 @@ impl std::str::FromStr for CubeFormat {
 }
 
 /// Write a float32 C-order array.
-pub fn write_npy_f32(path: &Path, shape: &[u64], data: &[f32]) -> Result<()> {
+pub fn write_npy_f32(path: &Path, shape: &[u64], data: &[f32]) -> Result<(), ExportError> {
     write_atomic(path, |w| {
         let mut npy = npyz::WriteOptions::<f32>::new()
             .default_dtype()
@@ -209,7 +313,11 @@ pub fn write_npy_f32(path: &Path, shape: &[u64], data: &[f32]) -> Result<()> {
 /// (`layer` `None`) or `[L, H, W, T]` for all per-bounce layers (`layer` `Some(_)` is
 /// ignored beyond choosing that form). Rows are made dense one at a time, so the only
 /// cube-sized memory is the file.
-pub fn write_snapshot_npy(path: &Path, snap: &FilmSnapshot, layers: bool) -> Result<()> {
+pub fn write_snapshot_npy(
+    path: &Path,
+    snap: &FilmSnapshot,
+    layers: bool,
+) -> Result<(), ExportError> {
     let (w, h, t) = (
         snap.width() as u64,
         snap.height() as u64,
@@ -241,29 +349,33 @@ pub fn write_snapshot_npy(path: &Path, snap: &FilmSnapshot, layers: bool) -> Res
 
 /// Read a cube `tprf.npy` written by `tprf render` with the `tprf.json` beside it,
 /// checking that the array's shape is the metadata's `[H, W, T]`.
-pub fn read_cube(npy: &Path) -> Result<(CubeMetadata, Vec<f32>)> {
+pub fn read_cube(npy: &Path) -> Result<(CubeMetadata, Vec<f32>), ExportError> {
     let meta_path = npy.with_file_name("tprf.json");
-    let meta: CubeMetadata = serde_json::from_slice(
-        &std::fs::read(&meta_path)
-            .with_context(|| format!("the cube needs its metadata {}", meta_path.display()))?,
-    )
-    .with_context(|| format!("{} is not tprf.json metadata", meta_path.display()))?;
+    let bytes = std::fs::read(&meta_path).map_err(|source| ExportError::NoMetadata {
+        path: meta_path.clone(),
+        source,
+    })?;
+    let meta: CubeMetadata =
+        serde_json::from_slice(&bytes).map_err(|source| ExportError::Metadata {
+            path: meta_path.clone(),
+            source,
+        })?;
     let (shape, data) = read_npy_f32(npy)?;
-    let want = [meta.height as u64, meta.width as u64, meta.bins as u64];
-    if shape != want {
-        anyhow::bail!(
-            "{}: shape {:?} does not match its metadata [H, W, T] = {:?}",
-            npy.display(),
+    let expected = vec![meta.height as u64, meta.width as u64, meta.bins as u64];
+    if shape != expected {
+        return Err(ExportError::Shape {
+            path: npy.to_path_buf(),
             shape,
-            want
-        );
+            layout: "[H, W, T]",
+            expected,
+        });
     }
     Ok((meta, data))
 }
 
 /// A folder written by `tprf render` as a film snapshot: the cube, and its per-bounce
 /// layers when `tprf_bounces.npy` is there.
-pub fn load_snapshot(dir: &Path) -> Result<(CubeMetadata, FilmSnapshot)> {
+pub fn load_snapshot(dir: &Path) -> Result<(CubeMetadata, FilmSnapshot), ExportError> {
     let zarr_path = dir.join(zarr::ZARR_NAME);
     if !dir.join("tprf.npy").exists() && zarr_path.is_dir() {
         let cube = zarr::ZarrCube::open(&zarr_path)?;
@@ -271,20 +383,27 @@ pub fn load_snapshot(dir: &Path) -> Result<(CubeMetadata, FilmSnapshot)> {
         return Ok((cube.meta, snap));
     }
     let (meta, cube) = read_cube(&dir.join("tprf.npy"))?;
-    let axis = meta.axis()?;
+    let axis = meta.axis().map_err(|source| ExportError::Axis {
+        path: dir.join("tprf.json"),
+        source,
+    })?;
     let bounces_path = dir.join("tprf_bounces.npy");
     let (bounces, bounces_separate) = if meta.bounces_separate > 0 && bounces_path.exists() {
         let (bshape, b) = read_npy_f32(&bounces_path)?;
         let layers = meta.bounces_separate as u64 + 2;
-        if bshape
-            != [
-                layers,
-                meta.height as u64,
-                meta.width as u64,
-                meta.bins as u64,
-            ]
-        {
-            anyhow::bail!("tprf_bounces.npy has shape {bshape:?}");
+        let expected = vec![
+            layers,
+            meta.height as u64,
+            meta.width as u64,
+            meta.bins as u64,
+        ];
+        if bshape != expected {
+            return Err(ExportError::Shape {
+                path: bounces_path,
+                shape: bshape,
+                layout: "[layers, H, W, T]",
+                expected,
+            });
         }
         (b, meta.bounces_separate)
     } else {
@@ -308,22 +427,31 @@ pub fn load_snapshot(dir: &Path) -> Result<(CubeMetadata, FilmSnapshot)> {
 }
 
 /// Read a float32 array written by [`write_npy_f32`] (or numpy), with its shape.
-pub fn read_npy_f32(path: &Path) -> Result<(Vec<u64>, Vec<f32>)> {
-    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let npy = npyz::NpyFile::new(&bytes[..])
-        .with_context(|| format!("{} is not a .npy file", path.display()))?;
+pub fn read_npy_f32(path: &Path) -> Result<(Vec<u64>, Vec<f32>), ExportError> {
+    let path_buf = || path.to_path_buf();
+    let bytes = std::fs::read(path).map_err(|source| ExportError::Read {
+        path: path_buf(),
+        source,
+    })?;
+    let npy = npyz::NpyFile::new(&bytes[..]).map_err(|source| ExportError::NotNpy {
+        path: path_buf(),
+        source,
+    })?;
     let shape = npy.shape().to_vec();
     if npy.order() != npyz::Order::C {
-        anyhow::bail!("{}: Fortran-order arrays are not supported", path.display());
+        return Err(ExportError::FortranOrder { path: path_buf() });
     }
     let data = npy
         .into_vec::<f32>()
-        .with_context(|| format!("{}: expected float32 data", path.display()))?;
+        .map_err(|source| ExportError::NotF32 {
+            path: path_buf(),
+            source,
+        })?;
     Ok((shape, data))
 }
 
 /// Write pretty JSON.
-pub fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
+pub fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<(), ExportError> {
     write_atomic(path, |w| {
         serde_json::to_writer_pretty(&mut *w, value)?;
         writeln!(w)?;
@@ -358,10 +486,15 @@ pub fn write_png_gray(
     h: usize,
     values: &[f64],
     exposure: f64,
-) -> Result<()> {
+) -> Result<(), ExportError> {
     let bytes: Vec<u8> = values.iter().map(|v| srgb8(v * exposure)).collect();
-    let img =
-        image::GrayImage::from_raw(w as u32, h as u32, bytes).context("image size mismatch")?;
+    let size_error = ExportError::ImageSize {
+        width: w,
+        height: h,
+        channels: 1,
+        bytes: bytes.len(),
+    };
+    let img = image_of::<image::Luma<u8>>(w, h, bytes, size_error)?;
     write_atomic(path, |out| {
         img.write_to(out, image::ImageFormat::Png)?;
         Ok(())
@@ -371,10 +504,9 @@ pub fn write_png_gray(
 /// Write `frames/0000.png ...`: one PNG per time bin, one shared exposure (the 99.9 %
 /// quantile of the cube's positive bins maps to white) so brightness compares across
 /// frames.
-pub fn write_frames(dir: &Path, snap: &FilmSnapshot) -> Result<()> {
+pub fn write_frames(dir: &Path, snap: &FilmSnapshot) -> Result<(), ExportError> {
     let frames = dir.join("frames");
-    std::fs::create_dir_all(&frames)
-        .with_context(|| format!("cannot create {}", frames.display()))?;
+    create_dir(&frames)?;
     let exposure = snap.robust_max().map_or(1.0, |m| 1.0 / m);
     let l = &snap.layout;
     for b in 0..l.axis.bins {
@@ -391,12 +523,32 @@ pub fn write_frames(dir: &Path, snap: &FilmSnapshot) -> Result<()> {
 }
 
 /// Write an 8-bit RGB PNG (`rgb` row-major, 3 bytes per pixel, `w x h`).
-pub fn write_png_rgb(path: &Path, w: usize, h: usize, rgb: Vec<u8>) -> Result<()> {
-    let img = image::RgbImage::from_raw(w as u32, h as u32, rgb).context("image size mismatch")?;
+pub fn write_png_rgb(path: &Path, w: usize, h: usize, rgb: Vec<u8>) -> Result<(), ExportError> {
+    let size_error = ExportError::ImageSize {
+        width: w,
+        height: h,
+        channels: 3,
+        bytes: rgb.len(),
+    };
+    let img = image_of::<image::Rgb<u8>>(w, h, rgb, size_error)?;
     write_atomic(path, |out| {
         img.write_to(out, image::ImageFormat::Png)?;
         Ok(())
     })
+}
+
+/// An image of `w x h` pixels of `bytes` (row-major), or `size_error` when they do not
+/// match (or a side does not fit in `u32`).
+fn image_of<P: image::Pixel<Subpixel = u8>>(
+    w: usize,
+    h: usize,
+    bytes: Vec<u8>,
+    size_error: ExportError,
+) -> Result<image::ImageBuffer<P, Vec<u8>>, ExportError> {
+    let (Ok(w), Ok(h)) = (u32::try_from(w), u32::try_from(h)) else {
+        return Err(size_error);
+    };
+    image::ImageBuffer::from_raw(w, h, bytes).ok_or(size_error)
 }
 
 /// Write a CSV file: a header line, then one line per row (NaN written as an empty
@@ -405,7 +557,7 @@ pub fn write_csv(
     path: &Path,
     header: &[String],
     rows: impl Iterator<Item = Vec<f64>>,
-) -> Result<()> {
+) -> Result<(), ExportError> {
     write_atomic(path, |w| {
         writeln!(w, "{}", header.join(","))?;
         for row in rows {

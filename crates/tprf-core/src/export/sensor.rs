@@ -7,7 +7,47 @@
 use std::path::Path;
 use std::time::Instant;
 
-use anyhow::{Context, Result, bail};
+use super::ExportError;
+use crate::film::FilmError;
+use crate::sensor::SensorError;
+
+/// Why `tprf sensor`'s cube could not be read or its files written.
+#[derive(Debug, thiserror::Error)]
+pub enum SensorFilesError {
+    #[error(transparent)]
+    Export(#[from] ExportError),
+    #[error(transparent)]
+    Sensor(#[from] SensorError),
+    #[error("cannot read {path}")]
+    Read {
+        path: std::path::PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{path}: expected t0_s, dt_s and bins")]
+    Window {
+        path: std::path::PathBuf,
+        #[source]
+        source: serde_json::Error,
+    },
+    #[error("{path}")]
+    Axis {
+        path: std::path::PathBuf,
+        #[source]
+        source: FilmError,
+    },
+    /// A cube or a request that does not fit: the message says how.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+type Result<T> = std::result::Result<T, SensorFilesError>;
+
+macro_rules! bail {
+    ($($arg:tt)*) => {
+        return Err(SensorFilesError::Invalid(format!($($arg)*)))
+    };
+}
 
 use super::{read_npy_f32, write_csv, write_json, write_npy_f32, write_png_rgb};
 use crate::film::{TimeAxis, quantile};
@@ -32,13 +72,21 @@ struct CubeWindow {
 /// written by other tools can be measured too.
 pub fn read_any_cube(dir: &Path) -> Result<(Vec<f32>, usize, usize, TimeAxis)> {
     let json_path = dir.join("tprf.json");
-    let text = std::fs::read(&json_path)
-        .with_context(|| format!("cannot read {}", json_path.display()))?;
-    let meta: CubeWindow = serde_json::from_slice(&text)
-        .with_context(|| format!("{}: expected t0_s, dt_s and bins", json_path.display()))?;
-    let axis = TimeAxis::new(meta.t0_s, meta.dt_s, meta.bins)
-        .map_err(anyhow::Error::msg)
-        .with_context(|| json_path.display().to_string())?;
+    let text = std::fs::read(&json_path).map_err(|source| SensorFilesError::Read {
+        path: json_path.clone(),
+        source,
+    })?;
+    let meta: CubeWindow =
+        serde_json::from_slice(&text).map_err(|source| SensorFilesError::Window {
+            path: json_path.clone(),
+            source,
+        })?;
+    let axis = TimeAxis::new(meta.t0_s, meta.dt_s, meta.bins).map_err(|source| {
+        SensorFilesError::Axis {
+            path: json_path.clone(),
+            source,
+        }
+    })?;
     let npy_path = dir.join("tprf.npy");
     let (shape, cube) = read_npy_f32(&npy_path)?;
     let (h, w, t) = match shape[..] {
@@ -132,7 +180,7 @@ pub fn write_sensor_outputs(out: &Path, run: &SensorRun) -> Result<SensorOutputs
     } = *run;
     let axis = *model.axis();
     let n = model.gate_count();
-    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    super::create_dir(out)?;
     let mut files = vec!["sensor.npy".to_string(), "sensor.json".to_string()];
     write_npy_f32(
         &out.join("sensor.npy"),
@@ -295,7 +343,7 @@ fn write_depth_png(path: &Path, w: usize, h: usize, depth: &[f32]) -> Result<()>
         };
         rgb.extend([g, g, g]);
     }
-    write_png_rgb(path, w, h, rgb)
+    Ok(write_png_rgb(path, w, h, rgb)?)
 }
 
 /// A signed image as PNG: blue below 0, white at 0, red above, saturating at
@@ -316,7 +364,7 @@ fn write_signed_png(path: &Path, w: usize, h: usize, values: &[f32], scale: f64)
         };
         rgb.extend(px);
     }
-    write_png_rgb(path, w, h, rgb)
+    Ok(write_png_rgb(path, w, h, rgb)?)
 }
 
 /// The AMCW depth reference: the single-scattering layer's centroid when the render
@@ -367,7 +415,7 @@ fn write_pixel_csv(
     let start = (y * w + x) * axis.bins;
     let tprf = cube
         .get(start..start + axis.bins)
-        .context("pixel outside the cube")?;
+        .ok_or_else(|| SensorFilesError::Invalid(format!("pixel {y},{x} outside the cube")))?;
     let trace = model.pixel_trace(tprf)?;
     let kernels = model.kernels();
     let mut header: Vec<String> = ["bin", "t_start_s", "t_centre_s", "tprf", "tprf_light"]

@@ -5,10 +5,10 @@
 //! array's attributes under `"tprf"`, and in `tprf.json` beside it as for `tprf.npy`.
 
 use super::CubeMetadata;
+use super::ExportError;
 use crate::film::{FilmLayout, FilmSnapshot, SnapshotBuilder};
-use anyhow::{Context, Result, bail};
 use rayon::prelude::*;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use zarrs::array::{Array, ArrayBuilder};
 use zarrs::filesystem::FilesystemStore;
@@ -19,8 +19,14 @@ pub const CHUNK: [u64; 3] = [32, 32, 256];
 /// The folder name of the array inside a render folder.
 pub const ZARR_NAME: &str = "tprf.zarr";
 
-fn zarr_err(e: impl std::fmt::Display) -> anyhow::Error {
-    anyhow::anyhow!("{e}")
+type Result<T> = std::result::Result<T, ExportError>;
+
+/// A Zarr library error, with the array it concerns.
+fn zarr_err(path: &Path) -> impl Fn(&dyn std::fmt::Display) -> ExportError + '_ {
+    move |e| ExportError::Zarr {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    }
 }
 
 /// Write `snap`'s cube (the total, not the bounce layers) as a Zarr v3 array at `path`
@@ -29,16 +35,17 @@ fn zarr_err(e: impl std::fmt::Display) -> anyhow::Error {
 pub fn write_snapshot_zarr(path: &Path, snap: &FilmSnapshot, meta: &CubeMetadata) -> Result<()> {
     let (w, h, t) = (snap.width(), snap.height(), snap.axis().bins);
     if path.exists() {
-        std::fs::remove_dir_all(path)
-            .with_context(|| format!("cannot replace {}", path.display()))?;
+        std::fs::remove_dir_all(path).map_err(|source| ExportError::Create {
+            path: path.to_path_buf(),
+            source,
+        })?;
     }
-    let store = Arc::new(
-        FilesystemStore::new(path)
-            .map_err(zarr_err)
-            .with_context(|| format!("cannot create {}", path.display()))?,
-    );
+    let store = Arc::new(FilesystemStore::new(path).map_err(|e| zarr_err(path)(&e))?);
     let mut attributes = serde_json::Map::new();
-    attributes.insert("tprf".into(), serde_json::to_value(meta)?);
+    attributes.insert(
+        "tprf".into(),
+        serde_json::to_value(meta).map_err(|e| zarr_err(path)(&e))?,
+    );
     let mut builder = ArrayBuilder::new(
         vec![h as u64, w as u64, t as u64],
         CHUNK.to_vec(),
@@ -52,8 +59,8 @@ pub fn write_snapshot_zarr(path: &Path, snap: &FilmSnapshot, meta: &CubeMetadata
         ))])
         .dimension_names(Some(["y", "x", "t"]))
         .attributes(attributes);
-    let array = builder.build(store, "/").map_err(zarr_err)?;
-    array.store_metadata().map_err(zarr_err)?;
+    let array = builder.build(store, "/").map_err(|e| zarr_err(path)(&e))?;
+    array.store_metadata().map_err(|e| zarr_err(path)(&e))?;
     let [cy, cx, ct] = CHUNK.map(|c| c as usize);
     let tiles: Vec<(usize, usize)> = (0..h.div_ceil(cy))
         .flat_map(|ty| (0..w.div_ceil(cx)).map(move |tx| (ty, tx)))
@@ -95,8 +102,7 @@ pub fn write_snapshot_zarr(path: &Path, snap: &FilmSnapshot, meta: &CubeMetadata
                 if any {
                     array
                         .store_chunk(&[ty as u64, tx as u64, tc as u64], &chunk[..])
-                        .map_err(zarr_err)
-                        .with_context(|| format!("writing {}", path.display()))?;
+                        .map_err(|e| zarr_err(path)(&e))?;
                 }
             }
             Ok(())
@@ -115,34 +121,25 @@ pub struct ZarrCube {
 impl ZarrCube {
     /// Open the array at `path` and check it against the metadata in its attributes.
     pub fn open(path: &Path) -> Result<ZarrCube> {
-        let store = Arc::new(
-            FilesystemStore::new(path)
-                .map_err(zarr_err)
-                .with_context(|| format!("cannot open {}", path.display()))?,
-        );
-        let array = Array::open(store, "/")
-            .map_err(zarr_err)
-            .with_context(|| format!("{} is not a Zarr array", path.display()))?;
-        let meta: CubeMetadata = serde_json::from_value(
-            array
-                .attributes()
-                .get("tprf")
-                .cloned()
-                .with_context(|| format!("{} has no \"tprf\" attributes", path.display()))?,
-        )
-        .with_context(|| {
-            format!(
-                "{}: the \"tprf\" attributes are not tprf.json",
-                path.display()
-            )
-        })?;
+        let store = Arc::new(FilesystemStore::new(path).map_err(|e| zarr_err(path)(&e))?);
+        let array = Array::open(store, "/").map_err(|e| zarr_err(path)(&e))?;
+        let err = zarr_err(path);
+        let attrs = array
+            .attributes()
+            .get("tprf")
+            .cloned()
+            .ok_or_else(|| err(&"no \"tprf\" attributes (not written by tprf)"))?;
+        let meta: CubeMetadata = serde_json::from_value(attrs)
+            .map_err(|e| err(&format!("the \"tprf\" attributes are not tprf.json: {e}")))?;
         let shape = array.shape().to_vec();
         let want = [meta.height as u64, meta.width as u64, meta.bins as u64];
         if shape != want {
-            bail!(
-                "{}: shape {shape:?} does not match its metadata [H, W, T] = {want:?}",
-                path.display()
-            );
+            return Err(ExportError::Shape {
+                path: path.to_path_buf(),
+                shape,
+                layout: "[H, W, T]",
+                expected: want.to_vec(),
+            });
         }
         Ok(ZarrCube {
             width: meta.width,
@@ -175,12 +172,18 @@ impl ZarrCube {
         ]);
         self.array
             .retrieve_array_subset::<Vec<f32>>(&subset)
-            .map_err(zarr_err)
+            .map_err(|e| ExportError::Zarr {
+                path: PathBuf::from(ZARR_NAME),
+                message: e.to_string(),
+            })
     }
 
     /// The whole cube as a snapshot that keeps only the bins that received light.
     pub fn snapshot(&self) -> Result<FilmSnapshot> {
-        let axis = self.meta.axis()?;
+        let axis = self.meta.axis().map_err(|source| ExportError::Axis {
+            path: PathBuf::from(ZARR_NAME),
+            source,
+        })?;
         let layout = FilmLayout {
             width: self.width,
             height: self.height,

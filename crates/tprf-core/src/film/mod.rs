@@ -2,6 +2,7 @@
 //! accumulate), kept apart from the sensor (what is measured from them). Memory follows
 //! the bins that received light: each pixel keeps runs of non-zero bins.
 
+mod error;
 mod filter;
 mod layout;
 mod row;
@@ -11,9 +12,10 @@ pub mod sparse;
 mod store;
 mod time_axis;
 
+pub use error::FilmError;
 pub use filter::TimeFilter;
 pub use layout::FilmLayout;
 pub use sink::{LeftOut, LeftOutCounts, PixelSink};
 pub use snapshot::{FilmSnapshot, SnapshotBuilder, quantile, quantile_positive, robust_max};
 pub use store::{BYTES_PER_PIXEL, PassTally, StoreStats, TprfFilm, available_memory_bytes};
-pub use time_axis::TimeAxis;
+pub use time_axis::{MAX_BINS, TimeAxis};

@@ -11,7 +11,7 @@
 //! [`FilmSnapshot`] shares them, so publishing a snapshot copies nothing.
 
 use super::row::{FilmRow, RowWork, render_row};
-use super::{FilmLayout, FilmSnapshot, LeftOutCounts, PixelSink, TimeAxis, TimeFilter};
+use super::{FilmError, FilmLayout, FilmSnapshot, LeftOutCounts, PixelSink, TimeAxis, TimeFilter};
 use rayon::prelude::*;
 use std::sync::Arc;
 
@@ -56,23 +56,25 @@ pub struct TprfFilm {
 impl TprfFilm {
     /// An empty film. Fails (rather than aborting) when even its per-pixel directory
     /// cannot be had.
-    pub fn new(layout: FilmLayout) -> Result<TprfFilm, String> {
-        let base = (layout.pixels() as u64)
+    pub fn new(layout: FilmLayout) -> Result<TprfFilm, FilmError> {
+        let (width, height, bins) = (layout.width, layout.height, layout.axis.bins);
+        let need_bytes = (layout.pixels() as u64)
             .checked_mul(BYTES_PER_PIXEL + 16 * layout.bounce_layers() as u64)
-            .ok_or("film size overflows")?;
-        if let Some(free) = available_memory_bytes()
-            && base > free / 10 * 9
+            .ok_or(FilmError::SizeOverflow {
+                width,
+                height,
+                bins,
+            })?;
+        if let Some(free_bytes) = available_memory_bytes()
+            && need_bytes > free_bytes / 10 * 9
         {
-            return Err(format!(
-                "a film of {} x {} pixels needs at least {:.1} GiB, and {:.1} GiB is free; lower the resolution",
-                layout.width,
-                layout.height,
-                base as f64 / (1u64 << 30) as f64,
-                free as f64 / (1u64 << 30) as f64
-            ));
-        }
-        if layout.axis.bins > u32::MAX as usize - 1 {
-            return Err(format!("{} bins is too many", layout.axis.bins));
+            return Err(FilmError::NotEnoughMemory {
+                width,
+                height,
+                bins,
+                need_bytes,
+                free_bytes,
+            });
         }
         let empty = Arc::new(FilmRow::empty(layout.width, layout.bounce_layers()));
         Ok(TprfFilm {

@@ -1,6 +1,7 @@
 //! The time axis of a transient cube: `t0` and bin width `dt`; bin `b` covers
 //! `[t0 + b dt, t0 + (b + 1) dt)` (DESIGN.md conventions).
 
+use super::FilmError;
 use crate::units::C_M_PER_S;
 use serde::{Deserialize, Serialize};
 
@@ -17,21 +18,19 @@ pub struct TimeAxis {
 
 impl TimeAxis {
     /// A checked axis: finite `t0_s`, finite `dt_s > 0`, `1 <= bins <= MAX_BINS`.
-    pub fn new(t0_s: f64, dt_s: f64, bins: usize) -> Result<TimeAxis, String> {
+    pub fn new(t0_s: f64, dt_s: f64, bins: usize) -> Result<TimeAxis, FilmError> {
         if !t0_s.is_finite() {
-            return Err(format!("time axis start {t0_s} s is not finite"));
+            return Err(FilmError::StartNotFinite { t0_s });
         }
         if !(dt_s.is_finite() && dt_s > 0.0) {
-            return Err(format!("bin width {dt_s} s must be finite and > 0"));
+            return Err(FilmError::BinWidth { dt_s });
         }
         if bins == 0 || bins > MAX_BINS {
-            return Err(format!("bin count {bins} must be in 1..={MAX_BINS}"));
+            return Err(FilmError::BinCount { bins });
         }
         let end = t0_s + dt_s * bins as f64;
         if !end.is_finite() || end <= t0_s {
-            return Err(format!(
-                "time axis t0 {t0_s} s + {bins} bins of {dt_s} s is not representable"
-            ));
+            return Err(FilmError::NotRepresentable { t0_s, dt_s, bins });
         }
         Ok(TimeAxis { t0_s, dt_s, bins })
     }

@@ -24,7 +24,7 @@
 //! the sphere: its facets lie up to 2.4e-4 R inside, a bias of a few 1e-4 on the
 //! energy (documented in docs/accuracy.md).
 
-use crate::film::TimeAxis;
+use crate::film::{FilmError, TimeAxis};
 use crate::scene::{Camera, Material, PunctualLight, Scene, Triangle, TriangleAttrs};
 use crate::units::C_M_PER_S;
 use glam::{Vec2, Vec3};
@@ -220,7 +220,7 @@ impl Furnace {
 
     /// From t = 0 to the first arrival plus the mean length of the chords that hold 99 %
     /// of the energy, in `bins` bins.
-    pub fn default_axis(&self, bins: usize) -> Result<TimeAxis, String> {
+    pub fn default_axis(&self, bins: usize) -> Result<TimeAxis, FilmError> {
         let (x0, _) = self.first_arrival();
         let end_m = x0 + (4.0 * self.radius_m / 3.0 * self.bounces_99()).max(4.0 * self.radius_m);
         TimeAxis::new(0.0, end_m / C_M_PER_S / bins.max(1) as f64, bins)

@@ -18,7 +18,7 @@ mod quadrature;
 
 pub use quadrature::{BinSpreader, gauss_legendre};
 
-use crate::film::TimeAxis;
+use crate::film::{FilmError, TimeAxis};
 use crate::scene::Scene;
 use furnace::{Furnace, FurnaceLight};
 use oned_scene::OnedScene;
@@ -44,6 +44,11 @@ pub enum ReferenceError {
     },
     #[error("reference '{spec}': {why}")]
     Unsupported { spec: String, why: String },
+    #[error("no light of this 1-D world reaches the eye")]
+    Dark,
+    /// The time axis asked for is not a valid [`TimeAxis`].
+    #[error(transparent)]
+    Axis(#[from] FilmError),
 }
 
 /// An exact reference: its scene, a film shape that suits it, and the expected cube.
@@ -326,10 +331,10 @@ impl Analytic {
         width: usize,
         height: usize,
         bins: usize,
-    ) -> Result<TimeAxis, String> {
+    ) -> Result<TimeAxis, ReferenceError> {
         match self {
-            Analytic::Furnace(f) => f.default_axis(bins),
-            Analytic::Plane(p) => p.default_axis(width, height, bins),
+            Analytic::Furnace(f) => Ok(f.default_axis(bins)?),
+            Analytic::Plane(p) => Ok(p.default_axis(width, height, bins)?),
             Analytic::Oned(o) => o.default_axis(bins),
         }
     }

@@ -18,6 +18,7 @@
 //! its two sides differently where light reaches both, or anything behind the light
 //! that reflects towards it (the emitting plane would absorb it).
 
+use super::ReferenceError;
 use crate::film::TimeAxis;
 use crate::oned::{Direction, ImpulseOptions, InterfaceKind, World, binned};
 use crate::scene::{AlphaMode, Camera, Material, Scene, Triangle, TriangleAttrs};
@@ -246,11 +247,11 @@ impl OnedScene {
     /// Bins from t = 0 to 5 % after the time holding all but 1e-6 of the train's weight;
     /// the start shifted by a fraction of a bin so that no impulse lies within 1 % of a
     /// bin edge where avoidable (rays at the edge of the view travel 2e-7 further).
-    pub fn default_axis(&self, bins: usize) -> Result<TimeAxis, String> {
+    pub fn default_axis(&self, bins: usize) -> Result<TimeAxis, ReferenceError> {
         let imp = self.impulses(f64::INFINITY);
         let total: f64 = imp.iter().map(|i| i.weight).sum();
         if !(total > 0.0) {
-            return Err("no light of this 1-D world reaches the eye".into());
+            return Err(ReferenceError::Dark);
         }
         let mut acc = 0.0;
         let mut end_s = imp.last().map_or(0.0, |i| i.time_s);
@@ -281,7 +282,7 @@ impl OnedScene {
             .map(|k| -(k as f64) / 64.0 * dt)
             .max_by(|a, b| margin(*a).total_cmp(&margin(*b)))
             .unwrap_or(0.0);
-        TimeAxis::new(t0.max(-dt), dt, bins)
+        Ok(TimeAxis::new(t0.max(-dt), dt, bins)?)
     }
 
     /// The expected TPRF of every pixel on `axis` (the emitting plane has radiance 1).

@@ -14,7 +14,7 @@
 //! after splitting at the kinks of `len(q)` (the radii of the rectangle's sides and
 //! corners). Accurate to ~1e-10.
 
-use crate::film::TimeAxis;
+use crate::film::{FilmError, TimeAxis};
 use crate::scene::{Camera, Material, PunctualLight, Scene, Triangle, TriangleAttrs};
 use crate::units::C_M_PER_S;
 use glam::{Affine3A, Vec2, Vec3};
@@ -334,7 +334,7 @@ impl Plane {
     }
 
     /// From 2 % before the earliest to 2 % after the latest arrival in a `w x h` image.
-    pub fn default_axis(&self, w: usize, h: usize, bins: usize) -> Result<TimeAxis, String> {
+    pub fn default_axis(&self, w: usize, h: usize, bins: usize) -> Result<TimeAxis, FilmError> {
         let (q_lo, q_hi) = self
             .footprint(0.0, w as f64, 0.0, h as f64, w, h)
             .radial_range();

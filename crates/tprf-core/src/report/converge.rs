@@ -6,8 +6,10 @@
 //! budget, so settings compare per second of rendering, not per sample. The clock
 //! counts render passes only: the error measurements between passes are not charged.
 
-use crate::export::{read_cube, write_atomic};
-use crate::film::{FilmLayout, TimeAxis, TimeFilter, TprfFilm};
+use super::ReportError;
+use super::plot::{self, Curve};
+use crate::export::{self, ExportError, read_cube, write_atomic};
+use crate::film::{FilmError, FilmLayout, TimeAxis, TimeFilter, TprfFilm};
 use crate::reference::{Analytic, ReferenceCube};
 use crate::scene::{Channel, Scene};
 use crate::transport::progressive::{self, PassSize, Schedule};
@@ -50,20 +52,24 @@ impl EstimatorSetting {
     /// Parse `default` or comma-separated `key=value` pairs: `nee=on|off`,
     /// `filter=box|tent`, `rr_start=N`, `rr_floor=P` (survival floor in [0, 1]),
     /// `max_bounces=N`, `seconds=S`.
-    pub fn parse(spec: &str) -> Result<EstimatorSetting, String> {
+    pub fn parse(spec: &str) -> Result<EstimatorSetting, ReportError> {
         let mut s = EstimatorSetting::default_setting();
         s.label = spec.trim().to_string();
         if s.label.is_empty() {
-            return Err("an empty estimator setting (use 'default')".into());
+            return Err(ReportError::EmptySetting);
         }
         if s.label == "default" {
             return Ok(s);
         }
+        let error = |why: String| ReportError::Setting {
+            spec: spec.to_string(),
+            why,
+        };
         for part in spec.split(',').map(str::trim).filter(|p| !p.is_empty()) {
             let (k, v) = part
                 .split_once('=')
-                .ok_or_else(|| format!("setting '{spec}': '{part}' is not key=value"))?;
-            let bad = |why: &str| format!("setting '{spec}': {k}={v}: {why}");
+                .ok_or_else(|| error(format!("'{part}' is not key=value")))?;
+            let bad = |why: &str| error(format!("{k}={v}: {why}"));
             match k.trim() {
                 "nee" => {
                     s.nee = Some(match v {
@@ -100,10 +106,10 @@ impl EstimatorSetting {
                     s.seconds = Some(t);
                 }
                 _ => {
-                    return Err(format!(
-                        "setting '{spec}': unknown key '{k}' (known: nee, filter, rr_start, \
-                         rr_floor, max_bounces, seconds)"
-                    ));
+                    return Err(error(format!(
+                        "unknown key '{k}' (known: nee, filter, rr_start, rr_floor, \
+                         max_bounces, seconds)"
+                    )));
                 }
             }
         }
@@ -216,7 +222,7 @@ pub fn run_setting(
     config: &RunConfig,
     reference: &ReferenceCube,
     mut on_checkpoint: impl FnMut(&Checkpoint),
-) -> Result<Vec<Checkpoint>, String> {
+) -> Result<Vec<Checkpoint>, FilmError> {
     let renderer = Renderer::new(scene.clone(), setting.apply(config.base));
     let layout = FilmLayout {
         width: reference.width,
@@ -446,23 +452,21 @@ pub fn resolve_target(
     scene: Option<&str>,
     reference: Option<&str>,
     film: &FilmRequest,
-) -> anyhow::Result<Target> {
-    use anyhow::bail;
+) -> Result<Target, ReportError> {
     let reference = match (reference, scene) {
         (Some(r), _) => r,
         (None, Some(s)) if s.starts_with("analytic:") => s,
-        _ => bail!(
-            "give a reference: --reference analytic:furnace?rho=0.9 (or analytic:plane,              analytic:oned), or --reference CUBE.npy from a long `tprf render`"
-        ),
+        _ => return Err(ReportError::NoReference),
     };
     if reference.starts_with("analytic:") {
         if let Some(s) = scene
             && s != reference
             && s != "analytic"
         {
-            bail!(
-                "the analytic reference '{reference}' builds its own scene: leave SCENE out                  (got '{s}')"
-            );
+            return Err(ReportError::SceneWithAnalytic {
+                reference: reference.to_string(),
+                scene: s.to_string(),
+            });
         }
         let a = Analytic::parse(reference)?;
         let (w0, h0, b0) = a.default_film();
@@ -473,19 +477,20 @@ pub fn resolve_target(
         );
         check_film(w, h)?;
         if w.saturating_mul(h).saturating_mul(bins) > MAX_VALUES {
-            anyhow::bail!(
-                "a {w} x {h} x {bins} film is too large for a convergence run (at most \
-                 {MAX_VALUES} pixel-bins: the film, its reference and a copy are kept)"
-            );
+            return Err(ReportError::FilmTooLarge {
+                width: w,
+                height: h,
+                bins,
+                max: MAX_VALUES,
+            });
         }
-        let mut axis = a.default_axis(w, h, bins).map_err(anyhow::Error::msg)?;
+        let mut axis = a.default_axis(w, h, bins)?;
         if film.t0_s.is_some() || film.dt_s.is_some() {
             axis = TimeAxis::new(
                 film.t0_s.unwrap_or(axis.t0_s),
                 film.dt_s.unwrap_or(axis.dt_s),
                 bins,
-            )
-            .map_err(anyhow::Error::msg)?;
+            )?;
         }
         return Ok(Target {
             label: a.label(),
@@ -502,17 +507,19 @@ pub fn resolve_target(
         path.to_path_buf()
     };
     if npy.extension().and_then(|e| e.to_str()) != Some("npy") {
-        bail!(
-            "unknown reference '{reference}': expected analytic:furnace, analytic:plane,              analytic:oned, or a .npy cube written by `tprf render`"
-        );
+        return Err(ReportError::UnknownReference(reference.to_string()));
     }
     let Some(scene_name) = scene.filter(|s| !s.starts_with("analytic")) else {
-        bail!("a .npy reference needs the SCENE it was rendered from");
+        return Err(ReportError::NoScene);
     };
     let (meta, data) = read_cube(&npy)?;
-    let axis = meta.axis()?;
-    if let Some(i) = data.iter().position(|v| !v.is_finite()) {
-        bail!("{}: value {i} is not finite", npy.display());
+    let meta_path = npy.with_file_name("tprf.json");
+    let axis = meta.axis().map_err(|source| ExportError::Axis {
+        path: meta_path.clone(),
+        source,
+    })?;
+    if let Some(index) = data.iter().position(|v| !v.is_finite()) {
+        return Err(ReportError::NotFinite { path: npy, index });
     }
     let conflicts = [
         film.width.is_some_and(|w| w != meta.width),
@@ -522,19 +529,19 @@ pub fn resolve_target(
         film.dt_s.is_some_and(|t| t != meta.dt_s),
     ];
     if conflicts.iter().any(|&c| c) {
-        bail!(
-            "the film (size and time axis) comes from the reference cube; leave --width, --height, --bins, --t0 and --dt out"
-        );
+        return Err(ReportError::FilmFromCube);
     }
     let channel = match meta.channel.as_str() {
         "red" => Channel::Red,
         "green" => Channel::Green,
         "blue" => Channel::Blue,
         "gray" => Channel::Gray,
-        other => bail!(
-            "{}: unknown channel '{other}'",
-            npy.with_file_name("tprf.json").display()
-        ),
+        other => {
+            return Err(ReportError::UnknownChannel {
+                path: meta_path,
+                channel: other.to_string(),
+            });
+        }
     };
     let scene = crate::scene::load(scene_name)?;
     Ok(Target {
@@ -555,9 +562,14 @@ const MAX_SIDE: usize = 4096;
 /// Largest number of pixel-bins of a convergence run (f64 each, several copies).
 const MAX_VALUES: usize = 1 << 27;
 
-fn check_film(w: usize, h: usize) -> anyhow::Result<()> {
-    if w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE {
-        anyhow::bail!("--width and --height must be in 1..={MAX_SIDE} (got {w} x {h})");
+/// Both sides of the film in `1..=MAX_SIDE`.
+fn check_film(width: usize, height: usize) -> Result<(), ReportError> {
+    if width == 0 || height == 0 || width > MAX_SIDE || height > MAX_SIDE {
+        return Err(ReportError::FilmSide {
+            width,
+            height,
+            max: MAX_SIDE,
+        });
     }
     Ok(())
 }
@@ -569,20 +581,50 @@ pub fn write_outputs(
     title: &str,
     checkpoints: &[Checkpoint],
     summaries: &[Summary],
-) -> anyhow::Result<()> {
-    use anyhow::Context;
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+) -> Result<(), ReportError> {
+    export::create_dir(dir)?;
     let text = csv(checkpoints);
     write_atomic(&dir.join("converge.csv"), |w| {
         w.write_all(text.as_bytes())?;
         Ok(())
     })?;
-    super::plot::write_convergence_png(&dir.join("converge.png"), title, checkpoints, summaries)?;
+    plot::write_convergence_png(
+        &dir.join("converge.png"),
+        title,
+        &plot_curves(checkpoints, summaries),
+    )?;
     let md = format!("# {title}\n\n{}", summary_text(summaries));
     write_atomic(&dir.join("summary.md"), |w| {
         w.write_all(md.as_bytes())?;
         Ok(())
-    })
+    })?;
+    Ok(())
+}
+
+/// One curve per summarised setting: its error against the reference, its two-half
+/// estimate, and a legend with the fitted slope and the last value.
+fn plot_curves(checkpoints: &[Checkpoint], summaries: &[Summary]) -> Vec<Curve> {
+    summaries
+        .iter()
+        .map(|s| {
+            let own = || checkpoints.iter().filter(|c| c.setting == s.setting);
+            let slope = s
+                .slope_time
+                .map_or("slope -".to_string(), |f| format!("slope {:.2}", f.slope));
+            Curve {
+                label: format!(
+                    "{}: {slope}, {:.2} % at {:.0} s",
+                    s.setting,
+                    100.0 * s.final_error,
+                    s.final_seconds
+                ),
+                error: own().map(|c| (c.seconds, c.rel_l2_cube)).collect(),
+                estimate: own()
+                    .filter_map(|c| c.half_estimate.map(|e| (c.seconds, e)))
+                    .collect(),
+            }
+        })
+        .collect()
 }
 
 #[cfg(test)]

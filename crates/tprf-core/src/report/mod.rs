@@ -3,12 +3,17 @@
 //!
 //! - [`converge`]: error against run time for several estimator settings, against an
 //!   exact reference or a long render (`tprf converge`).
-//! - [`stability`]: stiff and extreme cases, each against an answer derived
-//!   independently (`tprf stability`).
-//! - [`sensor_cases`]: the suite's sensor rows (pulses, gates, noise, huge values).
-//! - [`plot`]: the log-log convergence plot.
+//! - [`stability`]: stiff and extreme cases as a verdict table, each row against an
+//!   independently derived answer or, for the scale and bin-count rows, against the
+//!   renderer's own result on an equivalent input (an invariance check)
+//!   (`tprf stability`).
+//! - [`plot`]: the log-log convergence plot of given curves.
+//!
+//! Errors are [`ReportError`]s.
 
 pub mod converge;
+mod error;
 pub mod plot;
-pub mod sensor_cases;
 pub mod stability;
+
+pub use error::ReportError;

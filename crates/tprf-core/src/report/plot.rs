@@ -1,17 +1,28 @@
 //! The convergence plot: relative error against render time, log-log, one colour per
-//! estimator setting, its two-half noise estimate dashed, and a `t^-1/2` guide.
-//! Drawn with plotters into a buffer (text in egui's bundled Ubuntu font, so no system
-//! fonts are needed) and written as PNG.
+//! curve (an estimator setting), its two-half noise estimate dashed, and a `t^-1/2`
+//! guide. Drawn with plotters into a buffer (text in egui's bundled Ubuntu font, so no
+//! system fonts are needed) and written as PNG. It draws the points it is given and
+//! knows nothing of how they were measured.
 
-use super::converge::{Checkpoint, Summary};
-use crate::export::write_atomic;
-use anyhow::{Context, Result, anyhow};
+use super::ReportError;
+use crate::export::write_png_rgb;
 use plotters::prelude::*;
 use std::path::Path;
 use std::sync::OnceLock;
 
+/// One estimator setting's curves.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Curve {
+    /// Legend text.
+    pub label: String,
+    /// `(seconds, relative error against the reference)`: a solid line with dots.
+    pub error: Vec<(f64, f64)>,
+    /// `(seconds, the film's own error estimate)`: dashed.
+    pub estimate: Vec<(f64, f64)>,
+}
+
 /// Register the bundled font for plotters' "sans-serif" once.
-fn fonts() -> Result<()> {
+fn fonts() -> Result<(), ReportError> {
     static DONE: OnceLock<bool> = OnceLock::new();
     let ok = *DONE.get_or_init(|| {
         plotters::style::register_font(
@@ -24,49 +35,41 @@ fn fonts() -> Result<()> {
     if ok {
         Ok(())
     } else {
-        Err(anyhow!("cannot load the plot font"))
+        Err(ReportError::PlotFont)
     }
 }
 
 /// Plot size, pixels.
 const SIZE: (u32, u32) = (960, 640);
 
-/// Write `converge.png`-style plot of `checkpoints` (all settings) to `path`.
+/// Write the `converge.png` plot of `curves` to `path` (960 x 640 pixels).
 pub fn write_convergence_png(
     path: &Path,
     title: &str,
-    checkpoints: &[Checkpoint],
-    summaries: &[Summary],
-) -> Result<()> {
+    curves: &[Curve],
+) -> Result<(), ReportError> {
     fonts()?;
     let (w, h) = SIZE;
     let mut buf = vec![0u8; (w * h * 3) as usize];
-    draw(&mut buf, title, checkpoints, summaries).map_err(|e| anyhow!("drawing the plot: {e}"))?;
-    let img = image::RgbImage::from_raw(w, h, buf).context("plot buffer size")?;
-    write_atomic(path, |out| {
-        img.write_to(out, image::ImageFormat::Png)?;
-        Ok(())
-    })
+    draw(&mut buf, title, curves).map_err(|e| ReportError::Plot(e.to_string()))?;
+    write_png_rgb(path, w as usize, h as usize, buf)?;
+    Ok(())
 }
 
-fn draw(
-    buf: &mut [u8],
-    title: &str,
-    checkpoints: &[Checkpoint],
-    summaries: &[Summary],
-) -> std::result::Result<(), Box<dyn std::error::Error>> {
+fn draw(buf: &mut [u8], title: &str, curves: &[Curve]) -> Result<(), Box<dyn std::error::Error>> {
     let root = BitMapBackend::with_buffer(buf, SIZE).into_drawing_area();
     root.fill(&WHITE)?;
     let positive = |v: f64| v.is_finite() && v > 0.0;
-    let xs: Vec<f64> = checkpoints
+    let xs: Vec<f64> = curves
         .iter()
-        .map(|c| c.seconds)
+        .flat_map(|c| &c.error)
+        .map(|p| p.0)
         .filter(|&v| positive(v))
         .collect();
-    let ys: Vec<f64> = checkpoints
+    let ys: Vec<f64> = curves
         .iter()
-        .flat_map(|c| [Some(c.rel_l2_cube), c.half_estimate])
-        .flatten()
+        .flat_map(|c| c.error.iter().chain(&c.estimate))
+        .map(|p| p.1)
         .filter(|&v| positive(v))
         .collect();
     if xs.is_empty() || ys.is_empty() {
@@ -103,14 +106,11 @@ fn draw(
         .x_label_formatter(&|v| format!("{v}"))
         .draw()?;
 
-    // The t^-1/2 guide through the middle of the first setting's curve.
-    if let Some(first) = summaries.first() {
-        let curve: Vec<&Checkpoint> = checkpoints
-            .iter()
-            .filter(|c| c.setting == first.setting && positive(c.rel_l2_cube))
-            .collect();
-        if let Some(mid) = curve.get(curve.len() / 2) {
-            let k = mid.rel_l2_cube * mid.seconds.sqrt();
+    // The t^-1/2 guide through the middle of the first curve.
+    if let Some(first) = curves.first() {
+        let curve: Vec<&(f64, f64)> = first.error.iter().filter(|p| positive(p.1)).collect();
+        if let Some((mid_s, mid_error)) = curve.get(curve.len() / 2) {
+            let k = mid_error * mid_s.sqrt();
             let guide: Vec<(f64, f64)> = (0..=40)
                 .map(|i| {
                     let x = x_lo * (x_hi / x_lo).powf(i as f64 / 40.0);
@@ -144,33 +144,18 @@ fn draw(
         .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())?
         .label("dashed: the film's own noise estimate (two halves, no reference)")
         .legend(|(x, y)| Rectangle::new([(x, y), (x + 7, y + 1)], BLACK.filled()));
-    for (i, s) in summaries.iter().enumerate() {
+    for (i, c) in curves.iter().enumerate() {
         let colour = Palette99::pick(i).to_rgba();
-        let curve: Vec<(f64, f64)> = checkpoints
+        let curve: Vec<(f64, f64)> = c.error.iter().copied().filter(|p| positive(p.1)).collect();
+        let estimate: Vec<(f64, f64)> = c
+            .estimate
             .iter()
-            .filter(|c| c.setting == s.setting && positive(c.rel_l2_cube))
-            .map(|c| (c.seconds, c.rel_l2_cube))
+            .copied()
+            .filter(|p| positive(p.1))
             .collect();
-        let estimate: Vec<(f64, f64)> = checkpoints
-            .iter()
-            .filter(|c| c.setting == s.setting)
-            .filter_map(|c| {
-                c.half_estimate
-                    .filter(|&e| positive(e))
-                    .map(|e| (c.seconds, e))
-            })
-            .collect();
-        let slope = s
-            .slope_time
-            .map_or("slope -".to_string(), |f| format!("slope {:.2}", f.slope));
         chart
             .draw_series(LineSeries::new(curve.clone(), colour.stroke_width(3)))?
-            .label(format!(
-                "{}: {slope}, {:.2} % at {:.0} s",
-                s.setting,
-                100.0 * s.final_error,
-                s.final_seconds
-            ))
+            .label(c.label.as_str())
             .legend(move |(x, y)| {
                 PathElement::new(vec![(x, y), (x + 24, y)], colour.stroke_width(3))
             });

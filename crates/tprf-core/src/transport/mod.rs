@@ -13,4 +13,4 @@ mod window;
 pub mod worker;
 
 pub use integrator::{PassStats, RayKind, RenderSettings, Renderer, Sink};
-pub use window::{WindowRequest, auto_window};
+pub use window::{WindowError, WindowRequest, auto_window};

@@ -3,7 +3,7 @@
 
 use super::integrator::{Renderer, Sink};
 use super::sampler::Sampler;
-use crate::film::TimeAxis;
+use crate::film::{FilmError, MAX_BINS, TimeAxis};
 use crate::units::C_M_PER_S;
 use rayon::prelude::*;
 
@@ -13,6 +13,21 @@ pub struct WindowRequest {
     pub t0_s: Option<f64>,
     pub dt_s: Option<f64>,
     pub bins: usize,
+}
+
+/// Why no time axis could be chosen.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum WindowError {
+    #[error("the number of bins must be at least 1")]
+    NoBins,
+    #[error(
+        "no light reaches the camera in a pilot render: nothing to bin (check the lights, \
+         or fix the window's start and bin width)"
+    )]
+    NoLight,
+    /// The axis asked for (or the one chosen) is not a valid [`TimeAxis`].
+    #[error(transparent)]
+    Axis(#[from] FilmError),
 }
 
 /// Pilot resolution (pixels per side) and samples per pixel.
@@ -53,12 +68,16 @@ fn nice_ceil(x: f64) -> f64 {
 /// arrival; the window runs from just before the first arrival to the time that holds
 /// 99.5 % of the pilot's energy, with a 2 % margin each side, and the bin width is
 /// rounded up to 1, 2, 2.5 or 5 x 10^k seconds.
-pub fn auto_window(renderer: &Renderer, req: WindowRequest) -> Result<TimeAxis, String> {
+pub fn auto_window(renderer: &Renderer, req: WindowRequest) -> Result<TimeAxis, WindowError> {
+    // Refused before the pilot render, which would be wasted.
     if req.bins == 0 {
-        return Err("the number of bins must be at least 1".into());
+        return Err(WindowError::NoBins);
+    }
+    if req.bins > MAX_BINS {
+        return Err(FilmError::BinCount { bins: req.bins }.into());
     }
     if let (Some(t0), Some(dt)) = (req.t0_s, req.dt_s) {
-        return TimeAxis::new(t0, dt, req.bins);
+        return Ok(TimeAxis::new(t0, dt, req.bins)?);
     }
     let diag_m = renderer.scene().bounds().diagonal_m() as f64;
     let cam_m = renderer.scene().camera.position().length() as f64;
@@ -87,11 +106,7 @@ pub fn auto_window(renderer: &Renderer, req: WindowRequest) -> Result<TimeAxis, 
         .flatten()
         .collect();
     if arrivals.is_empty() {
-        return Err(
-            "no light reaches the camera in a pilot render: nothing to bin \
-                    (check the lights, or give --t0 and --dt)"
-                .into(),
-        );
+        return Err(WindowError::NoLight);
     }
     arrivals.sort_by(|a, b| a.0.total_cmp(&b.0));
     let total: f64 = arrivals.iter().map(|a| a.1).sum();
@@ -116,7 +131,7 @@ pub fn auto_window(renderer: &Renderer, req: WindowRequest) -> Result<TimeAxis, 
         Some(t0) => t0,
         None => (start_s / dt_s).floor() * dt_s,
     };
-    TimeAxis::new(t0_s, dt_s, req.bins)
+    Ok(TimeAxis::new(t0_s, dt_s, req.bins)?)
 }
 
 #[cfg(test)]

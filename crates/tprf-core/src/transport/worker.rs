@@ -5,9 +5,9 @@
 
 use super::integrator::{RenderSettings, Renderer};
 use super::progressive::{self, Schedule};
-use super::window::{WindowRequest, auto_window};
-use crate::film::{FilmLayout, FilmSnapshot, TimeAxis, TprfFilm};
-use crate::scene::{self, Scene};
+use super::window::{WindowError, WindowRequest, auto_window};
+use crate::film::{FilmError, FilmLayout, FilmSnapshot, TimeAxis, TprfFilm};
+use crate::scene::{self, Scene, SceneError};
 use std::ops::ControlFlow;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
@@ -35,7 +35,37 @@ pub enum WorkerState {
     Rendering,
     Paused,
     Done,
+    /// The message of the [`RenderError`] that ended it, its causes included.
     Failed(String),
+}
+
+/// Why a background render stopped before it began its passes.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    #[error(transparent)]
+    Window(#[from] WindowError),
+    #[error(transparent)]
+    Film(#[from] FilmError),
+    #[error("cannot start the render threads")]
+    Threads(#[source] rayon::ThreadPoolBuildError),
+}
+
+/// `error` and its causes, `: `-separated (as `anyhow` prints them with `{:#}`).
+fn message_chain(error: &dyn std::error::Error) -> String {
+    let mut text = error.to_string();
+    let mut cause = error.source();
+    while let Some(e) = cause {
+        let more = e.to_string();
+        // A cause its parent's message already quotes is not repeated.
+        if !text.ends_with(&more) {
+            text.push_str(": ");
+            text.push_str(&more);
+        }
+        cause = e.source();
+    }
+    text
 }
 
 /// The worker's progress, copied out for readers.
@@ -103,7 +133,7 @@ impl RenderWorker {
                 if let Err(e) = result
                     && let Ok(mut s) = thread_shared.status.lock()
                 {
-                    s.state = WorkerState::Failed(e);
+                    s.state = WorkerState::Failed(message_chain(&e));
                 }
                 on_update();
             })
@@ -165,8 +195,8 @@ fn set_status(shared: &Shared, f: impl FnOnce(&mut WorkerStatus)) {
     }
 }
 
-fn run(job: &RenderJob, shared: &Shared, on_update: &(dyn Fn() + Sync)) -> Result<(), String> {
-    let scene: Scene = scene::load(&job.scene).map_err(|e| e.to_string())?;
+fn run(job: &RenderJob, shared: &Shared, on_update: &(dyn Fn() + Sync)) -> Result<(), RenderError> {
+    let scene: Scene = scene::load(&job.scene)?;
     let notes = scene.notes.clone();
     let triangles = scene.triangles.len();
     let renderer = Renderer::new(Arc::new(scene), job.settings);
@@ -194,7 +224,7 @@ fn run(job: &RenderJob, shared: &Shared, on_update: &(dyn Fn() + Sync)) -> Resul
         .num_threads(threads)
         .thread_name(|i| format!("tprf-pass-{i}"))
         .build()
-        .map_err(|e| format!("cannot start the render threads: {e}"))?;
+        .map_err(RenderError::Threads)?;
     let mut retired: Option<Arc<FilmSnapshot>> = None;
     let mut paused_time = Duration::ZERO;
     let schedule = Schedule::paced(PASS_TARGET_S, job.spp_target);

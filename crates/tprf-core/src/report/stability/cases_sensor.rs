@@ -2,9 +2,10 @@
 //! noise and values at extreme sizes. The TPRF cubes here are made by hand (impulses
 //! of known weight in known bins), so every expected value is exact or a closed form.
 
-use super::stability::{Check, Row, Size};
+use super::common::Size;
+use super::verdict::{Check, Kind, Row};
 use crate::film::TimeAxis;
-use crate::sensor::{Exposure, LightPulse, Noise, Sensor, SensorModel, TimeOrigin};
+use crate::sensor::{Exposure, LightPulse, Noise, Sensor, SensorError, SensorModel, TimeOrigin};
 
 /// A cube `[h, w, T]` where pixel `p` holds weight `(p + 1)` split over three bins
 /// (0.5, 0.3, 0.2 of it) near the middle of the window; returns it with its per-pixel
@@ -39,16 +40,16 @@ fn box_gate(origin: TimeOrigin, start_s: f64, width_s: f64) -> Exposure {
     }
 }
 
-/// Measure `cube` with `sensor`: (measurements, count of NaN/Inf), or the error text.
+/// Measure `cube` with `sensor`: (measurements, count of NaN/Inf), or why not.
 fn measure(
     sensor: Sensor,
     axis: TimeAxis,
     cube: &[f32],
     w: usize,
     h: usize,
-) -> Result<(Vec<f32>, u64), String> {
-    let model = SensorModel::new(sensor, axis).map_err(|e| e.to_string())?;
-    let m = model.measure(cube, w, h).map_err(|e| e.to_string())?;
+) -> Result<(Vec<f32>, u64), SensorError> {
+    let model = SensorModel::new(sensor, axis)?;
+    let m = model.measure(cube, w, h)?;
     let bad = m.values.iter().filter(|v| !v.is_finite()).count() as u64;
     Ok((m.values, bad))
 }
@@ -58,13 +59,14 @@ fn row(
     case: &str,
     setting: String,
     check: Check,
-    got: Result<(f64, u64), String>,
+    got: Result<(f64, u64), SensorError>,
     note: &str,
 ) -> Row {
     match got {
         Ok((got, non_finite)) => Row {
             case: case.into(),
             setting,
+            kind: Kind::Reference,
             check,
             got,
             non_finite,
@@ -73,6 +75,7 @@ fn row(
         Err(e) => Row {
             case: case.into(),
             setting,
+            kind: Kind::Reference,
             check,
             got: f64::NAN,
             non_finite: 0,

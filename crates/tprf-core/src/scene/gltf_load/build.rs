@@ -1,0 +1,504 @@
+//! The [`Scene`] from a checked document: node trees walked depth first with their
+//! transforms, triangle primitives (lists, strips, fans) in world space, punctual lights,
+//! the first perspective camera, and what the file lacks (a camera, a light) added with a
+//! note.
+
+use super::validate::{SUPPORTED_EXTENSIONS, check_accessor, check_count, invalid, read_all};
+use crate::scene::{
+    Camera, Material, PunctualLight, Scene, SceneError, Spot, Texture, Triangle, TriangleAttrs,
+};
+use glam::{Affine3A, Mat3, Mat4, Vec2, Vec3};
+use gltf::accessor::{DataType, Dimensions};
+use gltf::khr_lights_punctual::Kind;
+use gltf::mesh::Mode;
+use gltf::{Document, buffer};
+use std::collections::HashMap;
+use std::path::Path;
+
+/// Vertical field of view of a camera framed from the scene bounds.
+const FRAMED_YFOV_RAD: f32 = std::f32::consts::FRAC_PI_4;
+
+/// An object's name, or `kind[index]` when it has none.
+pub(super) fn name_or_index(name: Option<&str>, kind: &str, index: usize) -> String {
+    name.map_or_else(|| format!("{kind}[{index}]"), String::from)
+}
+
+/// A primitive's vertices in world space (metres), before assembly into triangles.
+struct Vertices {
+    positions: Vec<Vec3>,
+    /// Unit world-space normals; `None` where the file's normal is zero or not finite.
+    normals: Option<Vec<Option<Vec3>>>,
+    uvs: Option<Vec<Vec2>>,
+}
+
+/// The three entries of `values` at `corners`, or `None` if a corner is out of range.
+fn gather<T: Copy>(values: &[T], corners: [u32; 3]) -> Option<[T; 3]> {
+    let [a, b, c] = corners.map(|i| values.get(i as usize).copied());
+    Some([a?, b?, c?])
+}
+
+/// Vertex-index triples of a primitive's triangles, in glTF's winding (counter-clockwise
+/// front face), following the spec's rules for strips and fans.
+fn triangle_corners(mode: Mode, indices: &[u32]) -> Vec<[u32; 3]> {
+    match mode {
+        Mode::TriangleStrip => indices
+            .windows(3)
+            .enumerate()
+            .map(|(i, w)| match i % 2 {
+                0 => [w[0], w[1], w[2]],
+                _ => [w[0], w[2], w[1]],
+            })
+            .collect(),
+        Mode::TriangleFan => match indices.split_first() {
+            Some((&first, rest)) => rest.windows(2).map(|w| [w[0], w[1], first]).collect(),
+            None => Vec::new(),
+        },
+        _ => indices.as_chunks::<3>().0.to_vec(),
+    }
+}
+
+/// Zero area up to f32 rounding: the height over the longest edge is below 1e-7 of that
+/// edge's length (or the area overflows to NaN).
+fn is_degenerate(t: &Triangle) -> bool {
+    let [p0, p1, p2] = t.p;
+    let longest_sq = (p1 - p0)
+        .length_squared()
+        .max((p2 - p0).length_squared())
+        .max((p2 - p1).length_squared());
+    let twice_area = (p1 - p0).cross(p2 - p0).length();
+    twice_area.is_nan() || twice_area <= 1e-7 * longest_sq
+}
+
+/// The camera of a camera node with world transform `world`; an orthographic one gives the
+/// note to print instead.
+fn file_camera(camera: &gltf::Camera, world: &Mat4, file: &str) -> Result<Camera, String> {
+    match camera.projection() {
+        gltf::camera::Projection::Perspective(p) => {
+            let (_scale, rotation, translation) = world.to_scale_rotation_translation();
+            Ok(Camera {
+                world_from_camera: Affine3A::from_rotation_translation(rotation, translation),
+                yfov_rad: p.yfov(),
+            })
+        }
+        gltf::camera::Projection::Orthographic(_) => Err(format!(
+            "camera '{}' in {file} is orthographic, which tprf does not render: framed a perspective one from the scene bounds",
+            name_or_index(camera.name(), "cameras", camera.index())
+        )),
+    }
+}
+
+/// A point light at the camera (a LiDAR-style co-located source), bright enough that a white
+/// Lambertian facing it at the geometry's centre has radiance ~1 W/(m^2 sr):
+/// `I = pi d^2` W/sr, since `L = (1/pi) I / d^2`.
+fn colocated_light(scene: &Scene) -> PunctualLight {
+    let eye = scene.camera.position();
+    let d = scene.geometry_bounds().map_or(1.0, |b| {
+        let d = eye.distance(b.center());
+        if d > 0.0 { d } else { 0.5 * b.diagonal_m() }
+    });
+    let d = if d > 0.0 && d.is_finite() { d } else { 1.0 };
+    PunctualLight {
+        name: "co-located".into(),
+        position: eye,
+        intensity_w_per_sr: [std::f32::consts::PI * d * d; 3],
+        spot: None,
+    }
+}
+
+/// The roots to load: the default scene's, else scene 0's, else every node without a parent
+/// (`None`).
+fn scene_roots<'a>(doc: &'a Document) -> Option<Vec<gltf::Node<'a>>> {
+    let scene = doc.default_scene().or_else(|| doc.scenes().next())?;
+    Some(scene.nodes().collect())
+}
+
+/// Every node that is no other node's child.
+fn parentless_nodes(doc: &Document) -> Vec<gltf::Node<'_>> {
+    let mut is_child = vec![false; doc.nodes().len()];
+    for child in doc.nodes().flat_map(|n| n.children()) {
+        if let Some(flag) = is_child.get_mut(child.index()) {
+            *flag = true;
+        }
+    }
+    doc.nodes()
+        .filter(|n| !is_child.get(n.index()).copied().unwrap_or(true))
+        .collect()
+}
+
+/// Accumulates the scene while the node tree is walked.
+pub(super) struct Builder<'a> {
+    pub(super) file: &'a str,
+    pub(super) doc: &'a Document,
+    pub(super) buffers: &'a [buffer::Data],
+    pub(super) base: &'a Path,
+    pub(super) triangles: Vec<Triangle>,
+    pub(super) attrs: Vec<TriangleAttrs>,
+    pub(super) materials: Vec<Material>,
+    /// Scene material of each glTF material used so far (`None` key: the default material).
+    pub(super) material_of: HashMap<Option<usize>, u32>,
+    pub(super) textures: Vec<Texture>,
+    /// Scene texture of each glTF image decoded so far.
+    pub(super) texture_of_image: HashMap<usize, u32>,
+    pub(super) lights: Vec<PunctualLight>,
+    /// The first camera node met, with its world transform.
+    pub(super) camera: Option<(gltf::Camera<'a>, Mat4)>,
+    pub(super) notes: Vec<String>,
+    pub(super) degenerate: usize,
+    pub(super) bad_normals: usize,
+}
+
+impl<'a> Builder<'a> {
+    pub(super) fn new(
+        file: &'a str,
+        doc: &'a Document,
+        buffers: &'a [buffer::Data],
+        base: &'a Path,
+    ) -> Self {
+        Builder {
+            file,
+            doc,
+            buffers,
+            base,
+            triangles: Vec::new(),
+            attrs: Vec::new(),
+            materials: Vec::new(),
+            material_of: HashMap::new(),
+            textures: Vec::new(),
+            texture_of_image: HashMap::new(),
+            lights: Vec::new(),
+            camera: None,
+            notes: Vec::new(),
+            degenerate: 0,
+            bad_normals: 0,
+        }
+    }
+
+    pub(super) fn note_once(&mut self, note: String) {
+        if !self.notes.contains(&note) {
+            self.notes.push(note);
+        }
+    }
+
+    /// Name the extensions the file uses (without requiring them) that tprf ignores.
+    pub(super) fn note_ignored_extensions(&mut self) {
+        let ignored: Vec<&str> = self
+            .doc
+            .extensions_used()
+            .filter(|e| !SUPPORTED_EXTENSIONS.contains(e))
+            .collect();
+        if !ignored.is_empty() {
+            let note = format!(
+                "{} uses extensions tprf ignores: {}",
+                self.file,
+                ignored.join(", ")
+            );
+            self.notes.push(note);
+        }
+    }
+
+    /// Walk the scene's node trees depth first, composing transforms from the roots down.
+    pub(super) fn add_scene(&mut self) -> Result<(), SceneError> {
+        let roots = match scene_roots(self.doc) {
+            Some(roots) => roots,
+            None => {
+                self.notes
+                    .push(format!("no scene in {}: loaded every root node", self.file));
+                parentless_nodes(self.doc)
+            }
+        };
+        let mut visited = vec![false; self.doc.nodes().len()];
+        let mut stack: Vec<(gltf::Node, Mat4)> = roots
+            .into_iter()
+            .rev()
+            .map(|n| (n, Mat4::IDENTITY))
+            .collect();
+        while let Some((node, parent)) = stack.pop() {
+            match visited.get_mut(node.index()) {
+                Some(seen) if !*seen => *seen = true,
+                _ => {
+                    return Err(invalid(
+                        self.file,
+                        format!(
+                            "nodes[{}] is reached twice: glTF nodes must form trees (a cycle, or a child with two parents)",
+                            node.index()
+                        ),
+                    ));
+                }
+            }
+            let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+            if !world.is_finite() {
+                let msg = format!("nodes[{}] has a non-finite world transform", node.index());
+                return Err(invalid(self.file, msg));
+            }
+            self.add_node(&node, &world)?;
+            let children: Vec<_> = node.children().collect();
+            stack.extend(children.into_iter().rev().map(|c| (c, world)));
+        }
+        Ok(())
+    }
+
+    fn add_node(&mut self, node: &gltf::Node<'a>, world: &Mat4) -> Result<(), SceneError> {
+        if node.skin().is_some() {
+            self.note_once(
+                "skins ignored: skinned meshes are placed by their node transform".into(),
+            );
+        }
+        if let Some(mesh) = node.mesh() {
+            for prim in mesh.primitives() {
+                self.add_primitive(&mesh, &prim, world)?;
+            }
+        }
+        if let Some(camera) = node.camera() {
+            self.camera.get_or_insert((camera, *world));
+        }
+        if let Some(light) = node.light() {
+            self.add_light(&light, world)?;
+        }
+        Ok(())
+    }
+
+    /// Add a primitive's triangles in world space; `world` is its node's world transform.
+    fn add_primitive(
+        &mut self,
+        mesh: &gltf::Mesh,
+        prim: &gltf::Primitive,
+        world: &Mat4,
+    ) -> Result<(), SceneError> {
+        let what = match mesh.name() {
+            Some(name) => format!("mesh '{name}' (meshes[{}])", mesh.index()),
+            None => format!("meshes[{}]", mesh.index()),
+        };
+        let what = format!("{what} primitive {}", prim.index());
+        let mode = prim.mode();
+        if !matches!(
+            mode,
+            Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+        ) {
+            self.note_once(format!(
+                "{mode:?} primitives skipped: tprf renders triangles only"
+            ));
+            return Ok(());
+        }
+        if prim.morph_targets().next().is_some() {
+            self.note_once("morph targets ignored: meshes keep their base shape".into());
+        }
+        let file = self.file;
+        let err = |m: String| invalid(file, format!("{what}: {m}"));
+        let vertices = self.read_vertices(prim, world).map_err(err)?;
+        let indices = self
+            .read_indices(prim, vertices.positions.len())
+            .map_err(err)?;
+        let material = self.material_index(&prim.material())?;
+        let flip = Mat3::from_mat4(*world).determinant() < 0.0;
+        for corners in triangle_corners(mode, &indices) {
+            self.add_triangle(&vertices, corners, flip, material)
+                .map_err(err)?;
+        }
+        Ok(())
+    }
+
+    /// POSITION (required, finite), NORMAL and TEXCOORD_0, transformed to world space.
+    fn read_vertices(&self, prim: &gltf::Primitive, world: &Mat4) -> Result<Vertices, String> {
+        let reader = prim.reader(|b| self.buffers.get(b.index()).map(|d| &d.0[..]));
+        let pos_acc = prim.get(&gltf::Semantic::Positions).ok_or("no POSITION")?;
+        check_accessor(&pos_acc, &[DataType::F32], Dimensions::Vec3)?;
+        let positions = read_all(reader.read_positions(), &pos_acc)?;
+        if let Some((i, p)) = positions
+            .iter()
+            .enumerate()
+            .find(|(_, p)| !p.iter().all(|c| c.is_finite()))
+        {
+            return Err(format!("POSITION {i} is not finite ({p:?})"));
+        }
+        let count = positions.len();
+        let normals = prim.get(&gltf::Semantic::Normals).map(|acc| {
+            check_accessor(&acc, &[DataType::F32], Dimensions::Vec3)?;
+            check_count(&acc, "NORMAL", count)?;
+            read_all(reader.read_normals(), &acc)
+        });
+        let uvs = prim.get(&gltf::Semantic::TexCoords(0)).map(|acc| {
+            let types = [DataType::F32, DataType::U8, DataType::U16];
+            check_accessor(&acc, &types, Dimensions::Vec2)?;
+            check_count(&acc, "TEXCOORD_0", count)?;
+            read_all(reader.read_tex_coords(0).map(|t| t.into_f32()), &acc)
+        });
+        let (normals, uvs) = (normals.transpose()?, uvs.transpose()?);
+        let normal_matrix = Mat3::from_mat4(*world).inverse().transpose();
+        Ok(Vertices {
+            positions: positions
+                .into_iter()
+                .map(|p| world.transform_point3(p.into()))
+                .collect(),
+            normals: normals.map(|ns| {
+                ns.into_iter()
+                    .map(|n| (normal_matrix * Vec3::from(n)).try_normalize())
+                    .collect()
+            }),
+            uvs: uvs.map(|uvs| uvs.into_iter().map(Vec2::from).collect()),
+        })
+    }
+
+    /// The primitive's index list, or `0..vertex_count` for a non-indexed primitive.
+    fn read_indices(
+        &self,
+        prim: &gltf::Primitive,
+        vertex_count: usize,
+    ) -> Result<Vec<u32>, String> {
+        let Some(acc) = prim.indices() else {
+            return Ok((0..vertex_count as u32).collect());
+        };
+        let types = [DataType::U8, DataType::U16, DataType::U32];
+        check_accessor(&acc, &types, Dimensions::Scalar)?;
+        let reader = prim.reader(|b| self.buffers.get(b.index()).map(|d| &d.0[..]));
+        read_all(reader.read_indices().map(|i| i.into_u32()), &acc)
+    }
+
+    /// Add one triangle (vertex indices `corners`), dropping it if degenerate; `flip` reverses
+    /// the winding (a mirroring transform) so the front face stays counter-clockwise.
+    fn add_triangle(
+        &mut self,
+        v: &Vertices,
+        corners: [u32; 3],
+        flip: bool,
+        material: u32,
+    ) -> Result<(), String> {
+        let [a, b, c] = corners;
+        let corners = if flip { [a, c, b] } else { corners };
+        let Some(p) = gather(&v.positions, corners) else {
+            let bad = corners
+                .into_iter()
+                .find(|&i| i as usize >= v.positions.len());
+            return Err(format!(
+                "vertex index {} is out of range: the primitive has {} vertices",
+                bad.unwrap_or_default(),
+                v.positions.len()
+            ));
+        };
+        let triangle = Triangle { p };
+        if is_degenerate(&triangle) {
+            self.degenerate += 1;
+            return Ok(());
+        }
+        let normals = v.normals.as_ref().and_then(|ns| {
+            let [x, y, z] = gather(ns, corners)?;
+            Some([x?, y?, z?])
+        });
+        self.bad_normals += usize::from(v.normals.is_some() && normals.is_none());
+        let uv = v.uvs.as_ref().and_then(|uvs| gather(uvs, corners));
+        self.triangles.push(triangle);
+        self.attrs.push(TriangleAttrs {
+            normals,
+            uv: uv.unwrap_or([Vec2::ZERO; 3]),
+            material,
+        });
+        Ok(())
+    }
+
+    /// Add a KHR_lights_punctual light at its node (world transform `world`); intensity in
+    /// W/sr is `color x intensity` (no 683 lm/W factor, DESIGN.md).
+    fn add_light(
+        &mut self,
+        light: &gltf::khr_lights_punctual::Light,
+        world: &Mat4,
+    ) -> Result<(), SceneError> {
+        let name = name_or_index(light.name(), "lights", light.index());
+        let spot = match light.kind() {
+            Kind::Directional => {
+                self.notes.push(format!(
+                    "directional light '{name}' skipped: a pulsed directional light has no position for the pulse to leave at t = 0"
+                ));
+                return Ok(());
+            }
+            Kind::Point => None,
+            Kind::Spot {
+                inner_cone_angle,
+                outer_cone_angle,
+            } => {
+                let direction = world.transform_vector3(Vec3::NEG_Z).try_normalize();
+                let direction = direction.ok_or_else(|| {
+                    invalid(
+                        self.file,
+                        format!("spot light '{name}': its node's transform has no -Z direction"),
+                    )
+                })?;
+                Some(Spot {
+                    direction,
+                    inner_cone_rad: inner_cone_angle,
+                    outer_cone_rad: outer_cone_angle,
+                })
+            }
+        };
+        let intensity = light.intensity();
+        self.lights.push(PunctualLight {
+            name,
+            position: world.transform_point3(Vec3::ZERO),
+            intensity_w_per_sr: light.color().map(|c| c * intensity),
+            spot,
+        });
+        Ok(())
+    }
+
+    /// The scene, with a camera and a light added where the file has none, and the counts
+    /// of what was dropped noted.
+    pub(super) fn finish(self) -> Result<Scene, SceneError> {
+        let file = self.file;
+        let found_camera = self.camera.map(|(c, world)| file_camera(&c, &world, file));
+        let mut scene = Scene {
+            name: file.to_string(),
+            triangles: self.triangles,
+            attrs: self.attrs,
+            materials: self.materials,
+            textures: self.textures,
+            lights: self.lights,
+            camera: Camera::look_at(Vec3::Z, Vec3::ZERO, FRAMED_YFOV_RAD),
+            notes: self.notes,
+        };
+        if scene.triangles.is_empty() {
+            scene.notes.push(format!("no triangles in {file}"));
+        }
+        match found_camera {
+            Some(Ok(camera)) => scene.camera = camera,
+            Some(Err(note)) => {
+                scene.notes.push(note);
+                scene.camera = scene.framed_camera(FRAMED_YFOV_RAD);
+            }
+            None => {
+                scene.notes.push(format!(
+                    "no camera in {file}: framed one from the scene bounds"
+                ));
+                scene.camera = scene.framed_camera(FRAMED_YFOV_RAD);
+            }
+        }
+        let emits = scene.attrs.iter().any(|a| {
+            scene
+                .materials
+                .get(a.material as usize)
+                .is_some_and(Material::is_emissive)
+        });
+        if scene.lights.is_empty() && !emits {
+            let light = colocated_light(&scene);
+            scene.notes.push(format!(
+                "no light in {file}: added a point light at the camera ({:.3} W/sr: a white Lambertian at the scene centre has radiance ~1)",
+                light.intensity_w_per_sr[0]
+            ));
+            scene.lights.push(light);
+        }
+        if self.degenerate > 0 {
+            scene.notes.push(format!(
+                "dropped {} degenerate triangles (zero area)",
+                self.degenerate
+            ));
+        }
+        if self.bad_normals > 0 {
+            scene.notes.push(format!(
+                "{} triangles have zero or non-finite vertex normals: shaded with their geometric normal",
+                self.bad_normals
+            ));
+        }
+        scene.validate().map_err(|e| match e {
+            SceneError::Invalid(m) => SceneError::Invalid(format!("{file}: {m}")),
+            e => e,
+        })?;
+        Ok(scene)
+    }
+}
