@@ -28,6 +28,21 @@ impl TprfApp {
                 "{:.1} Mrays/s",
                 s.rays as f64 / s.elapsed_s.max(1e-9) / 1e6
             ));
+            if s.store.dense_bins > 0 {
+                parts.push(format!(
+                    "stored {:.1} % of bins ({} of {} dense)",
+                    100.0 * s.store.stored_bins as f64 / s.store.dense_bins as f64,
+                    human_bytes(s.store.bytes),
+                    human_bytes(s.store.dense_bytes)
+                ));
+            }
+            let skipped = s.left_out.shadow_rays_late + s.left_out.shadow_rays_early;
+            if skipped + s.left_out.paths_past_window > 0 {
+                parts.push(format!(
+                    "left out: {skipped} shadow rays, {} paths past the window",
+                    s.left_out.paths_past_window
+                ));
+            }
         } else if let Source::Cube { dir, meta, .. } = &self.source {
             parts.push(format!(
                 "cube {} · {} · {} spp · rendered in {:.1} s",
@@ -53,5 +68,17 @@ impl TprfApp {
                 ui.label(RichText::new(m).small().color(ui.visuals().error_fg_color));
             }
         });
+    }
+}
+
+/// Bytes as `812 MB` / `1.4 GB` (powers of 1000, as file managers show them).
+fn human_bytes(b: u64) -> String {
+    let b = b as f64;
+    if b >= 1e9 {
+        format!("{:.1} GB", b / 1e9)
+    } else if b >= 1e6 {
+        format!("{:.0} MB", b / 1e6)
+    } else {
+        format!("{:.0} kB", b / 1e3)
     }
 }

@@ -6,7 +6,9 @@
 use super::integrator::{RenderSettings, Renderer};
 use super::progressive::{self, Schedule};
 use super::window::{WindowError, WindowRequest, auto_window};
-use crate::film::{FilmError, FilmLayout, FilmSnapshot, TimeAxis, TprfFilm};
+use crate::film::{
+    FilmError, FilmLayout, FilmSnapshot, LeftOutCounts, StoreStats, TimeAxis, TprfFilm,
+};
 use crate::scene::{self, Scene, SceneError};
 use std::ops::ControlFlow;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -83,6 +85,10 @@ pub struct WorkerStatus {
     pub axis: Option<TimeAxis>,
     pub triangles: usize,
     pub notes: Vec<String>,
+    /// Bins and bytes the film stores, against a dense cube.
+    pub store: StoreStats,
+    /// Work left out so far: light that could not arrive inside the window.
+    pub left_out: LeftOutCounts,
 }
 
 struct Shared {
@@ -120,6 +126,8 @@ impl RenderWorker {
                 axis: None,
                 triangles: 0,
                 notes: Vec::new(),
+                store: StoreStats::default(),
+                left_out: LeftOutCounts::default(),
             }),
             paused: AtomicBool::new(false),
             stop: AtomicBool::new(false),
@@ -252,6 +260,8 @@ fn run(job: &RenderJob, shared: &Shared, on_update: &(dyn Fn() + Sync)) -> Resul
                     s.elapsed_s = secs;
                     s.passes_per_s = film.passes() as f64 / secs.max(1e-9);
                     s.rays = report.rays;
+                    s.store = film.store_stats();
+                    s.left_out = report.left_out;
                     if let Some(e) = error {
                         s.error_history.push((secs, e));
                     }
