@@ -130,6 +130,7 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
             t0_s,
             dt_s,
             bins: a.bins,
+            aspect: a.width as f64 / a.height.max(1) as f64,
         },
     )
     .map_err(|e| match e {

@@ -144,6 +144,7 @@ impl ViewerSettings {
                 t0_s,
                 dt_s,
                 bins: self.bins,
+                aspect: self.width as f64 / self.height.max(1) as f64,
             },
             bounces_separate: 3,
             settings: RenderSettings {

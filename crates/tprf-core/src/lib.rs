@@ -29,7 +29,8 @@
 //! let scene = tprf_core::scene::load("builtin:cornell")?;
 //! let renderer = Renderer::new(Arc::new(scene), RenderSettings::default());
 //! // A window from the first light to where 99.9 % of it has arrived, 64 bins.
-//! let axis = auto_window(&renderer, WindowRequest { t0_s: None, dt_s: None, bins: 64 })?;
+//! let request = WindowRequest { bins: 64, ..WindowRequest::default() };
+//! let axis = auto_window(&renderer, request)?;
 //! let layout = FilmLayout { width: 8, height: 8, axis, bounces_separate: 2 };
 //! let mut film = TprfFilm::new(layout)?;
 //! progressive::render(&renderer, &mut film, &Schedule::spp(4), |_, _| ControlFlow::Continue(()));

@@ -13,6 +13,9 @@ pub struct WindowRequest {
     pub t0_s: Option<f64>,
     pub dt_s: Option<f64>,
     pub bins: usize,
+    /// The film's width over its height: the pilot render samples the same field of
+    /// view (0, or anything not positive and finite, is taken as square).
+    pub aspect: f64,
 }
 
 /// Why no time axis could be chosen.
@@ -30,8 +33,8 @@ pub enum WindowError {
     Axis(#[from] FilmError),
 }
 
-/// Pilot resolution (pixels per side) and samples per pixel.
-const PILOT_SIDE: usize = 48;
+/// Pilot pixels (about; 48 x 48 for a square film) and samples per pixel.
+const PILOT_PIXELS: f64 = 48.0 * 48.0;
 const PILOT_SPP: u32 = 4;
 /// Fraction of the pilot's energy the automatic window holds.
 const ENERGY_HELD: f64 = 0.995;
@@ -64,7 +67,8 @@ fn nice_ceil(x: f64) -> f64 {
 }
 
 /// Resolve the time axis. Given both `t0_s` and `dt_s`, no pilot is needed. Otherwise a
-/// pilot render (48 x 48 pixels, 4 spp, window 1000 scene diagonals long) records every
+/// pilot render (about 2300 pixels in the film's aspect, 4 spp, window 1000 scene
+/// diagonals long) records every
 /// arrival; the window runs from just before the first arrival to the time that holds
 /// 99.5 % of the pilot's energy, with a 2 % margin each side, and the bin width is
 /// rounded up to 1, 2, 2.5 or 5 x 10^k seconds.
@@ -83,7 +87,14 @@ pub fn auto_window(renderer: &Renderer, req: WindowRequest) -> Result<TimeAxis, 
     let cam_m = renderer.scene().camera.position().length() as f64;
     let horizon_s = 1000.0 * (diag_m + cam_m).max(1e-9) / C_M_PER_S;
     let seed = renderer.settings().seed ^ 0x5049_4c4f_5400_0000;
-    let mut arrivals: Vec<(f64, f64)> = (0..PILOT_SIDE * PILOT_SIDE)
+    let aspect = if req.aspect.is_finite() && req.aspect > 0.0 {
+        req.aspect.clamp(1e-3, 1e3)
+    } else {
+        1.0
+    };
+    let pilot_w = (PILOT_PIXELS * aspect).sqrt().round().max(1.0) as usize;
+    let pilot_h = (PILOT_PIXELS / pilot_w as f64).round().max(1.0) as usize;
+    let mut arrivals: Vec<(f64, f64)> = (0..pilot_w * pilot_h)
         .into_par_iter()
         .map(|p| {
             let mut sink = PilotSink {
@@ -93,10 +104,10 @@ pub fn auto_window(renderer: &Renderer, req: WindowRequest) -> Result<TimeAxis, 
             let mut rng = Sampler::new(seed, 0, p as u64);
             for _ in 0..PILOT_SPP {
                 renderer.trace_sample(
-                    p % PILOT_SIDE,
-                    p / PILOT_SIDE,
-                    PILOT_SIDE,
-                    PILOT_SIDE,
+                    p % pilot_w,
+                    p / pilot_w,
+                    pilot_w,
+                    pilot_h,
                     &mut rng,
                     &mut sink,
                 );
