@@ -54,8 +54,7 @@ pub fn write_snapshot_zarr(path: &Path, snap: &FilmSnapshot, meta: &CubeMetadata
     );
     builder
         .bytes_to_bytes_codecs(vec![Arc::new(zarrs::array::codec::ZstdCodec::new(
-            3.into(),
-            false,
+            3, false,
         ))])
         .dimension_names(Some(["y", "x", "t"]))
         .attributes(attributes);
