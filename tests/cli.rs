@@ -272,6 +272,22 @@ fn a_zarr_cube_holds_what_the_npy_cube_holds_and_reads_back() {
         snap.stored_bins(),
         dense.iter().filter(|v| **v != 0.0).count() as u64
     );
+    // `tprf sensor` measures the Zarr cube as it measures the npy one.
+    for d in [&zdir, &ndir] {
+        let o = tprf(&[
+            "sensor",
+            d.to_str().unwrap(),
+            "--preset",
+            "builtin:lidar",
+            "--out",
+            d.join("s").to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    assert_eq!(
+        std::fs::read(zdir.join("s/sensor.npy")).unwrap(),
+        std::fs::read(ndir.join("s/sensor.npy")).unwrap()
+    );
     // Rendering the npy form over it removes the stale Zarr array.
     let o = tprf(&[
         "render",

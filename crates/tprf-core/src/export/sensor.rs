@@ -88,6 +88,10 @@ pub fn read_any_cube(dir: &Path) -> Result<(Vec<f32>, usize, usize, TimeAxis)> {
         }
     })?;
     let npy_path = dir.join("tprf.npy");
+    let zarr_path = dir.join(super::zarr::ZARR_NAME);
+    if !npy_path.exists() && zarr_path.is_dir() {
+        return read_zarr_dense(&zarr_path, axis);
+    }
     let (shape, cube) = read_npy_f32(&npy_path)?;
     let (h, w, t) = match shape[..] {
         [h, w, t] => (h as usize, w as usize, t as usize),
@@ -108,6 +112,43 @@ pub fn read_any_cube(dir: &Path) -> Result<(Vec<f32>, usize, usize, TimeAxis)> {
             meta.width.map_or("?".into(), |v| v.to_string()),
             axis.bins
         );
+    }
+    Ok((cube, w, h, axis))
+}
+
+/// A `tprf.zarr` cube read whole into a dense `[H, W, T]` array, tile by tile, when
+/// that array fits in the memory free (with room to spare). Measuring a larger one
+/// chunk by chunk is not done yet: the error says so.
+fn read_zarr_dense(path: &Path, axis: TimeAxis) -> Result<(Vec<f32>, usize, usize, TimeAxis)> {
+    let z = super::zarr::ZarrCube::open(path)?;
+    let (w, h, t) = (z.width, z.height, z.bins);
+    if t != axis.bins {
+        bail!(
+            "{} has {t} bins but tprf.json says {}",
+            path.display(),
+            axis.bins
+        );
+    }
+    let bytes = super::npy_f32_bytes(&[h as u64, w as u64, t as u64]);
+    if let Some(free) = crate::film::available_memory_bytes()
+        && bytes > free / 3
+    {
+        bail!(
+            "{} is {:.1} GiB dense and {:.1} GiB of memory is free: measuring a Zarr cube \
+             larger than memory chunk by chunk is not supported yet",
+            path.display(),
+            bytes as f64 / (1u64 << 30) as f64,
+            free as f64 / (1u64 << 30) as f64
+        );
+    }
+    let mut cube = vec![0f32; w * h * t];
+    for (y0, x0, rows, cols) in z.tiles() {
+        let tile = z.read_tile(y0, x0, rows, cols)?;
+        for dy in 0..rows {
+            let src = &tile[dy * cols * t..(dy + 1) * cols * t];
+            let at = ((y0 + dy) * w + x0) * t;
+            cube[at..at + cols * t].copy_from_slice(src);
+        }
     }
     Ok((cube, w, h, axis))
 }
