@@ -315,3 +315,41 @@ fn a_zarr_cube_holds_what_the_npy_cube_holds_and_reads_back() {
     ]);
     assert!(!o.status.success() && stderr(&o).contains("auto, npy or zarr"));
 }
+
+#[test]
+fn a_cube_with_a_nan_bin_is_refused_by_the_sensor_naming_the_bin() {
+    let dir = tempdir("nan");
+    let o = tprf(&[
+        "render",
+        "builtin:cornell",
+        "--out",
+        dir.to_str().unwrap(),
+        "--width",
+        "6",
+        "--height",
+        "4",
+        "--bins",
+        "16",
+        "--spp",
+        "1",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let npy = dir.join("tprf.npy");
+    let (_, mut cube) = tprf_core::export::read_cube(&npy).unwrap();
+    // Row 2, column 3, bin 5.
+    cube[(2 * 6 + 3) * 16 + 5] = f32::NAN;
+    tprf_core::export::write_npy_f32(&npy, &[4, 6, 16], &cube).unwrap();
+    let out = dir.join("s");
+    let o = tprf(&[
+        "sensor",
+        dir.to_str().unwrap(),
+        "--preset",
+        "builtin:lidar",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let e = stderr(&o);
+    assert!(!o.status.success(), "a NaN cube was measured");
+    assert!(e.contains("row 2, column 3") && e.contains("bin 5"), "{e}");
+    assert!(!out.join("sensor.npy").exists());
+}

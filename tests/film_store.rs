@@ -196,3 +196,27 @@ fn a_pass_after_a_snapshot_leaves_the_snapshot_as_it_was() {
     assert_eq!(film.snapshot().pixel(1, 0), vec![0.0, 0.5, 0.0, 2.0]);
     assert_ne!(before.generation(), film.snapshot().generation());
 }
+
+#[test]
+fn non_finite_contributions_are_counted_and_kept_out() {
+    let axis = TimeAxis::new(0.0, 1.0, 4).unwrap();
+    let layout = FilmLayout {
+        width: 2,
+        height: 1,
+        axis,
+        bounces_separate: 1,
+    };
+    let mut film = TprfFilm::new(layout).unwrap();
+    let tally = film.run_pass(1, |x, _, sink| {
+        sink.add(0.5, 1.0, 0);
+        if x == 1 {
+            sink.add(1.5, f64::INFINITY, 1);
+            sink.add(2.5, f64::NAN, 1);
+            sink.add(f64::NAN, 1.0, 1);
+        }
+    });
+    assert_eq!(tally.left_out.non_finite, 3);
+    assert_eq!(film.pixel_tprf(1, 0), vec![1.0, 0.0, 0.0, 0.0]);
+    assert!(film.half_error_estimate().is_none());
+    assert!(film.steady().iter().all(|v| v.is_finite()));
+}

@@ -109,3 +109,15 @@ fn a_window_holding_the_light_traces_every_shadow_ray() {
     assert_eq!(rays, 3 * PATHS);
     assert!(film.steady().iter().all(|v| *v > 0.0));
 }
+
+#[test]
+fn an_overflowing_emitter_is_refused_with_its_material() {
+    let mut scene = furnace(R_M as f32, 0.5, 1.0);
+    // emissiveFactor x emissive_strength past f32::MAX.
+    scene.materials[0].emissive = [1e30f32 * 1e10; 3];
+    let err = scene.validate().unwrap_err().to_string();
+    assert!(
+        err.contains(&scene.materials[0].name) && err.contains("overflows"),
+        "{err}"
+    );
+}

@@ -192,6 +192,17 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
     };
     let reports = render_with_progress(&renderer, &mut film, &schedule);
     let last = reports.last().copied();
+    if let Some(r) = last
+        && r.left_out.non_finite > 0
+    {
+        bail!(
+            "{} sample contributions were NaN or infinite (of {} paths): an emitter or a light \
+             of {} overflows, or a material is broken; the cube was not written",
+            r.left_out.non_finite,
+            r.paths,
+            a.scene
+        );
+    }
 
     let snap = film.snapshot();
     let steady = film.steady();

@@ -113,7 +113,26 @@ pub fn read_any_cube(dir: &Path) -> Result<(Vec<f32>, usize, usize, TimeAxis)> {
             axis.bins
         );
     }
+    check_finite(&cube, w, axis.bins, &npy_path)?;
     Ok((cube, w, h, axis))
+}
+
+/// Refuse a cube with a NaN or infinite bin, naming the first: the measurement would
+/// carry it into every gate that reads the bin (and `max(0, NaN)` hides it).
+fn check_finite(cube: &[f32], w: usize, bins: usize, path: &Path) -> Result<()> {
+    if let Some(i) = cube.iter().position(|v| !v.is_finite()) {
+        let bad = cube.iter().filter(|v| !v.is_finite()).count();
+        let (p, b) = (i / bins.max(1), i % bins.max(1));
+        bail!(
+            "{}: {bad} bins are NaN or infinite, the first at pixel (row {}, column {}), bin {b} \
+             ({}); measure a cube without them",
+            path.display(),
+            p / w.max(1),
+            p % w.max(1),
+            cube[i]
+        );
+    }
+    Ok(())
 }
 
 /// A `tprf.zarr` cube read whole into a dense `[H, W, T]` array, tile by tile, when
@@ -150,6 +169,7 @@ fn read_zarr_dense(path: &Path, axis: TimeAxis) -> Result<(Vec<f32>, usize, usiz
             cube[at..at + cols * t].copy_from_slice(src);
         }
     }
+    check_finite(&cube, w, t, path)?;
     Ok((cube, w, h, axis))
 }
 

@@ -24,6 +24,10 @@ pub struct LeftOutCounts {
     pub shadow_rays_early: u64,
     /// Paths ended because their optical length already reached past the window.
     pub paths_past_window: u64,
+    /// Contributions that were NaN or infinite, left out of the film: a render with any
+    /// is an error (an emitter or a light overflows, or a material is broken).
+    #[serde(default)]
+    pub non_finite: u64,
 }
 
 impl std::ops::AddAssign for LeftOutCounts {
@@ -31,6 +35,7 @@ impl std::ops::AddAssign for LeftOutCounts {
         self.shadow_rays_late += o.shadow_rays_late;
         self.shadow_rays_early += o.shadow_rays_early;
         self.paths_past_window += o.paths_past_window;
+        self.non_finite += o.non_finite;
     }
 }
 
@@ -91,6 +96,10 @@ impl<'a> PixelSink<'a> {
     /// the film's [`TimeFilter`] (box: the whole value in the bin holding `arrival_s`).
     #[inline]
     pub fn add(&mut self, arrival_s: f64, value: f64, scatterings: u32) {
+        if !(value.is_finite() && arrival_s.is_finite()) {
+            self.left_out.non_finite += 1;
+            return;
+        }
         if self.filter == TimeFilter::Tent {
             match self.axis.tent_split(arrival_s) {
                 Some(split) => {

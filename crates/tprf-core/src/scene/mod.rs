@@ -323,6 +323,22 @@ impl Scene {
                 )));
             }
         }
+        for m in &self.materials {
+            let bad = |v: &[f32]| v.iter().any(|x| !x.is_finite() || *x < 0.0);
+            if bad(&m.emissive) {
+                return Err(SceneError::Invalid(format!(
+                    "material '{}': emitted radiance {:?} (emissiveFactor x emissive_strength) \
+                     is negative or overflows 32-bit floats",
+                    m.name, m.emissive
+                )));
+            }
+            if bad(&m.base_color) {
+                return Err(SceneError::Invalid(format!(
+                    "material '{}': base colour {:?} is negative or not finite",
+                    m.name, m.base_color
+                )));
+            }
+        }
         for l in &self.lights {
             if !l.position.is_finite()
                 || l.intensity_w_per_sr
