@@ -194,6 +194,40 @@ fn bad_input_gives_clear_errors() {
             "bins",
         ),
         (&["oned", "/no/such/world.json"], "world.json"),
+        (
+            &["render", "builtin:cornell", "--out", out, "--t0", "100ns"],
+            "no light arrives after the window start",
+        ),
+        (
+            &["render", "builtin:cornell", "--out", out, "--dt", "0ns"],
+            "bin width 0 s",
+        ),
+        (
+            &[
+                "oned",
+                "assets/oned/figure4.json",
+                "--t0",
+                "0ns",
+                "--dt",
+                "1ns",
+                "--bins",
+                "0",
+            ],
+            "--bins 0",
+        ),
+        (
+            &[
+                "oned",
+                "assets/oned/figure4.json",
+                "--t0",
+                "0ns",
+                "--dt",
+                "1ns",
+                "--bins",
+                "100000000000",
+            ],
+            "--bins 100000000000",
+        ),
     ];
     for (args, needle) in cases {
         let o = tprf(args);

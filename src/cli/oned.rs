@@ -42,7 +42,12 @@ pub fn print_oned(
     bins: Option<(f64, f64, usize)>,
     out: &mut impl Write,
 ) -> Result<()> {
-    if let Some((t0_s, dt_s, _)) = bins {
+    if let Some((t0_s, dt_s, count)) = bins {
+        anyhow::ensure!(
+            (1..=tprf_core::film::MAX_BINS).contains(&count),
+            "--bins {count} must be in 1..={}",
+            tprf_core::film::MAX_BINS
+        );
         anyhow::ensure!(t0_s.is_finite(), "bin start t0 = {t0_s} s is not finite");
         anyhow::ensure!(
             dt_s > 0.0 && dt_s.is_finite(),

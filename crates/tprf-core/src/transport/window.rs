@@ -28,6 +28,14 @@ pub enum WindowError {
          or fix the window's start and bin width)"
     )]
     NoLight,
+    /// The window's start was given, and the pilot saw no light arrive after it.
+    #[error(
+        "no light arrives after the window start {}: the pilot render saw the last at {}; \
+         start the window earlier",
+        crate::units::format_time(*t0_s),
+        crate::units::format_time(*last_s)
+    )]
+    NoLightAfterStart { t0_s: f64, last_s: f64 },
     /// The axis asked for (or the one chosen) is not a valid [`TimeAxis`].
     #[error(transparent)]
     Axis(#[from] FilmError),
@@ -80,6 +88,16 @@ pub fn auto_window(renderer: &Renderer, req: WindowRequest) -> Result<TimeAxis, 
     if req.bins > MAX_BINS {
         return Err(FilmError::BinCount { bins: req.bins }.into());
     }
+    if let Some(dt_s) = req.dt_s
+        && !(dt_s > 0.0 && dt_s.is_finite())
+    {
+        return Err(FilmError::BinWidth { dt_s }.into());
+    }
+    if let Some(t0_s) = req.t0_s
+        && !t0_s.is_finite()
+    {
+        return Err(FilmError::StartNotFinite { t0_s }.into());
+    }
     if let (Some(t0), Some(dt)) = (req.t0_s, req.dt_s) {
         return Ok(TimeAxis::new(t0, dt, req.bins)?);
     }
@@ -120,6 +138,13 @@ pub fn auto_window(renderer: &Renderer, req: WindowRequest) -> Result<TimeAxis, 
         return Err(WindowError::NoLight);
     }
     arrivals.sort_by(|a, b| a.0.total_cmp(&b.0));
+    if let Some(t0_s) = req.t0_s {
+        let last_s = arrivals[arrivals.len() - 1].0;
+        arrivals.retain(|a| a.0 >= t0_s);
+        if arrivals.is_empty() {
+            return Err(WindowError::NoLightAfterStart { t0_s, last_s });
+        }
+    }
     let total: f64 = arrivals.iter().map(|a| a.1).sum();
     let first_s = arrivals[0].0;
     let mut acc = 0.0;
