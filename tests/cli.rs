@@ -387,3 +387,39 @@ fn a_cube_with_a_nan_bin_is_refused_by_the_sensor_naming_the_bin() {
     assert!(e.contains("row 2, column 3") && e.contains("bin 5"), "{e}");
     assert!(!out.join("sensor.npy").exists());
 }
+
+#[test]
+fn a_render_replaces_the_whole_folder_and_leaves_nothing_beside_it() {
+    let dir = tempdir("swap");
+    let out = dir.join("cube");
+    let o_str = out.to_str().unwrap();
+    let small = ["--width", "6", "--height", "4", "--bins", "8", "--spp", "1"];
+    let run = |extra: &[&str]| {
+        let mut args = vec!["render", "builtin:cornell", "--out", o_str];
+        args.extend_from_slice(&small);
+        args.extend_from_slice(extra);
+        tprf(&args)
+    };
+    let o = run(&["--frames", "--bounces-separate", "1"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(out.join("frames/0000.png").exists() && out.join("tprf_bounces.npy").exists());
+    std::fs::write(out.join("mine.txt"), "a file of the user's").unwrap();
+    // A render that fails leaves the folder as it was.
+    let o = run(&["--format", "zarr", "--bounces-separate", "1"]);
+    assert!(!o.status.success());
+    assert!(out.join("tprf_bounces.npy").exists() && out.join("mine.txt").exists());
+    // A new render replaces the folder: nothing of the earlier render is left to be read.
+    let o = run(&[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(out.join("tprf.npy").exists() && out.join("tprf.json").exists());
+    assert!(!out.join("frames").exists() && !out.join("tprf_bounces.npy").exists());
+    let beside: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(
+        beside,
+        vec!["cube".to_string()],
+        "left beside the folder: {beside:?}"
+    );
+}

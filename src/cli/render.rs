@@ -22,7 +22,9 @@ use super::args::{thread_pool, time_s};
 pub struct RenderArgs {
     /// A .gltf/.glb path or builtin:NAME (builtin:cornell, builtin:canopy).
     pub scene: String,
-    /// Output folder (created if missing; files in it are replaced).
+    /// Output folder, replaced whole when the render is written: the files are written
+    /// into a new folder beside it and swapped in, so a reader never sees half of a
+    /// render, and nothing of an earlier render (or anything else in it) is kept.
     #[arg(long)]
     pub out: PathBuf,
     #[arg(long, default_value_t = 256)]
@@ -152,8 +154,14 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
         bounces_separate: a.bounces_separate,
     };
     let mut film = TprfFilm::new(layout).map_err(anyhow::Error::msg)?;
-    std::fs::create_dir_all(&a.out)
-        .with_context(|| format!("cannot create {}", a.out.display()))?;
+    // The folder is written beside its place and swapped in at the end (export::staging):
+    // its parent must exist to hold both.
+    let parent = match a.out.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    std::fs::create_dir_all(&parent)
+        .with_context(|| format!("cannot create {}", parent.display()))?;
     let (w, h, t) = (a.width as u64, a.height as u64, axis.bins as u64);
     let format = a.format.resolve(&[h, w, t]);
     if format == CubeFormat::Zarr && layout.bounce_layers() > 0 {
@@ -171,7 +179,7 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
         t,
     ]));
     if format == CubeFormat::Npy
-        && let Some(free) = export::disk_free_bytes(&a.out)
+        && let Some(free) = export::disk_free_bytes(&parent)
         && file_bytes > free
     {
         bail!(
@@ -204,18 +212,20 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
         );
     }
 
+    let staging = export::staging::Staging::new(&a.out)?;
+    let dir = staging.path();
     let snap = film.snapshot();
     let steady = film.steady();
     let exposure = 0.8 * export::exposure_for(steady.iter().copied(), 0.99);
     export::write_png_gray(
-        &a.out.join("steady.png"),
+        &dir.join("steady.png"),
         a.width,
         a.height,
         &steady,
         exposure,
     )?;
     if a.frames {
-        export::write_frames(&a.out, &snap)?;
+        export::write_frames(dir, &snap)?;
     }
     let cam = &scene.camera;
     let meta = CubeMetadata {
@@ -253,25 +263,16 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
         render_seconds: last.map_or(0.0, |r| r.render_s),
         notes: scene.notes.clone(),
     };
-    // The other format's cube, left by an earlier render, would be read instead.
-    let (npy, zarr) = (a.out.join("tprf.npy"), a.out.join(export::zarr::ZARR_NAME));
     if format == CubeFormat::Zarr {
-        export::zarr::write_snapshot_zarr(&zarr, &snap, &meta)?;
-        remove_stale(&npy)?;
-        remove_stale(&a.out.join("tprf_bounces.npy"))?;
+        export::zarr::write_snapshot_zarr(&dir.join(export::zarr::ZARR_NAME), &snap, &meta)?;
     } else {
-        export::write_snapshot_npy(&npy, &snap, false)?;
+        export::write_snapshot_npy(&dir.join("tprf.npy"), &snap, false)?;
         if layout.bounce_layers() > 0 {
-            export::write_snapshot_npy(&a.out.join("tprf_bounces.npy"), &snap, true)?;
-        } else {
-            remove_stale(&a.out.join("tprf_bounces.npy"))?;
-        }
-        if zarr.is_dir() {
-            std::fs::remove_dir_all(&zarr)
-                .with_context(|| format!("cannot remove the stale {}", zarr.display()))?;
+            export::write_snapshot_npy(&dir.join("tprf_bounces.npy"), &snap, true)?;
         }
     }
-    export::write_json(&a.out.join("tprf.json"), &meta)?;
+    export::write_json(&dir.join("tprf.json"), &meta)?;
+    staging.commit()?;
     eprintln!(
         "wrote {} ({} spp, {:.1} s, {:.2} Mrays/s{})",
         a.out.display(),
@@ -288,16 +289,6 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
 
 fn parse_format(s: &str) -> Result<CubeFormat, String> {
     s.parse()
-}
-
-/// Remove `path` if it is there.
-fn remove_stale(path: &std::path::Path) -> Result<()> {
-    match std::fs::remove_file(path) {
-        Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
-            Err(e).with_context(|| format!("cannot remove the stale {}", path.display()))
-        }
-        _ => Ok(()),
-    }
 }
 
 /// The progressive passes of `schedule` into `film`, with a progress bar on stderr (in

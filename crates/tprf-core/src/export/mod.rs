@@ -10,6 +10,7 @@ use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 pub mod sensor;
+pub mod staging;
 pub mod zarr;
 
 /// Why a file could not be written or read. Messages name the file; the cause (an I/O,
