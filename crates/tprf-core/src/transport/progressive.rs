@@ -21,7 +21,8 @@ pub enum PassSize {
     Doubling { cap: u32 },
     /// Passes of about `seconds` each, sized from the rate the last pass measured
     /// (1 to 256 samples per pixel): a fresh preview at a steady pace. Pass sizes then
-    /// depend on the machine's speed, and so do the film's random streams.
+    /// depend on the machine's speed, and so does which half of the film (even or odd
+    /// passes) each sample lands in.
     Paced { seconds: f64 },
 }
 
