@@ -16,6 +16,12 @@
 //! and independent streams (the film's two halves) give independent estimates. Slots
 //! past [`SOBOL_SLOTS`] (deep vertices, where stratification buys little) are hashed
 //! uniform numbers, also keyed by (seed, stream, pixel, index, slot).
+//!
+//! Where it pays: the pixel jitter decides in which bin a footprint's direct light lands,
+//! and stratified, that noise falls like spp^-3/4 instead of spp^-1/2. Light arriving
+//! after more bounces spreads over many bins, each reached by few samples, and gains
+//! little (pairing the jitter with the first bounce direction in a 4-D Sobol point
+//! measured no better than independent pairs).
 
 /// Slots of a sample. Slot numbers are fixed per use, so a draw that one sample skips
 /// (no emitter, an opaque surface) never shifts the others.
@@ -45,9 +51,10 @@ pub mod dim {
     }
 }
 
-/// Slots drawn from scrambled Sobol points: the camera and the first 4 vertices. Deeper
-/// slots are hashed uniform numbers.
-pub const SOBOL_SLOTS: u32 = 1 + 4 * dim::PER_VERTEX;
+/// Slots drawn from scrambled Sobol points: the camera and the first 2 vertices. Deeper
+/// slots are hashed uniform numbers (measured on the race's scenes: Sobol points at the
+/// first vertex cut the cube's variance by 12 %, at the next ones by nothing visible).
+pub const SOBOL_SLOTS: u32 = 1 + 2 * dim::PER_VERTEX;
 
 /// The sample stream of one pixel.
 #[derive(Clone, Debug)]
@@ -258,7 +265,7 @@ mod tests {
         for (pixel, slot) in [
             (0u64, 0u32),
             (7, 3),
-            (1000, dim::vertex(2, dim::BSDF_DIRECTION)),
+            (1000, dim::vertex(1, dim::BSDF_DIRECTION)),
         ] {
             let mut s = Sampler::new(42, 1, pixel);
             let points: Vec<(f32, f32)> = (0..256)
