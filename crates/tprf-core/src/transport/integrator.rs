@@ -322,12 +322,7 @@ impl Renderer {
                 break;
             }
             let entering = sp.front;
-            let eta = if entering {
-                1.0 / sp.bsdf.ior
-            } else {
-                sp.bsdf.ior
-            };
-            let bsdf = Bsdf::new(&sp.bsdf, eta);
+            let bsdf = sp.bsdf;
             let frame = Frame::new(sp.n_shading);
             let wo_world = -dir;
             let wo = frame.to_local(wo_world);
@@ -366,7 +361,7 @@ impl Renderer {
             let u_roulette = slot(dim::ROULETTE);
             scatterings += 1;
             if refracted {
-                ior_here = if entering { sp.bsdf.ior } else { 1.0 };
+                ior_here = if entering { sp.ior } else { 1.0 };
             }
             last_pdf = (!bs.is_delta()).then_some(bs.pdf);
             last_position = sp.position;
@@ -498,11 +493,9 @@ impl Renderer {
         }
         let mut tr = 1.0f32;
         let blocked = self.accel.any_hit(p, dir, dist_m, |hit| {
-            if self.surfaces.blocks_shadow_rays(hit.triangle) {
-                return true;
-            }
-            let c = self.surfaces.coverage(hit.triangle, hit.u, hit.v);
-            tr *= 1.0 - c;
+            tr *= self
+                .surfaces
+                .shadow_transmission(hit.triangle, hit.u, hit.v);
             tr <= 0.0
         });
         if blocked { 0.0 } else { tr }
