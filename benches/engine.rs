@@ -236,7 +236,8 @@ impl Sink for RecordSink {
 }
 
 /// Trace the samples of `passes` (pass index, spp) of a `w x h` image into one sink per
-/// row, rows in parallel, with exactly the random streams `Renderer::render_pass` uses.
+/// row, rows in parallel, with exactly the sample streams `Renderer::render_pass` uses
+/// (one per film half, even and odd passes, continued from pass to pass).
 /// Returns the sinks (in row order) and the rays traced.
 fn replay<S: Sink + Send>(
     renderer: &Renderer,
@@ -249,9 +250,14 @@ fn replay<S: Sink + Send>(
         .map(|y| {
             let mut sink = new_sink();
             let mut rays = 0;
+            let mut half_spp = [0u64; 2];
             for &(pass, spp) in passes {
+                let half = pass % 2;
+                let first = half_spp[half as usize];
+                half_spp[half as usize] += spp as u64;
                 for x in 0..w {
-                    let mut rng = Sampler::new(renderer.settings().seed, pass, (y * w + x) as u64);
+                    let mut rng = Sampler::new(renderer.settings().seed, half, (y * w + x) as u64)
+                        .starting_at(first);
                     for _ in 0..spp {
                         rays += renderer.trace_sample(x, y, w, h, &mut rng, &mut sink);
                     }

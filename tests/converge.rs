@@ -1,5 +1,5 @@
-//! Error against samples: the renderer against the exact references converges like
-//! `spp^-1/2` (fitted on spp, never on time: no timed assertions), the film's two-half
+//! Error against samples: the renderer against the exact references converges at least
+//! like `spp^-1/2` (fitted on spp, never on time: no timed assertions), the film's two-half
 //! estimate tracks the true error, and `tprf converge` writes its files and refuses
 //! bad input with a clear error.
 
@@ -50,8 +50,11 @@ fn check_rate(spec: &str, w: usize, h: usize, bins: usize, max_spp: u64, band: f
     let c = errors_by_spp(spec, w, h, bins, max_spp);
     assert!(c.iter().all(|c| c.non_finite == 0));
     let fit = fit_loglog(c.iter().map(|c| (c.spp as f64, c.rel_l2_cube))).unwrap();
+    // At least spp^-1/2: an unbiased estimator of finite variance falls like spp^-1/2,
+    // and faster where the stratified samples help (the plane's footprint jitter falls
+    // like spp^-3/4); a bias would flatten the slope.
     assert!(
-        (fit.slope + 0.5).abs() < 0.08,
+        fit.slope < -0.42 && fit.slope > -1.0,
         "{spec}: slope {} on spp ({:?})",
         fit.slope,
         c.iter().map(|c| (c.spp, c.rel_l2_cube)).collect::<Vec<_>>()

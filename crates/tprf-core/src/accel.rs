@@ -1,11 +1,13 @@
-//! Acceleration: an obvhs compressed-wide BVH (CWBVH) over the scene's triangles.
+//! Acceleration: an obvhs compressed-wide BVH (CWBVH) over the scene's triangles, or, for
+//! scenes of at most [`SMALL_SCENE_TRIANGLES`] triangles, every triangle tested on every
+//! ray, four at a time (a BVH's node tests cost more than they save there).
 //!
 //! The BVH knows nothing of materials: closest-hit returns the triangle and its
 //! barycentrics; the any-hit query hands every hit to a closure that decides whether it
 //! blocks (used by shadow rays through partly covered surfaces).
 
 use crate::scene::Scene;
-use glam::{Vec3, Vec3A};
+use glam::{Vec3, Vec3A, Vec4};
 use obvhs::{BvhBuildParams, cwbvh::CwBvh, cwbvh::builder::build_cwbvh_from_tris, ray::Ray};
 use std::time::Duration;
 
@@ -15,6 +17,81 @@ struct PreparedTri {
     v0: Vec3A,
     e1: Vec3A,
     e2: Vec3A,
+}
+
+/// Scenes with at most this many (non-degenerate) triangles skip the BVH. Measured (1
+/// thread, 64 x 48, 512 spp): testing every triangle, four at a time, renders the race's
+/// 12-triangle room 12 % faster and its 6-triangle corner 17 % faster than the CWBVH, and
+/// the 30-triangle Cornell box equally fast.
+pub const SMALL_SCENE_TRIANGLES: usize = 16;
+
+/// Triangles per block of the small-scene path (one SSE register per coordinate).
+const LANES: usize = 4;
+
+/// Four prepared triangles, one coordinate per vector (lanes past the scene's triangles
+/// are zero: a zero determinant, never hit).
+#[derive(Clone, Copy, Debug)]
+struct TriBlock {
+    v0: [Vec4; 3],
+    e1: [Vec4; 3],
+    e2: [Vec4; 3],
+}
+
+impl Default for TriBlock {
+    fn default() -> Self {
+        TriBlock {
+            v0: [Vec4::ZERO; 3],
+            e1: [Vec4::ZERO; 3],
+            e2: [Vec4::ZERO; 3],
+        }
+    }
+}
+
+/// A ray splatted over the lanes of a block.
+struct RayLanes {
+    o: [Vec4; 3],
+    d: [Vec4; 3],
+}
+
+impl RayLanes {
+    fn new(o: Vec3A, d: Vec3A) -> RayLanes {
+        RayLanes {
+            o: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
+            d: [Vec4::splat(d.x), Vec4::splat(d.y), Vec4::splat(d.z)],
+        }
+    }
+}
+
+/// Möller-Trumbore on the four triangles of a block: a bit mask of the lanes the ray
+/// hits within (0, tmax), and per lane the distance and barycentrics. The arithmetic of
+/// [`PreparedTri::intersect`], four lanes at once and without branches.
+#[inline(always)]
+fn intersect_block(b: &TriBlock, r: &RayLanes, tmax: f32) -> (u32, Vec4, Vec4, Vec4) {
+    let ([dx, dy, dz], [e1x, e1y, e1z], [e2x, e2y, e2z]) = (r.d, b.e1, b.e2);
+    let px = dy * e2z - dz * e2y;
+    let py = dz * e2x - dx * e2z;
+    let pz = dx * e2y - dy * e2x;
+    let det = e1x * px + e1y * py + e1z * pz;
+    let inv_det = Vec4::ONE / det;
+    let tx = r.o[0] - b.v0[0];
+    let ty = r.o[1] - b.v0[1];
+    let tz = r.o[2] - b.v0[2];
+    let u = (tx * px + ty * py + tz * pz) * inv_det;
+    let qx = ty * e1z - tz * e1y;
+    let qy = tz * e1x - tx * e1z;
+    let qz = tx * e1y - ty * e1x;
+    let v = (dx * qx + dy * qy + dz * qz) * inv_det;
+    let t = (e2x * qx + e2y * qy + e2z * qz) * inv_det;
+    // A finite, non-zero determinant (NaN fails every comparison).
+    let hit = det.cmpne(Vec4::ZERO)
+        & det.abs().cmplt(Vec4::INFINITY)
+        & u.cmpge(Vec4::ZERO)
+        & u.cmple(Vec4::ONE)
+        & v.cmpge(Vec4::ZERO)
+        & (u + v).cmple(Vec4::ONE)
+        & t.cmpgt(Vec4::ZERO)
+        & t.cmplt(Vec4::splat(tmax));
+    (hit.bitmask(), t, u, v)
 }
 
 /// A ray-triangle intersection. `u`, `v` are the barycentric weights of vertices 1 and 2
@@ -72,7 +149,9 @@ pub struct Accel {
     bvh: Option<CwBvh>,
     /// Triangles in BVH primitive order.
     tris: Vec<PreparedTri>,
-    /// BVH primitive order -> scene triangle index.
+    /// Small scenes: the triangles in blocks of four (then `bvh` is `None`).
+    blocks: Vec<TriBlock>,
+    /// BVH primitive order (block lane order for small scenes) -> scene triangle index.
     scene_index: Vec<u32>,
 }
 
@@ -80,12 +159,18 @@ impl Accel {
     /// Build the CWBVH (obvhs `medium_build`: no spatial splits, so every triangle sits in
     /// exactly one leaf and any-hit visits it at most once).
     pub fn build(scene: &Scene) -> Accel {
+        Accel::build_with(scene, SMALL_SCENE_TRIANGLES)
+    }
+
+    /// Build blocks for at most `small_max` triangles, else the CWBVH.
+    fn build_with(scene: &Scene, small_max: usize) -> Accel {
         let Some(bounds) = scene.geometry_bounds() else {
             return Accel {
                 origin: Vec3A::ZERO,
                 scale: 1.0,
                 bvh: None,
                 tris: Vec::new(),
+                blocks: Vec::new(),
                 scene_index: Vec::new(),
             };
         };
@@ -108,7 +193,30 @@ impl Accel {
                 scale,
                 bvh: None,
                 tris: Vec::new(),
+                blocks: Vec::new(),
                 scene_index: Vec::new(),
+            };
+        }
+        if kept.len() <= small_max {
+            let mut blocks = vec![TriBlock::default(); kept.len().div_ceil(LANES)];
+            for (k, &i) in kept.iter().enumerate() {
+                let t = &scene.triangles[i as usize];
+                let (v0, v1, v2) = (to_bvh(t.p[0]), to_bvh(t.p[1]), to_bvh(t.p[2]));
+                let (e1, e2) = (v1 - v0, v2 - v0);
+                let (b, lane) = (&mut blocks[k / LANES], k % LANES);
+                for c in 0..3 {
+                    b.v0[c][lane] = v0[c];
+                    b.e1[c][lane] = e1[c];
+                    b.e2[c][lane] = e2[c];
+                }
+            }
+            return Accel {
+                origin,
+                scale,
+                bvh: None,
+                tris: Vec::new(),
+                blocks,
+                scene_index: kept,
             };
         }
         let obvhs_tris: Vec<obvhs::triangle::Triangle> = kept
@@ -149,20 +257,54 @@ impl Accel {
             scale,
             bvh: Some(bvh),
             tris,
+            blocks: Vec::new(),
             scene_index,
         }
     }
 
     /// Number of triangles in the BVH (the scene's, less the degenerate ones).
     pub fn triangle_count(&self) -> usize {
-        self.tris.len()
+        self.scene_index.len()
+    }
+
+    /// Whether the scene is small enough to skip the BVH (see [`SMALL_SCENE_TRIANGLES`]).
+    pub fn is_small_scene(&self) -> bool {
+        !self.blocks.is_empty()
+    }
+
+    /// Closest hit among the blocks of a small scene.
+    fn closest_hit_small(&self, o: Vec3A, d: Vec3A, t_max: f32) -> Option<Hit> {
+        let r = RayLanes::new(o, d);
+        let mut best: Option<(f32, usize, f32, f32)> = None;
+        let mut t_best = t_max;
+        for (k, b) in self.blocks.iter().enumerate() {
+            let (mut mask, t, u, v) = intersect_block(b, &r, t_best);
+            while mask != 0 {
+                let lane = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                if t[lane] < t_best {
+                    t_best = t[lane];
+                    best = Some((t[lane], k * LANES + lane, u[lane], v[lane]));
+                }
+            }
+        }
+        let (t, id, u, v) = best?;
+        Some(Hit {
+            t_m: t / self.scale,
+            triangle: *self.scene_index.get(id)?,
+            u,
+            v,
+        })
     }
 
     /// Closest hit along `origin + t dir` for `t` in (0, t_max_m). `dir` must be unit length.
     pub fn closest_hit(&self, origin: Vec3, dir: Vec3, t_max_m: f32) -> Option<Hit> {
-        let bvh = self.bvh.as_ref()?;
         let o = (Vec3A::from(origin) - self.origin) * self.scale;
         let d: Vec3A = dir.into();
+        if !self.blocks.is_empty() {
+            return self.closest_hit_small(o, d, t_max_m * self.scale);
+        }
+        let bvh = self.bvh.as_ref()?;
         let ray = Ray::new(o, d, 0.0, t_max_m * self.scale);
         let mut best: Option<(f32, usize, f32, f32)> = None;
         let mut hit = obvhs::ray::RayHit::none();
@@ -192,12 +334,33 @@ impl Accel {
         t_max_m: f32,
         mut visit: impl FnMut(Hit) -> bool,
     ) -> bool {
-        let Some(bvh) = self.bvh.as_ref() else {
-            return false;
-        };
         let o = (Vec3A::from(origin) - self.origin) * self.scale;
         let d: Vec3A = dir.into();
         let t_max = t_max_m * self.scale;
+        if !self.blocks.is_empty() {
+            let r = RayLanes::new(o, d);
+            for (k, b) in self.blocks.iter().enumerate() {
+                let (mut mask, t, u, v) = intersect_block(b, &r, t_max);
+                while mask != 0 {
+                    let lane = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    if let Some(&triangle) = self.scene_index.get(k * LANES + lane)
+                        && visit(Hit {
+                            t_m: t[lane] / self.scale,
+                            triangle,
+                            u: u[lane],
+                            v: v[lane],
+                        })
+                    {
+                        return true;
+                    }
+                }
+            }
+            return false;
+        }
+        let Some(bvh) = self.bvh.as_ref() else {
+            return false;
+        };
         let ray = Ray::new(o, d, 0.0, t_max);
         !bvh.ray_traverse_miss(ray, |_, id| {
             match self.tris[id].intersect(o, d, 0.0, t_max) {
@@ -214,5 +377,70 @@ impl Accel {
                 _ => f32::INFINITY,
             }
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Rays from points inside the Cornell box in scattered directions.
+    fn rays(n: usize) -> Vec<(Vec3, Vec3)> {
+        let mut state = 0x1234_5678_9abc_def0u64;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 40) as f32) / (1u64 << 24) as f32
+        };
+        (0..n)
+            .map(|_| {
+                let o = Vec3::new(next() - 0.5, next(), next() - 0.5) * 0.5;
+                let d = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize_or(Vec3::X);
+                (o, d)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn small_scene_blocks_agree_with_the_bvh() {
+        let scene = crate::scene::load("builtin:cornell").unwrap();
+        let (bvh, blocks) = (
+            Accel::build_with(&scene, 0),
+            Accel::build_with(&scene, usize::MAX),
+        );
+        assert!(!bvh.is_small_scene() && blocks.is_small_scene());
+        assert_eq!(bvh.triangle_count(), blocks.triangle_count());
+        let mut hits = 0;
+        for (o, d) in rays(20_000) {
+            let (a, b) = (
+                bvh.closest_hit(o, d, f32::INFINITY),
+                blocks.closest_hit(o, d, f32::INFINITY),
+            );
+            match (a, b) {
+                (Some(a), Some(b)) => {
+                    hits += 1;
+                    assert!((a.t_m - b.t_m).abs() <= 1e-5 * a.t_m, "{a:?} {b:?}");
+                    if a.triangle != b.triangle {
+                        // Only through a shared edge, at the same distance.
+                        assert!((a.t_m - b.t_m).abs() <= 1e-6 * a.t_m, "{a:?} {b:?}");
+                    }
+                }
+                (None, None) => {}
+                _ => panic!("{o} {d}: {a:?} vs {b:?}"),
+            }
+            // Any-hit over a segment: the same set of triangles crossed.
+            let count = |acc: &Accel| {
+                let mut seen = Vec::new();
+                acc.any_hit(o, d, 0.4, |h| {
+                    seen.push(h.triangle);
+                    false
+                });
+                seen.sort_unstable();
+                seen
+            };
+            assert_eq!(count(&bvh), count(&blocks));
+        }
+        assert!(hits > 15_000, "{hits}");
     }
 }

@@ -10,8 +10,6 @@
 use glam::Vec3;
 use std::f32::consts::PI;
 
-use super::sampler::Sampler;
-
 /// GGX alpha below which the specular lobe is treated as a perfect mirror.
 pub const MIRROR_ALPHA: f32 = 1e-3;
 
@@ -209,13 +207,13 @@ impl Bsdf {
         (f, pdf)
     }
 
-    /// Sample an incident direction for outgoing `wo` (local frame).
-    pub fn sample(&self, wo: Vec3, rng: &mut Sampler) -> Option<BsdfSample> {
+    /// Sample an incident direction for outgoing `wo` (local frame) from uniform numbers
+    /// in [0, 1): `u_lobe` picks the lobe, `(u1, u2)` the direction within it.
+    pub fn sample(&self, wo: Vec3, u_lobe: f32, (u1, u2): (f32, f32)) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
         }
-        let u = rng.uniform();
-        let (u1, u2) = rng.next2();
+        let u = u_lobe;
         let smooth_sample = |wi: Vec3, kind: LobeKind| -> Option<BsdfSample> {
             let (f, pdf) = self.eval(wo, wi);
             (pdf > 0.0 && f > 0.0).then(|| BsdfSample {
@@ -286,6 +284,7 @@ impl Bsdf {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::transport::sampler::Sampler;
 
     fn params(base: f32, metallic: f32, roughness: f32, specular_factor: f32) -> BsdfParams {
         BsdfParams {
@@ -303,7 +302,11 @@ mod tests {
     fn albedo(b: &Bsdf, wo: Vec3, n: usize) -> f64 {
         let mut rng = Sampler::new(1, 2, 3);
         (0..n)
-            .map(|_| b.sample(wo, &mut rng).map_or(0.0, |s| s.weight as f64))
+            .map(|_| {
+                rng.start_sample();
+                b.sample(wo, rng.get1(0), rng.get2(1))
+                    .map_or(0.0, |s| s.weight as f64)
+            })
             .sum::<f64>()
             / n as f64
     }
@@ -332,7 +335,8 @@ mod tests {
         let n = 400_000;
         let mut uniform = 0.0f64;
         for _ in 0..n {
-            let (u1, u2) = rng.next2();
+            rng.start_sample();
+            let (u1, u2) = rng.get2(0);
             let z = u1;
             let r = (1.0 - z * z).sqrt();
             let phi = 2.0 * PI * u2;

@@ -4,7 +4,7 @@
 
 use super::bsdf::{Bsdf, Frame, LobeKind};
 use super::lights::Lights;
-use super::sampler::Sampler;
+use super::sampler::{Sampler, dim};
 use super::surface::Surfaces;
 use crate::accel::Accel;
 use crate::film::{LeftOut, LeftOutCounts, PixelSink, TprfFilm};
@@ -204,14 +204,19 @@ impl Renderer {
     }
 
     /// One pass: `spp` samples per pixel into `film`, rows in parallel on the current
-    /// rayon pool. The random stream of each pixel depends only on (seed, pass, pixel).
+    /// rayon pool. Each half of the film (even and odd passes) has its own sample stream
+    /// per pixel, and a pass continues it: sample `i` of a pixel's half depends only on
+    /// (seed, half, pixel, i), not on pass sizes or threads, and the halves stay
+    /// independent estimates.
     pub fn render_pass(&self, film: &mut TprfFilm, spp: u32) -> PassStats {
         let layout = *film.layout();
         let (w, h) = (layout.width, layout.height);
-        let pass = film.passes();
+        let half = film.passes() % 2;
+        let first = film.half_spp()[half as usize];
         let rays_before = self.rays_traced();
         let tally = film.run_pass(spp as u64, |x, y, sink| {
-            let mut rng = Sampler::new(self.settings.seed, pass, (y * w + x) as u64);
+            let mut rng =
+                Sampler::new(self.settings.seed, half, (y * w + x) as u64).starting_at(first);
             let mut rays = 0u64;
             for _ in 0..spp {
                 rays += self.trace_sample(x, y, w, h, &mut rng, sink);
@@ -226,7 +231,8 @@ impl Renderer {
         }
     }
 
-    /// Trace one jittered camera sample of pixel `(x, y)`; returns the rays traced.
+    /// Trace the next sample of `rng` through pixel `(x, y)` (jittered); returns the rays
+    /// traced.
     pub fn trace_sample(
         &self,
         x: usize,
@@ -236,7 +242,8 @@ impl Renderer {
         rng: &mut Sampler,
         sink: &mut impl Sink,
     ) -> u64 {
-        let (jx, jy) = rng.next2();
+        rng.start_sample();
+        let (jx, jy) = rng.get2(dim::CAMERA);
         let (origin, dir) = self.camera_ray(x as f32 + jx, y as f32 + jy, w, h);
         self.trace_path(origin, dir, rng, sink)
     }
@@ -265,6 +272,7 @@ impl Renderer {
         let mut last_position = origin;
         let mut pass_throughs = 0u32;
         loop {
+            let slot = |use_| dim::vertex(scatterings, use_);
             rays += 1;
             sink.ray(origin, dir, f32::INFINITY, RayKind::Path);
             let Some(hit) = self.accel.closest_hit(origin, dir, f32::INFINITY) else {
@@ -277,7 +285,11 @@ impl Renderer {
             }
             let sp = self.surfaces.at(&hit, origin, dir);
             // Virtual interface: the uncovered fraction passes straight through, undelayed.
-            if sp.coverage < 1.0 && rng.uniform() >= sp.coverage {
+            let u_cover = || match pass_throughs {
+                0 => rng.get1(slot(dim::COVERAGE)),
+                p => rng.get1_hashed(((scatterings as u64) << 16) + p as u64),
+            };
+            if sp.coverage < 1.0 && u_cover() >= sp.coverage {
                 pass_throughs += 1;
                 if pass_throughs > MAX_PASS_THROUGH {
                     break;
@@ -310,12 +322,7 @@ impl Renderer {
                 break;
             }
             let entering = sp.front;
-            let eta = if entering {
-                1.0 / sp.bsdf.ior
-            } else {
-                sp.bsdf.ior
-            };
-            let bsdf = Bsdf::new(&sp.bsdf, eta);
+            let bsdf = sp.bsdf;
             let frame = Frame::new(sp.n_shading);
             let wo_world = -dir;
             let wo = frame.to_local(wo_world);
@@ -331,12 +338,16 @@ impl Renderer {
                     opl_m,
                     ior_here,
                     throughput,
-                    scatterings + 1,
+                    scatterings,
                     rng,
                     sink,
                 );
             }
-            let Some(bs) = bsdf.sample(wo, rng) else {
+            let Some(bs) = bsdf.sample(
+                wo,
+                rng.get1(slot(dim::LOBE)),
+                rng.get2(slot(dim::BSDF_DIRECTION)),
+            ) else {
                 break;
             };
             let wi_world = frame.to_world(bs.wi);
@@ -347,9 +358,10 @@ impl Renderer {
                 break;
             }
             throughput *= bs.weight;
+            let u_roulette = slot(dim::ROULETTE);
             scatterings += 1;
             if refracted {
-                ior_here = if entering { sp.bsdf.ior } else { 1.0 };
+                ior_here = if entering { sp.ior } else { 1.0 };
             }
             last_pdf = (!bs.is_delta()).then_some(bs.pdf);
             last_position = sp.position;
@@ -359,7 +371,7 @@ impl Renderer {
             // Russian roulette: stop when the remaining flux is small (unbiased).
             if scatterings >= s.rr_start {
                 let q = throughput.min(1.0).max(s.rr_min_survival.min(1.0));
-                if !(q > 0.0) || rng.uniform() >= q {
+                if !(q > 0.0) || rng.get1(u_roulette) >= q {
                     break;
                 }
                 throughput /= q;
@@ -372,8 +384,9 @@ impl Renderer {
     }
 
     /// Next-event estimation at a vertex with outgoing `wo` (local): every punctual light
-    /// and one power-sampled point on the emitters (MIS against BSDF sampling). The
-    /// contribution arrives at `(opl_m + n d) / c` with `scatterings` events.
+    /// and one power-sampled point on the emitters (MIS against BSDF sampling). `vertex`
+    /// counts the scattering events before this one; the contribution arrives at
+    /// `(opl_m + n d) / c` with `vertex + 1` events.
     ///
     /// Directions, distances and cosines are taken from the surface point `p` itself;
     /// only the shadow ray starts from the offset point `p_out`. (Taken from `p_out`, a
@@ -391,10 +404,11 @@ impl Renderer {
         opl_m: f64,
         ior_here: f32,
         throughput: f32,
-        scatterings: u32,
-        rng: &mut Sampler,
+        vertex: u32,
+        rng: &Sampler,
         sink: &mut impl Sink,
     ) -> u64 {
+        let scatterings = vertex + 1;
         let mut rays = 0;
         for light in &self.lights.punctual {
             let to = light.position - p;
@@ -428,8 +442,8 @@ impl Renderer {
             }
         }
         if self.lights.has_emitters() {
-            let u = rng.uniform();
-            let (u1, u2) = rng.next2();
+            let u = rng.get1(dim::vertex(vertex, dim::EMITTER_SELECT));
+            let (u1, u2) = rng.get2(dim::vertex(vertex, dim::EMITTER_POINT));
             if let Some(es) = self.lights.sample_emitter(u, u1, u2) {
                 let to = es.position - p;
                 let d2 = to.length_squared();
@@ -479,11 +493,9 @@ impl Renderer {
         }
         let mut tr = 1.0f32;
         let blocked = self.accel.any_hit(p, dir, dist_m, |hit| {
-            if self.surfaces.blocks_shadow_rays(hit.triangle) {
-                return true;
-            }
-            let c = self.surfaces.coverage(hit.triangle, hit.u, hit.v);
-            tr *= 1.0 - c;
+            tr *= self
+                .surfaces
+                .shadow_transmission(hit.triangle, hit.u, hit.v);
             tr <= 0.0
         });
         if blocked { 0.0 } else { tr }

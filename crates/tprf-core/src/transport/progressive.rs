@@ -15,13 +15,18 @@ use std::time::{Duration, Instant};
 /// How many samples per pixel each pass adds.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum PassSize {
-    /// 1, 1, 2, 2, 4, 4, ... up to `cap`: a fixed schedule, so the same settings give
-    /// the same film (bit for bit) on any machine and thread count. Pairs keep the two
-    /// halves of the film (even and odd passes) balanced.
+    /// 1, 1, 2, 2, 4, 4, ... up to `cap`, or on a small film up to the size that makes a
+    /// pass [`PASS_SAMPLES`] samples (at most [`MAX_DOUBLING_SPP`] per pixel): a fixed
+    /// schedule, so the same settings give the same film (bit for bit) on any machine
+    /// and thread count. Pairs keep the two halves of the film (even and odd passes)
+    /// balanced. (Each pass ends with merging every pixel's bins into the film, which
+    /// costs about as much as 2 samples of a pixel: the passes of a small film grow so
+    /// that this stays a few per cent.)
     Doubling { cap: u32 },
     /// Passes of about `seconds` each, sized from the rate the last pass measured
     /// (1 to 256 samples per pixel): a fresh preview at a steady pace. Pass sizes then
-    /// depend on the machine's speed, and so do the film's random streams.
+    /// depend on the machine's speed, and so does which half of the film (even or odd
+    /// passes) each sample lands in.
     Paced { seconds: f64 },
 }
 
@@ -38,7 +43,8 @@ pub struct Schedule {
 }
 
 impl Schedule {
-    /// Exactly `spp` samples per pixel in doubling passes (capped at 16 per pass).
+    /// Exactly `spp` samples per pixel in doubling passes (capped at 16 per pass, more
+    /// on small films).
     pub fn spp(spp: u64) -> Schedule {
         Schedule {
             pass_size: PassSize::Doubling { cap: 16 },
@@ -47,7 +53,8 @@ impl Schedule {
         }
     }
 
-    /// Doubling passes (capped at 16 per pass) until `seconds` of wall time have passed.
+    /// Doubling passes (capped at 16 per pass, more on small films) until `seconds` of
+    /// wall time have passed.
     pub fn seconds(seconds: f64) -> Schedule {
         Schedule {
             pass_size: PassSize::Doubling { cap: 16 },
@@ -87,6 +94,18 @@ pub struct PassReport {
     pub left_out: LeftOutCounts,
 }
 
+/// Samples a doubling pass reaches on a small film (pixels x samples per pixel).
+pub const PASS_SAMPLES: u64 = 1 << 20;
+/// Largest doubling pass on a small film, samples per pixel.
+pub const MAX_DOUBLING_SPP: u32 = 256;
+
+/// The cap of [`PassSize::Doubling`] passes on a film of `pixels`: `cap`, or more on a
+/// small film (see there).
+pub fn doubling_cap(cap: u32, pixels: usize) -> u32 {
+    let small = (PASS_SAMPLES / (pixels as u64).max(1)).min(MAX_DOUBLING_SPP as u64) as u32;
+    cap.max(small)
+}
+
 /// Samples per pixel of pass `pass` in [`PassSize::Doubling`]: 1, 1, 2, 2, 4, 4, ...
 /// up to `cap`.
 pub fn doubling_spp(pass: u64, cap: u32) -> u32 {
@@ -112,10 +131,11 @@ pub fn render(
     let mut paths = 0u64;
     let mut left_out = LeftOutCounts::default();
     let mut paced_spp = 1u32;
+    let pixels = film.layout().pixels();
     loop {
         let pass = film.passes();
         let mut spp = match schedule.pass_size {
-            PassSize::Doubling { cap } => doubling_spp(pass, cap),
+            PassSize::Doubling { cap } => doubling_spp(pass, doubling_cap(cap, pixels)),
             PassSize::Paced { .. } => paced_spp,
         };
         if let Some(target) = schedule.spp_target {

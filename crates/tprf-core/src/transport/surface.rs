@@ -6,7 +6,7 @@ use crate::scene::{AlphaMode, Channel, Material, Scene, Texture, TextureRef};
 use glam::{Vec2, Vec3};
 use std::sync::{Arc, OnceLock};
 
-use super::bsdf::BsdfParams;
+use super::bsdf::{Bsdf, BsdfParams};
 
 /// sRGB 8-bit code -> linear value.
 fn srgb_to_linear_lut() -> &'static [f32; 256] {
@@ -84,36 +84,145 @@ pub struct SurfacePoint {
     /// Emitted radiance toward the ray, W / (m^2 sr), this band (0 from a single-sided
     /// emitter's back).
     pub emission: f32,
-    pub bsdf: BsdfParams,
+    /// The BSDF for light leaving toward the ray's side (its relative index set for
+    /// that side).
+    pub bsdf: Bsdf,
+    /// Refractive index of the material's inside.
+    pub ior: f32,
 }
+
+/// A material reduced to one band, with what does not vary over the surface computed once.
+#[derive(Clone, Debug)]
+struct BandMaterial {
+    /// Parameters without textures.
+    params: BsdfParams,
+    /// The untextured BSDF seen from the front (eta = 1 / ior) and from the back (ior).
+    bsdf_front: Bsdf,
+    bsdf_back: Bsdf,
+    /// Emitted radiance without texture, this band, W / (m^2 sr), at least 0.
+    emission: f32,
+    double_sided: bool,
+    /// Fully covering everywhere (alpha mode opaque).
+    opaque: bool,
+    /// Transmissive: refracts, so it blocks straight shadow rays.
+    blocks_shadow_rays: bool,
+    /// A texture changes the BSDF or the emission somewhere.
+    textured: bool,
+}
+
+/// What a hit needs of its triangle, 16 bytes.
+#[derive(Clone, Copy, Debug)]
+struct TriangleRecord {
+    /// Unit geometric normal.
+    normal: Vec3,
+    /// Index into `Surfaces::materials`; the top bit is set when the triangle has vertex
+    /// normals.
+    material_and_flags: u32,
+}
+
+const HAS_VERTEX_NORMALS: u32 = 1 << 31;
 
 /// The scene reduced to what surfaces look like in one band.
 pub struct Surfaces {
     scene: Arc<Scene>,
     channel: Channel,
-    /// Unit geometric normals per triangle.
-    normals: Vec<Vec3>,
+    /// Per triangle: normal, material, flags.
+    triangles: Vec<TriangleRecord>,
+    /// The scene's materials in this band, then the default material (for triangles
+    /// without a valid material).
+    materials: Vec<BandMaterial>,
+}
+
+impl BandMaterial {
+    fn new(m: &Material, channel: Channel) -> BandMaterial {
+        let params = BsdfParams {
+            base: channel
+                .pick([m.base_color[0], m.base_color[1], m.base_color[2]])
+                .clamp(0.0, 1.0),
+            metallic: m.metallic.clamp(0.0, 1.0),
+            roughness: m.roughness.clamp(0.0, 1.0),
+            specular_factor: m.specular_factor.clamp(0.0, 1.0),
+            specular_color: channel.pick(m.specular_color).max(0.0),
+            transmission: m.transmission.clamp(0.0, 1.0),
+            ior: if m.ior.is_finite() && m.ior >= 1.0 {
+                m.ior
+            } else {
+                1.5
+            },
+        };
+        BandMaterial {
+            params,
+            bsdf_front: Bsdf::new(&params, 1.0 / params.ior),
+            bsdf_back: Bsdf::new(&params, params.ior),
+            emission: if m.is_emissive() {
+                channel.pick(m.emissive).max(0.0)
+            } else {
+                0.0
+            },
+            double_sided: m.double_sided,
+            opaque: m.alpha_mode == AlphaMode::Opaque,
+            blocks_shadow_rays: m.transmission > 0.0,
+            textured: m.base_color_texture.is_some()
+                || m.metallic_roughness_texture.is_some()
+                || (m.emissive_texture.is_some() && m.is_emissive()),
+        }
+    }
 }
 
 impl Surfaces {
     pub fn new(scene: Arc<Scene>, channel: Channel) -> Surfaces {
-        let normals = scene
+        let mut materials: Vec<BandMaterial> = scene
+            .materials
+            .iter()
+            .map(|m| BandMaterial::new(m, channel))
+            .collect();
+        let default_material = materials.len() as u32;
+        materials.push(BandMaterial::new(&Material::default(), channel));
+        let triangles = scene
             .triangles
             .iter()
-            .map(|t| (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).normalize_or_zero())
+            .enumerate()
+            .map(|(i, t)| {
+                let attrs = scene.attrs.get(i);
+                let material = attrs
+                    .map(|a| a.material)
+                    .filter(|&m| (m as usize) < scene.materials.len())
+                    .unwrap_or(default_material);
+                let normals = attrs.is_some_and(|a| a.normals.is_some());
+                TriangleRecord {
+                    normal: (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).normalize_or_zero(),
+                    material_and_flags: material | if normals { HAS_VERTEX_NORMALS } else { 0 },
+                }
+            })
             .collect();
         Surfaces {
             scene,
             channel,
-            normals,
+            triangles,
+            materials,
         }
     }
 
-    pub fn geometric_normal(&self, triangle: u32) -> Vec3 {
-        self.normals
+    #[inline]
+    fn record(&self, triangle: u32) -> TriangleRecord {
+        self.triangles
             .get(triangle as usize)
             .copied()
-            .unwrap_or(Vec3::Z)
+            .unwrap_or(TriangleRecord {
+                normal: Vec3::Z,
+                material_and_flags: (self.materials.len() - 1) as u32,
+            })
+    }
+
+    #[inline]
+    fn band_material(&self, record: TriangleRecord) -> &BandMaterial {
+        let i = (record.material_and_flags & !HAS_VERTEX_NORMALS) as usize;
+        // The last entry is the default material; `materials` is never empty.
+        &self.materials[i.min(self.materials.len() - 1)]
+    }
+
+    pub fn geometric_normal(&self, triangle: u32) -> Vec3 {
+        self.record(triangle).normal
     }
 
     pub fn scene(&self) -> &Arc<Scene> {
@@ -142,10 +251,10 @@ impl Surfaces {
 
     /// Coverage (alpha) of `triangle` at barycentrics `(u, v)`.
     pub fn coverage(&self, triangle: u32, u: f32, v: f32) -> f32 {
-        let m = self.material(triangle);
-        if m.alpha_mode == AlphaMode::Opaque {
+        if self.band_material(self.record(triangle)).opaque {
             return 1.0;
         }
+        let m = self.material(triangle);
         let mut alpha = m.base_color[3];
         if let Some(t) = self.texture(m.base_color_texture) {
             alpha *= sample_texture(t, self.uv(triangle, u, v), true)[3];
@@ -163,22 +272,30 @@ impl Surfaces {
         }
     }
 
-    /// Whether a shadow ray can pass this triangle at all (transmissive surfaces refract
-    /// and so block straight-line shadow rays).
-    pub fn blocks_shadow_rays(&self, triangle: u32) -> bool {
-        self.material(triangle).transmission > 0.0
+    /// Fraction of a shadow ray's light that passes `triangle` at `(u, v)`: 0 for an
+    /// opaque or refracting surface, `1 - coverage` for a partly covered one.
+    #[inline]
+    pub fn shadow_transmission(&self, triangle: u32, u: f32, v: f32) -> f32 {
+        let m = self.band_material(self.record(triangle));
+        if m.blocks_shadow_rays || m.opaque {
+            0.0
+        } else {
+            1.0 - self.coverage(triangle, u, v)
+        }
     }
 
     /// Emitted radiance of `triangle` at `(u, v)` toward direction `toward` (unit, away
     /// from the surface), W / (m^2 sr), this band.
     pub fn emission(&self, triangle: u32, u: f32, v: f32, toward: Vec3) -> f32 {
+        let rec = self.record(triangle);
+        let bm = self.band_material(rec);
+        if bm.emission <= 0.0 || (!bm.double_sided && rec.normal.dot(toward) <= 0.0) {
+            return 0.0;
+        }
+        if !bm.textured {
+            return bm.emission;
+        }
         let m = self.material(triangle);
-        if !m.is_emissive() {
-            return 0.0;
-        }
-        if !m.double_sided && self.geometric_normal(triangle).dot(toward) <= 0.0 {
-            return 0.0;
-        }
         let mut e = m.emissive;
         if let Some(t) = self.texture(m.emissive_texture) {
             let c = sample_texture(t, self.uv(triangle, u, v), true);
@@ -187,23 +304,10 @@ impl Surfaces {
         self.channel.pick(e).max(0.0)
     }
 
-    /// Everything at a hit of a ray travelling along `dir` (unit).
-    pub fn at(&self, hit: &Hit, origin: Vec3, dir: Vec3) -> SurfacePoint {
-        let tri = hit.triangle;
-        let (u, v) = (hit.u, hit.v);
-        let ng = self.geometric_normal(tri);
-        let front = ng.dot(dir) < 0.0;
-        let n_face = if front { ng } else { -ng };
-        let attrs = self.scene.attrs.get(tri as usize);
-        let mut n_shading = n_face;
-        if let Some(ns) = attrs.and_then(|a| a.normals) {
-            let n = (ns[0] * (1.0 - u - v) + ns[1] * u + ns[2] * v).normalize_or_zero();
-            if n != Vec3::ZERO {
-                n_shading = if n.dot(n_face) < 0.0 { -n } else { n };
-            }
-        }
-        let m = self.material(tri);
-        let uv = self.uv(tri, u, v);
+    /// The BSDF parameters of a textured material at `(u, v)`.
+    fn textured_params(&self, triangle: u32, u: f32, v: f32, bm: &BandMaterial) -> BsdfParams {
+        let m = self.material(triangle);
+        let uv = self.uv(triangle, u, v);
         let mut base = [m.base_color[0], m.base_color[1], m.base_color[2]];
         if let Some(t) = self.texture(m.base_color_texture) {
             let c = sample_texture(t, uv, true);
@@ -215,6 +319,41 @@ impl Surfaces {
             roughness *= c[1];
             metallic *= c[2];
         }
+        BsdfParams {
+            base: self.channel.pick(base).clamp(0.0, 1.0),
+            metallic: metallic.clamp(0.0, 1.0),
+            roughness: roughness.clamp(0.0, 1.0),
+            ..bm.params
+        }
+    }
+
+    /// Everything at a hit of a ray travelling along `dir` (unit).
+    #[inline]
+    pub fn at(&self, hit: &Hit, origin: Vec3, dir: Vec3) -> SurfacePoint {
+        let tri = hit.triangle;
+        let (u, v) = (hit.u, hit.v);
+        let rec = self.record(tri);
+        let bm = self.band_material(rec);
+        let ng = rec.normal;
+        let front = ng.dot(dir) < 0.0;
+        let n_face = if front { ng } else { -ng };
+        let mut n_shading = n_face;
+        if rec.material_and_flags & HAS_VERTEX_NORMALS != 0
+            && let Some(ns) = self.scene.attrs.get(tri as usize).and_then(|a| a.normals)
+        {
+            let n = (ns[0] * (1.0 - u - v) + ns[1] * u + ns[2] * v).normalize_or_zero();
+            if n != Vec3::ZERO {
+                n_shading = if n.dot(n_face) < 0.0 { -n } else { n };
+            }
+        }
+        let bsdf = if bm.textured {
+            let p = self.textured_params(tri, u, v, bm);
+            Bsdf::new(&p, if front { 1.0 / p.ior } else { p.ior })
+        } else if front {
+            bm.bsdf_front
+        } else {
+            bm.bsdf_back
+        };
         SurfacePoint {
             position: match self.scene.triangles.get(tri as usize) {
                 Some(t) => t.p[0] * (1.0 - u - v) + t.p[1] * u + t.p[2] * v,
@@ -223,21 +362,18 @@ impl Surfaces {
             n_face,
             n_shading,
             front,
-            coverage: self.coverage(tri, u, v),
-            emission: self.emission(tri, u, v, -dir),
-            bsdf: BsdfParams {
-                base: self.channel.pick(base).clamp(0.0, 1.0),
-                metallic: metallic.clamp(0.0, 1.0),
-                roughness: roughness.clamp(0.0, 1.0),
-                specular_factor: m.specular_factor.clamp(0.0, 1.0),
-                specular_color: self.channel.pick(m.specular_color).max(0.0),
-                transmission: m.transmission.clamp(0.0, 1.0),
-                ior: if m.ior.is_finite() && m.ior >= 1.0 {
-                    m.ior
-                } else {
-                    1.5
-                },
+            coverage: if bm.opaque {
+                1.0
+            } else {
+                self.coverage(tri, u, v)
             },
+            emission: if bm.emission > 0.0 {
+                self.emission(tri, u, v, -dir)
+            } else {
+                0.0
+            },
+            bsdf,
+            ior: bm.params.ior,
         }
     }
 }
