@@ -52,13 +52,20 @@ impl Sink for DenseSink<'_> {
 /// The passes `(pass, spp)` traced into a dense film; returns its two halves.
 fn render_dense(renderer: &Renderer, axis: TimeAxis, passes: &[(u64, u32)]) -> [Vec<f64>; 2] {
     let mut halves = [vec![0.0f64; W * H * BINS], vec![0.0f64; W * H * BINS]];
+    let mut half_spp = [0u64; 2];
     for &(pass, spp) in passes {
-        let half = &mut halves[(pass % 2) as usize];
-        half.par_chunks_mut(W * BINS)
+        let h = (pass % 2) as usize;
+        let first = half_spp[h];
+        half_spp[h] += spp as u64;
+        halves[h]
+            .par_chunks_mut(W * BINS)
             .enumerate()
             .for_each(|(y, row)| {
                 for (x, bins) in row.chunks_mut(BINS).enumerate() {
-                    let mut rng = Sampler::new(renderer.settings().seed, pass, (y * W + x) as u64);
+                    // The film's streams: per (seed, half, pixel), continued pass to pass.
+                    let mut rng =
+                        Sampler::new(renderer.settings().seed, h as u64, (y * W + x) as u64)
+                            .starting_at(first);
                     let mut sink = DenseSink { axis, bins };
                     for _ in 0..spp {
                         renderer.trace_sample(x, y, W, H, &mut rng, &mut sink);
