@@ -42,25 +42,7 @@ impl FilmRow {
     /// A row of means `[W, T]` (zero = not stored), as read from a file: stored as the
     /// first half with one sample.
     pub fn from_dense(pixels: &[f32], width: usize, bins: usize) -> FilmRow {
-        let mut b = RowBuilder::default();
-        for x in 0..width {
-            let p = pixels.get(x * bins..(x + 1) * bins).unwrap_or(&[]);
-            for (bin, v) in p.iter().enumerate() {
-                if *v != 0.0 {
-                    b.push(bin, [*v as f64, 0.0]);
-                }
-            }
-            b.end_pixel();
-        }
-        let halves = b.take_exact(width);
-        let (steady_sum, peak_bin) = summaries(&halves);
-        FilmRow {
-            halves,
-            layers: Vec::new(),
-            steady_sum,
-            peak_bin,
-            err_terms: (0.0, 0.0),
-        }
+        FilmRow::from_builder(dense_to_builder(pixels, width, bins, |v| [v, 0.0]), width)
     }
 
     /// A row of means built pixel by pixel (first half, one sample), see
@@ -79,16 +61,7 @@ impl FilmRow {
 
     /// A layer row of means `[W, T]` added to a row made by [`FilmRow::from_dense`].
     pub fn push_dense_layer(&mut self, pixels: &[f32], width: usize, bins: usize) {
-        let mut b = RowBuilder::default();
-        for x in 0..width {
-            let p = pixels.get(x * bins..(x + 1) * bins).unwrap_or(&[]);
-            for (bin, v) in p.iter().enumerate() {
-                if *v != 0.0 {
-                    b.push(bin, *v as f64);
-                }
-            }
-            b.end_pixel();
-        }
+        let mut b = dense_to_builder(pixels, width, bins, |v| v);
         self.layers.push(b.take_exact(width));
     }
 
@@ -110,6 +83,26 @@ impl FilmRow {
             + self.steady_sum.capacity() * 8
             + self.peak_bin.capacity() * 4
     }
+}
+
+/// The non-zero bins of dense rows `[W, T]` of means, as values `value(mean)`.
+fn dense_to_builder<V: Copy>(
+    pixels: &[f32],
+    width: usize,
+    bins: usize,
+    value: impl Fn(f64) -> V,
+) -> RowBuilder<V> {
+    let mut b = RowBuilder::default();
+    for x in 0..width {
+        let p = pixels.get(x * bins..(x + 1) * bins).unwrap_or(&[]);
+        for (bin, v) in p.iter().enumerate() {
+            if *v != 0.0 {
+                b.push(bin, value(*v as f64));
+            }
+        }
+        b.end_pixel();
+    }
+    b
 }
 
 /// Per-pixel steady sums and peak bins of `halves`.
