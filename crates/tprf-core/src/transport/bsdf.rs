@@ -182,6 +182,12 @@ impl Bsdf {
         self.alpha < MIRROR_ALPHA
     }
 
+    /// Whether one lobe is always sampled (then [`Bsdf::sample`] ignores `u_lobe`).
+    #[inline]
+    pub fn single_lobe(&self) -> bool {
+        self.p_diffuse >= 1.0 || self.p_spec >= 1.0 || self.p_diffuse + self.p_spec <= 0.0
+    }
+
     /// Whether some lobe can be evaluated for a given direction pair (next-event
     /// estimation is useless otherwise).
     pub fn has_smooth_lobe(&self) -> bool {

@@ -119,6 +119,8 @@ pub struct Renderer {
     settings: RenderSettings,
     /// Ray-offset length scale: 1e-6 of the scene's bounding diagonal, metres.
     eps_m: f32,
+    /// Tangent of half the camera's vertical field of view.
+    tan_half_yfov: f32,
     rays: AtomicU64,
 }
 
@@ -153,8 +155,10 @@ impl Renderer {
         } else {
             1e-6
         };
+        let tan_half_yfov = (0.5 * scene.camera.yfov_rad).tan();
         let surfaces = Surfaces::new(scene, settings.channel);
         Renderer {
+            tan_half_yfov,
             surfaces,
             accel,
             lights,
@@ -192,7 +196,7 @@ impl Renderer {
     /// `width x height` image.
     pub fn camera_ray(&self, px: f32, py: f32, width: usize, height: usize) -> (Vec3, Vec3) {
         let cam = &self.scene().camera;
-        let tan_half = (0.5 * cam.yfov_rad).tan();
+        let tan_half = self.tan_half_yfov;
         let aspect = width as f32 / height.max(1) as f32;
         let sx = (2.0 * px / width as f32 - 1.0) * tan_half * aspect;
         let sy = (1.0 - 2.0 * py / height as f32) * tan_half;
@@ -343,11 +347,12 @@ impl Renderer {
                     sink,
                 );
             }
-            let Some(bs) = bsdf.sample(
-                wo,
-                rng.get1(slot(dim::LOBE)),
-                rng.get2(slot(dim::BSDF_DIRECTION)),
-            ) else {
+            let u_lobe = if bsdf.single_lobe() {
+                0.0
+            } else {
+                rng.get1(slot(dim::LOBE))
+            };
+            let Some(bs) = bsdf.sample(wo, u_lobe, rng.get2(slot(dim::BSDF_DIRECTION))) else {
                 break;
             };
             let wi_world = frame.to_world(bs.wi);

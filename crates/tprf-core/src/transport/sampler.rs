@@ -67,6 +67,9 @@ pub struct Sampler {
     index_reversed: u32,
     /// Hash of (key, index), for hashed slots.
     sample_key: u64,
+    /// Per Sobol slot, the seeds of its index shuffle and of its two coordinates'
+    /// scrambles (functions of the key and the slot: computed once per stream).
+    seeds: [[u32; 3]; SOBOL_SLOTS as usize],
 }
 
 /// SplitMix64 finaliser: a 64-bit mix.
@@ -150,11 +153,19 @@ impl Sampler {
     /// The stream of `pixel` (row-major index) in `stream` of a render seeded with
     /// `seed`, positioned before its sample 0.
     pub fn new(seed: u64, stream: u64, pixel: u64) -> Sampler {
+        let key = mix(mix(mix(seed) ^ stream) ^ pixel.rotate_left(32));
+        let mut seeds = [[0u32; 3]; SOBOL_SLOTS as usize];
+        for (slot, s) in seeds.iter_mut().enumerate() {
+            let h = mix(key ^ (slot as u64 + 1).wrapping_mul(0xA076_1D64_78BD_642F));
+            let h2 = mix(h);
+            *s = [h as u32, (h >> 32) as u32, h2 as u32];
+        }
         Sampler {
-            key: mix(mix(mix(seed) ^ stream) ^ pixel.rotate_left(32)),
+            key,
             index: u32::MAX,
             index_reversed: 0,
             sample_key: 0,
+            seeds,
         }
     }
 
@@ -179,14 +190,6 @@ impl Sampler {
         mix(self.sample_key ^ slot.wrapping_mul(0x9E37_79B9_7F4A_7C15))
     }
 
-    /// Seeds of a Sobol slot: index shuffle, first and second coordinate.
-    #[inline]
-    fn seeds(&self, slot: u32) -> (u32, u32, u32) {
-        let h = mix(self.key ^ (slot as u64 + 1).wrapping_mul(0xA076_1D64_78BD_642F));
-        let h2 = mix(h);
-        (h as u32, (h >> 32) as u32, h2 as u32)
-    }
-
     /// The shuffled index of a Sobol slot: a nested-uniform scramble of the sample index
     /// (the first `2^k` samples map onto one aligned block of `2^k` Sobol points).
     #[inline]
@@ -197,10 +200,9 @@ impl Sampler {
     /// One uniform number in [0, 1) of `slot` of the current sample.
     #[inline]
     pub fn get1(&self, slot: u32) -> f32 {
-        if slot >= SOBOL_SLOTS {
+        let Some(&[s_index, s_x, _]) = self.seeds.get(slot as usize) else {
             return unit(self.hashed(slot as u64) as u32);
-        }
-        let (s_index, s_x, _) = self.seeds(slot);
+        };
         let i = self.shuffled(s_index);
         // Sobol dimension 0 is the bit-reversed index: scrambled in the reversed domain.
         unit(lk_permute(i, s_x).reverse_bits())
@@ -210,11 +212,10 @@ impl Sampler {
     /// together over the samples of the stream.
     #[inline]
     pub fn get2(&self, slot: u32) -> (f32, f32) {
-        if slot >= SOBOL_SLOTS {
+        let Some(&[s_index, s_x, s_y]) = self.seeds.get(slot as usize) else {
             let h = self.hashed(slot as u64);
             return (unit(h as u32), unit((h >> 32) as u32));
-        }
-        let (s_index, s_x, s_y) = self.seeds(slot);
+        };
         let i = self.shuffled(s_index);
         let x = lk_permute(i, s_x).reverse_bits();
         let y = lk_permute(sobol1_reversed(i), s_y).reverse_bits();
