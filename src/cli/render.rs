@@ -60,7 +60,7 @@ pub struct RenderArgs {
     #[arg(long)]
     pub frames: bool,
     /// Per-bounce layers: bounce 0 (emitters seen directly), 1..K and the rest, in
-    /// tprf_bounces.npy [K+2, H, W, T].
+    /// tprf_bounces.npy [K+2, H, W, T] (or the array "bounces" of tprf.zarr).
     #[arg(long, default_value_t = 0)]
     pub bounces_separate: u32,
     /// How the cube is written: `npy` (tprf.npy, one dense float32 array), `zarr`
@@ -164,13 +164,6 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
         .with_context(|| format!("cannot create {}", parent.display()))?;
     let (w, h, t) = (a.width as u64, a.height as u64, axis.bins as u64);
     let format = a.format.resolve(&[h, w, t]);
-    if format == CubeFormat::Zarr && layout.bounce_layers() > 0 {
-        bail!(
-            "--bounces-separate is written only with tprf.npy so far: add --format npy \
-             (the cube is {:.1} GiB dense)",
-            export::npy_f32_bytes(&[h, w, t]) as f64 / (1u64 << 30) as f64
-        );
-    }
     // A dense cube: refuse now, not after the render, what cannot be written.
     let file_bytes = export::npy_f32_bytes(&[h, w, t]).saturating_add(export::npy_f32_bytes(&[
         layout.bounce_layers() as u64,
@@ -230,7 +223,10 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
     let cam = &scene.camera;
     let meta = CubeMetadata {
         format: match format {
-            CubeFormat::Zarr => "tprf cube v1: tprf.zarr (Zarr v3) float32 [H, W, T], row 0 = top",
+            CubeFormat::Zarr => {
+                "tprf cube v2: tprf.zarr (Zarr v3 group): cube float32 [H, W, T] and, with \
+                 bounces_separate > 0, bounces float32 [layers, H, W, T]; row 0 = top"
+            }
             _ => "tprf cube v1: tprf.npy float32 [H, W, T], row 0 = top",
         }
         .into(),
