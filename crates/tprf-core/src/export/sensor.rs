@@ -72,9 +72,9 @@ struct CubeWindow {
 /// written by other tools can be measured too.
 pub fn read_any_cube(dir: &Path) -> Result<(Vec<f32>, usize, usize, TimeAxis)> {
     let json_path = dir.join("tprf.json");
-    let text = std::fs::read(&json_path).map_err(|source| SensorFilesError::Read {
-        path: json_path.clone(),
-        source,
+    let text = crate::budget::read_file(&json_path, "tprf.json").map_err(|e| match e {
+        crate::budget::BudgetError::Io { path, source } => SensorFilesError::Read { path, source },
+        e => SensorFilesError::Export(e.into()),
     })?;
     let meta: CubeWindow =
         serde_json::from_slice(&text).map_err(|source| SensorFilesError::Window {
@@ -100,6 +100,7 @@ pub fn read_any_cube(dir: &Path) -> Result<(Vec<f32>, usize, usize, TimeAxis)> {
             npy_path.display()
         ),
     };
+    super::check_not_empty(&npy_path, w, h, t)?;
     if t != axis.bins
         || meta.width.is_some_and(|mw| mw != w)
         || meta.height.is_some_and(|mh| mh != h)
@@ -148,18 +149,15 @@ fn read_zarr_dense(path: &Path, axis: TimeAxis) -> Result<(Vec<f32>, usize, usiz
             axis.bins
         );
     }
+    // The dense cube, and the measurement's working copies of about its size.
     let bytes = super::npy_f32_bytes(&[h as u64, w as u64, t as u64]);
-    if let Some(free) = crate::film::available_memory_bytes()
-        && bytes > free / 3
-    {
-        bail!(
-            "{} is {:.1} GiB dense and {:.1} GiB of memory is free: measuring a Zarr cube \
-             larger than memory chunk by chunk is not supported yet",
-            path.display(),
-            bytes as f64 / (1u64 << 30) as f64,
-            free as f64 / (1u64 << 30) as f64
-        );
-    }
+    crate::budget::check(
+        bytes.saturating_mul(3),
+        &path.display().to_string(),
+        "its dense cube and the measurement's copies (a Zarr cube larger than memory is \
+         not measured chunk by chunk yet)",
+    )
+    .map_err(|e| SensorFilesError::Export(e.into()))?;
     let mut cube = vec![0f32; w * h * t];
     for (y0, x0, rows, cols) in z.tiles() {
         let tile = z.read_tile(y0, x0, rows, cols)?;

@@ -130,6 +130,7 @@ impl ZarrCube {
             .ok_or_else(|| err(&"no \"tprf\" attributes (not written by tprf)"))?;
         let meta: CubeMetadata = serde_json::from_value(attrs)
             .map_err(|e| err(&format!("the \"tprf\" attributes are not tprf.json: {e}")))?;
+        meta.check_not_empty(path)?;
         let shape = array.shape().to_vec();
         let want = [meta.height as u64, meta.width as u64, meta.bins as u64];
         if shape != want {
