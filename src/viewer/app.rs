@@ -193,6 +193,15 @@ impl eframe::App for TprfApp {
                     (_, Some(m)) => {
                         ui.label(RichText::new(m).color(ui.visuals().error_fg_color))
                     }
+                    // No render runs and no cube is open (it could not be read): nothing
+                    // is coming, so no spinner.
+                    _ if matches!(self.source, Source::None) => ui.label(
+                        RichText::new(self.messages.last().map_or(
+                            "Nothing to show: open a glTF scene or a cube.",
+                            String::as_str,
+                        ))
+                        .color(ui.visuals().error_fg_color),
+                    ),
                     _ => ui.spinner(),
                 });
             }

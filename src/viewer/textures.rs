@@ -79,7 +79,8 @@ pub(crate) fn shrunk_note_ui(ui: &mut egui::Ui, tex: &TextureHandle, w: usize, h
 impl<K: PartialEq> TextureCache<K> {
     /// The texture `name`: the cached one when it was made from `key`, else `make()`
     /// uploaded in its place (nearest-neighbour sampling: film pixels stay square),
-    /// fitted to the GPU's largest texture ([`fit_texture`]).
+    /// fitted to the GPU's largest texture ([`fit_texture`]); remade when that limit
+    /// turns out smaller than the cached texture.
     pub(super) fn get(
         &mut self,
         ctx: &egui::Context,
@@ -91,7 +92,8 @@ impl<K: PartialEq> TextureCache<K> {
         let make = || fit_texture(make(), max_side);
         match self.entries.iter_mut().find(|(n, _, _)| *n == name) {
             Some((_, k, t)) => {
-                if *k != key {
+                // A texture made before the device's limit was known may exceed it.
+                if *k != key || t.size().into_iter().any(|side| side > max_side) {
                     t.set(make(), TextureOptions::NEAREST);
                     *k = key;
                 }
