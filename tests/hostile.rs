@@ -537,3 +537,33 @@ fn ctrl_c_during_a_render_to_a_new_folder_leaves_nothing() {
     assert!(!status.success());
     assert!(!dir.join("new").exists(), "Ctrl-C left {}", dir.join("new").display());
 }
+
+#[test]
+fn a_convergence_run_larger_than_memory_is_refused() {
+    // 4096 x 4096 x 8 = 2^27 pixel-bins (the run's fixed cap) at 32 B each: 4 GiB.
+    let dir = tmp("converge-big");
+    let o = tprf_limited(
+        &[
+            "converge",
+            "analytic:plane",
+            "--width",
+            "4096",
+            "--height",
+            "4096",
+            "--bins",
+            "8",
+            "--seconds",
+            "0.1",
+            "--out",
+            dir.join("conv").to_str().unwrap(),
+        ],
+        Some(ULIMIT_V_KIB),
+    );
+    assert_refused(
+        &o,
+        &[
+            "the convergence run needs 4.0 GiB for a 4096 x 4096 x 8 film",
+            "ulimit -v",
+        ],
+    );
+}

@@ -314,8 +314,9 @@ impl<'a> Builder<'a> {
             }
         }
         let purpose = format!(
-            "{} triangles after instancing ({placed} mesh instances)",
-            format_count(triangles)
+            "{} triangles after instancing ({placed} mesh instance{})",
+            format_count(triangles),
+            if placed == 1 { "" } else { "s" }
         );
         if triangles > u64::from(u32::MAX) {
             let m = format!("{purpose}: more than the {} a scene may hold", u32::MAX);
