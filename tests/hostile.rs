@@ -131,7 +131,12 @@ fn one_mesh_instanced_5000_times_is_refused_before_it_is_built() {
     let path = write_gltf(&dir, doc, &bin);
     let out = dir.join("out");
     let o = tprf_limited(
-        &["render", path.to_str().unwrap(), "--out", out.to_str().unwrap()],
+        &[
+            "render",
+            path.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ],
         Some(ULIMIT_V_KIB),
     );
     let err = assert_refused(
@@ -176,10 +181,18 @@ fn a_sparse_accessor_of_3e8_elements_without_a_buffer_view_is_refused() {
     let path = write_gltf(&dir, doc, &bin);
     assert!(std::fs::metadata(&path).unwrap().len() < 1024);
     let o = tprf_limited(
-        &["render", path.to_str().unwrap(), "--out", dir.join("out").to_str().unwrap()],
+        &[
+            "render",
+            path.to_str().unwrap(),
+            "--out",
+            dir.join("out").to_str().unwrap(),
+        ],
         Some(ULIMIT_V_KIB),
     );
-    assert_refused(&o, &["needs", "100.0 M triangles after instancing", "available"]);
+    assert_refused(
+        &o,
+        &["needs", "100.0 M triangles after instancing", "available"],
+    );
 }
 
 /// CRC-32 (IEEE) of `bytes`, for PNG chunks.
@@ -250,13 +263,21 @@ fn a_png_claiming_20000_x_20000_pixels_is_refused_from_its_header() {
     std::fs::write(dir.join("huge.png"), png_header_only(20_000, 20_000)).unwrap();
     let path = textured_triangle(&dir, json!({"uri": "huge.png"}));
     let o = tprf_limited(
-        &["render", path.to_str().unwrap(), "--out", dir.join("out").to_str().unwrap()],
+        &[
+            "render",
+            path.to_str().unwrap(),
+            "--out",
+            dir.join("out").to_str().unwrap(),
+        ],
         Some(ULIMIT_V_KIB),
     );
     // 20000^2 x (8 B decoded + 8 B RGBA8 and texture) = 6 GB.
     assert_refused(
         &o,
-        &["images[0] 'huge.png'", "needs 6.0 GiB for decoding 20000 x 20000 pixels"],
+        &[
+            "images[0] 'huge.png'",
+            "needs 6.0 GiB for decoding 20000 x 20000 pixels",
+        ],
     );
 }
 
@@ -280,7 +301,10 @@ fn a_huge_film_is_refused_before_it_is_allocated() {
     );
     assert_refused(
         &o,
-        &["a film of 16384 x 16384 pixels x 16 bins needs", "ulimit -v"],
+        &[
+            "a film of 16384 x 16384 pixels x 16 bins needs",
+            "ulimit -v",
+        ],
     );
 }
 
@@ -339,7 +363,15 @@ fn dev_zero_and_a_fifo_as_the_scene_are_refused_at_once() {
     let made = Command::new("mkfifo").arg(&fifo).status().unwrap();
     assert!(made.success());
     // Nothing writes to the FIFO: reading it would block for ever.
-    let o = tprf_limited(&["render", fifo.to_str().unwrap(), "--out", out.to_str().unwrap()], None);
+    let o = tprf_limited(
+        &[
+            "render",
+            fifo.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        None,
+    );
     assert_refused(&o, &["scene.gltf is a FIFO, not a regular file"]);
     // The 1-D world and the sensor file too.
     let o = tprf_limited(&["oned", fifo.to_str().unwrap()], None);
@@ -535,7 +567,11 @@ fn ctrl_c_during_a_render_to_a_new_folder_leaves_nothing() {
     assert!(killed.success());
     let status = child.wait().unwrap();
     assert!(!status.success());
-    assert!(!dir.join("new").exists(), "Ctrl-C left {}", dir.join("new").display());
+    assert!(
+        !dir.join("new").exists(),
+        "Ctrl-C left {}",
+        dir.join("new").display()
+    );
 }
 
 #[test]

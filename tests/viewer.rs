@@ -718,7 +718,13 @@ fn rendered_cube(name: &str, w: usize, h: usize) -> std::path::PathBuf {
     let _ = std::fs::remove_dir_all(&dir);
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_tprf"))
         .args(["render", "builtin:cornell", "--spp", "2", "--bins", "4"])
-        .args(["--width", &w.to_string(), "--height", &h.to_string(), "--out"])
+        .args([
+            "--width",
+            &w.to_string(),
+            "--height",
+            &h.to_string(),
+            "--out",
+        ])
         .arg(&dir)
         .output()
         .unwrap();

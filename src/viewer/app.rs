@@ -190,9 +190,7 @@ impl eframe::App for TprfApp {
                         RichText::new(format!("Render failed: {e}"))
                             .color(ui.visuals().error_fg_color),
                     ),
-                    (_, Some(m)) => {
-                        ui.label(RichText::new(m).color(ui.visuals().error_fg_color))
-                    }
+                    (_, Some(m)) => ui.label(RichText::new(m).color(ui.visuals().error_fg_color)),
                     // No render runs and no cube is open (it could not be read): nothing
                     // is coming, so no spinner.
                     _ if matches!(self.source, Source::None) => ui.label(

@@ -126,7 +126,11 @@ pub fn available() -> Option<Available> {
 
 /// Refuse `need_bytes` for `subject` (what needs it) and `purpose` (what for) when more
 /// than [`available`] now.
-pub fn check(need_bytes: u64, subject: &str, purpose: impl fmt::Display) -> Result<(), BudgetError> {
+pub fn check(
+    need_bytes: u64,
+    subject: &str,
+    purpose: impl fmt::Display,
+) -> Result<(), BudgetError> {
     check_against(need_bytes, available(), subject, purpose)
 }
 
@@ -167,7 +171,11 @@ fn file_kind(t: std::fs::FileType) -> &'static str {
             return "a socket";
         }
     }
-    if t.is_dir() { "a folder" } else { "not a regular file" }
+    if t.is_dir() {
+        "a folder"
+    } else {
+        "not a regular file"
+    }
 }
 
 /// Open `path` for reading if it is a regular file (symbolic links followed), without
@@ -215,7 +223,11 @@ pub fn read_text(path: &Path, subject: &str) -> Result<String, String> {
 }
 
 /// [`read_file`], reading at most `max_bytes` (a glTF buffer of a declared length).
-pub fn read_file_prefix(path: &Path, subject: &str, max_bytes: u64) -> Result<Vec<u8>, BudgetError> {
+pub fn read_file_prefix(
+    path: &Path,
+    subject: &str,
+    max_bytes: u64,
+) -> Result<Vec<u8>, BudgetError> {
     let (file, len) = open_regular(path)?;
     let len = len.min(max_bytes);
     check(len, subject, format_args!("reading {}", path.display()))?;
@@ -316,7 +328,8 @@ fn rlimit_room(which: Rlimit) -> Option<u64> {
             rlim_max: 0,
         };
         // SAFETY: getrlimit writes one rlimit through a valid pointer.
-        if unsafe { libc::getrlimit(resource, &mut lim) } != 0 || lim.rlim_cur == libc::RLIM_INFINITY
+        if unsafe { libc::getrlimit(resource, &mut lim) } != 0
+            || lim.rlim_cur == libc::RLIM_INFINITY
         {
             return None;
         }
@@ -351,7 +364,12 @@ mod tests {
             bytes: 20 << 30,
             limited_by: Limit::CgroupV2,
         };
-        let e = check_against(37 << 30, Some(a), "this scene", "98.0 M triangles after instancing");
+        let e = check_against(
+            37 << 30,
+            Some(a),
+            "this scene",
+            "98.0 M triangles after instancing",
+        );
         let m = e.map_err(|e| e.to_string()).err().unwrap_or_default();
         assert_eq!(
             m,

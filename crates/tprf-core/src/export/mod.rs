@@ -91,7 +91,9 @@ pub enum ExportError {
         height: usize,
         bins: usize,
     },
-    #[error("{path}: its header's shape {shape:?} needs {need_bytes} bytes of data, the file has {have_bytes}")]
+    #[error(
+        "{path}: its header's shape {shape:?} needs {need_bytes} bytes of data, the file has {have_bytes}"
+    )]
     Truncated {
         path: PathBuf,
         shape: Vec<u64>,

@@ -108,7 +108,11 @@ impl Builder<'_> {
                 decode_texture(self.file, &what, mime, &bytes)
             }
             gltf::image::Source::View { view, mime_type } => {
-                let what = format!("images[{}] (in bufferViews[{}])", image.index(), view.index());
+                let what = format!(
+                    "images[{}] (in bufferViews[{}])",
+                    image.index(),
+                    view.index()
+                );
                 // Inside its buffer: checked by `validate::check_views`.
                 let bytes = self
                     .buffers
