@@ -94,6 +94,19 @@ fn primitive_size(prim: &gltf::Primitive) -> Option<PrimitiveSize> {
     })
 }
 
+/// The POSITION and index accessors of a triangle primitive: types and spans, as
+/// [`Builder::read_vertices`] and [`Builder::read_indices`] check them before reading.
+fn check_primitive_accessors(prim: &gltf::Primitive) -> Result<(), String> {
+    if let Some(acc) = prim.get(&gltf::Semantic::Positions) {
+        check_accessor(&acc, &[DataType::F32], Dimensions::Vec3)?;
+    }
+    if let Some(acc) = prim.indices() {
+        let types = [DataType::U8, DataType::U16, DataType::U32];
+        check_accessor(&acc, &types, Dimensions::Scalar)?;
+    }
+    Ok(())
+}
+
 /// Zero area up to f32 rounding: the height over the longest edge is below 1e-7 of that
 /// edge's length (or the area overflows to NaN).
 fn is_degenerate(t: &Triangle) -> bool {
@@ -309,6 +322,11 @@ impl<'a> Builder<'a> {
                 let Some(size) = primitive_size(&prim) else {
                     continue;
                 };
+                // Counts that overrun their buffer views are refused as such, not budgeted.
+                check_primitive_accessors(&prim).map_err(|m| {
+                    let what = format!("meshes[{}] primitive {}", mesh.index(), prim.index());
+                    invalid(self.file, format!("{what}: {m}"))
+                })?;
                 triangles = triangles.saturating_add(size.triangles);
                 transient = transient.max(size.read_bytes());
             }
