@@ -99,9 +99,11 @@ impl SensorCube {
     /// `.npy` cubes written by other tools can be measured too.
     pub fn open(dir: &Path) -> Result<SensorCube> {
         let json_path = dir.join("tprf.json");
-        let text = std::fs::read(&json_path).map_err(|source| SensorFilesError::Read {
-            path: json_path.clone(),
-            source,
+        let text = crate::budget::read_file(&json_path, "tprf.json").map_err(|e| match e {
+            crate::budget::BudgetError::Io { path, source } => {
+                SensorFilesError::Read { path, source }
+            }
+            e => SensorFilesError::Export(e.into()),
         })?;
         let meta: CubeWindow =
             serde_json::from_slice(&text).map_err(|source| SensorFilesError::Window {
@@ -143,6 +145,7 @@ impl SensorCube {
                 npy_path.display()
             ),
         };
+        super::check_not_empty(&npy_path, w, h, t)?;
         if t != axis.bins
             || meta.width.is_some_and(|mw| mw != w)
             || meta.height.is_some_and(|mh| mh != h)
@@ -263,8 +266,8 @@ pub fn measure_cube(
         Vec::new()
     };
     let mut traces = vec![Vec::new(); pixels.len()];
-    let budget = crate::film::available_memory_bytes()
-        .map_or(tile_bytes, |free| tile_bytes.min(free / 4))
+    let budget = crate::budget::available()
+        .map_or(tile_bytes, |free| tile_bytes.min(free.bytes / 4))
         / if single { 2 } else { 1 };
     let tiles = cube.tiles(budget);
     let first_return = FirstReturn::default();

@@ -220,6 +220,7 @@ impl ZarrCube {
             .ok_or_else(|| err(&"no \"tprf\" attributes (not written by tprf)"))?;
         let meta: CubeMetadata = serde_json::from_value(attrs)
             .map_err(|e| err(&format!("the \"tprf\" attributes are not tprf.json: {e}")))?;
+        meta.check_not_empty(path)?;
         let cube = Array::open(store.clone(), CUBE)
             .map_err(|e| err(&format!("its array \"cube\": {e}")))?;
         let (h, w, t) = (meta.height as u64, meta.width as u64, meta.bins as u64);
