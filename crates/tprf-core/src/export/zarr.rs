@@ -28,6 +28,9 @@ pub const CHUNK: [u64; 3] = [32, 32, 256];
 /// The folder name of the group inside a render folder.
 pub const ZARR_NAME: &str = "tprf.zarr";
 
+/// zstd level of the chunks (the arrays' `zstd` codec, without checksum).
+const ZSTD_LEVEL: i32 = 1;
+
 /// The arrays' paths in the group.
 const CUBE: &str = "/cube";
 const BOUNCES: &str = "/bounces";
@@ -75,8 +78,9 @@ pub fn write_snapshot_zarr(path: &Path, snap: &FilmSnapshot, meta: &CubeMetadata
         let mut builder =
             ArrayBuilder::new(shape, chunk, zarrs::array::data_type::float32(), 0.0f32);
         builder
+            .array_to_bytes_codec(Arc::new(zarrs::array::codec::BytesCodec::little()))
             .bytes_to_bytes_codecs(vec![Arc::new(zarrs::array::codec::ZstdCodec::new(
-                3, false,
+                ZSTD_LEVEL, false,
             ))])
             .dimension_names(Some(dims.iter().map(|d| d.to_string())));
         let array = builder.build(store.clone(), at).map_err(|e| err(&e))?;
@@ -84,7 +88,7 @@ pub fn write_snapshot_zarr(path: &Path, snap: &FilmSnapshot, meta: &CubeMetadata
         Ok::<_, ExportError>(array)
     };
     let cube = array(vec![h, w, t], CHUNK.to_vec(), &["y", "x", "t"], CUBE)?;
-    write_runs(path, &cube, snap, None)?;
+    write_runs(path, &store, &cube, snap, None)?;
     let layers = snap.layers();
     if layers > 0 {
         let mut chunk = vec![1];
@@ -96,9 +100,35 @@ pub fn write_snapshot_zarr(path: &Path, snap: &FilmSnapshot, meta: &CubeMetadata
             BOUNCES,
         )?;
         for l in 0..layers {
-            write_runs(path, &bounces, snap, Some(l))?;
+            write_runs(path, &store, &bounces, snap, Some(l))?;
         }
     }
+    sync_filesystem(path).map_err(|source| ExportError::Create {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// Flush what was written under `dir` to disk, in one call for all its files:
+/// `syncfs` on Linux, `sync` on other Unixes; nothing elsewhere.
+fn sync_filesystem(dir: &Path) -> std::io::Result<()> {
+    #[cfg(target_os = "linux")]
+    {
+        use std::os::fd::AsRawFd;
+        let folder = std::fs::File::open(dir)?;
+        // SAFETY: `folder` is an open file descriptor for the duration of the call.
+        if unsafe { libc::syncfs(folder.as_raw_fd()) } != 0 {
+            return Err(std::io::Error::last_os_error());
+        }
+    }
+    #[cfg(all(unix, not(target_os = "linux")))]
+    {
+        let _ = dir;
+        // SAFETY: `sync` takes no arguments and cannot fail.
+        unsafe { libc::sync() };
+    }
+    #[cfg(not(unix))]
+    let _ = dir;
     Ok(())
 }
 
@@ -111,11 +141,28 @@ struct Piece {
     values: (u32, u32),
 }
 
+/// A worker's scratch in [`write_runs`]: the tile's run values, its pieces per time
+/// chunk, one chunk's bytes (kept zeroed), and its zstd context.
+type TileScratch = (
+    Vec<f32>,
+    Vec<Vec<Piece>>,
+    Vec<u8>,
+    std::io::Result<zstd::bulk::Compressor<'static>>,
+);
+
 /// The chunks of `array` holding the total (`layer` `None`) or bounce layer `l` of
 /// `snap`: per 32 x 32 tile (in parallel), its pixels' runs cut into the time chunks
 /// they touch; each touched chunk is zero-filled, given its pieces, and stored.
+///
+/// The chunks are encoded here, as the arrays' codecs say (float32 little-endian
+/// bytes, then zstd at [`ZSTD_LEVEL`]), with one zstd context per worker, and written
+/// as plain files at the array's chunk keys; [`sync_filesystem`] makes them durable
+/// once at the end. Through zarrs' store each chunk made a new zstd context and was
+/// `fsync`ed on its own, which took 3.5 min for the 115 k chunks of a 15 s render
+/// (`builtin:canopy` at 2048 x 2048 x 16384, 1 spp).
 fn write_runs(
     path: &Path,
+    store: &FilesystemStore,
     array: &Array<FilesystemStore>,
     snap: &FilmSnapshot,
     layer: Option<usize>,
@@ -126,11 +173,18 @@ fn write_runs(
     let tiles: Vec<(usize, usize)> = (0..h.div_ceil(cy))
         .flat_map(|ty| (0..w.div_ceil(cx)).map(move |tx| (ty, tx)))
         .collect();
+    let zstd_err = |e: &std::io::Error| zarr_err(path)(&format!("zstd: {e}"));
     tiles.into_par_iter().try_for_each_init(
-        || (Vec::new(), vec![Vec::new(); time_chunks], Vec::new()),
-        |(values, buckets, chunk): &mut (Vec<f32>, Vec<Vec<Piece>>, Vec<f32>),
-         (ty, tx)|
-         -> Result<()> {
+        || {
+            (
+                Vec::new(),
+                vec![Vec::new(); time_chunks],
+                Vec::new(),
+                zstd::bulk::Compressor::new(ZSTD_LEVEL),
+            )
+        },
+        |(values, buckets, chunk, compressor): &mut TileScratch, (ty, tx)| -> Result<()> {
+            let compressor = compressor.as_mut().map_err(|e| zstd_err(e))?;
             values.clear();
             buckets.iter_mut().for_each(Vec::clear);
             for dy in 0..cy {
@@ -169,21 +223,39 @@ fn write_runs(
                 if pieces.is_empty() {
                     continue;
                 }
-                chunk.clear();
-                chunk.resize(cy * cx * ct, 0.0);
+                // All zeros here (zeroed once, and put back after each use below).
+                chunk.resize(cy * cx * ct * 4, 0);
                 for p in pieces {
-                    let at = p.pixel as usize * ct + p.bin as usize;
+                    let at = (p.pixel as usize * ct + p.bin as usize) * 4;
                     let src = &values[p.values.0 as usize..p.values.1 as usize];
-                    if let Some(dst) = chunk.get_mut(at..at + src.len()) {
-                        dst.copy_from_slice(src);
+                    if let Some(dst) = chunk.get_mut(at..at + 4 * src.len()) {
+                        for (d, v) in dst.chunks_exact_mut(4).zip(src) {
+                            d.copy_from_slice(&v.to_le_bytes());
+                        }
+                    }
+                }
+                let encoded = compressor.compress(chunk).map_err(|e| zstd_err(&e))?;
+                for p in pieces {
+                    let at = (p.pixel as usize * ct + p.bin as usize) * 4;
+                    let len = 4 * (p.values.1 - p.values.0) as usize;
+                    if let Some(dst) = chunk.get_mut(at..at + len) {
+                        dst.fill(0);
                     }
                 }
                 let mut index = Vec::with_capacity(4);
                 index.extend(layer.map(|l| l as u64));
                 index.extend([ty as u64, tx as u64, tc as u64]);
-                array
-                    .store_chunk(&index, &chunk[..])
-                    .map_err(|e| zarr_err(path)(&e))?;
+                let file = store.key_to_fspath(&array.chunk_key(&index));
+                if let Some(dir) = file.parent() {
+                    std::fs::create_dir_all(dir).map_err(|source| ExportError::Create {
+                        path: dir.to_path_buf(),
+                        source,
+                    })?;
+                }
+                std::fs::write(&file, &encoded).map_err(|source| ExportError::Create {
+                    path: file.clone(),
+                    source,
+                })?;
             }
             Ok(())
         },
