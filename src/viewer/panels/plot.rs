@@ -182,6 +182,8 @@ impl TprfApp {
             &m_pixel,
             snap.axis(),
             (h * 0.2).max(90.0),
+            snap,
+            (sel.y0, sel.x0),
         );
     }
 }
