@@ -594,7 +594,7 @@ fn pile_up_pulls_strong_returns_early() {
     let b = &depth_bias_m;
     assert!(b[0].abs() < bin_m, "{b:?}");
     assert!(b[1] < -0.5 * bin_m && b[2] < b[1] && b[3] < b[2], "{b:?}");
-    assert!(bias_s[3] < bias_s[2] && bias_s[2] < bias_s[1] && bias_s[3] < -1.0 * sigma);
+    assert!(bias_s[3] < bias_s[2] && bias_s[2] < bias_s[1] && bias_s[3] < -sigma);
 }
 
 fn tdc_sensor_with(f: impl FnOnce(&mut Spad)) -> Result<SensorModel, SensorError> {
@@ -606,7 +606,8 @@ fn tdc_sensor_with(f: impl FnOnce(&mut Spad)) -> Result<SensorModel, SensorError
 
 #[test]
 fn bad_input_is_refused_with_the_field() {
-    let cases: [(&str, Box<dyn Fn(&mut Spad)>); 10] = [
+    type Edit = Box<dyn Fn(&mut Spad)>;
+    let cases: [(&str, Edit); 10] = [
         ("spad.pde", Box::new(|s| s.pde = 1.5)),
         ("spad.pde", Box::new(|s| s.pde = f64::NAN)),
         (

@@ -5,7 +5,7 @@ use super::state::SensorState;
 use super::{GATE_COLOR, LIGHT_COLOR};
 use eframe::egui::{self, Color32, RichText};
 use egui_plot::{Line, Plot, PlotPoints, Points, VLine};
-use tprf_core::film::{FilmSnapshot, TimeAxis};
+use tprf_core::film::FilmSnapshot;
 use tprf_core::sensor::spad::spad_pixel;
 
 const COATES_COLOR: Color32 = Color32::from_rgb(0x7d, 0xe0, 0x7d);
@@ -18,11 +18,11 @@ pub(crate) fn pixel_plots_ui(
     state: &mut SensorState,
     tprf: &[f32],
     m_pixel: &[f32],
-    axis: &TimeAxis,
     height: f32,
     snap: &FilmSnapshot,
     pixel: (usize, usize),
 ) {
+    let axis = snap.axis();
     let Some(trace) = state.pixel_trace(tprf) else {
         return;
     };

@@ -261,7 +261,7 @@ mod tests {
         let d = detector(Acquisition::Synchronous, 15, 16);
         let mut out = vec![0.0; 16];
         d.expected(&rates, &mut out);
-        let mut before = 0.0;
+        let mut before = 0.0f64;
         for (k, &r) in rates.iter().enumerate() {
             let want = 10.0 * (1.0 - (-r).exp()) * (-before).exp();
             assert!((out[k] - want).abs() < 1e-12, "{k}");
@@ -278,7 +278,7 @@ mod tests {
             let mut out = vec![0.0; 5];
             d.expected(&rates, &mut out);
             for (o, r) in out.iter().zip(rates) {
-                assert!((o - 10.0 * (1.0 - (-r as f64).exp())).abs() < 1e-12);
+                assert!((o - 10.0 * (1.0 - (-r).exp())).abs() < 1e-12);
             }
         }
     }
