@@ -423,3 +423,125 @@ fn a_render_replaces_the_whole_folder_and_leaves_nothing_beside_it() {
         "left beside the folder: {beside:?}"
     );
 }
+
+#[test]
+fn sensor_with_a_spad_writes_histograms_that_follow_the_first_photon_law() {
+    let dir = tempdir("spad");
+    let (w, h, bins) = (8usize, 6usize, 32usize);
+    let o = tprf(&[
+        "render",
+        "builtin:cornell",
+        "--out",
+        dir.to_str().unwrap(),
+        "--width",
+        &w.to_string(),
+        "--height",
+        &h.to_string(),
+        "--bins",
+        &bins.to_string(),
+        "--spp",
+        "4",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (meta, cube) = tprf_core::export::read_cube(&dir.join("tprf.npy")).unwrap();
+    // A delta pulse at t = 0, TDC bins that are the film's bins, a dead time of the
+    // whole cycle: per pixel the SPAD fires at most once a cycle, in a fraction
+    // 1 - exp(-R) of them, R = PDE (ppu steady + ambient T) + DCR T, T = the cycle.
+    let (n, pde, ppu, ambient_hz, dcr_hz) = (1000.0, 0.5, 2.0, 3e7, 2e6);
+    let cycle_s = meta.dt_s * bins as f64;
+    let toml = format!(
+        "[light]\nkind = \"delta\"\n\
+         [exposure]\nkind = \"tdc\"\norigin = \"window\"\nstart = 0\nbin_width = {dt:e}\nbins = {bins}\n\
+         [spad]\ncycles = {n}\npde = {pde}\nphotons_per_unit = {ppu}\nambient_rate = {ambient_hz:e}\n\
+         dark_count_rate = {dcr_hz:e}\ndead_time = {cycle_s:e}\n",
+        dt = meta.dt_s,
+        n = n as u64,
+    );
+    let preset = dir.join("spad.toml");
+    std::fs::write(&preset, toml).unwrap();
+    let out = dir.join("s");
+    let o = tprf(&[
+        "sensor",
+        dir.to_str().unwrap(),
+        "--preset",
+        preset.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (shape, hist) = tprf_core::export::read_npy_f32(&out.join("spad_histogram.npy")).unwrap();
+    assert_eq!(shape, vec![bins as u64, h as u64, w as u64]);
+    let (_, counts) = tprf_core::export::read_npy_f32(&out.join("spad_counts.npy")).unwrap();
+    let (_, coates) = tprf_core::export::read_npy_f32(&out.join("spad_coates.npy")).unwrap();
+    for p in 0..w * h {
+        let steady: f64 = cube[p * bins..(p + 1) * bins]
+            .iter()
+            .map(|&v| f64::from(v))
+            .sum();
+        let r = pde * (ppu * steady + ambient_hz * cycle_s) + dcr_hz * cycle_s;
+        let want = n * (1.0 - (-r).exp());
+        let got: f64 = (0..bins).map(|k| f64::from(hist[k * w * h + p])).sum();
+        assert!(
+            (got - want).abs() <= 1e-4 * want,
+            "pixel {p}: {got} vs {want}"
+        );
+        let drawn: Vec<f64> = (0..bins)
+            .map(|k| f64::from(counts[k * w * h + p]))
+            .collect();
+        assert!(drawn.iter().all(|c| c.fract() == 0.0 && *c >= 0.0));
+        assert!(drawn.iter().sum::<f64>() <= n);
+        // The Coates estimate of bin 0 is -N ln(1 - h_0 / N): nothing before it.
+        let h0 = drawn[0];
+        if h0 < n {
+            let c0 = f64::from(coates[p]);
+            let want = -n * (1.0 - h0 / n).ln();
+            assert!(
+                (c0 - want).abs() <= 1e-4 * want.max(1.0),
+                "pixel {p}: {c0} vs {want}"
+            );
+        }
+    }
+    for name in ["histogram", "counts", "coates"] {
+        let (shape, _) =
+            tprf_core::export::read_npy_f32(&out.join(format!("spad_depth_{name}.npy"))).unwrap();
+        assert_eq!(shape, vec![h as u64, w as u64]);
+        assert!(out.join(format!("spad_depth_{name}.png")).exists());
+    }
+    // sensor.json records every parameter with its unit.
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("sensor.json")).unwrap()).unwrap();
+    let params = &json["derived"]["spad"]["parameters"];
+    for (key, value) in [
+        ("cycles", n),
+        ("pde", pde),
+        ("ambient_rate_hz", ambient_hz),
+        ("dark_count_rate_hz", dcr_hz),
+        ("dead_bins", bins as f64),
+    ] {
+        assert_eq!(params[key]["value"].as_f64(), Some(value), "{key}");
+        assert!(params[key]["unit"].is_string(), "{key}");
+    }
+    // The built-in preset runs; a bad override is refused, naming the field.
+    let o = tprf(&[
+        "sensor",
+        dir.to_str().unwrap(),
+        "--preset",
+        "builtin:spad",
+        "--cycles",
+        "0",
+        "--out",
+        dir.join("bad").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("spad.cycles"), "{}", stderr(&o));
+    let o = tprf(&[
+        "sensor",
+        dir.to_str().unwrap(),
+        "--preset",
+        "builtin:spad",
+        "--out",
+        dir.join("builtin").to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(dir.join("builtin/spad_depth_coates.png").exists());
+}
