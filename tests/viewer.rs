@@ -785,7 +785,15 @@ fn spad_preset_shows_the_first_photon_histogram_of_the_cached_film() {
     h.step();
     h.get_by_label("SPAD bin image");
     h.get_by_label("SPAD depth image");
-    if let (Some(path), Some(shot)) = (std::env::var_os("TPRF_SPAD_SHOT"), render(&mut h)) {
-        shot.save(path).unwrap();
+    // TPRF_SPAD_SHOT=FILE: a picture of the tab with the built-in preset, to look at.
+    if let Some(path) = std::env::var_os("TPRF_SPAD_SHOT") {
+        h.state_mut().settings.sensor = Sensor::builtin("spad").unwrap();
+        h.state_mut().sensor.gate = 40;
+        h.step();
+        wait_sensor(&mut h);
+        h.run_steps(3);
+        if let Some(shot) = render(&mut h) {
+            shot.save(path).unwrap();
+        }
     }
 }

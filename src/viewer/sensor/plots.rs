@@ -143,7 +143,7 @@ fn spad_plot_ui(
         .small(),
     );
     let r = Plot::new("sensor-spad")
-        .height(2.0 * height)
+        .height(1.25 * height)
         .allow_drag(false)
         .x_axis_label("TDC time (ns)")
         .legend(egui_plot::Legend::default())
