@@ -130,9 +130,13 @@ impl Detector {
         let b = self.bins.min(rates.len()).min(out.len());
         let mut state = State::new(self.dead_bins);
         let mut cycle = vec![0.0; b];
+        let factors: Vec<BinFactors> = rates[..b]
+            .iter()
+            .map(|&r| BinFactors::new(r, self.trap_rate))
+            .collect();
         match self.mode {
             Acquisition::Synchronous => {
-                self.run_cycle(&rates[..b], &mut state, &mut cycle);
+                self.run_cycle(&factors, &mut state, &mut cycle);
                 let n = self.cycles as f64;
                 for (o, d) in out.iter_mut().zip(&cycle) {
                     *o = n * d;
@@ -145,7 +149,7 @@ impl Detector {
                 let half = MAX_ITERATED_CYCLES / 2;
                 let mut done = 0u64;
                 while done < self.cycles {
-                    self.run_cycle(&rates[..b], &mut state, &mut cycle);
+                    self.run_cycle(&factors, &mut state, &mut cycle);
                     done += 1;
                     for (o, d) in out.iter_mut().zip(&cycle) {
                         *o += d;
@@ -182,22 +186,41 @@ impl Detector {
 
     /// The detection probabilities of one cycle (`D_k` into `cycle`), from `state`
     /// (reset first in synchronous mode), leaving the state at the cycle's end.
-    fn run_cycle(&self, rates: &[f64], state: &mut State, cycle: &mut [f64]) {
+    /// `bins` holds each bin's factors, computed once per pixel ([`BinFactors`]).
+    fn run_cycle(&self, bins: &[BinFactors], state: &mut State, cycle: &mut [f64]) {
         if self.mode == Acquisition::Synchronous {
             state.reset();
         }
-        let mu = self.trap_rate;
-        let trap_keep = (-mu).exp();
         let p = self.trap_at_rearm;
-        for (d_out, &r) in cycle.iter_mut().zip(rates) {
-            let r = r.clamp(0.0, RATE_CAP);
-            let keep_e = (-r).exp();
-            let keep_f = keep_e * trap_keep;
-            let det = state.armed_empty * -(-r).exp_m1() + state.armed_trap * -(-(r + mu)).exp_m1();
+        for (d_out, f) in cycle.iter_mut().zip(bins) {
+            let det = state.armed_empty * f.fire_e + state.armed_trap * f.fire_f;
             *d_out = det;
             let rearm = state.push(det);
-            state.armed_empty = state.armed_empty * keep_e + rearm * (1.0 - p);
-            state.armed_trap = state.armed_trap * keep_f + rearm * p;
+            state.armed_empty = state.armed_empty * f.keep_e + rearm * (1.0 - p);
+            state.armed_trap = state.armed_trap * f.keep_f + rearm * p;
+        }
+    }
+}
+
+/// One bin's factors in the recursion: the chances that an armed SPAD stays quiet
+/// (`e^-r`, `e^-(r + mu)`) or fires (`1 - e^-r`, `1 - e^-(r + mu)`) with the trap
+/// empty or filled, the rate clamped to [`RATE_CAP`].
+#[derive(Clone, Copy, Debug)]
+struct BinFactors {
+    keep_e: f64,
+    keep_f: f64,
+    fire_e: f64,
+    fire_f: f64,
+}
+
+impl BinFactors {
+    fn new(r: f64, mu: f64) -> BinFactors {
+        let r = if r > 0.0 { r.min(RATE_CAP) } else { 0.0 };
+        BinFactors {
+            keep_e: (-r).exp(),
+            keep_f: (-(r + mu)).exp(),
+            fire_e: -(-r).exp_m1(),
+            fire_f: -(-(r + mu)).exp_m1(),
         }
     }
 }
