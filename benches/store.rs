@@ -1,7 +1,8 @@
 //! Store benchmark: `cargo bench --bench store` (a plain program, not a timed test).
 //!
 //! The sparse TPRF store against a dense one, in one run, on the same samples: for
-//! `builtin:cornell` and `builtin:canopy` at 256 x 256 x 1024, the film is rendered with
+//! `builtin:cornell`, `builtin:canopy` and the Cornell box with the 1 M-triangle blob of
+//! `benches/engine.rs`, at 256 x 256 x 1024, the film is rendered with
 //! `progressive::render` (as `tprf render` does), then the same passes (same pass sizes,
 //! same random streams) are traced into a dense `[half][pixel][bin]` f64 accumulation
 //! written here, as the store was before it became sparse. Runs alternate, best of two.
@@ -17,6 +18,9 @@ use tprf_core::film::{FilmLayout, TimeAxis, TprfFilm};
 use tprf_core::transport::progressive::{self, Schedule};
 use tprf_core::transport::sampler::Sampler;
 use tprf_core::transport::{RenderSettings, Renderer, Sink, WindowRequest, auto_window};
+
+mod common;
+use common::cornell_blob;
 
 const W: usize = 256;
 const H: usize = 256;
@@ -81,13 +85,22 @@ fn main() {
         "| scene | sparse paths/s | dense paths/s | sparse / dense | bins stored | store | dense store | store / (16 B x stored + 64 B x pixels) | largest cube difference |"
     );
     println!("|---|--:|--:|--:|--:|--:|--:|--:|--:|");
-    for name in ["cornell", "canopy"] {
-        let scene = match tprf_core::scene::load(&format!("builtin:{name}")) {
-            Ok(s) => s,
-            Err(e) => {
-                eprintln!("builtin:{name}: {e}");
-                continue;
+    for name in ["builtin:cornell", "builtin:canopy", "cornell + blob"] {
+        let scene = if name == "cornell + blob" {
+            cornell_blob(512, 1024)
+        } else {
+            match tprf_core::scene::load(name) {
+                Ok(s) => s,
+                Err(e) => {
+                    eprintln!("{name}: {e}");
+                    continue;
+                }
             }
+        };
+        let name = if name == "cornell + blob" {
+            format!("cornell + {}-triangle blob", scene.triangles.len() - 10)
+        } else {
+            name.to_string()
         };
         let renderer = Renderer::new(Arc::new(scene), RenderSettings::default());
         let Ok(axis) = auto_window(
@@ -98,7 +111,7 @@ fn main() {
                 ..WindowRequest::default()
             },
         ) else {
-            eprintln!("builtin:{name}: no time window");
+            eprintln!("{name}: no time window");
             continue;
         };
         let layout = FilmLayout {
@@ -144,7 +157,7 @@ fn main() {
         let st = film.store_stats();
         let paths = (W * H) as f64 * SPP as f64;
         println!(
-            "| builtin:{name} {W}x{H}x{BINS}, {SPP} spp | {:.2} M | {:.2} M | {:.3} | {:.1} % | {:.0} MB | {:.2} GB | {:.3} | {:.1e} (relative) |",
+            "| {name} {W}x{H}x{BINS}, {SPP} spp | {:.2} M | {:.2} M | {:.3} | {:.1} % | {:.0} MB | {:.2} GB | {:.3} | {:.1e} (relative) |",
             paths / sparse_s / 1e6,
             paths / dense_s / 1e6,
             dense_s / sparse_s,

@@ -797,3 +797,112 @@ fn spad_preset_shows_the_first_photon_histogram_of_the_cached_film() {
         }
     }
 }
+
+/// A cube folder rendered by `tprf render` at `w x h` pixels (4 bins, 2 spp).
+fn rendered_cube(name: &str, w: usize, h: usize) -> std::path::PathBuf {
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("viewer-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_tprf"))
+        .args(["render", "builtin:cornell", "--spp", "2", "--bins", "4"])
+        .args([
+            "--width",
+            &w.to_string(),
+            "--height",
+            &h.to_string(),
+            "--out",
+        ])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    dir
+}
+
+/// A cube wider than the GPU's largest texture (`tprf render --width 9000 --height 2`,
+/// then `tprf view`, panicked in wgpu): every texture the window makes fits the limit,
+/// the images are shown shrunk with a note, and picking still reaches every film pixel.
+/// The limit is set small here (1024 texels, where eframe puts the device's
+/// `max_texture_dimension_2d`; egui's font atlas needs that much), so the cube need not
+/// be 9000 pixels wide.
+#[test]
+fn a_cube_wider_than_the_texture_limit_is_shown_shrunk() {
+    let (w, hgt) = (2400, 2);
+    let dir = rendered_cube("wide", w, hgt);
+    let mut h = Harness::builder()
+        .with_size(Vec2::new(1280.0, 800.0))
+        .build_eframe(move |cc| {
+            TprfApp::with_settings(cc, ViewerSettings::default(), Start::Cube(dir))
+        });
+    h.input_mut().max_texture_side = Some(1024);
+    h.run_steps(3);
+    let snap = h.state().snapshot().expect("the cube is shown");
+    assert_eq!((snap.width(), snap.height()), (w, hgt));
+    let sizes: Vec<(String, [usize; 2])> = h
+        .ctx
+        .tex_manager()
+        .read()
+        .allocated()
+        .map(|(_, m)| (m.name.clone(), m.size))
+        .filter(|(name, _)| ["Slice", "Steady", "Rainbow"].contains(&name.as_str()))
+        .collect();
+    assert_eq!(sizes.len(), 3, "{sizes:?}");
+    for (name, [tw, th]) in &sizes {
+        // 2400 wide shrinks by 3: 800 x 1 texels, each the mean of a 3 x 3 block.
+        assert_eq!((*tw, *th), (800, 1), "{name}");
+    }
+    assert_eq!(
+        h.query_all_by_label_contains("2400 x 2 pixels shown as 800 x 1")
+            .count(),
+        3,
+        "a note under each shrunk image"
+    );
+    // Clicking near the right edge of the slice picks a pixel of the film, not of the
+    // texture.
+    let pos = pixel_pos(&h, "time slice", w - 2, 1, w, hgt);
+    click_at(&mut h, pos);
+    assert_eq!(h.state().selection, Some(Selection::pixel(w - 2, 1)));
+    render(&mut h);
+}
+
+/// A cube with no pixels is an error in the window, not a panic.
+#[test]
+fn a_cube_without_pixels_is_an_error_in_the_window() {
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("viewer-empty-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    // A real cube's metadata with its width set to 0, and an array of that shape.
+    let src = rendered_cube("empty-src", 3, 2);
+    let mut meta: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(src.join("tprf.json")).unwrap()).unwrap();
+    meta["width"] = serde_json::json!(0);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("tprf.json"), meta.to_string()).unwrap();
+    tprf_core::export::write_npy_f32(&dir.join("tprf.npy"), &[2, 0, 4], &[]).unwrap();
+    let mut h = Harness::builder()
+        .with_size(Vec2::new(1280.0, 800.0))
+        .build_eframe(move |cc| {
+            TprfApp::with_settings(cc, ViewerSettings::default(), Start::Cube(dir))
+        });
+    h.run_steps(3);
+    assert!(h.state().snapshot().is_none());
+    assert!(
+        h.state()
+            .messages()
+            .iter()
+            .any(|m| m.contains("0 x 2 pixels x 4 bins: there is nothing in it")),
+        "{:?}",
+        h.state().messages()
+    );
+    // In the messages and in place of the images (no spinner: nothing is coming).
+    assert!(
+        h.query_all_by_label_contains("there is nothing in it")
+            .count()
+            >= 2
+    );
+    render(&mut h);
+}

@@ -5,6 +5,7 @@
 
 mod args;
 pub mod converge;
+mod interrupt;
 pub mod oned;
 pub mod render;
 pub mod sensor;

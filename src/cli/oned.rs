@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Result;
 use clap::Args;
+use tprf_core::budget;
 use tprf_core::oned::{ImpulseOptions, InterfaceKind, World, WorldError, binned};
 
 use super::args::time_s;
@@ -59,6 +60,17 @@ pub fn print_oned(
         other => anyhow::anyhow!("{}: {other}", path.display()),
     })?;
     let opts = ImpulseOptions::default();
+    let interfaces = world.interfaces().len();
+    // The enumeration holds at most `max_bytes`: refuse now what memory cannot give.
+    budget::check(
+        opts.max_bytes,
+        &format!("the 1-D world {}", path.display()),
+        format_args!(
+            "its live packets and impulses (up to {} packets of {} for {interfaces} interfaces)",
+            budget::format_count(opts.max_packets(interfaces)),
+            budget::format_bytes(ImpulseOptions::packet_bytes(interfaces))
+        ),
+    )?;
     let train = world.impulse_train(&opts);
 
     writeln!(out, "# tprf 1-D world: {}", path.display())?;
@@ -107,8 +119,11 @@ pub fn print_oned(
     if train.truncated {
         writeln!(
             out,
-            "# WARNING: more than {} live packets in one order: the train is incomplete",
-            opts.max_packets
+            "# WARNING: the enumeration reached its memory limit of {} ({} live packets of {} \
+             for {interfaces} interfaces, with the impulses): the train is incomplete",
+            budget::format_bytes(opts.max_bytes),
+            budget::format_count(opts.max_packets(interfaces)),
+            budget::format_bytes(ImpulseOptions::packet_bytes(interfaces))
         )?;
     }
     let seen: f64 = train.impulses.iter().map(|i| i.weight).sum();

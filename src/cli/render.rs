@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use tprf_core::export::{self, BIN_VALUE, CameraMetadata, CubeFormat, CubeMetadata};
@@ -60,7 +60,7 @@ pub struct RenderArgs {
     #[arg(long)]
     pub frames: bool,
     /// Per-bounce layers: bounce 0 (emitters seen directly), 1..K and the rest, in
-    /// tprf_bounces.npy [K+2, H, W, T].
+    /// tprf_bounces.npy [K+2, H, W, T] (or the array "bounces" of tprf.zarr).
     #[arg(long, default_value_t = 0)]
     pub bounces_separate: u32,
     /// How the cube is written: `npy` (tprf.npy, one dense float32 array), `zarr`
@@ -154,23 +154,12 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
         bounces_separate: a.bounces_separate,
     };
     let mut film = TprfFilm::new(layout).map_err(anyhow::Error::msg)?;
-    // The folder is written beside its place and swapped in at the end (export::staging):
-    // its parent must exist to hold both.
-    let parent = match a.out.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    std::fs::create_dir_all(&parent)
-        .with_context(|| format!("cannot create {}", parent.display()))?;
+    // The folder is written beside its place and swapped in at the end (export::staging),
+    // which creates the folders above it then: nothing is made on disk before the render
+    // is done. Its free space is that of the nearest folder above it that exists.
+    let parent = existing_ancestor(&a.out);
     let (w, h, t) = (a.width as u64, a.height as u64, axis.bins as u64);
     let format = a.format.resolve(&[h, w, t]);
-    if format == CubeFormat::Zarr && layout.bounce_layers() > 0 {
-        bail!(
-            "--bounces-separate is written only with tprf.npy so far: add --format npy \
-             (the cube is {:.1} GiB dense)",
-            export::npy_f32_bytes(&[h, w, t]) as f64 / (1u64 << 30) as f64
-        );
-    }
     // A dense cube: refuse now, not after the render, what cannot be written.
     let file_bytes = export::npy_f32_bytes(&[h, w, t]).saturating_add(export::npy_f32_bytes(&[
         layout.bounce_layers() as u64,
@@ -212,6 +201,10 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
         );
     }
 
+    // Ctrl-C from here on drops what was written (the staging folder) and leaves the
+    // old output as it was; checked between files.
+    super::interrupt::catch();
+    super::interrupt::check()?;
     let staging = export::staging::Staging::new(&a.out)?;
     let dir = staging.path();
     let snap = film.snapshot();
@@ -230,7 +223,10 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
     let cam = &scene.camera;
     let meta = CubeMetadata {
         format: match format {
-            CubeFormat::Zarr => "tprf cube v1: tprf.zarr (Zarr v3) float32 [H, W, T], row 0 = top",
+            CubeFormat::Zarr => {
+                "tprf cube v2: tprf.zarr (Zarr v3 group): cube float32 [H, W, T] and, with \
+                 bounces_separate > 0, bounces float32 [layers, H, W, T]; row 0 = top"
+            }
             _ => "tprf cube v1: tprf.npy float32 [H, W, T], row 0 = top",
         }
         .into(),
@@ -271,7 +267,9 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
             export::write_snapshot_npy(&dir.join("tprf_bounces.npy"), &snap, true)?;
         }
     }
+    super::interrupt::check()?;
     export::write_json(&dir.join("tprf.json"), &meta)?;
+    super::interrupt::check()?;
     staging.commit()?;
     eprintln!(
         "wrote {} ({} spp, {:.1} s, {:.2} Mrays/s{})",
@@ -285,6 +283,15 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
         ))
     );
     Ok(())
+}
+
+/// The nearest of `path`'s parent folders that exists (`.` for a relative path whose
+/// first folder is new).
+fn existing_ancestor(path: &std::path::Path) -> PathBuf {
+    path.ancestors()
+        .skip(1)
+        .find(|p| !p.as_os_str().is_empty() && p.is_dir())
+        .map_or_else(|| PathBuf::from("."), PathBuf::from)
 }
 
 fn parse_format(s: &str) -> Result<CubeFormat, String> {

@@ -6,14 +6,18 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use tprf_core::export::sensor::{SensorRun, read_any_cube, write_sensor_outputs};
+use tprf_core::export::sensor::{
+    DEFAULT_TILE_BYTES, SensorCube, SensorRun, measure_cube, write_sensor_outputs,
+};
 use tprf_core::sensor::{Derived, Exposure, LightPulse, Sensor, SensorModel, spad_image};
 use tprf_core::units::format_time;
 
 #[derive(Args, Debug)]
 pub struct SensorArgs {
-    /// A `tprf render` output folder: tprf.npy float32 [H, W, T] and tprf.json (t0_s,
-    /// dt_s, bins); tprf_bounces.npy, when present, gives the AMCW reference depth.
+    /// A `tprf render` output folder: tprf.npy float32 [H, W, T] (read whole) or
+    /// tprf.zarr (read a tile of pixels at a time: a cube larger than memory is
+    /// measured), and tprf.json (t0_s, dt_s, bins); bounce layers, when present, give
+    /// the AMCW reference depth.
     pub dir: PathBuf,
     /// The sensor: a TOML file (see docs/sensor.md) or builtin:gated, builtin:lidar,
     /// builtin:amcw, builtin:spad. The options below override its parts.
@@ -114,7 +118,8 @@ fn sensor_from_args(a: &SensorArgs) -> Result<Sensor> {
 pub fn run(a: &SensorArgs) -> Result<()> {
     let start = Instant::now();
     let sensor = sensor_from_args(a)?;
-    let (cube, w, h, axis) = read_any_cube(&a.dir)?;
+    let cube = SensorCube::open(&a.dir)?;
+    let (w, h, axis) = (cube.width, cube.height, cube.axis);
     for &(y, x) in &a.pixels {
         if y >= h || x >= w {
             bail!("--pixel {y},{x} is outside the {h} x {w} image (row, column from 0)");
@@ -124,17 +129,14 @@ pub fn run(a: &SensorArgs) -> Result<()> {
     let model = SensorModel::new(sensor, axis)?;
     let kernels_s = t_kernels.elapsed().as_secs_f64();
     let t_measure = Instant::now();
-    let mut m = model.measure_clean(&cube, w, h)?;
+    let measured = measure_cube(&cube, &model, &a.pixels, DEFAULT_TILE_BYTES)?;
+    let mut m = measured.measurements;
     let measure_s = t_measure.elapsed().as_secs_f64();
     let t_spad = Instant::now();
-    let spad = match model.sensor().spad {
-        Some(_) => {
-            let steady: Vec<f32> = cube
-                .chunks_exact(axis.bins.max(1))
-                .map(|px| px.iter().map(|&v| f64::from(v)).sum::<f64>() as f32)
-                .collect();
-            Some(spad_image(&model, &m, &steady)?)
-        }
+    // The SPAD reads the clean measurement and the steady image, both whole by now
+    // (measure_cube gathers them tile by tile), never the cube itself.
+    let spad = match &measured.steady {
+        Some(steady) => Some(spad_image(&model, &m, steady)?),
         None => None,
     };
     let spad_s = t_spad.elapsed().as_secs_f64();
@@ -162,11 +164,13 @@ pub fn run(a: &SensorArgs) -> Result<()> {
         &SensorRun {
             model: &model,
             measurements: &m,
-            cube: &cube,
             width: w,
             height: h,
             cube_dir: &a.dir,
+            true_depth: measured.true_depth.as_ref(),
             pixels: &a.pixels,
+            traces: &measured.traces,
+            tiles: measured.tiles,
             kernels_s,
             measurement_s: measure_s,
             noise_s,
@@ -191,11 +195,16 @@ pub fn run(a: &SensorArgs) -> Result<()> {
         );
     }
     eprintln!(
-        "wrote {} ({n} gates x {h} x {w}; kernels {:.1} ms, measurement {:.1} ms, noise \
+        "wrote {} ({n} gates x {h} x {w}; kernels {:.1} ms, measurement {:.1} ms{}, noise \
          {:.1} ms)",
         a.out.display(),
         kernels_s * 1e3,
         measure_s * 1e3,
+        if measured.tiles > 1 {
+            format!(" in {} tiles", measured.tiles)
+        } else {
+            String::new()
+        },
         noise_s * 1e3
     );
     Ok(())

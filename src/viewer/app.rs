@@ -101,6 +101,25 @@ impl eframe::App for TprfApp {
         self.messages.extend(self.exports.finished());
         self.handle_dropped_files(&ctx);
         let snap = self.snapshot();
+        // A film without pixels or bins has nothing to draw (and no texture can be made
+        // of it): said in the window instead.
+        let empty = snap
+            .as_ref()
+            .filter(|s| s.width() == 0 || s.height() == 0 || s.axis().bins == 0)
+            .map(|s| {
+                format!(
+                    "the film is {} x {} pixels x {} bins: there is nothing to show",
+                    s.width(),
+                    s.height(),
+                    s.axis().bins
+                )
+            });
+        if let Some(m) = &empty
+            && !self.messages.contains(m)
+        {
+            self.messages.push(m.clone());
+        }
+        let snap = snap.filter(|_| empty.is_none());
         let bins = snap.as_ref().map_or(0, |s| s.axis().bins);
         if bins > 0 {
             self.bin = self.bin.min(bins - 1);
@@ -166,10 +185,20 @@ impl eframe::App for TprfApp {
             }
             Some(s) => self.images_ui(ui, s),
             None => {
-                ui.centered_and_justified(|ui| match self.status().map(|s| s.state) {
-                    Some(WorkerState::Failed(e)) => ui.label(
+                ui.centered_and_justified(|ui| match (self.status().map(|s| s.state), &empty) {
+                    (Some(WorkerState::Failed(e)), _) => ui.label(
                         RichText::new(format!("Render failed: {e}"))
                             .color(ui.visuals().error_fg_color),
+                    ),
+                    (_, Some(m)) => ui.label(RichText::new(m).color(ui.visuals().error_fg_color)),
+                    // No render runs and no cube is open (it could not be read): nothing
+                    // is coming, so no spinner.
+                    _ if matches!(self.source, Source::None) => ui.label(
+                        RichText::new(self.messages.last().map_or(
+                            "Nothing to show: open a glTF scene or a cube.",
+                            String::as_str,
+                        ))
+                        .color(ui.visuals().error_fg_color),
                     ),
                     _ => ui.spinner(),
                 });

@@ -22,9 +22,65 @@ impl<K> Default for TextureCache<K> {
     }
 }
 
+/// `image` fitted to a GPU texture of at most `max_side` texels a side: wgpu refuses,
+/// with a panic, a texture larger than the device's `max_texture_dimension_2d` or an
+/// empty one. A side beyond the limit is shrunk by the smallest whole factor `k` that
+/// fits, each texel the mean of a `k x k` block; an empty image becomes one transparent
+/// texel. The image widget draws the texture at the film's size, so pixel picking (in
+/// film pixels) is unchanged.
+pub(crate) fn fit_texture(image: egui::ColorImage, max_side: usize) -> egui::ColorImage {
+    let [w, h] = image.size;
+    if w == 0 || h == 0 || image.pixels.len() != w * h {
+        return egui::ColorImage::filled([1, 1], egui::Color32::TRANSPARENT);
+    }
+    let max_side = max_side.max(1);
+    let k = w.div_ceil(max_side).max(h.div_ceil(max_side));
+    if k <= 1 {
+        return image;
+    }
+    let (nw, nh) = (w.div_ceil(k), h.div_ceil(k));
+    let mut pixels = Vec::with_capacity(nw * nh);
+    for by in 0..nh {
+        for bx in 0..nw {
+            let (mut sum, mut n) = ([0u32; 4], 0u32);
+            for y in by * k..((by + 1) * k).min(h) {
+                let row = image.pixels.get(y * w..(y + 1) * w).unwrap_or(&[]);
+                for c in row.get(bx * k..((bx + 1) * k).min(w)).unwrap_or(&[]) {
+                    for (s, v) in sum.iter_mut().zip(c.to_array()) {
+                        *s += u32::from(v);
+                    }
+                    n += 1;
+                }
+            }
+            let [r, g, b, a] = sum.map(|s| (s / n.max(1)) as u8);
+            pixels.push(egui::Color32::from_rgba_premultiplied(r, g, b, a));
+        }
+    }
+    egui::ColorImage::new([nw, nh], pixels)
+}
+
+/// Under an image of `w x h` film pixels drawn from `tex`: a note when the texture had
+/// to be shrunk to the GPU's limit (see [`fit_texture`]).
+pub(crate) fn shrunk_note_ui(ui: &mut egui::Ui, tex: &TextureHandle, w: usize, h: usize) {
+    let [tw, th] = tex.size();
+    if tw < w || th < h {
+        ui.label(
+            egui::RichText::new(format!(
+                "{w} x {h} pixels shown as {tw} x {th}: the GPU's largest texture is {} \
+                 texels a side (picking and the plots use every pixel)",
+                ui.ctx().input(|i| i.max_texture_side)
+            ))
+            .small()
+            .color(ui.visuals().warn_fg_color),
+        );
+    }
+}
+
 impl<K: PartialEq> TextureCache<K> {
     /// The texture `name`: the cached one when it was made from `key`, else `make()`
-    /// uploaded in its place (nearest-neighbour sampling: film pixels stay square).
+    /// uploaded in its place (nearest-neighbour sampling: film pixels stay square),
+    /// fitted to the GPU's largest texture ([`fit_texture`]); remade when that limit
+    /// turns out smaller than the cached texture.
     pub(super) fn get(
         &mut self,
         ctx: &egui::Context,
@@ -32,9 +88,12 @@ impl<K: PartialEq> TextureCache<K> {
         key: K,
         make: impl FnOnce() -> egui::ColorImage,
     ) -> TextureHandle {
+        let max_side = ctx.input(|i| i.max_texture_side);
+        let make = || fit_texture(make(), max_side);
         match self.entries.iter_mut().find(|(n, _, _)| *n == name) {
             Some((_, k, t)) => {
-                if *k != key {
+                // A texture made before the device's limit was known may exceed it.
+                if *k != key || t.size().into_iter().any(|side| side > max_side) {
                     t.set(make(), TextureOptions::NEAREST);
                     *k = key;
                 }

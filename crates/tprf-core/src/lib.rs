@@ -6,6 +6,7 @@
 //!
 //! | module | what |
 //! | --- | --- |
+//! | [`budget`] | memory budgets checked before input-sized allocations; regular files read whole, bounded |
 //! | [`scene`] | the world in metres: triangles, materials, lights, camera; glTF import and export, built-in scenes |
 //! | [`accel`] | the obvhs CWBVH: closest-hit and any-hit queries |
 //! | [`transport`] | the transient path tracer (NEE + MIS, Russian roulette, optical path length per path), the automatic time window, [`transport::progressive::render`] (the one pass loop), the background [`transport::worker`] |
@@ -55,6 +56,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod accel;
+pub mod budget;
 pub mod export;
 pub mod film;
 pub mod oned;

@@ -43,6 +43,10 @@ pub fn parse_time_s(text: &str) -> Result<f64, String> {
             ));
         }
     };
+    // `1e308 km` is finite as written but not in seconds.
+    if !seconds.is_finite() {
+        return Err(format!("'{text}' is too large to be a time in seconds"));
+    }
     Ok(seconds)
 }
 

@@ -37,6 +37,7 @@ impl TprfApp {
         let size = Vec2::new(w * scale, h * scale);
         let response = ui.add(egui::Image::new((tex.id(), size)).sense(Sense::click_and_drag()));
         response.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Image, true, label));
+        crate::viewer::textures::shrunk_note_ui(ui, &tex, snap.width(), snap.height());
         let to_pixel = |pos: egui::Pos2| -> (usize, usize) {
             let p = (pos - response.rect.min) / scale;
             (

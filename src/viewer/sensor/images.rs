@@ -288,6 +288,7 @@ fn pick(
         egui::Image::new((tex.id(), Vec2::new(w as f32, h as f32) * scale)).sense(Sense::click()),
     );
     r.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Image, true, label));
+    crate::viewer::textures::shrunk_note_ui(ui, tex, w, h);
     let pos = r.interact_pointer_pos().filter(|_| r.clicked())?;
     let p = (pos - r.rect.min) / scale;
     Some((

@@ -84,6 +84,25 @@ pub enum ExportError {
     },
     #[error("{path}: {message}")]
     Zarr { path: PathBuf, message: String },
+    #[error("{path}: the cube is {width} x {height} pixels x {bins} bins: there is nothing in it")]
+    Empty {
+        path: PathBuf,
+        width: usize,
+        height: usize,
+        bins: usize,
+    },
+    #[error(
+        "{path}: its header's shape {shape:?} needs {need_bytes} bytes of data, the file has {have_bytes}"
+    )]
+    Truncated {
+        path: PathBuf,
+        shape: Vec<u64>,
+        need_bytes: u64,
+        have_bytes: u64,
+    },
+    /// Too large for the memory left, or not a regular file.
+    #[error(transparent)]
+    Budget(#[from] crate::budget::BudgetError),
     #[error("{bytes} bytes do not make a {width} x {height} image of {channels} channel(s)")]
     ImageSize {
         width: usize,
@@ -169,6 +188,31 @@ impl CubeMetadata {
     pub fn axis(&self) -> Result<TimeAxis, FilmError> {
         TimeAxis::new(self.t0_s, self.dt_s, self.bins)
     }
+
+    /// Refuse a cube without pixels or bins (read from `path`): every reader divides by
+    /// its sides or walks it in rows.
+    pub fn check_not_empty(&self, path: &Path) -> Result<(), ExportError> {
+        check_not_empty(path, self.width, self.height, self.bins)
+    }
+}
+
+/// Refuse a cube of `width x height` pixels x `bins` bins (read from `path`) with nothing
+/// in it.
+pub fn check_not_empty(
+    path: &Path,
+    width: usize,
+    height: usize,
+    bins: usize,
+) -> Result<(), ExportError> {
+    if width == 0 || height == 0 || bins == 0 {
+        return Err(ExportError::Empty {
+            path: path.to_path_buf(),
+            width,
+            height,
+            bins,
+        });
+    }
+    Ok(())
 }
 
 /// What a bin holds, in words (DESIGN.md conventions).
@@ -352,15 +396,19 @@ pub fn write_snapshot_npy(
 /// checking that the array's shape is the metadata's `[H, W, T]`.
 pub fn read_cube(npy: &Path) -> Result<(CubeMetadata, Vec<f32>), ExportError> {
     let meta_path = npy.with_file_name("tprf.json");
-    let bytes = std::fs::read(&meta_path).map_err(|source| ExportError::NoMetadata {
-        path: meta_path.clone(),
-        source,
+    let bytes = crate::budget::read_file(&meta_path, "tprf.json").map_err(|e| match e {
+        crate::budget::BudgetError::Io { source, .. } => ExportError::NoMetadata {
+            path: meta_path.clone(),
+            source,
+        },
+        e => e.into(),
     })?;
     let meta: CubeMetadata =
         serde_json::from_slice(&bytes).map_err(|source| ExportError::Metadata {
             path: meta_path.clone(),
             source,
         })?;
+    meta.check_not_empty(&meta_path)?;
     let (shape, data) = read_npy_f32(npy)?;
     let expected = vec![meta.height as u64, meta.width as u64, meta.bins as u64];
     if shape != expected {
@@ -427,13 +475,19 @@ pub fn load_snapshot(dir: &Path) -> Result<(CubeMetadata, FilmSnapshot), ExportE
     Ok((meta, snapshot))
 }
 
+/// A regular file read whole ([`crate::budget::read_file`]); a failure to read it is an
+/// [`ExportError::Read`].
+fn read_file(path: &Path, subject: &str) -> Result<Vec<u8>, ExportError> {
+    crate::budget::read_file(path, subject).map_err(|e| match e {
+        crate::budget::BudgetError::Io { path, source } => ExportError::Read { path, source },
+        e => e.into(),
+    })
+}
+
 /// Read a float32 array written by [`write_npy_f32`] (or numpy), with its shape.
 pub fn read_npy_f32(path: &Path) -> Result<(Vec<u64>, Vec<f32>), ExportError> {
     let path_buf = || path.to_path_buf();
-    let bytes = std::fs::read(path).map_err(|source| ExportError::Read {
-        path: path_buf(),
-        source,
-    })?;
+    let bytes = read_file(path, "the .npy array")?;
     let npy = npyz::NpyFile::new(&bytes[..]).map_err(|source| ExportError::NotNpy {
         path: path_buf(),
         source,
@@ -441,6 +495,17 @@ pub fn read_npy_f32(path: &Path) -> Result<(Vec<u64>, Vec<f32>), ExportError> {
     let shape = npy.shape().to_vec();
     if npy.order() != npyz::Order::C {
         return Err(ExportError::FortranOrder { path: path_buf() });
+    }
+    // The header's shape against the bytes that follow it, before anything is collected.
+    let need_bytes = npy_f32_bytes(&shape);
+    let have_bytes = bytes.len() as u64;
+    if need_bytes > have_bytes {
+        return Err(ExportError::Truncated {
+            path: path_buf(),
+            shape,
+            need_bytes,
+            have_bytes,
+        });
     }
     let data = npy
         .into_vec::<f32>()

@@ -1,5 +1,5 @@
-//! The files of `tprf sensor`: the cube it reads ([`read_any_cube`]) and what it writes
-//! ([`write_sensor_outputs`]): the measurement `sensor.npy` `[N, H, W]`, the derived
+//! The files of `tprf sensor`: the cube it reads ([`SensorCube`], measured a tile at a
+//! time by [`measure_cube`]) and what it writes ([`write_sensor_outputs`]): the measurement `sensor.npy` `[N, H, W]`, the derived
 //! depth images (`depth.*`, `amcw_*`, `true_depth.npy`, `multipath_error.*`), the
 //! traces of chosen pixels (`pixel_Y_X.csv`, `pixel_Y_X_gates.csv`) and `sensor.json`,
 //! which describes them all.
@@ -66,111 +66,327 @@ struct CubeWindow {
     height: Option<usize>,
 }
 
-/// Reads `tprf.npy` and `tprf.json` of a render folder: the cube `[H, W, T]`, width,
-/// height, axis. Unlike [`super::read_cube`] it needs only the time window in the JSON
-/// (`t0_s`, `dt_s`, `bins`; `width` and `height` are checked when present), so cubes
-/// written by other tools can be measured too.
-pub fn read_any_cube(dir: &Path) -> Result<(Vec<f32>, usize, usize, TimeAxis)> {
-    let json_path = dir.join("tprf.json");
-    let text = std::fs::read(&json_path).map_err(|source| SensorFilesError::Read {
-        path: json_path.clone(),
-        source,
-    })?;
-    let meta: CubeWindow =
-        serde_json::from_slice(&text).map_err(|source| SensorFilesError::Window {
-            path: json_path.clone(),
-            source,
+/// A cube `tprf sensor` measures: `tprf.npy` read whole (a cube that fits; numpy's
+/// form), or `tprf.zarr` read a tile of pixels at a time, so that a cube larger than
+/// memory is measured in memory that follows one tile.
+pub struct SensorCube {
+    /// The render folder.
+    pub dir: std::path::PathBuf,
+    pub width: usize,
+    pub height: usize,
+    pub axis: TimeAxis,
+    form: CubeForm,
+}
+
+enum CubeForm {
+    /// `tprf.npy` `[H, W, T]`, and the path of `tprf_bounces.npy` when it is there.
+    Npy {
+        cube: Vec<f32>,
+        path: std::path::PathBuf,
+        bounces: Option<std::path::PathBuf>,
+    },
+    Zarr(Box<super::zarr::ZarrCube>),
+}
+
+/// The most bytes of cube a tile read from `tprf.zarr` holds by default: 256 MiB (or a
+/// quarter of the memory free, if less). One tile is in memory at a time.
+pub const DEFAULT_TILE_BYTES: u64 = 256 << 20;
+
+impl SensorCube {
+    /// Opens the cube of render folder `dir`: `tprf.npy` (read now) or, without one,
+    /// `tprf.zarr` (read tile by tile as it is measured). `tprf.json` needs only the time
+    /// window (`t0_s`, `dt_s`, `bins`; `width` and `height` are checked when present), so
+    /// `.npy` cubes written by other tools can be measured too.
+    pub fn open(dir: &Path) -> Result<SensorCube> {
+        let json_path = dir.join("tprf.json");
+        let text = crate::budget::read_file(&json_path, "tprf.json").map_err(|e| match e {
+            crate::budget::BudgetError::Io { path, source } => {
+                SensorFilesError::Read { path, source }
+            }
+            e => SensorFilesError::Export(e.into()),
         })?;
-    let axis = TimeAxis::new(meta.t0_s, meta.dt_s, meta.bins).map_err(|source| {
-        SensorFilesError::Axis {
-            path: json_path.clone(),
-            source,
+        let meta: CubeWindow =
+            serde_json::from_slice(&text).map_err(|source| SensorFilesError::Window {
+                path: json_path.clone(),
+                source,
+            })?;
+        let axis = TimeAxis::new(meta.t0_s, meta.dt_s, meta.bins).map_err(|source| {
+            SensorFilesError::Axis {
+                path: json_path.clone(),
+                source,
+            }
+        })?;
+        let npy_path = dir.join("tprf.npy");
+        let zarr_path = dir.join(super::zarr::ZARR_NAME);
+        if !npy_path.exists() && zarr_path.is_dir() {
+            let z = super::zarr::ZarrCube::open(&zarr_path)?;
+            if z.bins != axis.bins {
+                bail!(
+                    "{} has {} bins but {} says {}",
+                    zarr_path.display(),
+                    z.bins,
+                    json_path.display(),
+                    axis.bins
+                );
+            }
+            return Ok(SensorCube {
+                dir: dir.to_path_buf(),
+                width: z.width,
+                height: z.height,
+                axis,
+                form: CubeForm::Zarr(Box::new(z)),
+            });
         }
-    })?;
-    let npy_path = dir.join("tprf.npy");
-    let zarr_path = dir.join(super::zarr::ZARR_NAME);
-    if !npy_path.exists() && zarr_path.is_dir() {
-        return read_zarr_dense(&zarr_path, axis);
+        let (shape, cube) = read_npy_f32(&npy_path)?;
+        let (h, w, t) = match shape[..] {
+            [h, w, t] => (h as usize, w as usize, t as usize),
+            _ => bail!(
+                "{} has shape {shape:?}; expected [H, W, T]",
+                npy_path.display()
+            ),
+        };
+        super::check_not_empty(&npy_path, w, h, t)?;
+        if t != axis.bins
+            || meta.width.is_some_and(|mw| mw != w)
+            || meta.height.is_some_and(|mh| mh != h)
+        {
+            bail!(
+                "{} is [{h}, {w}, {t}] but {} says {} x {} pixels, {} bins",
+                npy_path.display(),
+                json_path.display(),
+                meta.height.map_or("?".into(), |v| v.to_string()),
+                meta.width.map_or("?".into(), |v| v.to_string()),
+                axis.bins
+            );
+        }
+        let bounces = Some(dir.join("tprf_bounces.npy")).filter(|p| p.exists());
+        Ok(SensorCube {
+            dir: dir.to_path_buf(),
+            width: w,
+            height: h,
+            axis,
+            form: CubeForm::Npy {
+                cube,
+                path: npy_path,
+                bounces,
+            },
+        })
     }
-    let (shape, cube) = read_npy_f32(&npy_path)?;
-    let (h, w, t) = match shape[..] {
-        [h, w, t] => (h as usize, w as usize, t as usize),
-        _ => bail!(
-            "{} has shape {shape:?}; expected [H, W, T]",
-            npy_path.display()
-        ),
-    };
-    if t != axis.bins
-        || meta.width.is_some_and(|mw| mw != w)
-        || meta.height.is_some_and(|mh| mh != h)
-    {
+
+    /// The tiles the cube is read in, `(first row, first column, rows, columns)`, for
+    /// tiles of at most `tile_bytes` (at least one Zarr chunk's pixels, all bins):
+    /// whole bands of chunk rows when a band fits, else pieces of one chunk row. One
+    /// tile for `tprf.npy`, which is in memory already.
+    pub fn tiles(&self, tile_bytes: u64) -> Vec<(usize, usize, usize, usize)> {
+        let (w, h) = (self.width, self.height);
+        if matches!(self.form, CubeForm::Npy { .. }) || w == 0 || h == 0 {
+            return vec![(0, 0, h, w)];
+        }
+        let [cy, cx, _] = super::zarr::CHUNK.map(|c| c as usize);
+        let pixel_bytes = (self.axis.bins as u64).saturating_mul(4).max(1);
+        let fit = usize::try_from(tile_bytes / pixel_bytes).unwrap_or(usize::MAX);
+        let (rows, cols) = if fit >= w.saturating_mul(cy) {
+            (cy * (fit / (w * cy)), w)
+        } else {
+            (cy, (cx * (fit / (cy * cx))).max(cx))
+        };
+        (0..h.div_ceil(rows))
+            .flat_map(|ty| {
+                (0..w.div_ceil(cols)).map(move |tx| {
+                    let (y0, x0) = (ty * rows, tx * cols);
+                    (y0, x0, rows.min(h - y0), cols.min(w - x0))
+                })
+            })
+            .collect()
+    }
+}
+
+/// What measuring a cube yields besides the files' settings: the clean measurements
+/// and what the derived files and pixel traces need of the cube, gathered in the same
+/// pass over it.
+pub struct CubeMeasurement {
+    /// `sum_b TPRF[b] K_i[b]`, `[N, H, W]`: no noise, no `max(0, .)`.
+    pub measurements: Measurements,
+    /// The AMCW depth reference `[H, W]` (metres, NaN: none) and how it was made, when
+    /// the sensor asks for AMCW depth.
+    pub true_depth: Option<(Vec<f32>, &'static str)>,
+    /// The TPRF (`T` bins) of each pixel asked for, in the order asked.
+    pub traces: Vec<Vec<f32>>,
+    /// The steady image `[H, W]`, `sum_t TPRF[t]` per pixel (summed in f64), when the
+    /// sensor has a SPAD (its ambient lamp reads it: [`crate::sensor::spad_image`]).
+    pub steady: Option<Vec<f32>>,
+    /// Tiles the cube was read in.
+    pub tiles: usize,
+}
+
+/// Measures `cube` with `model` a tile at a time ([`SensorCube::tiles`] of at most
+/// `tile_bytes`, a quarter of the memory free at most): each tile is checked for
+/// NaN/infinite bins, measured ([`SensorModel::measure_clean`], so each pixel's result
+/// is the one the whole cube gives), and gives its part of the AMCW depth reference and
+/// of the traces of `pixels` (row, column; each inside the image), and of the steady
+/// image when the sensor has a SPAD. Only one tile of the
+/// cube (and of the single-scattering layer, for the AMCW reference of a render with
+/// bounce layers) is in memory at a time.
+pub fn measure_cube(
+    cube: &SensorCube,
+    model: &SensorModel,
+    pixels: &[(usize, usize)],
+    tile_bytes: u64,
+) -> Result<CubeMeasurement> {
+    let (w, h, axis) = (cube.width, cube.height, cube.axis);
+    if model.axis().bins != axis.bins {
         bail!(
-            "{} is [{h}, {w}, {t}] but {} says {} x {} pixels, {} bins",
-            npy_path.display(),
-            json_path.display(),
-            meta.height.map_or("?".into(), |v| v.to_string()),
-            meta.width.map_or("?".into(), |v| v.to_string()),
+            "the sensor was compiled for {} bins; the cube has {}",
+            model.axis().bins,
             axis.bins
         );
     }
-    check_finite(&cube, w, axis.bins, &npy_path)?;
-    Ok((cube, w, h, axis))
+    for &(y, x) in pixels {
+        if y >= h || x >= w {
+            bail!("pixel {y},{x} is outside the {h} x {w} image (row, column from 0)");
+        }
+    }
+    let n = model.gate_count();
+    let t = axis.bins;
+    let mut m = Measurements {
+        gates: n,
+        height: h,
+        width: w,
+        values: vec![0.0; n * w * h],
+    };
+    let amcw = model.wants_amcw();
+    // Layer 1 (single scattering) of the bounce layers, for the AMCW reference.
+    let npy_single = match &cube.form {
+        CubeForm::Npy {
+            bounces: Some(p), ..
+        } if amcw => read_single_layer(p, w, h, t)?,
+        _ => None,
+    };
+    let zarr_single = matches!(&cube.form, CubeForm::Zarr(z) if amcw && z.layers() >= 3);
+    let single = npy_single.is_some() || zarr_single;
+    let mut depth = if amcw {
+        vec![f32::NAN; w * h]
+    } else {
+        Vec::new()
+    };
+    let mut traces = vec![Vec::new(); pixels.len()];
+    let mut steady = model.sensor().spad.is_some().then(|| vec![0.0f32; w * h]);
+    let budget = crate::budget::available()
+        .map_or(tile_bytes, |free| tile_bytes.min(free.bytes / 4))
+        / if single { 2 } else { 1 };
+    let tiles = cube.tiles(budget);
+    let first_return = FirstReturn::default();
+    for &(y0, x0, rows, cols) in &tiles {
+        let read;
+        let tile: &[f32] = match &cube.form {
+            CubeForm::Npy { cube, .. } => cube,
+            CubeForm::Zarr(z) => {
+                read = z.read_tile(y0, x0, rows, cols, None)?;
+                &read
+            }
+        };
+        let path = match &cube.form {
+            CubeForm::Npy { path, .. } => path.clone(),
+            CubeForm::Zarr(z) => z.path.clone(),
+        };
+        check_finite(tile, (y0, x0), cols, t, &path)?;
+        let part = model.measure_clean(tile, cols, rows)?;
+        for i in 0..n {
+            for (dy, src) in part.plane(i).chunks_exact(cols).enumerate() {
+                let at = i * w * h + (y0 + dy) * w + x0;
+                m.values[at..at + cols].copy_from_slice(src);
+            }
+        }
+        if amcw {
+            let part = match (&npy_single, &cube.form) {
+                (Some(layer), _) => derived::tprf_centroid_depth(layer, cols, rows, &axis),
+                (None, CubeForm::Zarr(z)) if zarr_single => {
+                    let layer = z.read_tile(y0, x0, rows, cols, Some(1))?;
+                    derived::tprf_centroid_depth(&layer, cols, rows, &axis)
+                }
+                _ => derived::tprf_first_return_depth(tile, cols, rows, &axis, &first_return),
+            };
+            for (dy, src) in part.chunks_exact(cols).enumerate() {
+                let at = (y0 + dy) * w + x0;
+                depth[at..at + cols].copy_from_slice(src);
+            }
+        }
+        if let Some(steady) = steady.as_mut() {
+            for (dy, row) in tile.chunks_exact(cols * t.max(1)).enumerate() {
+                let at = (y0 + dy) * w + x0;
+                for (s, px) in steady[at..at + cols]
+                    .iter_mut()
+                    .zip(row.chunks_exact(t.max(1)))
+                {
+                    *s = px.iter().map(|&v| f64::from(v)).sum::<f64>() as f32;
+                }
+            }
+        }
+        for (trace, &(y, x)) in traces.iter_mut().zip(pixels) {
+            if (y0..y0 + rows).contains(&y) && (x0..x0 + cols).contains(&x) {
+                let p = ((y - y0) * cols + x - x0) * t;
+                trace.extend_from_slice(&tile[p..p + t]);
+            }
+        }
+    }
+    let true_depth = amcw.then(|| {
+        let how = if single {
+            "centroid of the single-scattering layer (layer 1 of the bounce layers)"
+        } else {
+            "first return of the noise-free TPRF (render with --bounces-separate 1 for the \
+             exact single-scattering depth)"
+        };
+        (depth, how)
+    });
+    Ok(CubeMeasurement {
+        measurements: m,
+        true_depth,
+        traces,
+        steady,
+        tiles: tiles.len(),
+    })
 }
 
-/// Refuse a cube with a NaN or infinite bin, naming the first: the measurement would
-/// carry it into every gate that reads the bin (and `max(0, NaN)` hides it).
-fn check_finite(cube: &[f32], w: usize, bins: usize, path: &Path) -> Result<()> {
-    if let Some(i) = cube.iter().position(|v| !v.is_finite()) {
-        let bad = cube.iter().filter(|v| !v.is_finite()).count();
+/// Layer 1 (single scattering) of `tprf_bounces.npy` `[L, H, W, T]`, when it has one
+/// and its shape fits the cube; `None` otherwise.
+fn read_single_layer(path: &Path, w: usize, h: usize, t: usize) -> Result<Option<Vec<f32>>> {
+    let (shape, mut layers) = read_npy_f32(path)?;
+    let n = w * h * t;
+    if shape.len() == 4 && shape[0] >= 3 && shape[1..] == [h as u64, w as u64, t as u64] {
+        layers.truncate(2 * n);
+        layers.drain(..n);
+        return Ok(Some(layers));
+    }
+    Ok(None)
+}
+
+/// Refuse a tile (`cols` pixels wide, its first pixel at `origin` = (row, column) of
+/// the image) with a NaN or infinite bin, naming the first: the measurement would carry
+/// it into every gate that reads the bin (and `max(0, NaN)` hides it).
+fn check_finite(
+    tile: &[f32],
+    origin: (usize, usize),
+    cols: usize,
+    bins: usize,
+    path: &Path,
+) -> Result<()> {
+    if let Some(i) = tile.iter().position(|v| !v.is_finite()) {
+        let bad = tile.iter().filter(|v| !v.is_finite()).count();
         let (p, b) = (i / bins.max(1), i % bins.max(1));
+        let rows = tile.len() / (cols * bins).max(1);
+        let (y0, x0) = origin;
         bail!(
-            "{}: {bad} bins are NaN or infinite, the first at pixel (row {}, column {}), bin {b} \
-             ({}); measure a cube without them",
+            "{}: {bad} bins of rows {y0}..{}, columns {x0}..{} are NaN or infinite, the \
+             first at pixel (row {}, column {}), bin {b} ({}); measure a cube without them",
             path.display(),
-            p / w.max(1),
-            p % w.max(1),
-            cube[i]
+            y0 + rows,
+            x0 + cols,
+            y0 + p / cols.max(1),
+            x0 + p % cols.max(1),
+            tile[i]
         );
     }
     Ok(())
-}
-
-/// A `tprf.zarr` cube read whole into a dense `[H, W, T]` array, tile by tile, when
-/// that array fits in the memory free (with room to spare). Measuring a larger one
-/// chunk by chunk is not done yet: the error says so.
-fn read_zarr_dense(path: &Path, axis: TimeAxis) -> Result<(Vec<f32>, usize, usize, TimeAxis)> {
-    let z = super::zarr::ZarrCube::open(path)?;
-    let (w, h, t) = (z.width, z.height, z.bins);
-    if t != axis.bins {
-        bail!(
-            "{} has {t} bins but tprf.json says {}",
-            path.display(),
-            axis.bins
-        );
-    }
-    let bytes = super::npy_f32_bytes(&[h as u64, w as u64, t as u64]);
-    if let Some(free) = crate::film::available_memory_bytes()
-        && bytes > free / 3
-    {
-        bail!(
-            "{} is {:.1} GiB dense and {:.1} GiB of memory is free: measuring a Zarr cube \
-             larger than memory chunk by chunk is not supported yet",
-            path.display(),
-            bytes as f64 / (1u64 << 30) as f64,
-            free as f64 / (1u64 << 30) as f64
-        );
-    }
-    let mut cube = vec![0f32; w * h * t];
-    for (y0, x0, rows, cols) in z.tiles() {
-        let tile = z.read_tile(y0, x0, rows, cols)?;
-        for dy in 0..rows {
-            let src = &tile[dy * cols * t..(dy + 1) * cols * t];
-            let at = ((y0 + dy) * w + x0) * t;
-            cube[at..at + cols * t].copy_from_slice(src);
-        }
-    }
-    check_finite(&cube, w, t, path)?;
-    Ok((cube, w, h, axis))
 }
 
 /// A measurement made by `tprf sensor`, with what it was made from: everything
@@ -180,16 +396,19 @@ pub struct SensorRun<'a> {
     pub model: &'a SensorModel,
     /// The measurements `M_i`, noise included.
     pub measurements: &'a Measurements,
-    /// The noise-free cube `[H, W, T]` that was measured.
-    pub cube: &'a [f32],
     pub width: usize,
     pub height: usize,
-    /// The render folder the cube came from: recorded in `sensor.json`, and its
-    /// `tprf_bounces.npy`, when present, gives the AMCW reference depth.
+    /// The render folder the cube came from: recorded in `sensor.json`.
     pub cube_dir: &'a Path,
-    /// Pixels (row from the top, column from the left) whose traces are written as CSV;
-    /// each must lie inside the image.
+    /// The AMCW depth reference `[H, W]` and how it was made ([`measure_cube`]); needed
+    /// when the sensor asks for AMCW depth.
+    pub true_depth: Option<&'a (Vec<f32>, &'static str)>,
+    /// Pixels (row from the top, column from the left) whose traces are written as CSV,
+    /// each with its noise-free TPRF (`T` bins).
     pub pixels: &'a [(usize, usize)],
+    pub traces: &'a [Vec<f32>],
+    /// Tiles the cube was read in (recorded in `sensor.json`).
+    pub tiles: usize,
     /// Seconds spent compiling the kernels, measuring and adding noise.
     pub kernels_s: f64,
     pub measurement_s: f64,
@@ -235,11 +454,12 @@ pub fn write_sensor_outputs(out: &Path, run: &SensorRun) -> Result<SensorOutputs
     let SensorRun {
         model,
         measurements: m,
-        cube,
         width: w,
         height: h,
         cube_dir,
+        true_depth,
         pixels,
+        traces,
         ..
     } = *run;
     let axis = *model.axis();
@@ -269,11 +489,13 @@ pub fn write_sensor_outputs(out: &Path, run: &SensorRun) -> Result<SensorOutputs
     }
     let mut multipath = None;
     if let Some(amcw) = model.amcw(m) {
-        let (reference, how) = reference_depth(cube_dir, cube, w, h, &axis)?;
+        let Some((reference, how)) = true_depth else {
+            bail!("the AMCW depth needs its reference depth (measure_cube gives it)");
+        };
         let error: Vec<f32> = amcw
             .depth_m
             .iter()
-            .zip(&reference)
+            .zip(reference)
             .map(|(&d, &r)| {
                 derived::wrapped_difference(f64::from(d), f64::from(r), amcw.ambiguity_m) as f32
             })
@@ -282,7 +504,7 @@ pub fn write_sensor_outputs(out: &Path, run: &SensorRun) -> Result<SensorOutputs
         write_npy_f32(&out.join("amcw_phase.npy"), &shape, &amcw.phase_rad)?;
         write_npy_f32(&out.join("amcw_amplitude.npy"), &shape, &amcw.amplitude)?;
         write_npy_f32(&out.join("amcw_depth.npy"), &shape, &amcw.depth_m)?;
-        write_npy_f32(&out.join("true_depth.npy"), &shape, &reference)?;
+        write_npy_f32(&out.join("true_depth.npy"), &shape, reference)?;
         write_npy_f32(&out.join("multipath_error.npy"), &shape, &error)?;
         write_depth_png(&out.join("amcw_depth.png"), w, h, &amcw.depth_m)?;
         let abs_quantile = |q| quantile(error.iter().map(|e| f64::from(e.abs())), q).unwrap_or(0.0);
@@ -331,11 +553,14 @@ pub fn write_sensor_outputs(out: &Path, run: &SensorRun) -> Result<SensorOutputs
         files.extend(written);
     }
 
-    for &(y, x) in pixels {
+    if traces.len() != pixels.len() {
+        bail!("{} pixel traces for {} pixels", traces.len(), pixels.len());
+    }
+    for (&(y, x), tprf) in pixels.iter().zip(traces) {
         if y >= h || x >= w {
             bail!("pixel {y},{x} is outside the {h} x {w} image (row, column from 0)");
         }
-        let written = write_pixel_csv(out, model, m, cube, w, y, x)?;
+        let written = write_pixel_csv(out, model, m, tprf, y, x)?;
         files.extend(written);
     }
 
@@ -371,6 +596,7 @@ pub fn write_sensor_outputs(out: &Path, run: &SensorRun) -> Result<SensorOutputs
             "bins": axis.bins,
             "width": w,
             "height": h,
+            "tiles_read": run.tiles,
         },
         "light": {
             "energy": light.energy(),
@@ -518,38 +744,6 @@ fn write_signed_png(path: &Path, w: usize, h: usize, values: &[f32], scale: f64)
     Ok(write_png_rgb(path, w, h, rgb)?)
 }
 
-/// The AMCW depth reference: the single-scattering layer's centroid when the render
-/// kept per-bounce layers (`dir/tprf_bounces.npy`), else the first return of the
-/// noise-free TPRF; with a sentence saying which, for `sensor.json`.
-fn reference_depth(
-    dir: &Path,
-    cube: &[f32],
-    w: usize,
-    h: usize,
-    axis: &TimeAxis,
-) -> Result<(Vec<f32>, &'static str)> {
-    let path = dir.join("tprf_bounces.npy");
-    if path.exists() {
-        let (shape, layers) = read_npy_f32(&path)?;
-        let n = w * h * axis.bins;
-        if shape.len() == 4
-            && shape[0] >= 3
-            && shape[1..] == [h as u64, w as u64, axis.bins as u64]
-            && let Some(single) = layers.get(n..2 * n)
-        {
-            return Ok((
-                derived::tprf_centroid_depth(single, w, h, axis),
-                "centroid of the single-scattering layer (layer 1 of tprf_bounces.npy)",
-            ));
-        }
-    }
-    Ok((
-        derived::tprf_first_return_depth(cube, w, h, axis, &FirstReturn::default()),
-        "first return of the noise-free TPRF (render with --bounces-separate 1 for the \
-         exact single-scattering depth)",
-    ))
-}
-
 /// `pixel_Y_X.csv` (per bin: time, TPRF, TPRF * Light, each gate's share of M_i) and
 /// `pixel_Y_X_gates.csv` (per gate: centre, M_i before and after noise); returns the
 /// two file names.
@@ -557,16 +751,11 @@ fn write_pixel_csv(
     out: &Path,
     model: &SensorModel,
     m: &Measurements,
-    cube: &[f32],
-    w: usize,
+    tprf: &[f32],
     y: usize,
     x: usize,
 ) -> Result<Vec<String>> {
     let axis = *model.axis();
-    let start = (y * w + x) * axis.bins;
-    let tprf = cube
-        .get(start..start + axis.bins)
-        .ok_or_else(|| SensorFilesError::Invalid(format!("pixel {y},{x} outside the cube")))?;
     let trace = model.pixel_trace(tprf)?;
     let kernels = model.kernels();
     let mut header: Vec<String> = ["bin", "t_start_s", "t_centre_s", "tprf", "tprf_light"]

@@ -1,6 +1,7 @@
 //! Why a time axis or a film cannot be made.
 
 use super::MAX_BINS;
+use crate::budget::{Limit, format_bytes};
 
 /// Why a [`super::TimeAxis`] or a [`super::TprfFilm`] cannot be made. Messages name the
 /// value and what is allowed.
@@ -23,21 +24,18 @@ pub enum FilmError {
         bins: usize,
     },
     #[error(
-        "a film of {width} x {height} pixels x {bins} bins needs at least {:.1} GiB before \
-         any light is stored, and {:.1} GiB is free; lower the resolution",
-        gib(*need_bytes),
-        gib(*free_bytes)
+        "a film of {width} x {height} pixels x {bins} bins needs {} before any light is \
+         stored (its pixel directory, a snapshot's images, the exported steady image); {} \
+         available ({limited_by}); lower the resolution",
+        format_bytes(*need_bytes),
+        format_bytes(*available_bytes)
     )]
     NotEnoughMemory {
         width: usize,
         height: usize,
         bins: usize,
         need_bytes: u64,
-        free_bytes: u64,
+        available_bytes: u64,
+        limited_by: Limit,
     },
-}
-
-/// Bytes in GiB (2^30 bytes).
-fn gib(bytes: u64) -> f64 {
-    bytes as f64 / (1u64 << 30) as f64
 }

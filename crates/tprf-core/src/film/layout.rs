@@ -45,4 +45,20 @@ impl FilmLayout {
         self.cells()
             .saturating_mul(8 * (2 + self.bounce_layers() as u64))
     }
+
+    /// Bytes a film of this shape and its readers hold whatever light it stores: per
+    /// pixel the run directory, steady sum and peak bin ([`super::BYTES_PER_PIXEL`]) and
+    /// 16 B per bounce layer; a snapshot's steady image and peak bins (f32 and
+    /// `Option<u32>`: 12 B); the exported steady image (f64 and 8-bit: 9 B); one dense
+    /// f32 row (`W x T x 4` B) of a cube file being written. `None` on overflow.
+    pub fn fixed_bytes(&self) -> Option<u64> {
+        let per_pixel = super::BYTES_PER_PIXEL + 16 * self.bounce_layers() as u64 + 12 + 9;
+        let row = (self.width as u64)
+            .checked_mul(self.axis.bins as u64)?
+            .checked_mul(4)?;
+        (self.width as u64)
+            .checked_mul(self.height as u64)?
+            .checked_mul(per_pixel)?
+            .checked_add(row)
+    }
 }

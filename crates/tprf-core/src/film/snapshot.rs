@@ -167,6 +167,26 @@ impl FilmSnapshot {
         }
     }
 
+    /// Pixel `(x, y)`'s runs of stored bins in bounce layer `l`, as
+    /// [`FilmSnapshot::for_each_run`] gives the total's. Nothing outside the layers.
+    pub fn for_each_layer_run(
+        &self,
+        l: usize,
+        x: usize,
+        y: usize,
+        mut f: impl FnMut(usize, &[f32]),
+    ) {
+        let Some(layer) = self.row(x, y).and_then(|r| r.layers.get(l)) else {
+            return;
+        };
+        let mut buf = Vec::new();
+        for (start, values) in layer.pixel_runs(x) {
+            buf.clear();
+            buf.extend(values.iter().map(|v| (v / self.norm) as f32));
+            f(start, &buf);
+        }
+    }
+
     /// Pixel `(x, y)`'s first and last stored bins; `None` when dark or outside.
     pub fn pixel_span(&self, x: usize, y: usize) -> Option<(usize, usize)> {
         self.row(x, y)?.halves.pixel_span(x)
@@ -332,26 +352,37 @@ impl FilmSnapshot {
 /// Builds a snapshot of means pixel by pixel, in any order of rows but in increasing
 /// `x` within a row (a tiled file is read tile by tile): only the non-zero bins are
 /// kept, so a cube larger than memory as a dense array can be loaded when its light is
-/// not.
+/// not. With `layout.bounces_separate > 0` each pixel brings its bounce layers too.
 pub struct SnapshotBuilder {
     layout: FilmLayout,
     rows: Vec<RowBuilder<[f64; 2]>>,
+    /// Per row, per layer.
+    layers: Vec<Vec<RowBuilder<f64>>>,
     next_x: Vec<usize>,
 }
 
 impl SnapshotBuilder {
     pub fn new(layout: FilmLayout) -> SnapshotBuilder {
+        let l = layout.bounce_layers();
         SnapshotBuilder {
             layout,
             rows: (0..layout.height).map(|_| RowBuilder::default()).collect(),
+            layers: (0..layout.height)
+                .map(|_| (0..l).map(|_| RowBuilder::default()).collect())
+                .collect(),
             next_x: vec![0; layout.height],
         }
     }
 
-    /// Pixel `(x, y)`'s TPRF (`T` means). A pixel before the row's last one, or outside
-    /// the image, is ignored; pixels skipped stay dark.
-    pub fn push_pixel(&mut self, x: usize, y: usize, tprf: &[f32]) {
-        let (Some(row), Some(next)) = (self.rows.get_mut(y), self.next_x.get_mut(y)) else {
+    /// Pixel `(x, y)`'s TPRF (`T` means) and, when the layout has bounce layers, each
+    /// layer's (`layers[l]`, `T` means; missing layers stay dark). A pixel before the
+    /// row's last one, or outside the image, is ignored; pixels skipped stay dark.
+    pub fn push_pixel(&mut self, x: usize, y: usize, tprf: &[f32], layers: &[&[f32]]) {
+        let (Some(row), Some(layer_rows), Some(next)) = (
+            self.rows.get_mut(y),
+            self.layers.get_mut(y),
+            self.next_x.get_mut(y),
+        ) else {
             return;
         };
         if x < *next || x >= self.layout.width {
@@ -359,14 +390,30 @@ impl SnapshotBuilder {
         }
         while *next < x {
             row.end_pixel();
+            layer_rows.iter_mut().for_each(RowBuilder::end_pixel);
             *next += 1;
         }
-        for (b, v) in tprf.iter().enumerate().take(self.layout.axis.bins) {
+        let t = self.layout.axis.bins;
+        for (b, v) in tprf.iter().enumerate().take(t) {
             if *v != 0.0 {
                 row.push(b, [*v as f64, 0.0]);
             }
         }
         row.end_pixel();
+        for (l, builder) in layer_rows.iter_mut().enumerate() {
+            for (b, v) in layers
+                .get(l)
+                .map_or(&[][..], |p| p)
+                .iter()
+                .enumerate()
+                .take(t)
+            {
+                if *v != 0.0 {
+                    builder.push(b, *v as f64);
+                }
+            }
+            builder.end_pixel();
+        }
         *next += 1;
     }
 
@@ -376,13 +423,16 @@ impl SnapshotBuilder {
         let rows = self
             .rows
             .into_iter()
-            .map(|b| Arc::new(FilmRow::from_builder(b, w)))
+            .zip(self.layers)
+            .map(|(b, layers)| {
+                let mut row = FilmRow::from_builder(b, w);
+                for mut l in layers {
+                    row.layers.push(l.take_exact(w));
+                }
+                Arc::new(row)
+            })
             .collect();
-        let layout = FilmLayout {
-            bounces_separate: 0,
-            ..self.layout
-        };
-        FilmSnapshot::summarised(layout, spp, passes, rows, 1.0, error_estimate)
+        FilmSnapshot::summarised(self.layout, spp, passes, rows, 1.0, error_estimate)
     }
 }
 

@@ -54,26 +54,26 @@ pub struct TprfFilm {
 }
 
 impl TprfFilm {
-    /// An empty film. Fails (rather than aborting) when even its per-pixel directory
-    /// cannot be had.
+    /// An empty film. Fails (rather than aborting) when what it holds whatever light it
+    /// stores ([`FilmLayout::fixed_bytes`]) does not fit in the memory left
+    /// ([`crate::budget`]).
     pub fn new(layout: FilmLayout) -> Result<TprfFilm, FilmError> {
         let (width, height, bins) = (layout.width, layout.height, layout.axis.bins);
-        let need_bytes = (layout.pixels() as u64)
-            .checked_mul(BYTES_PER_PIXEL + 16 * layout.bounce_layers() as u64)
-            .ok_or(FilmError::SizeOverflow {
-                width,
-                height,
-                bins,
-            })?;
-        if let Some(free_bytes) = available_memory_bytes()
-            && need_bytes > free_bytes / 10 * 9
+        let need_bytes = layout.fixed_bytes().ok_or(FilmError::SizeOverflow {
+            width,
+            height,
+            bins,
+        })?;
+        if let Some(a) = crate::budget::available()
+            && need_bytes > a.bytes
         {
             return Err(FilmError::NotEnoughMemory {
                 width,
                 height,
                 bins,
                 need_bytes,
-                free_bytes,
+                available_bytes: a.bytes,
+                limited_by: a.limited_by,
             });
         }
         let empty = Arc::new(FilmRow::empty(layout.width, layout.bounce_layers()));
@@ -292,12 +292,4 @@ impl TprfFilm {
         }
         Some((diff2.sqrt() * (na * nb).sqrt() / n) / norm2.sqrt())
     }
-}
-
-/// Memory the system can give without swapping (`MemAvailable`), where it says (Linux).
-pub fn available_memory_bytes() -> Option<u64> {
-    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib * 1024)
 }

@@ -56,9 +56,30 @@ pub struct ImpulseOptions {
     /// Impulses of equal order whose times differ by at most this fraction of the
     /// time are merged into one. Default 1e-15.
     pub merge_rel: f64,
-    /// Safety limit on distinct live packets per order (memory); beyond it the
-    /// enumeration drops packets and reports `truncated`. Default 500_000.
-    pub max_packets: usize,
+    /// Memory limit, bytes, on what the enumeration holds at once: the live packets of
+    /// two orders ([`ImpulseOptions::packet_bytes`] each, which grows with the number of
+    /// interfaces) and the impulses recorded (twice [`IMPULSE_BYTES`] each, for the final
+    /// merge). Beyond it packets and impulses are dropped and the train reports
+    /// `truncated`. Default 256 MiB.
+    pub max_bytes: u64,
+}
+
+/// Bytes an [`Impulse`] takes.
+pub const IMPULSE_BYTES: u64 = std::mem::size_of::<Impulse>() as u64;
+
+impl ImpulseOptions {
+    /// Bytes one live packet of a world with `interfaces` interfaces takes: its key
+    /// (with one crossing count per segment, `interfaces + 1` of 4 B), its weight and
+    /// its share of the map's nodes.
+    pub fn packet_bytes(interfaces: usize) -> u64 {
+        let key = std::mem::size_of::<PacketKey>() + std::mem::size_of::<f64>();
+        (key as u64 + 16).saturating_add(4 * (interfaces as u64 + 1))
+    }
+
+    /// The most live packets `max_bytes` holds for a world with `interfaces` interfaces.
+    pub fn max_packets(&self, interfaces: usize) -> u64 {
+        self.max_bytes / Self::packet_bytes(interfaces)
+    }
 }
 
 impl Default for ImpulseOptions {
@@ -68,7 +89,7 @@ impl Default for ImpulseOptions {
             t_max_s: f64::INFINITY,
             max_order: 1000,
             merge_rel: 1e-15,
-            max_packets: 500_000,
+            max_bytes: 256 << 20,
         }
     }
 }
@@ -109,7 +130,7 @@ pub struct EnergyBudget {
     pub cut_time: f64,
     /// Dropped beyond `max_order`.
     pub cut_order: f64,
-    /// Dropped by the `max_packets` limit.
+    /// Dropped by the `max_bytes` limit.
     pub cut_packets: f64,
 }
 
@@ -131,7 +152,7 @@ pub struct ImpulseTrain {
     /// Sorted by time, then order.
     pub impulses: Vec<Impulse>,
     pub energy: EnergyBudget,
-    /// True when `max_packets` was hit: the train is incomplete beyond the cut-offs.
+    /// True when `max_bytes` was reached: the train is incomplete beyond the cut-offs.
     pub truncated: bool,
 }
 
@@ -203,6 +224,10 @@ struct Engine<'a> {
     impulses: Vec<Impulse>,
     energy: EnergyBudget,
     next: BTreeMap<PacketKey, f64>,
+    /// Packets of the order being walked.
+    current_len: usize,
+    /// [`ImpulseOptions::packet_bytes`] of this world.
+    packet_bytes: u64,
     truncated: bool,
 }
 
@@ -239,8 +264,24 @@ impl<'a> Engine<'a> {
                 ..EnergyBudget::default()
             },
             next: BTreeMap::new(),
+            current_len: 0,
+            packet_bytes: ImpulseOptions::packet_bytes(n),
             truncated: false,
         }
+    }
+
+    /// Bytes held now: the live packets of two orders and the impulses (counted twice,
+    /// for the final merge).
+    fn bytes_held(&self) -> u64 {
+        let packets = (self.current_len + self.next.len()) as u64;
+        packets
+            .saturating_mul(self.packet_bytes)
+            .saturating_add((self.impulses.len() as u64).saturating_mul(2 * IMPULSE_BYTES))
+    }
+
+    /// Whether one more item of `bytes` stays inside `max_bytes`.
+    fn fits(&self, bytes: u64) -> bool {
+        self.bytes_held().saturating_add(bytes) <= self.opts.max_bytes
     }
 
     fn ior(&self, seg: usize) -> f64 {
@@ -308,6 +349,7 @@ impl<'a> Engine<'a> {
         while !self.next.is_empty() {
             order += 1;
             let generation = std::mem::take(&mut self.next);
+            self.current_len = generation.len();
             for (key, weight) in generation {
                 if weight.is_nan() || weight < self.opts.min_weight {
                     self.energy.cut_weight += weight;
@@ -346,7 +388,9 @@ impl<'a> Engine<'a> {
                 if ahead_m > 0.0 {
                     let opl_m = self.path_opl_m(ray.start, &ray.counts, ahead_m * ior);
                     let time_s = opl_m / C_M_PER_S;
-                    if time_s <= self.t_max_s {
+                    if time_s <= self.t_max_s && !self.fits(2 * IMPULSE_BYTES) {
+                        self.truncated = true;
+                    } else if time_s <= self.t_max_s {
                         self.impulses.push(Impulse {
                             time_s,
                             weight: ray.weight,
@@ -419,7 +463,7 @@ impl<'a> Engine<'a> {
     fn queue(&mut self, key: PacketKey, weight: f64) {
         if let Some(w) = self.next.get_mut(&key) {
             *w += weight;
-        } else if self.next.len() >= self.opts.max_packets {
+        } else if !self.fits(self.packet_bytes) {
             self.truncated = true;
             self.energy.cut_packets += weight;
         } else {
@@ -527,5 +571,36 @@ mod tests {
         assert!(!train.truncated);
         assert!(train.energy.imbalance().abs() < 1e-12, "{:?}", train.energy);
         assert!(train.energy.cut_total() < 1e-6, "{:?}", train.energy);
+    }
+
+    #[test]
+    fn a_byte_limit_truncates_a_wide_world_and_keeps_its_energy() {
+        // 200 interfaces that reflect and pass half: far more distinct paths than 1 MiB of
+        // packets (about 870 B each here) holds. The run ends, says it is incomplete,
+        // and the dropped light is counted.
+        let side = r#"{"reflectance": 0.5, "transmittance": 0.5}"#;
+        let interfaces: Vec<String> = (0..200)
+            .map(|i| {
+                let x = 1.0 + f64::from(i) * 0.01;
+                format!(r#"{{"x_m": {x}, "left": {side}, "right": {side}}}"#)
+            })
+            .collect();
+        let text = format!(
+            r#"{{"interfaces": [{}], "eye_m": 0.0, "light_m": 0.0, "look": "right"}}"#,
+            interfaces.join(",")
+        );
+        let Ok(world) = World::from_json_str(&text) else {
+            panic!("valid world");
+        };
+        let opts = ImpulseOptions {
+            max_bytes: 1 << 20,
+            ..ImpulseOptions::default()
+        };
+        let train = world.impulse_train(&opts);
+        assert!(train.truncated);
+        assert!(train.energy.cut_packets > 0.0, "{:?}", train.energy);
+        assert!(train.energy.imbalance().abs() < 1e-12, "{:?}", train.energy);
+        // The impulses held (before merging) stayed inside the limit.
+        assert!(train.impulses.len() as u64 * 2 * IMPULSE_BYTES <= opts.max_bytes);
     }
 }

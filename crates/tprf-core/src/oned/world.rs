@@ -489,10 +489,11 @@ impl World {
 
     /// Reads, parses and validates a world file.
     pub fn from_path(path: &Path) -> Result<Self, WorldError> {
-        let text = std::fs::read_to_string(path).map_err(|error| WorldError::Io {
-            path: path.to_path_buf(),
-            error,
-        })?;
+        let text =
+            crate::budget::read_text(path, "the 1-D world file").map_err(|m| WorldError::Io {
+                path: path.to_path_buf(),
+                error: std::io::Error::other(m),
+            })?;
         World::from_json_str(&text)
     }
 

@@ -484,6 +484,7 @@ pub fn resolve_target(
                 max: MAX_VALUES,
             });
         }
+        check_memory(w, h, bins)?;
         let mut axis = a.default_axis(w, h, bins)?;
         if film.t0_s.is_some() || film.dt_s.is_some() {
             axis = TimeAxis::new(
@@ -513,6 +514,7 @@ pub fn resolve_target(
         return Err(ReportError::NoScene);
     };
     let (meta, data) = read_cube(&npy)?;
+    check_memory(meta.width, meta.height, meta.bins)?;
     let meta_path = npy.with_file_name("tprf.json");
     let axis = meta.axis().map_err(|source| ExportError::Axis {
         path: meta_path.clone(),
@@ -561,6 +563,24 @@ pub fn resolve_target(
 const MAX_SIDE: usize = 4096;
 /// Largest number of pixel-bins of a convergence run (f64 each, several copies).
 const MAX_VALUES: usize = 1 << 27;
+
+/// Bytes a convergence run holds per pixel-bin: the film's two f64 halves, the f64
+/// reference and a dense f64 copy for the error.
+const BYTES_PER_VALUE: u64 = 32;
+
+/// Refuse a run on a `width x height x bins` film whose values do not fit in the memory
+/// left ([`crate::budget`]).
+fn check_memory(width: usize, height: usize, bins: usize) -> Result<(), ReportError> {
+    let values = (width as u64)
+        .saturating_mul(height as u64)
+        .saturating_mul(bins as u64);
+    crate::budget::check(
+        values.saturating_mul(BYTES_PER_VALUE),
+        "the convergence run",
+        format_args!("a {width} x {height} x {bins} film, its reference and a copy"),
+    )?;
+    Ok(())
+}
 
 /// Both sides of the film in `1..=MAX_SIDE`.
 fn check_film(width: usize, height: usize) -> Result<(), ReportError> {

@@ -10,6 +10,9 @@ use std::path::PathBuf;
 /// the film and the reference, not of command-line flags (the command adds those).
 #[derive(Debug, thiserror::Error)]
 pub enum ReportError {
+    /// The run does not fit in the memory left.
+    #[error(transparent)]
+    Budget(#[from] crate::budget::BudgetError),
     #[error("an empty estimator setting (use 'default')")]
     EmptySetting,
     #[error("setting '{spec}': {why}")]

@@ -11,6 +11,13 @@ pub mod gltf_save;
 use glam::{Affine3A, Vec2, Vec3};
 use serde::{Deserialize, Serialize};
 
+/// Bytes one triangle costs from loading through rendering: the scene's [`Triangle`]
+/// (36 B) and [`TriangleAttrs`] (68 B), the renderer's BVH and surface records and the
+/// BVH build's peak. Measured as peak resident memory over triangles when a large mesh
+/// is rendered (docs/benchmarks.md, "Hostile input"). The glTF loader budgets this much
+/// per triangle after instancing before it reads any.
+pub const BYTES_PER_TRIANGLE: u64 = 400;
+
 /// A triangle in world space (metres). Vertex order gives the geometric normal
 /// `(p1 - p0) x (p2 - p0)`, the glTF front face (counter-clockwise).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -437,6 +444,9 @@ pub enum SceneError {
     UnknownBuiltin(String),
     #[error("invalid scene: {0}")]
     Invalid(String),
+    /// Too large for the memory left, or not a regular file (a device, a FIFO).
+    #[error(transparent)]
+    Budget(#[from] crate::budget::BudgetError),
 }
 
 /// Load a scene by name: `builtin:NAME` or a path to a `.gltf` / `.glb` file.

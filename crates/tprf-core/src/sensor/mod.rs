@@ -82,6 +82,10 @@ pub enum SensorError {
     Io { path: PathBuf, message: String },
     #[error("not a valid sensor description: {0}")]
     Parse(String),
+    /// A memory budget's refusal ([`crate::budget::BudgetError`] in words: the size
+    /// needed, what for, and what is available).
+    #[error("{0}")]
+    Budget(String),
     #[error(
         "the cube has {got} values, but height {height} x width {width} x bins {bins} = \
          {expected}"

@@ -299,9 +299,15 @@ impl SensorModel {
             .collect()
     }
 
+    /// Whether the sensor asks for AMCW depth (and has AMCW gates):
+    /// [`SensorModel::amcw`] gives it.
+    pub fn wants_amcw(&self) -> bool {
+        self.sensor.derived.amcw_depth && matches!(self.sensor.exposure, Exposure::Amcw { .. })
+    }
+
     /// AMCW phase, amplitude and depth when the sensor asks for them.
     pub fn amcw(&self, m: &Measurements) -> Option<AmcwImage> {
-        if !self.sensor.derived.amcw_depth {
+        if !self.wants_amcw() {
             return None;
         }
         let Exposure::Amcw { freq_hz, .. } = self.sensor.exposure else {

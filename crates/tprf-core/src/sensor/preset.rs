@@ -110,9 +110,11 @@ impl Sensor {
 
     /// Reads and checks a TOML file.
     pub fn from_path(path: &Path) -> Result<Sensor, SensorError> {
-        let text = std::fs::read_to_string(path).map_err(|e| SensorError::Io {
-            path: path.to_path_buf(),
-            message: e.to_string(),
+        let text = crate::budget::read_text(path, "the sensor file").map_err(|message| {
+            SensorError::Io {
+                path: path.to_path_buf(),
+                message,
+            }
         })?;
         Sensor::from_toml_str(&text).map_err(|e| match e {
             SensorError::Parse(m) => SensorError::Parse(format!("{}: {m}", path.display())),

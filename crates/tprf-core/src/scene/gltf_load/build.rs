@@ -4,8 +4,10 @@
 //! note.
 
 use super::validate::{SUPPORTED_EXTENSIONS, check_accessor, check_count, invalid, read_all};
+use crate::budget::{self, format_count};
 use crate::scene::{
-    Camera, Material, PunctualLight, Scene, SceneError, Spot, Texture, Triangle, TriangleAttrs,
+    BYTES_PER_TRIANGLE, Camera, Material, PunctualLight, Scene, SceneError, Spot, Texture,
+    Triangle, TriangleAttrs,
 };
 use glam::{Affine3A, Mat3, Mat4, Vec2, Vec3};
 use gltf::accessor::{DataType, Dimensions};
@@ -55,6 +57,54 @@ fn triangle_corners(mode: Mode, indices: &[u32]) -> Vec<[u32; 3]> {
         },
         _ => indices.as_chunks::<3>().0.to_vec(),
     }
+}
+
+/// The size of a triangle primitive from its accessors' counts, before anything is read.
+struct PrimitiveSize {
+    vertices: u64,
+    indices: u64,
+    triangles: u64,
+}
+
+impl PrimitiveSize {
+    /// Bytes held while the primitive is read: per vertex its position, normal and UV as
+    /// read and in world space (12 + 12 + 12 + 16 + 8 + 8), per index 4, per triangle its
+    /// corners (12).
+    fn read_bytes(&self) -> u64 {
+        self.vertices
+            .saturating_mul(68)
+            .saturating_add(self.indices.saturating_mul(4))
+            .saturating_add(self.triangles.saturating_mul(12))
+    }
+}
+
+/// A triangle primitive's size (`None` for points and lines, or without POSITION).
+fn primitive_size(prim: &gltf::Primitive) -> Option<PrimitiveSize> {
+    let vertices = prim.get(&gltf::Semantic::Positions)?.count() as u64;
+    let indices = prim.indices().map_or(vertices, |a| a.count() as u64);
+    let triangles = match prim.mode() {
+        Mode::Triangles => indices / 3,
+        Mode::TriangleStrip | Mode::TriangleFan => indices.saturating_sub(2),
+        _ => return None,
+    };
+    Some(PrimitiveSize {
+        vertices,
+        indices,
+        triangles,
+    })
+}
+
+/// The POSITION and index accessors of a triangle primitive: types and spans, as
+/// [`Builder::read_vertices`] and [`Builder::read_indices`] check them before reading.
+fn check_primitive_accessors(prim: &gltf::Primitive) -> Result<(), String> {
+    if let Some(acc) = prim.get(&gltf::Semantic::Positions) {
+        check_accessor(&acc, &[DataType::F32], Dimensions::Vec3)?;
+    }
+    if let Some(acc) = prim.indices() {
+        let types = [DataType::U8, DataType::U16, DataType::U32];
+        check_accessor(&acc, &types, Dimensions::Scalar)?;
+    }
+    Ok(())
 }
 
 /// Zero area up to f32 rounding: the height over the longest edge is below 1e-7 of that
@@ -196,8 +246,29 @@ impl<'a> Builder<'a> {
         }
     }
 
-    /// Walk the scene's node trees depth first, composing transforms from the roots down.
+    /// Walk the scene's node trees depth first, composing transforms from the roots down:
+    /// first to count the triangles after instancing against the memory budget, then to
+    /// add them.
     pub(super) fn add_scene(&mut self) -> Result<(), SceneError> {
+        let instances = self.instances()?;
+        let triangles = self.check_triangle_budget(&instances)?;
+        let reserve = self
+            .triangles
+            .try_reserve_exact(triangles)
+            .and_then(|()| self.attrs.try_reserve_exact(triangles));
+        if reserve.is_err() {
+            let m = format!("cannot allocate {triangles} triangles");
+            return Err(invalid(self.file, m));
+        }
+        for (node, world) in &instances {
+            self.add_node(node, world)?;
+        }
+        Ok(())
+    }
+
+    /// Every node of the scene with its world transform, depth first (the order triangles
+    /// are added in).
+    fn instances(&mut self) -> Result<Vec<(gltf::Node<'a>, Mat4)>, SceneError> {
         let roots = match scene_roots(self.doc) {
             Some(roots) => roots,
             None => {
@@ -212,6 +283,7 @@ impl<'a> Builder<'a> {
             .rev()
             .map(|n| (n, Mat4::IDENTITY))
             .collect();
+        let mut out = Vec::new();
         while let Some((node, parent)) = stack.pop() {
             match visited.get_mut(node.index()) {
                 Some(seen) if !*seen => *seen = true,
@@ -230,11 +302,49 @@ impl<'a> Builder<'a> {
                 let msg = format!("nodes[{}] has a non-finite world transform", node.index());
                 return Err(invalid(self.file, msg));
             }
-            self.add_node(&node, &world)?;
             let children: Vec<_> = node.children().collect();
             stack.extend(children.into_iter().rev().map(|c| (c, world)));
+            out.push((node, world));
         }
-        Ok(())
+        Ok(out)
+    }
+
+    /// Count the triangles of `instances` (every mesh instance's primitives, from their
+    /// accessors' counts, before any is read) and refuse them when what they need does
+    /// not fit in memory: [`BYTES_PER_TRIANGLE`] each to load and render, plus the largest
+    /// primitive's vertices and indices while it is read. The number of triangles.
+    fn check_triangle_budget(&self, instances: &[(gltf::Node, Mat4)]) -> Result<usize, SceneError> {
+        let (mut triangles, mut transient, mut placed) = (0u64, 0u64, 0u64);
+        for (node, _) in instances {
+            let Some(mesh) = node.mesh() else { continue };
+            placed += 1;
+            for prim in mesh.primitives() {
+                let Some(size) = primitive_size(&prim) else {
+                    continue;
+                };
+                // Counts that overrun their buffer views are refused as such, not budgeted.
+                check_primitive_accessors(&prim).map_err(|m| {
+                    let what = format!("meshes[{}] primitive {}", mesh.index(), prim.index());
+                    invalid(self.file, format!("{what}: {m}"))
+                })?;
+                triangles = triangles.saturating_add(size.triangles);
+                transient = transient.max(size.read_bytes());
+            }
+        }
+        let purpose = format!(
+            "{} triangles after instancing ({placed} mesh instance{})",
+            format_count(triangles),
+            if placed == 1 { "" } else { "s" }
+        );
+        if triangles > u64::from(u32::MAX) {
+            let m = format!("{purpose}: more than the {} a scene may hold", u32::MAX);
+            return Err(invalid(self.file, m));
+        }
+        let need = triangles
+            .saturating_mul(BYTES_PER_TRIANGLE)
+            .saturating_add(transient);
+        budget::check(need, &format!("scene {}", self.file), purpose)?;
+        Ok(triangles as usize)
     }
 
     fn add_node(&mut self, node: &gltf::Node<'a>, world: &Mat4) -> Result<(), SceneError> {
@@ -345,7 +455,9 @@ impl<'a> Builder<'a> {
         vertex_count: usize,
     ) -> Result<Vec<u32>, String> {
         let Some(acc) = prim.indices() else {
-            return Ok((0..vertex_count as u32).collect());
+            let n = u32::try_from(vertex_count)
+                .map_err(|_| format!("{vertex_count} vertices: more than u32 indices reach"))?;
+            return Ok((0..n).collect());
         };
         let types = [DataType::U8, DataType::U16, DataType::U32];
         check_accessor(&acc, &types, Dimensions::Scalar)?;

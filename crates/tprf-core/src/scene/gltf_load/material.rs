@@ -3,7 +3,8 @@
 //! and images decoded to RGBA8 once each.
 
 use super::build::{Builder, name_or_index};
-use super::validate::{check_uri, invalid, resource_error, uri_label};
+use super::resource::{decode_texture, read_uri};
+use super::validate::{invalid, uri_label};
 use crate::scene::{AlphaMode, Material, SceneError, Texture, TextureRef};
 
 impl Builder<'_> {
@@ -93,67 +94,33 @@ impl Builder<'_> {
         Ok(Some(TextureRef { texture: k }))
     }
 
-    /// Decode an image (external file, `data:` URI or buffer view) to RGBA8.
+    /// Decode an image (external file, `data:` URI or buffer view) to RGBA8, its
+    /// encoded and decoded sizes budgeted before they are allocated.
     fn decode_image(&self, image: &gltf::Image) -> Result<Texture, SceneError> {
-        let source = image.source();
-        let uri = match source {
-            gltf::image::Source::Uri { uri, .. } => Some(uri),
-            gltf::image::Source::View { .. } => None,
-        };
-        let what = match uri {
-            Some(uri) => format!("images[{}] '{}'", image.index(), uri_label(uri)),
-            None => format!("images[{}] (in a buffer view)", image.index()),
-        };
-        if let Some(uri) = uri {
-            check_uri(uri).map_err(|m| invalid(self.file, format!("{what}: {m}")))?;
+        match image.source() {
+            gltf::image::Source::Uri { uri, mime_type } => {
+                let what = format!("images[{}] '{}'", image.index(), uri_label(uri));
+                let bytes = read_uri(self.file, self.base, &what, uri, u64::MAX)?;
+                let mime = mime_type.or_else(|| match super::resource::locate(self.base, uri) {
+                    Ok(super::resource::Location::Data { mime, .. }) => mime,
+                    _ => None,
+                });
+                decode_texture(self.file, &what, mime, &bytes)
+            }
+            gltf::image::Source::View { view, mime_type } => {
+                let what = format!(
+                    "images[{}] (in bufferViews[{}])",
+                    image.index(),
+                    view.index()
+                );
+                // Inside its buffer: checked by `validate::check_views`.
+                let bytes = self
+                    .buffers
+                    .get(view.buffer().index())
+                    .and_then(|b| b.0.get(view.offset()..view.offset() + view.length()))
+                    .ok_or_else(|| invalid(self.file, format!("{what}: outside its buffer")))?;
+                decode_texture(self.file, &what, Some(mime_type), bytes)
+            }
         }
-        let data = gltf::image::Data::from_source(source, Some(self.base), self.buffers)
-            .map_err(|e| resource_error(self.file, self.base, &what, uri, e))?;
-        to_texture(data).ok_or_else(|| {
-            invalid(
-                self.file,
-                format!("{what}: pixel data does not match its size"),
-            )
-        })
     }
-}
-
-/// Decoded image bytes (any format the gltf crate produces) as an RGBA8 [`Texture`], values
-/// as stored (sRGB decoding happens at lookup). `None` if the bytes do not match the size.
-fn to_texture(data: gltf::image::Data) -> Option<Texture> {
-    use gltf::image::Format as F;
-    use image::{DynamicImage as D, ImageBuffer as B};
-    let (w, h, px) = (data.width, data.height, data.pixels);
-    let u16s = |px: &[u8]| -> Vec<u16> {
-        px.as_chunks::<2>()
-            .0
-            .iter()
-            .map(|&b| u16::from_ne_bytes(b))
-            .collect()
-    };
-    let f32s = |px: &[u8]| -> Vec<f32> {
-        px.as_chunks::<4>()
-            .0
-            .iter()
-            .map(|&b| f32::from_ne_bytes(b))
-            .collect()
-    };
-    let image = match data.format {
-        F::R8 => D::ImageLuma8(B::from_raw(w, h, px)?),
-        F::R8G8 => D::ImageLumaA8(B::from_raw(w, h, px)?),
-        F::R8G8B8 => D::ImageRgb8(B::from_raw(w, h, px)?),
-        F::R8G8B8A8 => D::ImageRgba8(B::from_raw(w, h, px)?),
-        F::R16 => D::ImageLuma16(B::from_raw(w, h, u16s(&px))?),
-        F::R16G16 => D::ImageLumaA16(B::from_raw(w, h, u16s(&px))?),
-        F::R16G16B16 => D::ImageRgb16(B::from_raw(w, h, u16s(&px))?),
-        F::R16G16B16A16 => D::ImageRgba16(B::from_raw(w, h, u16s(&px))?),
-        F::R32G32B32FLOAT => D::ImageRgb32F(B::from_raw(w, h, f32s(&px))?),
-        F::R32G32B32A32FLOAT => D::ImageRgba32F(B::from_raw(w, h, f32s(&px))?),
-    };
-    let rgba = image.into_rgba8();
-    Some(Texture {
-        width: w,
-        height: h,
-        rgba8: rgba.pixels().map(|p| p.0).collect(),
-    })
 }

@@ -18,13 +18,16 @@
 //! morph targets, samplers (wrap and filter modes), occlusion textures (a path tracer
 //! computes occlusion itself).
 //!
-//! In three steps, one file each: `validate` reads the bytes and the buffers and checks
-//! what the gltf crate would otherwise panic on, before it sees them; `build` walks the
-//! node trees into triangles, lights and a camera; `material` converts materials and
-//! decodes their textures.
+//! In four files: `validate` reads the bytes and the buffers and checks what the gltf
+//! crate would otherwise panic on, before it sees them; `resource` reads buffers and
+//! images by URI (regular files only, bounded) and decodes images under a memory budget;
+//! `build` counts the triangles after instancing against the memory budget, then walks
+//! the node trees into triangles, lights and a camera; `material` converts materials and
+//! their textures.
 
 mod build;
 mod material;
+mod resource;
 mod validate;
 
 use super::{Scene, SceneError};
@@ -37,12 +40,17 @@ use std::path::Path;
 /// degenerate triangles, ignored features) is listed in [`Scene::notes`].
 pub fn load_gltf(path: &Path) -> Result<Scene, SceneError> {
     let file = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|source| SceneError::Io {
-        path: file.clone(),
-        source,
+    let bytes = crate::budget::read_file(path, "the scene file").map_err(|e| match e {
+        crate::budget::BudgetError::Io { source, .. } => SceneError::Io {
+            path: file.clone(),
+            source,
+        },
+        e => SceneError::Budget(e),
     })?;
     let (doc, blob) = validate::parse(&file, &bytes)?;
+    drop(bytes);
     let base = path.parent().unwrap_or(Path::new("."));
+    validate::check_buffer_budget(&file, &doc)?;
     let buffers = validate::load_buffers(&file, &doc, base, blob)?;
     validate::check_views(&file, &doc, &buffers)?;
     let mut builder = Builder::new(&file, &doc, &buffers, base);

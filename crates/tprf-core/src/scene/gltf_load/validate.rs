@@ -135,34 +135,6 @@ pub(super) fn uri_label(uri: &str) -> &str {
     }
 }
 
-/// The gltf crate unwraps the percent-decoding of a relative URI: refuse one that does not
-/// decode to UTF-8 before handing it over.
-pub(super) fn check_uri(uri: &str) -> Result<(), String> {
-    if uri.contains(':') || urlencoding::decode(uri).is_ok() {
-        Ok(())
-    } else {
-        Err("its %-escapes do not decode to UTF-8".into())
-    }
-}
-
-/// An error reading an external buffer or image (`what`, at `uri`): a missing file is a
-/// [`SceneError::Io`] naming the path looked for.
-pub(super) fn resource_error(
-    file: &str,
-    base: &Path,
-    what: &str,
-    uri: Option<&str>,
-    e: gltf::Error,
-) -> SceneError {
-    match (e, uri) {
-        (gltf::Error::Io(source), Some(uri)) => SceneError::Io {
-            path: format!("{} ({what} of {file})", base.join(uri).display()),
-            source,
-        },
-        (e, _) => invalid(file, format!("{what}: {e}")),
-    }
-}
-
 /// Read every buffer (external file, `data:` URI or the .glb BIN chunk).
 pub(super) fn load_buffers(
     file: &str,
@@ -175,38 +147,60 @@ pub(super) fn load_buffers(
         .collect()
 }
 
-/// Read one buffer, naming it (index and URI) if that fails or it is shorter than declared.
+/// Read one buffer (at most its declared length of an external file), naming it (index
+/// and URI) if that fails or it is shorter than declared. Its length was budgeted with
+/// the others' by [`check_buffer_budget`].
 fn load_buffer(
     file: &str,
     buffer: &gltf::Buffer,
     base: &Path,
     blob: &mut Option<Vec<u8>>,
 ) -> Result<buffer::Data, SceneError> {
-    let source = buffer.source();
-    let uri = match source {
-        buffer::Source::Uri(uri) => Some(uri),
-        buffer::Source::Bin => None,
+    let declared = buffer.length();
+    let (what, mut data) = match buffer.source() {
+        buffer::Source::Uri(uri) => {
+            let what = format!("buffer {} '{}'", buffer.index(), uri_label(uri));
+            let data = super::resource::read_uri(file, base, &what, uri, declared as u64)?;
+            (what, data)
+        }
+        buffer::Source::Bin => {
+            let what = format!("buffer {} (the .glb BIN chunk)", buffer.index());
+            let data = blob
+                .take()
+                .ok_or_else(|| invalid(file, format!("{what}: the file has no BIN chunk")))?;
+            (what, data)
+        }
     };
-    let what = match uri {
-        Some(uri) => format!("buffer {} '{}'", buffer.index(), uri_label(uri)),
-        None => format!("buffer {} (the .glb BIN chunk)", buffer.index()),
-    };
-    if let Some(uri) = uri {
-        check_uri(uri).map_err(|m| invalid(file, format!("{what}: {m}")))?;
-    }
-    let data = buffer::Data::from_source_and_blob(source, Some(base), blob)
-        .map_err(|e| resource_error(file, base, &what, uri, e))?;
-    if data.len() < buffer.length() {
+    if data.len() < declared {
         return Err(invalid(
             file,
             format!(
-                "{what} holds {} bytes, the file declares {}",
+                "{what} holds {} bytes, the file declares {declared}",
                 data.len(),
-                buffer.length()
             ),
         ));
     }
-    Ok(data)
+    // The gltf crate's readers expect whole 4-byte words.
+    data.resize(data.len().next_multiple_of(4), 0);
+    Ok(buffer::Data(data))
+}
+
+/// Refuse buffers whose declared lengths add up to more memory than is left, before any
+/// is read.
+pub(super) fn check_buffer_budget(file: &str, doc: &Document) -> Result<(), SceneError> {
+    // The BIN chunk is in memory already (read with the file).
+    let external = doc
+        .buffers()
+        .filter(|b| matches!(b.source(), buffer::Source::Uri(_)));
+    let (count, total) = external.fold((0, 0u64), |(n, sum), b| {
+        (n + 1, sum.saturating_add(b.length() as u64))
+    });
+    crate::budget::check(
+        total,
+        &format!("scene {file}"),
+        format_args!("its {count} buffer(s)"),
+    )?;
+    Ok(())
 }
 
 /// Every buffer view must lie inside its buffer (the gltf crate slices image views unchecked).

@@ -142,6 +142,18 @@ pub fn spad_image(
             pixels
         )));
     }
+    // Held at once: the expected histogram, the realisation and its Coates estimate in
+    // f64 pixel-major, the three f32 [B, H, W] copies of them, and the depths.
+    let need_bytes = (pixels as u64)
+        .saturating_mul(b as u64)
+        .saturating_mul(3 * 8 + 3 * 4)
+        .saturating_add((pixels as u64).saturating_mul(2 * 3 * 4));
+    crate::budget::check(
+        need_bytes,
+        &format!("the SPAD over {h} x {w} pixels x {b} TDC bins"),
+        "its histograms, realisation, Coates estimate and depths",
+    )
+    .map_err(|e| SensorError::Budget(e.to_string()))?;
     let seed = model.sensor().noise.seed;
     let centres_s = model.gate_centres_s().unwrap_or_default();
     let light_mean_s = model.light().mean_s();
