@@ -326,8 +326,9 @@ fn a_zarr_cube_holds_what_the_npy_cube_holds_and_reads_back() {
         dense.iter().filter(|v| **v != 0.0).count() as u64
     );
     // `tprf sensor` measures the Zarr cube as it measures the npy one; AMCW takes its
-    // reference depth from the single-scattering layer of either.
-    for preset in ["lidar", "amcw"] {
+    // reference depth from the single-scattering layer of either; the SPAD's histograms,
+    // realisation and depths are the same from either.
+    for preset in ["lidar", "amcw", "spad"] {
         for d in [&zdir, &ndir] {
             let o = tprf(&[
                 "sensor",
@@ -341,10 +342,19 @@ fn a_zarr_cube_holds_what_the_npy_cube_holds_and_reads_back() {
             ]);
             assert!(o.status.success(), "{}", stderr(&o));
         }
-        let files = if preset == "amcw" {
-            &["sensor.npy", "true_depth.npy", "pixel_33_39.csv"][..]
-        } else {
-            &["sensor.npy", "pixel_33_39.csv"][..]
+        let files = match preset {
+            "amcw" => &["sensor.npy", "true_depth.npy", "pixel_33_39.csv"][..],
+            "spad" => &[
+                "sensor.npy",
+                "pixel_33_39.csv",
+                "spad_histogram.npy",
+                "spad_counts.npy",
+                "spad_coates.npy",
+                "spad_depth_histogram.npy",
+                "spad_depth_counts.npy",
+                "spad_depth_coates.npy",
+            ][..],
+            _ => &["sensor.npy", "pixel_33_39.csv"][..],
         };
         for f in files {
             assert_eq!(
@@ -399,6 +409,40 @@ fn a_zarr_cube_holds_what_the_npy_cube_holds_and_reads_back() {
             None => assert_eq!(preset, "builtin:lidar"),
         }
     }
+    // The SPAD from a Zarr cube measured in 4 tiles is the SPAD of the whole npy cube:
+    // the steady image gathered tile by tile is each pixel's sum of its TPRF, and the
+    // histograms, realisation, Coates estimate and depths follow.
+    use tprf_core::sensor::spad_image;
+    let model = SensorModel::new(Sensor::load("builtin:spad").unwrap(), axis).unwrap();
+    let tiled = measure_cube(&cube, &model, &[], 1).unwrap();
+    assert_eq!(tiled.tiles, 4);
+    let steady: Vec<f32> = dense
+        .chunks_exact(t)
+        .map(|px| px.iter().map(|&v| f64::from(v)).sum::<f64>() as f32)
+        .collect();
+    assert_eq!(tiled.steady.as_deref(), Some(&steady[..]));
+    let from_tiles = spad_image(&model, &tiled.measurements, &steady).unwrap();
+    let whole = spad_image(
+        &model,
+        &model.measure_clean(&dense, 40, 36).unwrap(),
+        &steady,
+    )
+    .unwrap();
+    let bits = |v: &[f32]| v.iter().map(|d| d.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&from_tiles.histogram), bits(&whole.histogram));
+    assert_eq!(bits(&from_tiles.counts), bits(&whole.counts));
+    assert_eq!(bits(&from_tiles.coates), bits(&whole.coates));
+    for (a, b) in [
+        (&from_tiles.depth_histogram_m, &whole.depth_histogram_m),
+        (&from_tiles.depth_counts_m, &whole.depth_counts_m),
+        (&from_tiles.depth_coates_m, &whole.depth_coates_m),
+    ] {
+        assert_eq!(bits(a), bits(b));
+    }
+    assert_eq!(from_tiles.sampler, whole.sampler);
+    assert!(whole.expected_detections > 0.0);
+    assert!(whole.counts.iter().any(|&c| c > 0.0));
+    assert!(whole.depth_histogram_m.iter().any(|d| d.is_finite()));
     // Rendering the npy form over it removes the stale Zarr array.
     let o = tprf(&[
         "render",
@@ -500,4 +544,126 @@ fn a_render_replaces_the_whole_folder_and_leaves_nothing_beside_it() {
         vec!["cube".to_string()],
         "left beside the folder: {beside:?}"
     );
+}
+
+#[test]
+fn sensor_with_a_spad_writes_histograms_that_follow_the_first_photon_law() {
+    let dir = tempdir("spad");
+    let (w, h, bins) = (8usize, 6usize, 32usize);
+    let o = tprf(&[
+        "render",
+        "builtin:cornell",
+        "--out",
+        dir.to_str().unwrap(),
+        "--width",
+        &w.to_string(),
+        "--height",
+        &h.to_string(),
+        "--bins",
+        &bins.to_string(),
+        "--spp",
+        "4",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (meta, cube) = tprf_core::export::read_cube(&dir.join("tprf.npy")).unwrap();
+    // A delta pulse at t = 0, TDC bins that are the film's bins, a dead time of the
+    // whole cycle: per pixel the SPAD fires at most once a cycle, in a fraction
+    // 1 - exp(-R) of them, R = PDE (ppu steady + ambient T) + DCR T, T = the cycle.
+    let (n, pde, ppu, ambient_hz, dcr_hz) = (1000.0, 0.5, 2.0, 3e7, 2e6);
+    let cycle_s = meta.dt_s * bins as f64;
+    let toml = format!(
+        "[light]\nkind = \"delta\"\n\
+         [exposure]\nkind = \"tdc\"\norigin = \"window\"\nstart = 0\nbin_width = {dt:e}\nbins = {bins}\n\
+         [spad]\ncycles = {n}\npde = {pde}\nphotons_per_unit = {ppu}\nambient_rate = {ambient_hz:e}\n\
+         dark_count_rate = {dcr_hz:e}\ndead_time = {cycle_s:e}\n",
+        dt = meta.dt_s,
+        n = n as u64,
+    );
+    let preset = dir.join("spad.toml");
+    std::fs::write(&preset, toml).unwrap();
+    let out = dir.join("s");
+    let o = tprf(&[
+        "sensor",
+        dir.to_str().unwrap(),
+        "--preset",
+        preset.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (shape, hist) = tprf_core::export::read_npy_f32(&out.join("spad_histogram.npy")).unwrap();
+    assert_eq!(shape, vec![bins as u64, h as u64, w as u64]);
+    let (_, counts) = tprf_core::export::read_npy_f32(&out.join("spad_counts.npy")).unwrap();
+    let (_, coates) = tprf_core::export::read_npy_f32(&out.join("spad_coates.npy")).unwrap();
+    for p in 0..w * h {
+        let steady: f64 = cube[p * bins..(p + 1) * bins]
+            .iter()
+            .map(|&v| f64::from(v))
+            .sum();
+        let r = pde * (ppu * steady + ambient_hz * cycle_s) + dcr_hz * cycle_s;
+        let want = n * (1.0 - (-r).exp());
+        let got: f64 = (0..bins).map(|k| f64::from(hist[k * w * h + p])).sum();
+        assert!(
+            (got - want).abs() <= 1e-4 * want,
+            "pixel {p}: {got} vs {want}"
+        );
+        let drawn: Vec<f64> = (0..bins)
+            .map(|k| f64::from(counts[k * w * h + p]))
+            .collect();
+        assert!(drawn.iter().all(|c| c.fract() == 0.0 && *c >= 0.0));
+        assert!(drawn.iter().sum::<f64>() <= n);
+        // The Coates estimate of bin 0 is -N ln(1 - h_0 / N): nothing before it.
+        let h0 = drawn[0];
+        if h0 < n {
+            let c0 = f64::from(coates[p]);
+            let want = -n * (1.0 - h0 / n).ln();
+            assert!(
+                (c0 - want).abs() <= 1e-4 * want.max(1.0),
+                "pixel {p}: {c0} vs {want}"
+            );
+        }
+    }
+    for name in ["histogram", "counts", "coates"] {
+        let (shape, _) =
+            tprf_core::export::read_npy_f32(&out.join(format!("spad_depth_{name}.npy"))).unwrap();
+        assert_eq!(shape, vec![h as u64, w as u64]);
+        assert!(out.join(format!("spad_depth_{name}.png")).exists());
+    }
+    // sensor.json records every parameter with its unit.
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("sensor.json")).unwrap()).unwrap();
+    let params = &json["derived"]["spad"]["parameters"];
+    for (key, value) in [
+        ("cycles", n),
+        ("pde", pde),
+        ("ambient_rate_hz", ambient_hz),
+        ("dark_count_rate_hz", dcr_hz),
+        ("dead_bins", bins as f64),
+    ] {
+        assert_eq!(params[key]["value"].as_f64(), Some(value), "{key}");
+        assert!(params[key]["unit"].is_string(), "{key}");
+    }
+    // The built-in preset runs; a bad override is refused, naming the field.
+    let o = tprf(&[
+        "sensor",
+        dir.to_str().unwrap(),
+        "--preset",
+        "builtin:spad",
+        "--cycles",
+        "0",
+        "--out",
+        dir.join("bad").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("spad.cycles"), "{}", stderr(&o));
+    let o = tprf(&[
+        "sensor",
+        dir.to_str().unwrap(),
+        "--preset",
+        "builtin:spad",
+        "--out",
+        dir.join("builtin").to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(dir.join("builtin/spad_depth_coates.png").exists());
 }

@@ -75,3 +75,8 @@ fn pulses_and_gates_conserve_energy_or_measure_exactly_zero() {
 fn sensor_noise_and_huge_values_stay_finite_and_non_negative() {
     all_pass(tprf_core::report::stability::sensor_extremes(Size::Test));
 }
+
+#[test]
+fn spad_at_1e9_cycles_and_saturation_stays_exact() {
+    all_pass(tprf_core::report::stability::spad_extremes(Size::Test));
+}

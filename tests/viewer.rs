@@ -711,6 +711,93 @@ fn a_new_snapshot_at_a_freed_ones_address_is_not_taken_for_it() {
     assert_shows(&state, &b, "second snapshot at the first one's address");
 }
 
+#[test]
+fn spad_preset_shows_the_first_photon_histogram_of_the_cached_film() {
+    use tprf_core::sensor::Spad;
+    let (side, bins) = (12, 48);
+    let mut h = harness(ViewerSettings {
+        mode: Mode::Sensor,
+        ..small_settings("builtin:cornell", side, bins, 16)
+    });
+    wait_done(&mut h, Duration::from_secs(120));
+    let snap = h.state().snapshot().unwrap();
+    let axis = *snap.axis();
+    // The built-in preset loads and measures.
+    h.state_mut().settings.sensor = Sensor::builtin("spad").unwrap();
+    h.step();
+    wait_sensor(&mut h);
+    assert!(h.state().sensor.spad_image(&snap).is_some());
+    // A delta pulse at t = 0 and TDC bins that are the film's own bins, no jitter, a
+    // dead time of the whole cycle, every photon detected, no background: the
+    // expected histogram is the first-photon formula on the pixel's TPRF itself,
+    // N (1 - e^-s_k) exp(-sum_{j<k} s_j), s_k = photons x TPRF[k].
+    let (cycles, photons) = (5000u64, 1.0);
+    let mut sensor = Sensor::new(
+        LightPulse::Delta {
+            t_s: 0.0,
+            energy: 1.0,
+        },
+        Exposure::Tdc {
+            origin: TimeOrigin::Window,
+            start_s: 0.0,
+            bin_width_s: axis.dt_s,
+            bins: bins as u64,
+            jitter_fwhm_s: 0.0,
+        },
+    );
+    sensor.spad = Some(Spad {
+        cycles,
+        pde: 1.0,
+        photons_per_unit: photons,
+        dead_time_s: axis.dt_s * bins as f64,
+        ..Spad::default()
+    });
+    h.state_mut().settings.sensor = sensor;
+    h.state_mut().selection = Some(Selection::pixel(side / 2, side / 2));
+    h.step();
+    wait_sensor(&mut h);
+    let img = h
+        .state()
+        .sensor
+        .spad_image(&snap)
+        .expect("SPAD histograms of the current film")
+        .clone();
+    assert_eq!((img.bins, img.height, img.width), (bins, side, side));
+    let mut checked = 0;
+    for (y, x) in [(side / 2, side / 2), (1, 1), (side - 2, 3)] {
+        let tprf = snap.pixel(x, y);
+        let got = img.pixel(&img.histogram, y, x);
+        let mut before = 0.0f64;
+        for k in 0..bins {
+            let s = photons * f64::from(tprf[k]).max(0.0);
+            let want = cycles as f64 * (1.0 - (-s).exp()) * (-before).exp();
+            assert!(
+                (f64::from(got[k]) - want).abs() <= 1e-3 * want.max(1.0),
+                "pixel ({y}, {x}), bin {k}: {} vs first-photon {want}",
+                got[k]
+            );
+            before += s;
+            checked += usize::from(want > 1.0);
+        }
+    }
+    assert!(checked > 10, "too little light to check: {checked} bins");
+    // The tab draws the SPAD's images and the pixel's histogram.
+    h.step();
+    h.get_by_label("SPAD bin image");
+    h.get_by_label("SPAD depth image");
+    // TPRF_SPAD_SHOT=FILE: a picture of the tab with the built-in preset, to look at.
+    if let Some(path) = std::env::var_os("TPRF_SPAD_SHOT") {
+        h.state_mut().settings.sensor = Sensor::builtin("spad").unwrap();
+        h.state_mut().sensor.gate = 40;
+        h.step();
+        wait_sensor(&mut h);
+        h.run_steps(3);
+        if let Some(shot) = render(&mut h) {
+            shot.save(path).unwrap();
+        }
+    }
+}
+
 /// A cube folder rendered by `tprf render` at `w x h` pixels (4 bins, 2 spp).
 fn rendered_cube(name: &str, w: usize, h: usize) -> std::path::PathBuf {
     let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))

@@ -9,7 +9,7 @@ use clap::Args;
 use tprf_core::export::sensor::{
     DEFAULT_TILE_BYTES, SensorCube, SensorRun, measure_cube, write_sensor_outputs,
 };
-use tprf_core::sensor::{Derived, Exposure, LightPulse, Sensor, SensorModel};
+use tprf_core::sensor::{Derived, Exposure, LightPulse, Sensor, SensorModel, spad_image};
 use tprf_core::units::format_time;
 
 #[derive(Args, Debug)]
@@ -20,7 +20,7 @@ pub struct SensorArgs {
     /// the AMCW reference depth.
     pub dir: PathBuf,
     /// The sensor: a TOML file (see docs/sensor.md) or builtin:gated, builtin:lidar,
-    /// builtin:amcw. The options below override its parts.
+    /// builtin:amcw, builtin:spad. The options below override its parts.
     #[arg(long)]
     pub preset: Option<String>,
     /// The light pulse as KIND:key=value,... e.g. gaussian:centre=5ns,fwhm=2ns (kinds:
@@ -38,9 +38,12 @@ pub struct SensorArgs {
     /// Photon noise: photons per unit of measurement (0: off).
     #[arg(long)]
     pub photons_per_energy: Option<f64>,
-    /// Seed of the noise.
+    /// Seed of the noise (and of the SPAD's realisation).
     #[arg(long)]
     pub seed: Option<u64>,
+    /// Laser cycles of the SPAD histogram (sensors with a [spad] section).
+    #[arg(long)]
+    pub cycles: Option<u64>,
     /// Also write pixel_Y_X.csv and pixel_Y_X_gates.csv for pixel Y,X (row from the
     /// top, column from the left). Repeatable.
     #[arg(long = "pixel", value_name = "Y,X", value_parser = parse_pixel)]
@@ -100,6 +103,14 @@ fn sensor_from_args(a: &SensorArgs) -> Result<Sensor> {
     if let Some(x) = a.seed {
         sensor.noise.seed = x;
     }
+    if let Some(n) = a.cycles {
+        match &mut sensor.spad {
+            Some(spad) => spad.cycles = n,
+            None => {
+                bail!("--cycles needs a sensor with a [spad] section (e.g. --preset builtin:spad)")
+            }
+        }
+    }
     Ok(sensor)
 }
 
@@ -121,6 +132,14 @@ pub fn run(a: &SensorArgs) -> Result<()> {
     let measured = measure_cube(&cube, &model, &a.pixels, DEFAULT_TILE_BYTES)?;
     let mut m = measured.measurements;
     let measure_s = t_measure.elapsed().as_secs_f64();
+    let t_spad = Instant::now();
+    // The SPAD reads the clean measurement and the steady image, both whole by now
+    // (measure_cube gathers them tile by tile), never the cube itself.
+    let spad = match &measured.steady {
+        Some(steady) => Some(spad_image(&model, &m, steady)?),
+        None => None,
+    };
+    let spad_s = t_spad.elapsed().as_secs_f64();
     let t_noise = Instant::now();
     model.apply_noise(&mut m);
     let noise_s = t_noise.elapsed().as_secs_f64();
@@ -156,8 +175,18 @@ pub fn run(a: &SensorArgs) -> Result<()> {
             measurement_s: measure_s,
             noise_s,
             started: start,
+            spad: spad.as_ref().map(|s| (s, spad_s)),
         },
     )?;
+    if let Some(s) = &spad {
+        eprintln!(
+            "SPAD: {} TDC bins, {:.3e} expected detections; realisation {}; {:.1} ms",
+            s.bins,
+            s.expected_detections,
+            s.sampler.name(),
+            spad_s * 1e3
+        );
+    }
     if let Some(e) = written.multipath {
         eprintln!(
             "AMCW: multipath error |amcw_depth - true_depth| median {:.4} m, 95 % {:.4} m \

@@ -180,8 +180,9 @@ impl TprfApp {
             &mut self.sensor,
             &tprf,
             &m_pixel,
-            snap.axis(),
             (h * 0.2).max(90.0),
+            snap,
+            (sel.y0, sel.x0),
         );
     }
 }

@@ -5,7 +5,7 @@ use super::kinds::{EXPOSURE_KINDS, LIGHT_KINDS, exposure_of_kind, label_of, ligh
 use super::{GATE_COLOR, LIGHT_COLOR};
 use eframe::egui::{self, RichText};
 use tprf_core::film::TimeAxis;
-use tprf_core::sensor::{Exposure, LightPulse, Sensor};
+use tprf_core::sensor::{Acquisition, Exposure, LightPulse, Sensor, Spad};
 
 /// A time in ns, stored in seconds.
 fn time_ns(ui: &mut egui::Ui, label: &str, t_s: &mut f64, speed_ns: f64) {
@@ -47,6 +47,100 @@ fn count(ui: &mut egui::Ui, label: &str, v: &mut u64, max: u64) {
     ui.add(egui::DragValue::new(v).range(1..=max))
         .labelled_by(l.id);
     ui.end_row();
+}
+
+/// A rate in hertz, typed as a count per second.
+fn rate(ui: &mut egui::Ui, label: &str, v: &mut f64, hover: &str) {
+    let l = ui.label(label);
+    let speed = (*v * 0.01).max(1.0);
+    ui.add(
+        egui::DragValue::new(v)
+            .range(0.0..=1e15)
+            .speed(speed)
+            .suffix(" /s"),
+    )
+    .labelled_by(l.id)
+    .on_hover_text(hover);
+    ui.end_row();
+}
+
+/// The SPAD's parameters (the TDC bins and jitter are the exposure's).
+fn spad_ui(ui: &mut egui::Ui, spad: &mut Spad) {
+    ui.label(RichText::new("SPAD").strong());
+    egui::Grid::new("spad-grid").num_columns(2).show(ui, |ui| {
+        count(
+            ui,
+            "cycles",
+            &mut spad.cycles,
+            tprf_core::sensor::spad::MAX_CYCLES,
+        );
+        number(ui, "PDE", &mut spad.pde, 0.0..=1.0, 0.005);
+        let l = ui.label("photons / unit");
+        let speed = (spad.photons_per_unit * 0.01).max(1e-6);
+        ui.add(
+            egui::DragValue::new(&mut spad.photons_per_unit)
+                .range(0.0..=1e30)
+                .speed(speed),
+        )
+        .labelled_by(l.id)
+        .on_hover_text("photons reaching the pixel per unit of (TPRF * Light), per pulse");
+        ui.end_row();
+        rate(
+            ui,
+            "ambient",
+            &mut spad.ambient_rate_hz,
+            "uniform ambient photons per second at each pixel",
+        );
+        let l = ui.label("ambient lamp");
+        let speed = (spad.ambient_lamp_hz * 0.01).max(1.0);
+        ui.add(
+            egui::DragValue::new(&mut spad.ambient_lamp_hz)
+                .range(0.0..=1e15)
+                .speed(speed)
+                .suffix(" /s"),
+        )
+        .labelled_by(l.id)
+        .on_hover_text(
+            "a steady lamp where the light is, of this many pulse energies per second: \
+             each pixel gets it times its steady image",
+        );
+        ui.end_row();
+        rate(
+            ui,
+            "dark counts",
+            &mut spad.dark_count_rate_hz,
+            "dark count rate",
+        );
+        let speed = (spad.dead_time_s * 1e9 * 0.01).max(0.01);
+        time_ns(ui, "dead time", &mut spad.dead_time_s, speed);
+        let l = ui.label("acquisition");
+        egui::ComboBox::from_id_salt("spad-mode")
+            .selected_text(match spad.mode {
+                Acquisition::Synchronous => "synchronous",
+                Acquisition::FreeRunning => "free-running",
+            })
+            .show_ui(ui, |ui| {
+                ui.selectable_value(&mut spad.mode, Acquisition::Synchronous, "synchronous");
+                ui.selectable_value(&mut spad.mode, Acquisition::FreeRunning, "free-running");
+            })
+            .response
+            .labelled_by(l.id);
+        ui.end_row();
+        number(
+            ui,
+            "afterpulsing",
+            &mut spad.afterpulse_probability,
+            0.0..=1.0,
+            0.001,
+        );
+        if spad.afterpulse_probability > 0.0 {
+            if !(spad.afterpulse_delay_s > 0.0) {
+                spad.afterpulse_delay_s = (spad.dead_time_s * 2.0).max(1e-9);
+            }
+            let speed = (spad.afterpulse_delay_s * 1e9 * 0.01).max(0.01);
+            time_ns(ui, "afterpulse delay", &mut spad.afterpulse_delay_s, speed);
+        }
+    });
 }
 
 /// The sensor's controls (left panel): presets, light, gates, noise. Returns a message
@@ -205,6 +299,8 @@ pub(crate) fn controls_ui(
         sensor.exposure = exposure_of_kind(new_kind, axis);
         sensor.derived = Default::default();
         sensor.derived.amcw_depth = new_kind == "amcw";
+        // A SPAD needs TDC bins; TDC bins get a SPAD.
+        sensor.spad = (new_kind == "tdc").then(Spad::default);
     }
     let max_gates = tprf_core::sensor::MAX_GATES;
     egui::Grid::new("exposure-grid")
@@ -282,7 +378,22 @@ pub(crate) fn controls_ui(
                 number(ui, "phase 0 (deg)", phase0_deg, -360.0..=360.0, 1.0);
                 number(ui, "modulation", modulation, 0.0..=1.0, 0.01);
             }
+            Exposure::Tdc {
+                start_s,
+                bin_width_s,
+                bins,
+                jitter_fwhm_s,
+                ..
+            } => {
+                time_ns(ui, "start", start_s, speed);
+                time_ns(ui, "bin width", bin_width_s, speed);
+                count(ui, "bins", bins, max_gates);
+                time_ns(ui, "jitter FWHM", jitter_fwhm_s, speed);
+            }
         });
+    if let Some(spad) = &mut sensor.spad {
+        spad_ui(ui, spad);
+    }
 
     ui.label(RichText::new("Noise").strong());
     egui::Grid::new("noise-grid").num_columns(2).show(ui, |ui| {

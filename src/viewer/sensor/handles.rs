@@ -128,6 +128,16 @@ pub(super) fn handles(sensor: &Sensor, axis: &TimeAxis) -> Vec<HandlePos> {
                 );
             }
         }
+        Exposure::Tdc {
+            origin,
+            start_s,
+            bin_width_s,
+            ..
+        } => {
+            let t0 = gate_abs_s(*origin, *start_s, axis);
+            push(Handle::GateTime, t0, 0.9);
+            push(Handle::GateWidth, t0 + bin_width_s, 0.9);
+        }
         Exposure::Amcw { .. } => {}
     }
     out
@@ -232,6 +242,21 @@ pub(super) fn drag_handle(sensor: &mut Sensor, handle: Handle, t_s: f64, y: f64,
             },
             Handle::GateStep,
         ) => *step_s = Some((t_s - gate_abs_s(*origin, *centre_s, axis)).max(min_w)),
+        (
+            Exposure::Tdc {
+                origin, start_s, ..
+            },
+            Handle::GateTime,
+        ) => *start_s = t_s - gate_abs_s(*origin, 0.0, axis),
+        (
+            Exposure::Tdc {
+                origin,
+                start_s,
+                bin_width_s,
+                ..
+            },
+            Handle::GateWidth,
+        ) => *bin_width_s = (t_s - gate_abs_s(*origin, *start_s, axis)).max(min_w),
         (Exposure::PiecewiseLinear { origin, points, .. }, Handle::GateKnot(k)) => {
             let t = t_s - gate_abs_s(*origin, 0.0, axis);
             move_knot(points, k, t, y / 0.9)

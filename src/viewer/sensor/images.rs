@@ -3,6 +3,7 @@
 //! pixel to select it.
 
 use super::gate_time_label;
+use super::measure::SpadView;
 use super::state::SensorState;
 use crate::viewer::colormap::{self, ColorMap, Tone};
 use crate::viewer::textures::TextureCache;
@@ -20,9 +21,107 @@ pub(crate) fn images_ui(
     // The textures are taken out for the frame so the measurements can be borrowed.
     let mut textures = std::mem::take(&mut state.textures);
     let mut gate_sel = state.gate;
-    let clicked = measurement_images(ui, state, snap, &mut textures, &mut gate_sel, w, h);
+    let mut view = state.spad_view;
+    let clicked = if state.spad(snap).is_some() {
+        spad_images(ui, state, snap, &mut textures, &mut gate_sel, &mut view)
+    } else {
+        measurement_images(ui, state, snap, &mut textures, &mut gate_sel, w, h)
+    };
     state.textures = textures;
     state.gate = gate_sel;
+    state.spad_view = view;
+    clicked
+}
+
+/// The SPAD's images: TDC bin `k` of the histogram chosen (expected, one realisation,
+/// Coates), one exposure over all bins, and that histogram's first-return depth.
+fn spad_images(
+    ui: &mut egui::Ui,
+    state: &SensorState,
+    snap: &FilmSnapshot,
+    textures: &mut TextureCache<u64>,
+    gate_sel: &mut usize,
+    view: &mut SpadView,
+) -> Option<(usize, usize)> {
+    let (Some(model), Some(sp)) = (state.model.as_ref(), state.spad(snap)) else {
+        return None;
+    };
+    let (w, h) = (snap.width(), snap.height());
+    let img = &sp.image;
+    let bins = img.bins;
+    let bin = (*gate_sel).min(bins.saturating_sub(1));
+    let ctx = ui.ctx().clone();
+    let mut clicked = None;
+    ui.horizontal(|ui| {
+        let l = ui.label(format!("TDC bin k (of {bins})"));
+        ui.add(egui::Slider::new(gate_sel, 0..=bins.saturating_sub(1)))
+            .labelled_by(l.id);
+        ui.label(gate_time_label(model, bin));
+        for v in SpadView::ALL {
+            ui.selectable_value(view, v, v.label());
+        }
+    });
+    ui.label(
+        RichText::new(format!(
+            "{:.3e} detections expected; realisation: {}; measured in {:.0} ms",
+            img.expected_detections,
+            img.sampler.name(),
+            state.measured.as_ref().map_or(0.0, |m| m.millis)
+        ))
+        .weak()
+        .small(),
+    );
+    let hash = |x: &dyn std::fmt::Debug| {
+        use std::hash::{Hash, Hasher};
+        let mut hasher = std::collections::hash_map::DefaultHasher::new();
+        format!("{x:?}").hash(&mut hasher);
+        hasher.finish()
+    };
+    let key = hash(&(snap.generation(), model.sensor(), *view));
+    let avail = ui.available_size();
+    let side = (avail.x - 16.0) / 2.0;
+    let max = Vec2::new(side, avail.y - 40.0);
+    ui.horizontal_top(|ui| {
+        ui.vertical(|ui| {
+            ui.label(
+                RichText::new(format!(
+                    "{} counts in bin {bin} (one exposure over all bins)",
+                    view.label()
+                ))
+                .strong(),
+            );
+            let tone = Tone {
+                scale: sp.robust_max(*view).map_or(1.0, |m| 1.0 / m),
+                log: false,
+                decades: 3.0,
+            };
+            let plane = img.plane(sp.values(*view), bin);
+            let tex = textures.get(&ctx, "spad-bin", hash(&(key, bin)), || {
+                egui::ColorImage::from_rgba_unmultiplied(
+                    [w, h],
+                    &colormap::colorize(plane, &tone, ColorMap::Inferno),
+                )
+            });
+            if let Some(p) = pick(ui, &tex, w, h, max, "SPAD bin image") {
+                clicked = Some(p);
+            }
+        });
+        ui.vertical(|ui| {
+            let (lo, hi) = sp.depth_range(*view);
+            ui.label(
+                RichText::new(format!(
+                    "first-return depth of the {} histogram (m): {lo:.3} … {hi:.3}",
+                    view.label()
+                ))
+                .strong(),
+            );
+            let depth = sp.depth(*view);
+            let tex = textures.get(&ctx, "spad-depth", key, || depth_image(depth, w, h, lo, hi));
+            if let Some(p) = pick(ui, &tex, w, h, max, "SPAD depth image") {
+                clicked = Some(p);
+            }
+        });
+    });
     clicked
 }
 

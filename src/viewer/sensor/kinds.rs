@@ -76,6 +76,13 @@ pub(super) fn exposure_of_kind(kind: &str, axis: &TimeAxis) -> Exposure {
             step_s: w,
             count: n,
         },
+        "tdc" => Exposure::Tdc {
+            origin: TimeOrigin::Window,
+            start_s: 0.0,
+            bin_width_s: span / 256.0,
+            bins: 256,
+            jitter_fwhm_s: span / 256.0,
+        },
         "amcw" => Exposure::Amcw {
             freq_hz: 20e6,
             phase_steps: 4,
@@ -110,6 +117,7 @@ pub(super) const EXPOSURE_KINDS: &[(&str, &str)] = &[
     ("gaussian", "Gaussian gates"),
     ("piecewise_linear", "free gates (piecewise linear)"),
     ("amcw", "AMCW sinusoids"),
+    ("tdc", "TDC bins (SPAD)"),
 ];
 
 /// The menu label of `key` in `table` ("?" for an unknown kind).

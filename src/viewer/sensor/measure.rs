@@ -3,7 +3,90 @@
 
 use std::time::Instant;
 use tprf_core::film::FilmSnapshot;
-use tprf_core::sensor::{AmcwImage, Measurements, NoiseField, Sensor, SensorModel, derived};
+use tprf_core::sensor::{
+    AmcwImage, Measurements, NoiseField, Sensor, SensorModel, SpadImage, derived, spad_image,
+};
+
+/// Which of the SPAD's histograms the images show.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum SpadView {
+    /// The expected histogram over all cycles.
+    #[default]
+    Expected,
+    /// One seeded realisation.
+    Counts,
+    /// The Coates estimate of the realisation (pile-up undone).
+    Coates,
+}
+
+impl SpadView {
+    pub(super) const ALL: [SpadView; 3] = [SpadView::Expected, SpadView::Counts, SpadView::Coates];
+
+    pub(super) fn label(self) -> &'static str {
+        match self {
+            SpadView::Expected => "expected",
+            SpadView::Counts => "one realisation",
+            SpadView::Coates => "Coates",
+        }
+    }
+
+    fn index(self) -> usize {
+        self as usize
+    }
+}
+
+/// A SPAD image with its exposures and depth ranges per view.
+pub(super) struct SpadMeasured {
+    pub(super) image: SpadImage,
+    robust_max: [Option<f64>; 3],
+    depth_range: [(f32, f32); 3],
+}
+
+impl SpadMeasured {
+    fn new(image: SpadImage) -> SpadMeasured {
+        let views = SpadView::ALL;
+        let robust_max = views.map(|v| tprf_core::film::robust_max(spad_values(&image, v)));
+        let depth_range = views.map(|v| finite_range(spad_depth(&image, v)));
+        SpadMeasured {
+            image,
+            robust_max,
+            depth_range,
+        }
+    }
+
+    /// The `[B, H, W]` array of `view`.
+    pub(super) fn values(&self, view: SpadView) -> &[f32] {
+        spad_values(&self.image, view)
+    }
+
+    pub(super) fn depth(&self, view: SpadView) -> &[f32] {
+        spad_depth(&self.image, view)
+    }
+
+    pub(super) fn robust_max(&self, view: SpadView) -> Option<f64> {
+        self.robust_max[view.index()]
+    }
+
+    pub(super) fn depth_range(&self, view: SpadView) -> (f32, f32) {
+        self.depth_range[view.index()]
+    }
+}
+
+fn spad_values(image: &SpadImage, view: SpadView) -> &[f32] {
+    match view {
+        SpadView::Expected => &image.histogram,
+        SpadView::Counts => &image.counts,
+        SpadView::Coates => &image.coates,
+    }
+}
+
+fn spad_depth(image: &SpadImage, view: SpadView) -> &[f32] {
+    match view {
+        SpadView::Expected => &image.depth_histogram_m,
+        SpadView::Counts => &image.depth_counts_m,
+        SpadView::Coates => &image.depth_coates_m,
+    }
+}
 
 /// The measurements of one (snapshot, sensor) pair and what is derived from them.
 pub(super) struct Measured {
@@ -13,6 +96,8 @@ pub(super) struct Measured {
     pub(super) m: Measurements,
     pub(super) depth_m: Option<Vec<f32>>,
     pub(super) amcw: Option<AmcwImage>,
+    /// The SPAD's histograms and depths, when the sensor has one.
+    pub(super) spad: Option<SpadMeasured>,
     /// AMCW depth minus the depth of the TPRF's own first return (multipath error), m.
     pub(super) amcw_error_m: Option<Vec<f32>>,
     pub(super) millis: f64,
@@ -57,6 +142,14 @@ pub(super) fn measure_all(
 ) -> Result<Measured, String> {
     let started = Instant::now();
     let mut m = model.measure_clean_film(snap);
+    // The SPAD counts photons of the clean (TPRF * Light); the additive noise is the
+    // gates' own.
+    let spad = match model.sensor().spad {
+        Some(_) => Some(SpadMeasured::new(
+            spad_image(model, &m, snap.steady()).map_err(|e| e.to_string())?,
+        )),
+        None => None,
+    };
     model.apply_noise_cached(&mut m, &mut noise_field);
     let robust_max = tprf_core::film::robust_max(&m.values);
     let depth_m = model.first_return_depth(&m);
@@ -76,6 +169,7 @@ pub(super) fn measure_all(
         m,
         depth_m,
         amcw,
+        spad,
         amcw_error_m,
         millis: started.elapsed().as_secs_f64() * 1e3,
         robust_max,

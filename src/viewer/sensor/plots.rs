@@ -5,7 +5,11 @@ use super::state::SensorState;
 use super::{GATE_COLOR, LIGHT_COLOR};
 use eframe::egui::{self, Color32, RichText};
 use egui_plot::{Line, Plot, PlotPoints, Points, VLine};
-use tprf_core::film::TimeAxis;
+use tprf_core::film::FilmSnapshot;
+use tprf_core::sensor::spad::spad_pixel;
+
+const COATES_COLOR: Color32 = Color32::from_rgb(0x7d, 0xe0, 0x7d);
+const TRUTH_COLOR: Color32 = Color32::from_rgb(0xff, 0x6b, 0x9a);
 
 /// Figures 6 and 7 of the paper for one pixel: TPRF * Light on the bins, and M_i
 /// against i (click a point to show that gate).
@@ -14,9 +18,11 @@ pub(crate) fn pixel_plots_ui(
     state: &mut SensorState,
     tprf: &[f32],
     m_pixel: &[f32],
-    axis: &TimeAxis,
     height: f32,
+    snap: &FilmSnapshot,
+    pixel: (usize, usize),
 ) {
+    let axis = snap.axis();
     let Some(trace) = state.pixel_trace(tprf) else {
         return;
     };
@@ -39,6 +45,9 @@ pub(crate) fn pixel_plots_ui(
         .show(ui, |p| {
             p.line(Line::new("TPRF * Light", PlotPoints::from(steps)).color(LIGHT_COLOR))
         });
+    if spad_plot_ui(ui, state, &trace.m_clean, tprf, height, snap, pixel) {
+        return;
+    }
     ui.label(
         RichText::new("M_i of the pixel (with noise once all gates are measured); click a gate")
             .small(),
@@ -77,4 +86,108 @@ pub(crate) fn pixel_plots_ui(
     {
         state.gate = (p.x.round().max(0.0) as usize).min(m_pixel.len().saturating_sub(1));
     }
+}
+
+/// A curve over TDC bins as steps, time in ns.
+fn bin_steps(centres_s: &[f64], width_s: f64, values: impl Iterator<Item = f64>) -> Vec<[f64; 2]> {
+    centres_s
+        .iter()
+        .zip(values)
+        .flat_map(|(&c, v)| {
+            let v = if v.is_finite() { v } else { 0.0 };
+            [
+                [(c - 0.5 * width_s) * 1e9, v],
+                [(c + 0.5 * width_s) * 1e9, v],
+            ]
+        })
+        .collect()
+}
+
+/// The SPAD's histograms of the pixel (expected, Coates estimate of the realisation,
+/// and the counts without pile-up `N r_k` and of the signal alone) over the TDC bins.
+/// Returns whether it drew (the sensor has a SPAD and its histograms are current).
+fn spad_plot_ui(
+    ui: &mut egui::Ui,
+    state: &mut SensorState,
+    signal: &[f64],
+    tprf: &[f32],
+    height: f32,
+    snap: &FilmSnapshot,
+    (y, x): (usize, usize),
+) -> bool {
+    let (Some(model), Some(sp)) = (state.model(), state.spad(snap)) else {
+        return false;
+    };
+    let img = &sp.image;
+    let signal: Vec<f32> = signal.iter().map(|&v| v as f32).collect();
+    let steady: f64 = tprf.iter().map(|&v| f64::from(v)).sum();
+    let Ok(px) = spad_pixel(model, &signal, steady) else {
+        return false;
+    };
+    let centres = &img.centres_s;
+    let width_s = match centres[..] {
+        [a, b, ..] => b - a,
+        _ => 0.0,
+    };
+    let expected = img.pixel(&img.histogram, y, x);
+    let coates = img.pixel(&img.coates, y, x);
+    let counts = img.pixel(&img.counts, y, x);
+    let curve = |v: &[f32]| bin_steps(centres, width_s, v.iter().map(|&v| f64::from(v)));
+    let shown = centres.get(state.gate).copied();
+    ui.label(
+        RichText::new(format!(
+            "SPAD histogram of pixel ({y}, {x}) over {} cycles: expected (piled up), one \
+             realisation, its Coates estimate, and N r_k without pile-up",
+            model.sensor().spad.as_ref().map_or(0, |s| s.cycles)
+        ))
+        .small(),
+    );
+    let r = Plot::new("sensor-spad")
+        .height(1.25 * height)
+        .allow_drag(false)
+        .x_axis_label("TDC time (ns)")
+        .legend(egui_plot::Legend::default())
+        .show(ui, |p| {
+            p.line(
+                Line::new("realisation", PlotPoints::from(curve(&counts)))
+                    .color(Color32::from_gray(0x80)),
+            );
+            p.line(
+                Line::new("expected histogram", PlotPoints::from(curve(&expected)))
+                    .color(GATE_COLOR),
+            );
+            p.line(
+                Line::new("Coates estimate", PlotPoints::from(curve(&coates))).color(COATES_COLOR),
+            );
+            p.line(
+                Line::new(
+                    "N r_k (no pile-up)",
+                    PlotPoints::from(bin_steps(centres, width_s, px.unpiled.iter().copied())),
+                )
+                .color(TRUTH_COLOR),
+            );
+            p.line(
+                Line::new(
+                    "TPRF * Light detected",
+                    PlotPoints::from(bin_steps(centres, width_s, px.signal.iter().copied())),
+                )
+                .color(LIGHT_COLOR),
+            );
+            if let Some(c) = shown {
+                p.vline(
+                    VLine::new("bin shown", c * 1e9).color(Color32::from_rgb(0xff, 0x9f, 0x43)),
+                );
+            }
+            p.pointer_coordinate()
+        });
+    if r.response.clicked()
+        && let Some(p) = r.inner
+        && p.x.is_finite()
+        && width_s > 0.0
+        && let Some(&c0) = centres.first()
+    {
+        let k = ((p.x * 1e-9 - c0) / width_s).round().max(0.0) as usize;
+        state.gate = k.min(centres.len().saturating_sub(1));
+    }
+    true
 }

@@ -3,7 +3,7 @@
 //! snapshot's [`FilmSnapshot::generation`] (an address would be reused by the next one).
 
 use super::handles::Handle;
-use super::measure::{Measured, background_pool, measure_all};
+use super::measure::{Measured, SpadMeasured, SpadView, background_pool, measure_all};
 use crate::viewer::textures::TextureCache;
 use std::sync::Arc;
 use std::sync::mpsc::{Receiver, TryRecvError, channel};
@@ -35,8 +35,10 @@ pub struct SensorState {
     job: Option<Receiver<Measured>>,
     noise_field: Option<NoiseField>,
     pub error: Option<String>,
-    /// The gate shown, `i`.
+    /// The gate shown, `i` (the TDC bin, for a SPAD).
     pub gate: usize,
+    /// Which SPAD histogram the images show.
+    pub(super) spad_view: SpadView,
     /// The editor's handle being dragged.
     pub(super) drag: Option<Handle>,
     pub(super) textures: TextureCache<u64>,
@@ -166,6 +168,20 @@ impl SensorState {
     /// The sensor model of the last valid sensor, with its kernels.
     pub fn model(&self) -> Option<&SensorModel> {
         self.model.as_ref()
+    }
+
+    /// The SPAD's latest histograms, when they are those of the current sensor and film.
+    pub(super) fn spad(&self, snap: &FilmSnapshot) -> Option<&SpadMeasured> {
+        if !self.is_current(snap) {
+            return None;
+        }
+        self.measured.as_ref()?.spad.as_ref()
+    }
+
+    /// The SPAD's latest histograms and depths (sensors with a `[spad]` section), when
+    /// they are those of the current sensor and film.
+    pub fn spad_image(&self, snap: &FilmSnapshot) -> Option<&tprf_core::sensor::SpadImage> {
+        self.spad(snap).map(|s| &s.image)
     }
 
     /// The latest measurements `[N, H, W]`.

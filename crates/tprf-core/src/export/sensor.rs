@@ -51,7 +51,7 @@ macro_rules! bail {
 
 use super::{read_npy_f32, write_csv, write_json, write_npy_f32, write_png_rgb};
 use crate::film::{TimeAxis, quantile};
-use crate::sensor::{FirstReturn, Measurements, SensorModel, derived};
+use crate::sensor::{FirstReturn, Measurements, SensorModel, SpadImage, derived};
 
 /// The time window of a cube as `tprf.json` records it; other keys are ignored, so a
 /// cube written by another tool needs only these.
@@ -212,6 +212,9 @@ pub struct CubeMeasurement {
     pub true_depth: Option<(Vec<f32>, &'static str)>,
     /// The TPRF (`T` bins) of each pixel asked for, in the order asked.
     pub traces: Vec<Vec<f32>>,
+    /// The steady image `[H, W]`, `sum_t TPRF[t]` per pixel (summed in f64), when the
+    /// sensor has a SPAD (its ambient lamp reads it: [`crate::sensor::spad_image`]).
+    pub steady: Option<Vec<f32>>,
     /// Tiles the cube was read in.
     pub tiles: usize,
 }
@@ -220,7 +223,8 @@ pub struct CubeMeasurement {
 /// `tile_bytes`, a quarter of the memory free at most): each tile is checked for
 /// NaN/infinite bins, measured ([`SensorModel::measure_clean`], so each pixel's result
 /// is the one the whole cube gives), and gives its part of the AMCW depth reference and
-/// of the traces of `pixels` (row, column; each inside the image). Only one tile of the
+/// of the traces of `pixels` (row, column; each inside the image), and of the steady
+/// image when the sensor has a SPAD. Only one tile of the
 /// cube (and of the single-scattering layer, for the AMCW reference of a render with
 /// bounce layers) is in memory at a time.
 pub fn measure_cube(
@@ -266,6 +270,7 @@ pub fn measure_cube(
         Vec::new()
     };
     let mut traces = vec![Vec::new(); pixels.len()];
+    let mut steady = model.sensor().spad.is_some().then(|| vec![0.0f32; w * h]);
     let budget = crate::budget::available()
         .map_or(tile_bytes, |free| tile_bytes.min(free.bytes / 4))
         / if single { 2 } else { 1 };
@@ -306,6 +311,17 @@ pub fn measure_cube(
                 depth[at..at + cols].copy_from_slice(src);
             }
         }
+        if let Some(steady) = steady.as_mut() {
+            for (dy, row) in tile.chunks_exact(cols * t.max(1)).enumerate() {
+                let at = (y0 + dy) * w + x0;
+                for (s, px) in steady[at..at + cols]
+                    .iter_mut()
+                    .zip(row.chunks_exact(t.max(1)))
+                {
+                    *s = px.iter().map(|&v| f64::from(v)).sum::<f64>() as f32;
+                }
+            }
+        }
         for (trace, &(y, x)) in traces.iter_mut().zip(pixels) {
             if (y0..y0 + rows).contains(&y) && (x0..x0 + cols).contains(&x) {
                 let p = ((y - y0) * cols + x - x0) * t;
@@ -326,6 +342,7 @@ pub fn measure_cube(
         measurements: m,
         true_depth,
         traces,
+        steady,
         tiles: tiles.len(),
     })
 }
@@ -398,6 +415,9 @@ pub struct SensorRun<'a> {
     pub noise_s: f64,
     /// When the run started: `sensor.json`'s total time runs from here to its writing.
     pub started: Instant,
+    /// The SPAD's histograms and depths, when the sensor has a `[spad]` section, and
+    /// the seconds they took.
+    pub spad: Option<(&'a SpadImage, f64)>,
 }
 
 /// The AMCW multipath error `|amcw_depth - true_depth|`, metres (wrapped into half the
@@ -528,6 +548,11 @@ pub fn write_sensor_outputs(out: &Path, run: &SensorRun) -> Result<SensorOutputs
         );
     }
 
+    if let Some((spad, seconds)) = run.spad {
+        let written = write_spad_outputs(out, model, spad, seconds, &mut derived_json)?;
+        files.extend(written);
+    }
+
     if traces.len() != pixels.len() {
         bail!("{} pixel traces for {} pixels", traces.len(), pixels.len());
     }
@@ -592,6 +617,88 @@ pub fn write_sensor_outputs(out: &Path, run: &SensorRun) -> Result<SensorOutputs
     });
     write_json(&out.join("sensor.json"), &json)?;
     Ok(SensorOutputs { files, multipath })
+}
+
+/// The SPAD's files (`spad_histogram.npy`, `spad_counts.npy`, `spad_coates.npy`
+/// `[B, H, W]`; `spad_depth_{histogram,counts,coates}.{npy,png}` `[H, W]`) and its entry
+/// in `sensor.json` (every parameter with its unit); returns the file names.
+fn write_spad_outputs(
+    out: &Path,
+    model: &SensorModel,
+    spad: &SpadImage,
+    seconds: f64,
+    derived_json: &mut serde_json::Map<String, serde_json::Value>,
+) -> Result<Vec<String>> {
+    let (b, h, w) = (spad.bins as u64, spad.height as u64, spad.width as u64);
+    let mut files = Vec::new();
+    for (name, values) in [
+        ("spad_histogram.npy", &spad.histogram),
+        ("spad_counts.npy", &spad.counts),
+        ("spad_coates.npy", &spad.coates),
+    ] {
+        write_npy_f32(&out.join(name), &[b, h, w], values)?;
+        files.push(name.to_string());
+    }
+    let mut found = serde_json::Map::new();
+    for (name, depth) in [
+        ("histogram", &spad.depth_histogram_m),
+        ("counts", &spad.depth_counts_m),
+        ("coates", &spad.depth_coates_m),
+    ] {
+        let npy = format!("spad_depth_{name}.npy");
+        let png = format!("spad_depth_{name}.png");
+        write_npy_f32(&out.join(&npy), &[h, w], depth)?;
+        write_depth_png(&out.join(&png), spad.width, spad.height, depth)?;
+        found.insert(
+            name.into(),
+            depth.iter().filter(|d| d.is_finite()).count().into(),
+        );
+        files.extend([npy, png]);
+    }
+    let sensor = model.sensor();
+    let p = sensor.spad.clone().unwrap_or_default();
+    let (cycle_s, sigma_s) = sensor.exposure.tdc_cycle_s().unwrap_or((0.0, 0.0));
+    let bin_width_s = cycle_s / spad.bins.max(1) as f64;
+    let never_armed = spad.coates.iter().filter(|v| v.is_nan()).count();
+    derived_json.insert(
+        "spad".into(),
+        serde_json::json!({
+            "model": "per cycle, events in TDC bin k ~ Poisson(r_k), r_k = pde (photons_per_unit \
+                      S_k + ambient photons/s x bin width) + dark_count_rate x bin width, S_k the \
+                      pixel's (TPRF * Light) in bin k after the jitter, folded into the cycle; \
+                      the SPAD fires on the first event of a bin while armed, is then dead \
+                      through dead_bins more bins, and may afterpulse (docs/sensor.md)",
+            "parameters": {
+                "cycles": {"value": p.cycles, "unit": "laser cycles"},
+                "pde": {"value": p.pde, "unit": "probability"},
+                "photons_per_unit": {"value": p.photons_per_unit, "unit": "photons per unit of (TPRF * Light) (a cube bin's unit times the light's energy) per pulse"},
+                "ambient_rate_hz": {"value": p.ambient_rate_hz, "unit": "photons/s per pixel (before the PDE)"},
+                "ambient_lamp_hz": {"value": p.ambient_lamp_hz, "unit": "1/s: a steady lamp where the light is, in pulse energies per second"},
+                "dark_count_rate_hz": {"value": p.dark_count_rate_hz, "unit": "counts/s"},
+                "dead_time_s": {"value": p.dead_time_s, "unit": "s"},
+                "dead_bins": {"value": (p.dead_time_s / bin_width_s.max(f64::MIN_POSITIVE)).round(), "unit": "TDC bins after the bin of a detection"},
+                "mode": {"value": p.mode, "unit": "synchronous: armed afresh each cycle; free_running: never reset"},
+                "afterpulse_probability": {"value": p.afterpulse_probability, "unit": "probability per detection"},
+                "afterpulse_delay_s": {"value": p.afterpulse_delay_s, "unit": "s (mean of an exponential)"},
+                "tdc_bins": {"value": spad.bins, "unit": "bins"},
+                "tdc_bin_width_s": {"value": bin_width_s, "unit": "s"},
+                "cycle_s": {"value": cycle_s, "unit": "s (bins x bin width; the laser period)"},
+                "jitter_sigma_s": {"value": sigma_s, "unit": "s (Gaussian standard deviation)"},
+                "seed": {"value": sensor.noise.seed, "unit": "seed of the realisation (noise.seed)"},
+            },
+            "tdc_bin_centres_s": [spad.centres_s.first(), spad.centres_s.last()],
+            "spad_histogram": "expected counts over all cycles, float32 [B, H, W]",
+            "spad_counts": "one seeded realisation, float32 [B, H, W]",
+            "spad_coates": "Coates estimate N r_k of spad_counts (counts without pile-up); NaN: bin never armed",
+            "sampler": spad.sampler.name(),
+            "expected_detections": spad.expected_detections,
+            "coates_bins_never_armed": never_armed,
+            "depth": "first return after removing the median bin (the background), c (t - light mean time) / 2, metres; NaN: none",
+            "pixels_with_return": found,
+            "seconds": seconds,
+        }),
+    );
+    Ok(files)
 }
 
 /// A depth image as grey PNG, linear in depth from the 1 % to the 99 % quantile:

@@ -2,7 +2,8 @@
 //! (paper, section 6), dimensionless, `t` in seconds.
 //!
 //! [`Exposure`] describes a whole sequence (box gates, Gaussian gates, a free
-//! piecewise-linear gate repeated at a step, AMCW sinusoids); [`Exposure::gates`]
+//! piecewise-linear gate repeated at a step, AMCW sinusoids, the bins of a
+//! time-to-digital converter with timing jitter); [`Exposure::gates`]
 //! checks it and resolves it into single [`Gate`]s at absolute times. What the
 //! kernels need from a gate is its average over a bin-wide window,
 //! [`Gate::bin_average`], in closed form for every kind.
@@ -124,6 +125,27 @@ pub enum Exposure {
         #[serde(default = "one")]
         modulation: f64,
     },
+    /// The histogram bins of a time-to-digital converter (TDC), as a SPAD sensor has
+    /// (see [`super::spad`]): bin `k` counts the photons whose time *after the timing
+    /// jitter* falls in `[start_s + k w, start_s + (k + 1) w)`, `w = bin_width_s`. The
+    /// jitter (the instrument response) is Gaussian with `jitter_fwhm_s` (0: none), so
+    /// the gate is the box convolved with it: `Phi((b - t) / sigma) - Phi((a - t) /
+    /// sigma)`. The `bins` bins span one laser cycle, `T = bins w`; light arriving
+    /// outside `[start_s, start_s + T)` folds into it modulo `T` (it belongs to an
+    /// earlier or later pulse of the periodic laser) when the sensor model computes
+    /// the kernels.
+    Tdc {
+        #[serde(default)]
+        origin: TimeOrigin,
+        #[serde(default, alias = "start", with = "seconds")]
+        start_s: f64,
+        #[serde(alias = "bin_width", with = "seconds")]
+        bin_width_s: f64,
+        #[serde(alias = "count", with = "count")]
+        bins: u64,
+        #[serde(default, alias = "jitter_fwhm", with = "seconds")]
+        jitter_fwhm_s: f64,
+    },
 }
 
 /// One resolved gate `Exposure_i(t)`, times in seconds after the trigger.
@@ -144,6 +166,15 @@ pub enum Gate {
         freq_hz: f64,
         phase_rad: f64,
         modulation: f64,
+    },
+    /// A box `[start_s, end_s)` of sensitivity 1 convolved with a Gaussian of standard
+    /// deviation `sigma_s > 0`: `Phi((end - t) / sigma) - Phi((start - t) / sigma)`, the
+    /// probability that a photon arriving at `t` is time-stamped in the box (a TDC bin
+    /// seen through timing jitter).
+    Jittered {
+        start_s: f64,
+        end_s: f64,
+        sigma_s: f64,
     },
 }
 
@@ -249,6 +280,19 @@ fn normal_cdf_diff(x1: f64, x2: f64) -> f64 {
     }
 }
 
+/// `integral_a^b Phi(x) dx` for `a <= b`, from the primitive `F(x) = x Phi(x) + phi(x)`;
+/// for positive arguments `F(x) = x + F(-x)`, which keeps the difference exact.
+fn normal_cdf_integral(a: f64, b: f64) -> f64 {
+    let f = |x: f64| x * 0.5 * libm::erfc(-x / SQRT_2) + (-0.5 * x * x).exp() / (2.0 * PI).sqrt();
+    if a >= 0.0 {
+        (b - a) + f(-b) - f(-a)
+    } else if b <= 0.0 {
+        f(b) - f(a)
+    } else {
+        b + f(-b) - f(a)
+    }
+}
+
 /// `sin(x) / x`.
 fn sinc(x: f64) -> f64 {
     if x.abs() < 1e-8 { 1.0 } else { x.sin() / x }
@@ -262,6 +306,7 @@ impl Exposure {
             Exposure::Gaussian { .. } => "gaussian",
             Exposure::PiecewiseLinear { .. } => "piecewise_linear",
             Exposure::Amcw { .. } => "amcw",
+            Exposure::Tdc { .. } => "tdc",
         }
     }
 
@@ -272,6 +317,7 @@ impl Exposure {
             | Exposure::Gaussian { count, .. }
             | Exposure::PiecewiseLinear { count, .. } => *count,
             Exposure::Amcw { phase_steps, .. } => *phase_steps,
+            Exposure::Tdc { bins, .. } => *bins,
         }
     }
 
@@ -280,8 +326,26 @@ impl Exposure {
         match self {
             Exposure::Box { origin, .. }
             | Exposure::Gaussian { origin, .. }
-            | Exposure::PiecewiseLinear { origin, .. } => *origin,
+            | Exposure::PiecewiseLinear { origin, .. }
+            | Exposure::Tdc { origin, .. } => *origin,
             Exposure::Amcw { .. } => TimeOrigin::Pulse,
+        }
+    }
+
+    /// For a TDC: the laser cycle `bins x bin_width_s` (s) and the jitter's standard
+    /// deviation (s); `None` for other kinds (unchecked: see [`Exposure::gates`]).
+    pub fn tdc_cycle_s(&self) -> Option<(f64, f64)> {
+        match self {
+            Exposure::Tdc {
+                bin_width_s,
+                bins,
+                jitter_fwhm_s,
+                ..
+            } => Some((
+                *bin_width_s * *bins as f64,
+                jitter_fwhm_s / super::light::FWHM_PER_SIGMA,
+            )),
+            _ => None,
         }
     }
 
@@ -292,6 +356,7 @@ impl Exposure {
         let n = self.count();
         let what_count = match self {
             Exposure::Amcw { .. } => "exposure.phase_steps",
+            Exposure::Tdc { .. } => "exposure.bins",
             _ => "exposure.count",
         };
         if n == 0 {
@@ -389,6 +454,20 @@ impl Exposure {
                     })
                     .collect()
             }
+            Exposure::Tdc {
+                start_s,
+                bin_width_s,
+                jitter_fwhm_s,
+                ..
+            } => {
+                let start = finite("exposure.start_s", *start_s)?;
+                let width = positive("exposure.bin_width_s", *bin_width_s)?;
+                let sigma = non_negative("exposure.jitter_fwhm_s", *jitter_fwhm_s)?
+                    / super::light::FWHM_PER_SIGMA;
+                (0..n)
+                    .map(|i| Gate::tdc_bin(offset + start + width * i as f64, width, sigma))
+                    .collect()
+            }
         };
         for (i, g) in gates.iter().enumerate() {
             let (lo, hi) = g.bin_average_support(0.0);
@@ -438,7 +517,46 @@ impl Gate {
                 phase_rad,
                 modulation,
             } => 0.5 * (1.0 + modulation * (TAU * freq_hz * t_s - phase_rad).cos()),
+            Gate::Jittered {
+                start_s,
+                end_s,
+                sigma_s,
+            } => normal_cdf_diff((start_s - t_s) / sigma_s, (end_s - t_s) / sigma_s),
         }
+    }
+
+    /// A TDC bin `[start_s, start_s + width_s)` seen through a Gaussian jitter of
+    /// standard deviation `sigma_s` (a plain box when it is 0).
+    pub fn tdc_bin(start_s: f64, width_s: f64, sigma_s: f64) -> Gate {
+        if sigma_s > 0.0 {
+            Gate::Jittered {
+                start_s,
+                end_s: start_s + width_s,
+                sigma_s,
+            }
+        } else {
+            Gate::Box {
+                start_s,
+                end_s: start_s + width_s,
+                gain: 1.0,
+            }
+        }
+    }
+
+    /// The gate shifted later by `by_s` seconds (for a TDC's bins in other laser
+    /// cycles; AMCW gates are periodic and stay as they are).
+    pub fn shifted(&self, by_s: f64) -> Gate {
+        let mut g = self.clone();
+        match &mut g {
+            Gate::Box { start_s, end_s, .. } | Gate::Jittered { start_s, end_s, .. } => {
+                *start_s += by_s;
+                *end_s += by_s;
+            }
+            Gate::Gaussian { centre_s, .. } => *centre_s += by_s,
+            Gate::PiecewiseLinear { shift_s, .. } => *shift_s += by_s,
+            Gate::Cosine { .. } => {}
+        }
+        g
     }
 
     /// `Exposure_i(t)` at each time of `t_s` (for plots).
@@ -449,7 +567,9 @@ impl Gate {
     /// The gate's mean time, weighted by sensitivity, seconds (`None` for AMCW).
     pub fn centre_s(&self) -> Option<f64> {
         match self {
-            Gate::Box { start_s, end_s, .. } => Some(0.5 * (start_s + end_s)),
+            Gate::Box { start_s, end_s, .. } | Gate::Jittered { start_s, end_s, .. } => {
+                Some(0.5 * (start_s + end_s))
+            }
             Gate::Gaussian { centre_s, .. } => Some(*centre_s),
             Gate::PiecewiseLinear { shape, shift_s } => Some(shape.centroid_s + shift_s),
             Gate::Cosine { .. } => None,
@@ -514,6 +634,24 @@ impl Gate {
                         * sinc(0.5 * w * dt_s)
                         * (w * (u_s + 0.5 * dt_s) - phase_rad).cos())
             }
+            Gate::Jittered {
+                start_s,
+                end_s,
+                sigma_s,
+            } => {
+                if dt_s < 1e-3 * sigma_s {
+                    (self.value(u_s) + 4.0 * self.value(u_s + 0.5 * dt_s) + self.value(u_s + dt_s))
+                        / 6.0
+                } else {
+                    // (1/dt) integral_u^{u+dt} Phi((b - t)/s) - Phi((a - t)/s) dt
+                    // = (s/dt) [integral over x of Phi from (b-u-dt)/s to (b-u)/s, minus
+                    // the same for a].
+                    let s = *sigma_s;
+                    let part =
+                        |edge: f64| normal_cdf_integral((edge - u_s - dt_s) / s, (edge - u_s) / s);
+                    (s / dt_s * (part(*end_s) - part(*start_s))).clamp(0.0, 1.0)
+                }
+            }
         }
     }
 
@@ -532,6 +670,14 @@ impl Gate {
                 (a + shift_s - dt_s, b + shift_s)
             }
             Gate::Cosine { .. } => (f64::NEG_INFINITY, f64::INFINITY),
+            Gate::Jittered {
+                start_s,
+                end_s,
+                sigma_s,
+            } => (
+                start_s - GAUSS_CUT * sigma_s - dt_s,
+                end_s + GAUSS_CUT * sigma_s,
+            ),
         }
     }
 
@@ -539,7 +685,8 @@ impl Gate {
     pub fn bin_average_breaks(&self, dt_s: f64, out: &mut Vec<f64>) {
         out.clear();
         match self {
-            Gate::Box { start_s, end_s, .. } => {
+            // The jittered box's average is smooth, but varies fastest around these.
+            Gate::Box { start_s, end_s, .. } | Gate::Jittered { start_s, end_s, .. } => {
                 out.extend([start_s - dt_s, *start_s, end_s - dt_s, *end_s]);
             }
             Gate::PiecewiseLinear { shape, shift_s } => {
@@ -559,7 +706,7 @@ impl Gate {
     pub fn scale_s(&self) -> f64 {
         match self {
             Gate::Box { .. } | Gate::PiecewiseLinear { .. } => f64::INFINITY,
-            Gate::Gaussian { sigma_s, .. } => *sigma_s,
+            Gate::Gaussian { sigma_s, .. } | Gate::Jittered { sigma_s, .. } => *sigma_s,
             Gate::Cosine { freq_hz, .. } => 1.0 / (TAU * freq_hz),
         }
     }
@@ -612,6 +759,13 @@ mod tests {
                 phase_steps: 4,
                 phase0_deg: 30.0,
                 modulation: 0.8,
+            },
+            Exposure::Tdc {
+                origin: TimeOrigin::Pulse,
+                start_s: ns,
+                bin_width_s: 0.5 * ns,
+                bins: 4,
+                jitter_fwhm_s: 0.3 * ns,
             },
         ];
         for e in &seqs {

@@ -139,6 +139,80 @@ pub fn compute_kernels(light: &Light, gates: &[Gate], axis: &TimeAxis) -> Vec<Sp
     gates.par_iter().map(|g| kernel(light, g, axis)).collect()
 }
 
+/// Most shifted copies of a TDC's bins [`folded_kernels`] may evaluate (bins x laser
+/// cycles the arrivals span).
+pub const MAX_TDC_COPIES: u64 = 1 << 18;
+
+/// The kernels of a TDC's `gates` (its bins in the first laser cycle) with the
+/// arrivals folded into the cycle: `K_k[b] = sum_n K[gate k shifted by n cycle_s][b]`
+/// over every cycle `n` in which light from the cube's window can reach the bin. So a
+/// photon arriving a cycle late (or early) counts in the same bin as it would in its
+/// own cycle: the rate a periodic laser gives. Errors when the window spans so many
+/// cycles that more than [`MAX_TDC_COPIES`] shifted bins would be needed.
+pub fn folded_kernels(
+    light: &Light,
+    gates: &[Gate],
+    cycle_s: f64,
+    axis: &TimeAxis,
+) -> Result<Vec<SparseKernel>, super::SensorError> {
+    let (s_lo, s_hi) = light.support_s();
+    let dt = axis.dt_s;
+    let mut copies: Vec<(usize, Gate)> = Vec::new();
+    for (k, g) in gates.iter().enumerate() {
+        let (g_lo, g_hi) = g.bin_average_support(dt);
+        let n_lo = ((axis.t0_s - g_hi + s_lo) / cycle_s).floor();
+        let n_hi = ((axis.end_s() - g_lo + s_hi) / cycle_s).ceil();
+        let n = n_hi - n_lo + 1.0;
+        if !(n.is_finite() && (copies.len() as f64 + n.max(0.0)) <= MAX_TDC_COPIES as f64) {
+            return Err(super::SensorError::TooMany {
+                what: format!(
+                    "TDC bins over the laser cycles the window spans (cycle {cycle_s:e} s, \
+                     window {:e} .. {:e} s)",
+                    axis.t0_s,
+                    axis.end_s()
+                ),
+                count: (gates.len() as f64 * n.max(0.0)).min(u64::MAX as f64) as u64,
+                max: MAX_TDC_COPIES,
+            });
+        }
+        let mut i = n_lo;
+        while i <= n_hi {
+            copies.push((k, g.shifted(i * cycle_s)));
+            i += 1.0;
+        }
+    }
+    let pieces: Vec<(usize, SparseKernel)> = copies
+        .par_iter()
+        .map(|(k, g)| (*k, kernel(light, g, axis)))
+        .collect();
+    let mut folded: Vec<SparseKernel> = vec![SparseKernel::default(); gates.len()];
+    for (k, piece) in pieces {
+        if piece.weights.is_empty() {
+            continue;
+        }
+        let Some(f) = folded.get_mut(k) else {
+            continue;
+        };
+        if f.weights.is_empty() {
+            *f = piece;
+            continue;
+        }
+        let lo = f.first_bin.min(piece.first_bin);
+        let hi = (f.first_bin + f.weights.len()).max(piece.first_bin + piece.weights.len());
+        let mut w = vec![0.0; hi - lo];
+        for (src, at) in [(&f.weights, f.first_bin), (&piece.weights, piece.first_bin)] {
+            for (slot, v) in w[at - lo..].iter_mut().zip(src) {
+                *slot += v;
+            }
+        }
+        *f = SparseKernel {
+            first_bin: lo,
+            weights: w,
+        };
+    }
+    Ok(folded)
+}
+
 /// The light's transfer between bins: entry `d - first_offset` is
 /// `P[d] = (1/dt) integral_{tau in bin b} integral_{t in bin b + d} Light(t - tau) dt dtau
 /// = integral Light(s) tri(s - d dt) ds` (`tri` the unit-height triangle of half-width

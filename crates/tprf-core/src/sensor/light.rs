@@ -601,6 +601,27 @@ impl Light {
         }
     }
 
+    /// The envelope's variance in time, `integral (t - mean)^2 Light / energy`,
+    /// seconds squared (0 for a delta).
+    pub fn variance_s2(&self) -> f64 {
+        if self.delta_time_s().is_some() || !(self.energy > 0.0) {
+            return 0.0;
+        }
+        let mean = self.mean_s();
+        let (lo, hi) = self.support_s();
+        let mut scratch = Vec::new();
+        let v = self.integrate(
+            |t| (t - mean) * (t - mean),
+            lo,
+            hi,
+            &[],
+            0.0,
+            f64::INFINITY,
+            &mut scratch,
+        ) / self.energy;
+        if v.is_finite() { v.max(0.0) } else { 0.0 }
+    }
+
     /// `Light(t_s)`, watts per unit of the cube's pulse energy (0 for a delta: see
     /// [`Light::delta_time_s`]).
     pub fn density(&self, t_s: f64) -> f64 {

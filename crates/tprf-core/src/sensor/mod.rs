@@ -26,6 +26,8 @@
 //! - [`measure`]: the `[pixels x T] x [T x N]` product ([`Measurements`]);
 //! - [`noise`]: Gaussian white noise, optional Poisson photon noise, `max(0, .)`;
 //! - [`derived`]: first-return depth, AMCW phase and depth;
+//! - [`spad`]: a SPAD behind a TDC (a `tdc` exposure): pile-up, dead time,
+//!   afterpulsing, ambient light and dark counts, the Coates correction;
 //! - [`preset`]: sensor files (TOML) and the built-in presets;
 //! - [`model`]: [`SensorModel`], a sensor compiled for one time axis, with its kernels
 //!   cached: what a viewer keeps and updates as the user edits.
@@ -42,6 +44,7 @@ pub mod model;
 pub mod noise;
 pub mod preset;
 mod quad;
+pub mod spad;
 mod values;
 
 pub use derived::{AmcwImage, Derived, FirstReturn};
@@ -52,6 +55,7 @@ pub use measure::{Measurements, PackedKernels};
 pub use model::{PixelTrace, SensorModel, Update};
 pub use noise::{Noise, NoiseField};
 pub use preset::{BUILTIN_PRESETS, Sensor};
+pub use spad::{Acquisition, Spad, SpadImage, spad_image};
 pub use values::Point;
 
 pub use crate::film::TimeAxis;
@@ -78,6 +82,10 @@ pub enum SensorError {
     Io { path: PathBuf, message: String },
     #[error("not a valid sensor description: {0}")]
     Parse(String),
+    /// A memory budget's refusal ([`crate::budget::BudgetError`] in words: the size
+    /// needed, what for, and what is available).
+    #[error("{0}")]
+    Budget(String),
     #[error(
         "the cube has {got} values, but height {height} x width {width} x bins {bins} = \
          {expected}"

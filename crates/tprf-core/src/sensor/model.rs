@@ -7,7 +7,7 @@
 
 use super::derived::{self, AmcwImage};
 use super::exposure::{Exposure, Gate};
-use super::kernel::{BinTransfer, SparseKernel, compute_kernels, kernel_bins};
+use super::kernel::{BinTransfer, SparseKernel, compute_kernels, folded_kernels, kernel_bins};
 use super::light::Light;
 use super::measure::{Measurements, PackedKernels, measure_clean, measure_clean_film};
 use super::noise::NoiseField;
@@ -18,6 +18,18 @@ use crate::film::FilmSnapshot;
 /// Most kernel weights (gates x bins each reads) a model may hold: 2^26, 0.5 GiB in
 /// f64 (e.g. 64 dense gates over 2^20 bins).
 pub const MAX_KERNEL_WEIGHTS: u64 = 1 << 26;
+
+/// Refuses more than [`MAX_KERNEL_WEIGHTS`] kernel weights.
+fn check_weights(weights: u64, gates: usize, axis: &TimeAxis) -> Result<(), SensorError> {
+    if weights > MAX_KERNEL_WEIGHTS {
+        return Err(SensorError::TooMany {
+            what: format!("kernel weights ({gates} gates over {} bins)", axis.bins),
+            count: weights,
+            max: MAX_KERNEL_WEIGHTS,
+        });
+    }
+    Ok(())
+}
 
 /// A sensor ready to measure cubes on one time axis.
 #[derive(Clone, Debug)]
@@ -61,23 +73,23 @@ impl SensorModel {
         let gates = sensor.exposure.gates(axis.t0_s)?;
         sensor.noise.validate()?;
         sensor.derived.validate(&sensor.exposure, &gates)?;
-        let weights: u64 = gates
-            .iter()
-            .filter_map(|g| kernel_bins(&light, g, &axis))
-            .map(|(lo, hi)| (hi - lo + 1) as u64)
-            .sum();
-        if weights > MAX_KERNEL_WEIGHTS {
-            return Err(SensorError::TooMany {
-                what: format!(
-                    "kernel weights ({} gates over {} bins)",
-                    gates.len(),
-                    axis.bins
-                ),
-                count: weights,
-                max: MAX_KERNEL_WEIGHTS,
-            });
+        if let Some(spad) = &sensor.spad {
+            spad.validate(&sensor.exposure)?;
         }
-        let kernels = compute_kernels(&light, &gates, &axis);
+        let kernels = match sensor.exposure.tdc_cycle_s() {
+            Some((cycle_s, _)) => folded_kernels(&light, &gates, cycle_s, &axis)?,
+            None => {
+                let weights: u64 = gates
+                    .iter()
+                    .filter_map(|g| kernel_bins(&light, g, &axis))
+                    .map(|(lo, hi)| (hi - lo + 1) as u64)
+                    .sum();
+                check_weights(weights, gates.len(), &axis)?;
+                compute_kernels(&light, &gates, &axis)
+            }
+        };
+        let weights: u64 = kernels.iter().map(|k| k.weights.len() as u64).sum();
+        check_weights(weights, gates.len(), &axis)?;
         let packed = PackedKernels::new(&kernels, axis.bins);
         let transfer = BinTransfer::new(&light, axis.dt_s, axis.bins.saturating_sub(1));
         Ok(SensorModel {
@@ -100,6 +112,9 @@ impl SensorModel {
         if sensor.light == self.sensor.light && sensor.exposure == self.sensor.exposure {
             sensor.noise.validate()?;
             sensor.derived.validate(&sensor.exposure, &self.gates)?;
+            if let Some(spad) = &sensor.spad {
+                spad.validate(&sensor.exposure)?;
+            }
             self.sensor = sensor.clone();
             return Ok(Update::Settings);
         }

@@ -29,6 +29,7 @@ use super::derived::Derived;
 use super::exposure::Exposure;
 use super::light::LightPulse;
 use super::noise::Noise;
+use super::spad::Spad;
 
 /// The presets shipped in `assets/sensors/`, by name (`builtin:NAME`).
 pub const BUILTIN_PRESETS: &[(&str, &str)] = &[
@@ -41,6 +42,7 @@ pub const BUILTIN_PRESETS: &[(&str, &str)] = &[
         include_str!("../../../../assets/sensors/lidar.toml"),
     ),
     ("amcw", include_str!("../../../../assets/sensors/amcw.toml")),
+    ("spad", include_str!("../../../../assets/sensors/spad.toml")),
 ];
 
 /// A whole TPRF sensor: light, gates, noise, derived outputs. It is plain data
@@ -62,6 +64,9 @@ pub struct Sensor {
     pub noise: Noise,
     #[serde(default)]
     pub derived: Derived,
+    /// A SPAD behind the gates (which must then be a `tdc` exposure).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spad: Option<Spad>,
 }
 
 impl Sensor {
@@ -74,6 +79,7 @@ impl Sensor {
             exposure,
             noise: Noise::default(),
             derived: Derived::default(),
+            spad: None,
         }
     }
 
@@ -83,7 +89,11 @@ impl Sensor {
         self.light.compile()?;
         let gates = self.exposure.gates(window_t0_s)?;
         self.noise.validate()?;
-        self.derived.validate(&self.exposure, &gates)
+        self.derived.validate(&self.exposure, &gates)?;
+        match &self.spad {
+            Some(spad) => spad.validate(&self.exposure),
+            None => Ok(()),
+        }
     }
 
     /// Checks every value ([`Sensor::validate_for`] a window starting at 0).

@@ -5,7 +5,10 @@
 use super::common::Size;
 use super::verdict::{Check, Kind, Row};
 use crate::film::TimeAxis;
-use crate::sensor::{Exposure, LightPulse, Noise, Sensor, SensorError, SensorModel, TimeOrigin};
+use crate::sensor::{
+    Acquisition, Exposure, LightPulse, Noise, Sensor, SensorError, SensorModel, Spad, SpadImage,
+    TimeOrigin, spad_image,
+};
 
 /// A cube `[h, w, T]` where pixel `p` holds weight `(p + 1)` split over three bins
 /// (0.5, 0.3, 0.2 of it) near the middle of the window; returns it with its per-pixel
@@ -354,6 +357,159 @@ pub fn sensor_extremes(size: Size) -> Vec<Row> {
         Check::AtMost { bound: 1e-5 },
         got,
         "relative photon noise 1/sqrt(N) is ~1e-16 here",
+    ));
+    rows
+}
+
+/// The SPAD at extreme settings: 10^9 cycles, a saturating return, no ambient, a
+/// saturating ambient, free-running with a dead time that divides the cycle. Every
+/// expected count is a closed form of the detector model.
+pub fn spad_extremes(size: Size) -> Vec<Row> {
+    let (w, h) = match size {
+        Size::Test => (4, 4),
+        Size::Full => (64, 64),
+    };
+    let bins = 64usize;
+    let dt = 1e-10;
+    let axis = TimeAxis::new(0.0, dt, bins).expect("a valid axis");
+    let case = "SPAD extremes";
+    let n = 1e9;
+    // Pixel p: a return of (p + 1) 1e3 photons per cycle in bin 20: saturating.
+    let mut cube = vec![0.0f32; w * h * bins];
+    for p in 0..w * h {
+        cube[p * bins + 20] = 1e3 * (p + 1) as f32;
+    }
+    let steady: Vec<f32> = (0..w * h).map(|p| 1e3 * (p + 1) as f32).collect();
+    let run = |spad: Spad| -> Result<SpadImage, SensorError> {
+        let mut sensor = Sensor::new(
+            LightPulse::default(),
+            Exposure::Tdc {
+                origin: TimeOrigin::Pulse,
+                start_s: 0.0,
+                bin_width_s: dt,
+                bins: bins as u64,
+                jitter_fwhm_s: 0.0,
+            },
+        );
+        sensor.spad = Some(spad);
+        let model = SensorModel::new(sensor, axis)?;
+        let m = model.measure_clean(&cube, w, h)?;
+        spad_image(&model, &m, &steady)
+    };
+    let non_finite = |img: &SpadImage| {
+        (img.histogram.iter().chain(&img.counts))
+            .filter(|v| !v.is_finite() || **v < 0.0)
+            .count() as u64
+            + img.coates.iter().filter(|v| v.is_infinite()).count() as u64
+    };
+    let base = Spad {
+        cycles: n as u64,
+        pde: 1.0,
+        photons_per_unit: 1.0,
+        dead_time_s: bins as f64 * dt,
+        ..Spad::default()
+    };
+    let mut rows = Vec::new();
+
+    // First photon, 1e9 cycles, saturating return, no ambient: every cycle fires in
+    // bin 20 (e^-1000 = 0): the histogram holds N there and 0 elsewhere.
+    rows.push(row(
+        case,
+        "1e9 cycles, saturating return, zero ambient: max |histogram - N [bin 20]| / N".into(),
+        Check::AtMost { bound: 1e-6 },
+        run(base.clone()).map(|img| {
+            let err = img
+                .histogram
+                .chunks(w * h)
+                .enumerate()
+                .flat_map(|(k, plane)| {
+                    let want = if k == 20 { n } else { 0.0 };
+                    plane.iter().map(move |&v| (f64::from(v) - want).abs() / n)
+                })
+                .fold(0.0, f64::max);
+            (err, non_finite(&img))
+        }),
+        "P(first detection in bin k) = (1 - e^-r_k) e^-sum_{j<k} r_j; f32 output",
+    ));
+    // The realisation of the same: exactly N in bin 20.
+    rows.push(row(
+        case,
+        "1e9 cycles, saturating return: realisation's count in bin 20 / N".into(),
+        Check::Within {
+            expected: 1.0,
+            tolerance: 1e-6,
+        },
+        run(base.clone()).map(|img| {
+            let got = img
+                .plane(&img.counts, 20)
+                .iter()
+                .map(|&v| f64::from(v))
+                .sum::<f64>()
+                / (n * (w * h) as f64);
+            (got, non_finite(&img))
+        }),
+        "multinomial with p = 1: every cycle",
+    ));
+    // A saturating ambient (1e15 photons/s: 1e5 per bin), free-running, dead time 7
+    // bins: the detector fires every 8 bins, 64 / 8 = 8 detections per cycle.
+    rows.push(row(
+        case,
+        "free-running, saturating ambient, dead time 7 bins: detections per cycle per pixel".into(),
+        Check::Within {
+            expected: 8.0,
+            tolerance: 1e-6,
+        },
+        run(Spad {
+            ambient_rate_hz: 1e15,
+            dead_time_s: 7.0 * dt,
+            mode: Acquisition::FreeRunning,
+            ..base.clone()
+        })
+        .map(|img| {
+            let total: f64 = img.histogram.iter().map(|&v| f64::from(v)).sum();
+            (total / (n * (w * h) as f64), non_finite(&img))
+        }),
+        "every bin fires when armed: one detection per d + 1 bins",
+    ));
+    // No light at all: exactly zero everywhere.
+    let dark = vec![0.0f32; w * h * bins];
+    let zero_steady = vec![0.0f32; w * h];
+    let got = (|| -> Result<(f64, u64), SensorError> {
+        let mut sensor = Sensor::new(
+            LightPulse::default(),
+            Exposure::Tdc {
+                origin: TimeOrigin::Pulse,
+                start_s: 0.0,
+                bin_width_s: dt,
+                bins: bins as u64,
+                jitter_fwhm_s: 2.0 * dt,
+            },
+        );
+        sensor.spad = Some(Spad {
+            mode: Acquisition::FreeRunning,
+            dead_time_s: 3.0 * dt,
+            ..base.clone()
+        });
+        let model = SensorModel::new(sensor, axis)?;
+        let m = model.measure_clean(&dark, w, h)?;
+        let img = spad_image(&model, &m, &zero_steady)?;
+        let max = img
+            .histogram
+            .iter()
+            .chain(&img.counts)
+            .chain(&img.coates)
+            .fold(0.0f64, |a, &v| a.max(f64::from(v).abs()));
+        Ok((max, non_finite(&img)))
+    })();
+    rows.push(row(
+        case,
+        "no signal, no ambient, no dark counts, 1e9 cycles: max |histogram, counts, Coates|".into(),
+        Check::Within {
+            expected: 0.0,
+            tolerance: 0.0,
+        },
+        got,
+        "exactly zero",
     ));
     rows
 }

@@ -2,7 +2,8 @@
 //! mean arrival, the order law, Russian roulette's variance), the same scenes at 1 mm,
 //! 1 m and 10 km, 1 and 100 000 time bins, 10^8 samples in one bin, a point light 1e-6 m
 //! from a wall, grazing light and view, coincident faces and degenerate triangles, and
-//! the sensor on hand-made TPRFs (pulses, gates, noise, huge values).
+//! the sensor on hand-made TPRFs (pulses, gates, noise, huge values, a SPAD at 10^9
+//! cycles with saturating returns and ambient).
 //!
 //! Most rows compare with an answer derived independently of the renderer (a closed
 //! form, a quadrature, the renewal equation, an exact sum): [`Kind::Reference`]. The
@@ -29,7 +30,7 @@ pub use cases_bins::bins;
 pub use cases_furnace::stiff_furnace;
 pub use cases_geometry::{bad_faces, grazing, light_near_wall};
 pub use cases_scales::scales;
-pub use cases_sensor::{pulses_and_gates, sensor_extremes};
+pub use cases_sensor::{pulses_and_gates, sensor_extremes, spad_extremes};
 pub use common::Size;
 pub use verdict::{Check, Kind, Row, markdown};
 
@@ -47,6 +48,7 @@ pub fn cases() -> Vec<(&'static str, Case)> {
         ("coincident and degenerate faces", bad_faces),
         ("pulses and gates", pulses_and_gates),
         ("sensor extremes", sensor_extremes),
+        ("SPAD extremes", spad_extremes),
     ]
 }
 

@@ -1,0 +1,210 @@
+//! One seeded realisation of a pixel's SPAD histogram, drawn from the model of
+//! [`super::detector`] (not an approximation of it):
+//!
+//! - when at most one detection fits in a cycle, the `N` cycles are a multinomial over
+//!   the `B` bins and "none", drawn as `B` sequential binomials ([`Sampler::Multinomial`]);
+//! - otherwise detection after detection: from an armed bin `s`, the next detection is
+//!   the first bin where the cumulative event mean `sum_{j=s}^{k} (r_j + mu [trap])`
+//!   passes an Exp(1) draw (the chance of no event in those bins is the exponential of
+//!   minus that sum), whole cycles without one skipped at once
+//!   ([`Sampler::Events`]); the work grows with the detections, not the cycles.
+//!
+//! Beyond [`MAX_EVENTS`] detections for an image, each bin is drawn from its marginal
+//! ([`Sampler::Marginals`]). Streams are keyed by (seed, pixel), so a pixel's draw does
+//! not depend on the thread count.
+
+use rand::{Rng, SeedableRng};
+use rand_distr::{Binomial, Distribution, Exp1};
+use rand_pcg::Pcg64Mcg;
+
+use super::Acquisition;
+use super::detector::{Detector, RATE_CAP, Sampler};
+
+/// Most detections an image's realisation draws one by one (~ a few seconds).
+pub const MAX_EVENTS: f64 = 2e8;
+
+/// The random stream of `pixel` under `seed`.
+pub fn pixel_stream(seed: u64, pixel: usize) -> Pcg64Mcg {
+    let key = crate::sensor::noise::mix(seed ^ 0x5350_4144_5350_4144).wrapping_add(pixel as u64);
+    Pcg64Mcg::seed_from_u64(crate::sensor::noise::mix(key))
+}
+
+/// A Binomial(n, p) draw (0 for p <= 0, n for p >= 1).
+fn binomial(n: u64, p: f64, rng: &mut Pcg64Mcg) -> u64 {
+    if !(p > 0.0) || n == 0 {
+        return 0;
+    }
+    if p >= 1.0 {
+        return n;
+    }
+    Binomial::new(n, p).map_or(0, |b| b.sample(rng))
+}
+
+/// `C[k] = sum_{j<k} r_j` (rates clamped), `B + 1` values.
+fn prefix(rates: &[f64]) -> Vec<f64> {
+    let mut c = Vec::with_capacity(rates.len() + 1);
+    let mut sum = 0.0;
+    c.push(0.0);
+    for &r in rates {
+        sum += r.clamp(0.0, RATE_CAP);
+        c.push(sum);
+    }
+    c
+}
+
+/// The first bin `k` in `s..B` where the event mean from `s` through `k`,
+/// `C[k+1] - C[s] + mu (k + 1 - s)`, reaches `e`; or the total over `s..B` when it
+/// does not.
+fn first_event(c: &[f64], s: usize, mu: f64, e: f64) -> Result<usize, f64> {
+    let b = c.len() - 1;
+    let hazard = |k: usize| c[k + 1] - c[s] + mu * (k + 1 - s) as f64;
+    if s >= b {
+        return Err(0.0);
+    }
+    let total = hazard(b - 1);
+    if total < e {
+        return Err(total);
+    }
+    // The hazard is non-decreasing in k: bisect for the first k with hazard(k) >= e.
+    let (mut lo, mut hi) = (s, b - 1);
+    while lo < hi {
+        let mid = lo + (hi - lo) / 2;
+        if hazard(mid) < e {
+            lo = mid + 1;
+        } else {
+            hi = mid;
+        }
+    }
+    Ok(lo)
+}
+
+/// A pixel's counts over the detector's `N` cycles with `sampler`, from its mean
+/// events per cycle `rates` and, for the multinomial and the marginals, its expected
+/// counts `expected` (both `B` values); into `out`.
+pub fn sample_pixel(
+    det: &Detector,
+    sampler: Sampler,
+    rates: &[f64],
+    expected: &[f64],
+    rng: &mut Pcg64Mcg,
+    out: &mut [f64],
+) {
+    out.fill(0.0);
+    let n = det.cycles;
+    match sampler {
+        Sampler::Multinomial => {
+            // Sequential binomials: bin k takes Binomial(cycles left, D_k / mass left).
+            let mut left = n;
+            let mut mass = 1.0;
+            for (o, &e) in out.iter_mut().zip(expected) {
+                let p = e / n as f64;
+                if left == 0 {
+                    break;
+                }
+                let x = binomial(left, p / mass, rng);
+                *o = x as f64;
+                left -= x;
+                mass = (mass - p).max(0.0);
+            }
+        }
+        Sampler::Marginals => {
+            for (o, &e) in out.iter_mut().zip(expected) {
+                *o = binomial(n, e / n as f64, rng) as f64;
+            }
+        }
+        Sampler::Events => events(det, rates, rng, out),
+    }
+}
+
+/// [`Sampler::Events`]: every detection in turn.
+fn events(det: &Detector, rates: &[f64], rng: &mut Pcg64Mcg, out: &mut [f64]) {
+    let b = det.bins.min(rates.len()).min(out.len());
+    if b == 0 {
+        return;
+    }
+    let c = prefix(&rates[..b]);
+    let total = c[b];
+    let d = det.dead_bins;
+    let mu = det.trap_rate;
+    let exp1 = |rng: &mut Pcg64Mcg| -> f64 { Exp1.sample(rng) };
+    match det.mode {
+        Acquisition::Synchronous => {
+            // Cycles with at least one detection (armed, no trap at the start).
+            let p_cycle = -(-total).exp_m1();
+            let with = binomial(det.cycles, p_cycle, rng);
+            for _ in 0..with {
+                // Exp(1) conditioned below `total`.
+                let u: f64 = rng.random();
+                let e = -(-u * p_cycle).ln_1p();
+                let mut k = match first_event(&c, 0, 0.0, e.min(total)) {
+                    Ok(k) => k,
+                    Err(_) => continue,
+                };
+                loop {
+                    out[k] += 1.0;
+                    let trap = rng.random::<f64>() < det.trap_at_rearm;
+                    let s = k + d + 1;
+                    if s >= b {
+                        break;
+                    }
+                    match first_event(&c, s, if trap { mu } else { 0.0 }, exp1(rng)) {
+                        Ok(next) => k = next,
+                        Err(_) => break,
+                    }
+                }
+            }
+        }
+        Acquisition::FreeRunning => {
+            let end = det.cycles.saturating_mul(b as u64);
+            let mut g: u64 = 0; // the global bin where the detector is armed
+            let mut trap = false;
+            while g < end {
+                let m = if trap { mu } else { 0.0 };
+                let mut e = exp1(rng);
+                let mut cycle = g / b as u64;
+                let s = (g % b as u64) as usize;
+                let k = match first_event(&c, s, m, e) {
+                    Ok(k) => k,
+                    Err(rest) => {
+                        e -= rest;
+                        let per_cycle = total + m * b as f64;
+                        if !(per_cycle > 0.0) {
+                            break;
+                        }
+                        let skip = (e / per_cycle).floor();
+                        e -= skip * per_cycle;
+                        cycle = cycle
+                            .saturating_add(1)
+                            .saturating_add(skip.min(u64::MAX as f64) as u64);
+                        match first_event(&c, 0, m, e.max(0.0)) {
+                            Ok(k) => k,
+                            Err(_) => b - 1,
+                        }
+                    }
+                };
+                if cycle >= det.cycles {
+                    break;
+                }
+                out[k] += 1.0;
+                trap = rng.random::<f64>() < det.trap_at_rearm;
+                g = (cycle * b as u64 + k as u64).saturating_add(d as u64 + 1);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn first_event_finds_the_crossing() {
+        let c = prefix(&[1.0, 0.0, 2.0, 1.0]);
+        assert_eq!(first_event(&c, 0, 0.0, 0.5), Ok(0));
+        assert_eq!(first_event(&c, 0, 0.0, 1.5), Ok(2));
+        assert_eq!(first_event(&c, 1, 0.0, 2.5), Ok(3));
+        assert_eq!(first_event(&c, 1, 0.0, 3.5), Err(3.0));
+        assert_eq!(first_event(&c, 1, 1.0, 3.5), Ok(2));
+        assert_eq!(first_event(&c, 4, 0.0, 0.1), Err(0.0));
+    }
+}

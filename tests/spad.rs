@@ -1,0 +1,728 @@
+//! The SPAD model against an independent photon-level Monte Carlo written here: cycle
+//! by cycle, bin by bin, Poisson photon counts, a dead-time clock, a carrier trap that
+//! releases bin by bin, and the detections counted. Tolerances come from the Monte
+//! Carlo's own spread: `R` independent runs give a mean and a standard error per bin,
+//! and the closed form must lie within 5 standard errors (plus rounding).
+//!
+//! Then: the Coates estimate recovers `N r_k`; the timing jitter conserves energy and
+//! has the shape of `Phi` differences; dark counts are flat; pile-up pulls strong
+//! returns early by what the first-photon density says and leaves weak ones; bad input
+//! is refused with the field's name; extreme values stay finite.
+
+use rand::{Rng, SeedableRng};
+use rand_distr::{Distribution, Poisson};
+use rand_pcg::Pcg64Mcg;
+use std::f64::consts::{PI, SQRT_2};
+
+use tprf_core::film::TimeAxis;
+use tprf_core::sensor::FirstReturn;
+use tprf_core::sensor::light::FWHM_PER_SIGMA;
+use tprf_core::sensor::spad::sample::{pixel_stream, sample_pixel};
+use tprf_core::sensor::spad::{Detector, Sampler, coates, return_depth_m, spad_pixel};
+use tprf_core::sensor::{
+    Acquisition, Exposure, LightPulse, Sensor, SensorError, SensorModel, Spad, TimeOrigin,
+    spad_image,
+};
+use tprf_core::units::C_M_PER_S;
+
+const NS: f64 = 1e-9;
+
+fn spad(cycles: u64) -> Spad {
+    Spad {
+        cycles,
+        pde: 1.0,
+        photons_per_unit: 1.0,
+        ..Spad::default()
+    }
+}
+
+fn detector(s: &Spad, bins: usize, width_s: f64) -> Detector {
+    match Detector::new(s, bins, width_s) {
+        Ok(d) => d,
+        Err(e) => panic!("{e}"),
+    }
+}
+
+/// Rates with a background and a return of `peak` events per cycle in a few bins.
+fn rates(bins: usize, background: f64, peak: f64, at: usize) -> Vec<f64> {
+    (0..bins)
+        .map(|k| {
+            let x = k as f64 - at as f64;
+            background + peak * (-0.5 * x * x / 2.0).exp()
+        })
+        .collect()
+}
+
+/// The independent simulation: one run of `cycles` cycles of the SPAD, photon by
+/// photon. `dead_bins` after the bin of a detection; trap filled with `p_trap` at each
+/// detection, released in a bin with probability `1 - exp(-mu)` (lost while dead).
+#[allow(clippy::too_many_arguments)]
+fn monte_carlo(
+    rates: &[f64],
+    cycles: u64,
+    dead_bins: usize,
+    free_running: bool,
+    p_trap: f64,
+    mu: f64,
+    rng: &mut Pcg64Mcg,
+) -> Vec<f64> {
+    let b = rates.len();
+    let poisson: Vec<Option<Poisson<f64>>> = rates.iter().map(|&r| Poisson::new(r).ok()).collect();
+    let release = 1.0 - (-mu).exp();
+    let mut counts = vec![0.0; b];
+    let mut armed_at: u64 = 0;
+    let mut trap = false;
+    for c in 0..cycles {
+        if !free_running {
+            armed_at = c * b as u64;
+            trap = false;
+        }
+        for k in 0..b {
+            let g = c * b as u64 + k as u64;
+            let photons = poisson[k].as_ref().map_or(0.0, |p| p.sample(rng));
+            let released = trap && rng.random::<f64>() < release;
+            if g < armed_at {
+                if released {
+                    trap = false;
+                }
+                continue;
+            }
+            if photons > 0.0 || released {
+                counts[k] += 1.0;
+                trap = rng.random::<f64>() < p_trap;
+                armed_at = g + dead_bins as u64 + 1;
+            }
+        }
+    }
+    counts
+}
+
+/// Mean and standard error per bin over `runs` independent runs of `f`.
+fn mean_and_error(runs: usize, mut f: impl FnMut(u64) -> Vec<f64>) -> (Vec<f64>, Vec<f64>) {
+    let all: Vec<Vec<f64>> = (0..runs as u64).map(&mut f).collect();
+    let b = all[0].len();
+    let n = runs as f64;
+    let mean: Vec<f64> = (0..b)
+        .map(|k| all.iter().map(|r| r[k]).sum::<f64>() / n)
+        .collect();
+    let error = (0..b)
+        .map(|k| {
+            let var = all.iter().map(|r| (r[k] - mean[k]).powi(2)).sum::<f64>() / (n - 1.0);
+            (var / n).sqrt()
+        })
+        .collect();
+    (mean, error)
+}
+
+fn assert_within_noise(what: &str, got: &[f64], mean: &[f64], error: &[f64]) {
+    for k in 0..got.len() {
+        let tol = 5.0 * error[k] + 1e-9 * mean[k].abs() + 1e-12;
+        assert!(
+            (got[k] - mean[k]).abs() <= tol,
+            "{what}, bin {k}: closed form {} vs Monte Carlo {} +- {}",
+            got[k],
+            mean[k],
+            error[k]
+        );
+    }
+}
+
+/// Closed form against the Monte Carlo for one detector setting.
+fn check_against_mc(what: &str, s: &Spad, bins: usize, rates: &[f64]) {
+    let width_s = 1e-10;
+    let det = detector(s, bins, width_s);
+    let mut expected = vec![0.0; bins];
+    det.expected(rates, &mut expected);
+    let mu = if s.afterpulse_probability > 0.0 {
+        width_s / s.afterpulse_delay_s
+    } else {
+        0.0
+    };
+    let (mean, error) = mean_and_error(48, |run| {
+        let mut rng = Pcg64Mcg::seed_from_u64(0xC0FFEE + run);
+        monte_carlo(
+            rates,
+            s.cycles,
+            det.dead_bins,
+            s.mode == Acquisition::FreeRunning,
+            s.afterpulse_probability,
+            mu,
+            &mut rng,
+        )
+    });
+    assert_within_noise(what, &expected, &mean, &error);
+    // The sampler draws the same distribution.
+    let sampler = if det.first_photon_only() {
+        Sampler::Multinomial
+    } else {
+        Sampler::Events
+    };
+    let (smean, serror) = mean_and_error(48, |run| {
+        let mut out = vec![0.0; bins];
+        sample_pixel(
+            &det,
+            sampler,
+            rates,
+            &expected,
+            &mut pixel_stream(run, 3),
+            &mut out,
+        );
+        out
+    });
+    let joint: Vec<f64> = serror
+        .iter()
+        .zip(&error)
+        .map(|(a, b)| a.hypot(*b))
+        .collect();
+    assert_within_noise(&format!("{what} (sampler)"), &smean, &mean, &joint);
+    // And its spread is the Monte Carlo's (variance ratio within a loose band).
+    let (vs, vm): (f64, f64) = (
+        serror.iter().map(|e| e * e).sum(),
+        error.iter().map(|e| e * e).sum(),
+    );
+    assert!(
+        vs > 0.6 * vm && vs < 1.6 * vm,
+        "{what}: sampler variance {vs} vs Monte Carlo {vm}"
+    );
+}
+
+#[test]
+fn synchronous_first_photon_matches_monte_carlo() {
+    // Dead for the whole cycle: the classic first-photon histogram, a strong return
+    // over a background.
+    let bins = 32;
+    let s = Spad {
+        dead_time_s: bins as f64 * 1e-10,
+        ..spad(2000)
+    };
+    check_against_mc("first photon", &s, bins, &rates(bins, 0.01, 1.5, 12));
+    // And the formula itself, by hand.
+    let r = rates(bins, 0.02, 0.8, 20);
+    let det = detector(&s, bins, 1e-10);
+    let mut e = vec![0.0; bins];
+    det.expected(&r, &mut e);
+    let mut before = 0.0f64;
+    for k in 0..bins {
+        let want = 2000.0 * (1.0 - (-r[k]).exp()) * (-before).exp();
+        assert!((e[k] - want).abs() < 1e-9 * want.max(1.0), "bin {k}");
+        before += r[k];
+    }
+}
+
+#[test]
+fn synchronous_with_short_dead_time_matches_monte_carlo() {
+    let bins = 32;
+    let s = Spad {
+        dead_time_s: 3e-10,
+        ..spad(1500)
+    };
+    check_against_mc("synchronous, d = 3", &s, bins, &rates(bins, 0.05, 2.0, 10));
+}
+
+#[test]
+fn free_running_matches_monte_carlo() {
+    let bins = 24;
+    let s = Spad {
+        dead_time_s: 7e-10,
+        mode: Acquisition::FreeRunning,
+        ..spad(1500)
+    };
+    check_against_mc("free-running, d = 7", &s, bins, &rates(bins, 0.08, 3.0, 5));
+    // A dead time of the whole cycle.
+    let s = Spad {
+        dead_time_s: bins as f64 * 1e-10,
+        ..s
+    };
+    check_against_mc("free-running, d = B", &s, bins, &rates(bins, 0.03, 1.0, 18));
+}
+
+#[test]
+fn afterpulsing_matches_monte_carlo() {
+    let bins = 32;
+    for mode in [Acquisition::Synchronous, Acquisition::FreeRunning] {
+        let s = Spad {
+            dead_time_s: 2e-10,
+            mode,
+            afterpulse_probability: 0.4,
+            afterpulse_delay_s: 5e-10,
+            ..spad(1500)
+        };
+        check_against_mc(
+            &format!("afterpulsing, {mode:?}"),
+            &s,
+            bins,
+            &rates(bins, 0.01, 2.5, 8),
+        );
+    }
+}
+
+#[test]
+fn coates_recovers_the_unpiled_histogram() {
+    let bins = 40;
+    let r = rates(bins, 0.03, 2.0, 15);
+    let n = 5000.0;
+    for (mode, dead_s, tol) in [
+        (Acquisition::Synchronous, 40e-10, 1e-9),
+        (Acquisition::Synchronous, 5e-10, 1e-9),
+        // Free-running, the cold first cycle is armed where later ones may not be:
+        // O(1/N).
+        (Acquisition::FreeRunning, 5e-10, 3.0 / n),
+    ] {
+        let s = Spad {
+            dead_time_s: dead_s,
+            mode,
+            ..spad(n as u64)
+        };
+        let det = detector(&s, bins, 1e-10);
+        let mut e = vec![0.0; bins];
+        det.expected(&r, &mut e);
+        let mut est = vec![0.0; bins];
+        coates(&det, &e, &mut est);
+        for k in 0..bins {
+            let want = n * r[k];
+            assert!(
+                (est[k] - want).abs() <= tol * want,
+                "{mode:?} d {dead_s}: bin {k}: {} vs {want}",
+                est[k]
+            );
+        }
+        // From Monte Carlo counts: N r_k within the noise of the estimate (a weaker
+        // return, so that every bin stays armed in hundreds of cycles).
+        let r = rates(bins, 0.01, 0.6, 15);
+        let (mean, error) = mean_and_error(32, |run| {
+            let mut rng = Pcg64Mcg::seed_from_u64(77 + run);
+            let counts = monte_carlo(
+                &r,
+                n as u64,
+                det.dead_bins,
+                mode == Acquisition::FreeRunning,
+                0.0,
+                0.0,
+                &mut rng,
+            );
+            let mut est = vec![0.0; bins];
+            coates(&det, &counts, &mut est);
+            est
+        });
+        let want: Vec<f64> = r.iter().map(|x| n * x).collect();
+        // Coates is biased at O(1/armed cycles); the noise dominates here.
+        assert_within_noise(&format!("Coates of counts, {mode:?}"), &want, &mean, &error);
+    }
+}
+
+fn phi(x: f64) -> f64 {
+    0.5 * libm::erfc(-x / SQRT_2)
+}
+
+fn axis(t0: f64, dt: f64, bins: usize) -> TimeAxis {
+    match TimeAxis::new(t0, dt, bins) {
+        Ok(a) => a,
+        Err(e) => panic!("{e}"),
+    }
+}
+
+fn tdc(start_s: f64, bin_width_s: f64, bins: u64, jitter_fwhm_s: f64) -> Exposure {
+    Exposure::Tdc {
+        origin: TimeOrigin::Pulse,
+        start_s,
+        bin_width_s,
+        bins,
+        jitter_fwhm_s,
+    }
+}
+
+fn model(sensor: Sensor, axis: TimeAxis) -> SensorModel {
+    match SensorModel::new(sensor, axis) {
+        Ok(m) => m,
+        Err(e) => panic!("{e}"),
+    }
+}
+
+#[test]
+fn jitter_conserves_energy_and_has_the_phi_shape() {
+    // A film of 64 bins of 50 ps from 2 ns; one impulse of weight 3 in bin 20; a TDC
+    // of 40 bins of 80 ps from 1 ns (a 3.2 ns cycle), jitter from 1e-3 to 100 TDC bins.
+    let ax = axis(2.0 * NS, 0.05 * NS, 64);
+    let mut tprf = vec![0.0f32; 64];
+    tprf[20] = 3.0;
+    for fwhm_bins in [1e-3, 0.1, 1.0, 4.0, 100.0] {
+        let fwhm = fwhm_bins * 0.08 * NS;
+        let m = model(
+            Sensor::new(LightPulse::default(), tdc(NS, 0.08 * NS, 40, fwhm)),
+            ax,
+        );
+        let Ok(meas) = m.measure_clean(&tprf, 1, 1) else {
+            panic!("measure");
+        };
+        let total: f64 = meas.values.iter().map(|&v| f64::from(v)).sum();
+        assert!(
+            (total - 3.0).abs() < 1e-5,
+            "FWHM {fwhm_bins} bins: sum {total}"
+        );
+        // Shape: the impulse spread over [tau, tau + dt), folded with period T.
+        let sigma = fwhm / FWHM_PER_SIGMA;
+        let (tau, dt, t) = (ax.bin_start_s(20), ax.dt_s, 40.0 * 0.08 * NS);
+        for k in 0..40 {
+            let (a, b) = (NS + k as f64 * 0.08 * NS, NS + (k + 1) as f64 * 0.08 * NS);
+            let steps = 2000;
+            let mut want = 0.0;
+            for j in 0..steps {
+                let u = tau + dt * (j as f64 + 0.5) / steps as f64;
+                for n in -3..=3 {
+                    let (a, b) = (a + n as f64 * t, b + n as f64 * t);
+                    want += phi((b - u) / sigma) - phi((a - u) / sigma);
+                }
+            }
+            want *= 3.0 / steps as f64;
+            let got = f64::from(meas.values[k]);
+            assert!(
+                (got - want).abs() < 2e-4 * 3.0,
+                "FWHM {fwhm_bins} bins, TDC bin {k}: {got} vs {want}"
+            );
+        }
+    }
+}
+
+#[test]
+fn arrivals_fold_into_the_cycle() {
+    // An impulse at 2.5 cycles lands half-way through the cycle.
+    let ax = axis(0.0, 0.1 * NS, 100);
+    let mut tprf = vec![0.0f32; 100];
+    tprf[62] = 1.0; // [6.2, 6.3) ns; cycle 2.4 ns: phase [1.4, 1.5) ns = TDC bin 14
+    let m = model(
+        Sensor::new(LightPulse::default(), tdc(0.0, 0.1 * NS, 24, 0.0)),
+        ax,
+    );
+    let Ok(meas) = m.measure_clean(&tprf, 1, 1) else {
+        panic!("measure");
+    };
+    for (k, &v) in meas.values.iter().enumerate() {
+        let want = if k == 14 { 1.0 } else { 0.0 };
+        assert!((f64::from(v) - want).abs() < 1e-6, "bin {k}: {v}");
+    }
+}
+
+/// A whole SPAD sensor over a cube of `w` pixels with one impulse each.
+fn spad_sensor(s: Spad, bins: u64, width_s: f64, light: LightPulse) -> Sensor {
+    let mut sensor = Sensor::new(light, tdc(0.0, width_s, bins, 0.0));
+    sensor.spad = Some(s);
+    sensor.noise.seed = 11;
+    sensor
+}
+
+#[test]
+fn dark_counts_are_uniform() {
+    let ax = axis(0.0, 0.1 * NS, 64);
+    let (w, h) = (8, 4);
+    let cube = vec![0.0f32; w * h * 64];
+    let steady = vec![0.0f32; w * h];
+    let dcr = 2e8; // 0.02 per 100 ps bin
+    for (dead_s, free) in [(0.0, false), (6.4 * NS, false), (1.0 * NS, true)] {
+        let s = Spad {
+            dark_count_rate_hz: dcr,
+            dead_time_s: dead_s,
+            mode: if free {
+                Acquisition::FreeRunning
+            } else {
+                Acquisition::Synchronous
+            },
+            ..spad(4000)
+        };
+        let m = model(spad_sensor(s, 64, 0.1 * NS, LightPulse::default()), ax);
+        let Ok(meas) = m.measure_clean(&cube, w, h) else {
+            panic!("measure");
+        };
+        let img = match spad_image(&m, &meas, &steady) {
+            Ok(i) => i,
+            Err(e) => panic!("{e}"),
+        };
+        let r = dcr * 0.1 * NS;
+        // Coates of the expected histogram: flat at N r (free-running to O(1/N)).
+        for &v in &img.histogram {
+            assert!(v.is_finite() && v > 0.0);
+        }
+        let det = detector(
+            m.sensor().spad.as_ref().unwrap_or(&Spad::default()),
+            64,
+            0.1 * NS,
+        );
+        let px: Vec<f64> = img
+            .pixel(&img.histogram, 1, 2)
+            .iter()
+            .map(|&v| f64::from(v))
+            .collect();
+        let mut est = vec![0.0; 64];
+        coates(&det, &px, &mut est);
+        for (k, e) in est.iter().enumerate() {
+            assert!(
+                (e - 4000.0 * r).abs() < 1e-3 * 4000.0 * r,
+                "dead {dead_s}: bin {k}: {e}"
+            );
+        }
+        if dead_s == 0.0 {
+            // No dead time: the histogram itself is flat, and each realisation's bins
+            // are Binomial(N, 1 - e^-r): chi-square over all pixels and bins.
+            let p = 1.0 - (-r).exp();
+            let mean = 4000.0 * p;
+            for &v in &img.histogram {
+                assert!((f64::from(v) - mean).abs() < 1e-6 * mean);
+            }
+            let var = 4000.0 * p * (1.0 - p);
+            let chi2: f64 = img
+                .counts
+                .iter()
+                .map(|&c| (f64::from(c) - mean).powi(2) / var)
+                .sum();
+            let dof = img.counts.len() as f64;
+            assert!(
+                (chi2 - dof).abs() < 5.0 * (2.0 * dof).sqrt(),
+                "chi2 {chi2} for {dof} bins"
+            );
+        }
+    }
+}
+
+/// Mean of the first-photon time for a Gaussian return of `total` photons centred at
+/// `mu` with `sigma`, by quadrature of `s(t) exp(-integral s) / (1 - e^-total)`.
+fn first_photon_mean(total: f64, mu: f64, sigma: f64) -> f64 {
+    let n = 200_000;
+    let (lo, hi) = (mu - 10.0 * sigma, mu + 10.0 * sigma);
+    let h = (hi - lo) / n as f64;
+    let (mut num, mut den) = (0.0, 0.0);
+    for j in 0..n {
+        let t = lo + (j as f64 + 0.5) * h;
+        let s = total * (-0.5 * ((t - mu) / sigma).powi(2)).exp() / (sigma * (2.0 * PI).sqrt());
+        let cum = total * phi((t - mu) / sigma);
+        let p = s * (-cum).exp() * h;
+        num += p * t;
+        den += p;
+    }
+    num / den
+}
+
+#[test]
+fn pile_up_pulls_strong_returns_early() {
+    // One impulse at [10.0, 10.01) ns in a 10 ps film; a Gaussian pulse of sigma 0.3 ns
+    // centred at 2 ns; a first-photon TDC of 25 ps bins; no background.
+    let ax = axis(0.0, 0.01 * NS, 2000);
+    let mut tprf = vec![0.0f32; 2000];
+    tprf[1000] = 1.0;
+    let sigma = 0.3 * NS;
+    let light = LightPulse::Gaussian {
+        centre_s: 2.0 * NS,
+        fwhm_s: sigma * FWHM_PER_SIGMA,
+        energy: 1.0,
+    };
+    let bins = 1024u64; // 25.6 ns cycle
+    let true_t = 10.005 * NS + 2.0 * NS;
+    let mut bias_s = Vec::new();
+    let mut depth_bias_m = Vec::new();
+    let bin_m = 0.5 * C_M_PER_S * 0.025 * NS;
+    for photons in [0.01, 1.0, 5.0, 30.0] {
+        let s = Spad {
+            photons_per_unit: photons,
+            dead_time_s: bins as f64 * 0.025 * NS,
+            ..spad(1_000_000)
+        };
+        let m = model(spad_sensor(s, bins, 0.025 * NS, light.clone()), ax);
+        let Ok(meas) = m.measure_clean(&tprf, 1, 1) else {
+            panic!("measure");
+        };
+        let img = match spad_image(&m, &meas, &[1.0]) {
+            Ok(i) => i,
+            Err(e) => panic!("{e}"),
+        };
+        // Histogram centroid against the first-photon density's mean.
+        let (mut num, mut den) = (0.0, 0.0);
+        for (k, &v) in img.histogram.iter().enumerate() {
+            num += f64::from(v) * img.centres_s[k];
+            den += f64::from(v);
+        }
+        let centroid = num / den;
+        let theory = first_photon_mean(photons, true_t, sigma);
+        assert!(
+            (centroid - theory).abs() < 0.5 * 0.025 * NS,
+            "{photons} photons: centroid {centroid} vs first-photon mean {theory}"
+        );
+        bias_s.push(theory - true_t);
+        // The depths: pile-up pulls the histogram's early; Coates undoes it (exactly on
+        // the expected histogram; on the realisation while the tail of the return still
+        // has armed cycles to be measured in).
+        let depth_true = 0.5 * C_M_PER_S * 10.005 * NS;
+        let d_hist = f64::from(img.depth_histogram_m[0]);
+        let det = detector(
+            m.sensor().spad.as_ref().unwrap_or(&Spad::default()),
+            bins as usize,
+            0.025 * NS,
+        );
+        // In f64 (the f32 file loses the few cycles still armed after a saturating
+        // return).
+        let e = match spad_pixel(&m, &meas.values, 1.0) {
+            Ok(p) => p.expected,
+            Err(e) => panic!("{e}"),
+        };
+        let mut est = vec![0.0; e.len()];
+        coates(&det, &e, &mut est);
+        let d_expected_coates = return_depth_m(
+            &est,
+            &img.centres_s,
+            2.0 * NS,
+            &FirstReturn {
+                threshold: 0.2,
+                min_signal: 0.0,
+            },
+            0,
+            &mut Vec::new(),
+        );
+        assert!(
+            (d_expected_coates - depth_true).abs() < bin_m,
+            "{photons}: Coates of the expected histogram {d_expected_coates} vs {depth_true}"
+        );
+        depth_bias_m.push(d_hist - depth_true);
+        if photons <= 5.0 {
+            let d_coates = f64::from(img.depth_coates_m[0]);
+            assert!(
+                (d_coates - depth_true).abs() < 2.0 * bin_m,
+                "{photons}: Coates {d_coates}"
+            );
+        }
+    }
+    // Weak: no bias to speak of; strong: early by a good part of sigma, more with more
+    // photons.
+    assert!(bias_s[0].abs() < 0.01 * sigma, "{bias_s:?}");
+    // The histogram's depth follows: none when weak, early and more so with more light.
+    let b = &depth_bias_m;
+    assert!(b[0].abs() < bin_m, "{b:?}");
+    assert!(b[1] < -0.5 * bin_m && b[2] < b[1] && b[3] < b[2], "{b:?}");
+    assert!(bias_s[3] < bias_s[2] && bias_s[2] < bias_s[1] && bias_s[3] < -sigma);
+}
+
+fn tdc_sensor_with(f: impl FnOnce(&mut Spad)) -> Result<SensorModel, SensorError> {
+    let mut s = spad(100);
+    f(&mut s);
+    let sensor = spad_sensor(s, 64, 0.1 * NS, LightPulse::default());
+    SensorModel::new(sensor, axis(0.0, 0.1 * NS, 64))
+}
+
+#[test]
+fn bad_input_is_refused_with_the_field() {
+    type Edit = Box<dyn Fn(&mut Spad)>;
+    let cases: [(&str, Edit); 10] = [
+        ("spad.pde", Box::new(|s| s.pde = 1.5)),
+        ("spad.pde", Box::new(|s| s.pde = f64::NAN)),
+        (
+            "spad.dark_count_rate_hz",
+            Box::new(|s| s.dark_count_rate_hz = -1.0),
+        ),
+        (
+            "spad.ambient_rate_hz",
+            Box::new(|s| s.ambient_rate_hz = f64::INFINITY),
+        ),
+        ("spad.dead_time_s", Box::new(|s| s.dead_time_s = 7.0 * NS)),
+        ("spad.cycles", Box::new(|s| s.cycles = 0)),
+        ("spad.cycles", Box::new(|s| s.cycles = 10_000_000_000_000)),
+        (
+            "spad.photons_per_unit",
+            Box::new(|s| s.photons_per_unit = -2.0),
+        ),
+        (
+            "spad.afterpulse_probability",
+            Box::new(|s| s.afterpulse_probability = 2.0),
+        ),
+        (
+            "spad.afterpulse_delay_s",
+            Box::new(|s| s.afterpulse_probability = 0.1),
+        ),
+    ];
+    for (field, f) in cases {
+        match tdc_sensor_with(|s| f(s)) {
+            Ok(_) => panic!("{field}: accepted"),
+            Err(e) => assert!(e.to_string().contains(field), "{field}: {e}"),
+        }
+    }
+    // A SPAD needs TDC bins.
+    let mut sensor = Sensor::new(
+        LightPulse::default(),
+        Exposure::Box {
+            origin: TimeOrigin::Pulse,
+            start_s: 0.0,
+            width_s: NS,
+            step_s: None,
+            count: 4,
+            gain: 1.0,
+        },
+    );
+    sensor.spad = Some(spad(10));
+    let e = SensorModel::new(sensor, axis(0.0, 0.1 * NS, 64));
+    assert!(
+        matches!(e, Err(ref e) if e.to_string().contains("tdc")),
+        "{e:?}"
+    );
+    // In a file, with a unit.
+    let text = "[exposure]\nkind = \"tdc\"\nbin_width = \"100 ps\"\nbins = 64\n\
+                [spad]\ncycles = 10\nphotons_per_unit = 1\npde = 1.2\n";
+    match Sensor::from_toml_str(text) {
+        Ok(_) => panic!("pde 1.2 accepted"),
+        Err(e) => assert!(e.to_string().contains("spad.pde"), "{e}"),
+    }
+    let text = "[exposure]\nkind = \"tdc\"\nbin_width = \"100 ps\"\nbins = 64\n\
+                [spad]\ncycles = 10\nphotons_per_unit = 1\ndead_tme = \"1 ns\"\n";
+    assert!(Sensor::from_toml_str(text).is_err());
+    // The built-in preset loads.
+    assert!(Sensor::builtin("spad").is_ok());
+}
+
+#[test]
+fn extreme_values_stay_finite() {
+    let ax = axis(0.0, 0.1 * NS, 64);
+    let (w, h) = (4, 2);
+    let mut cube = vec![0.0f32; w * h * 64];
+    for p in 0..w * h {
+        cube[p * 64 + 20] = 1e6 * (p as f32 + 1.0); // saturating returns
+    }
+    let steady: Vec<f32> = (0..w * h).map(|p| 1e6 * (p as f32 + 1.0)).collect();
+    for mode in [Acquisition::Synchronous, Acquisition::FreeRunning] {
+        for (dead_s, ambient) in [(6.4 * NS, 0.0), (1.0 * NS, 1e12), (0.0, 0.0)] {
+            let s = Spad {
+                cycles: 1_000_000_000,
+                photons_per_unit: 1e3,
+                ambient_rate_hz: ambient,
+                dead_time_s: dead_s,
+                mode,
+                ..spad(1)
+            };
+            let m = model(spad_sensor(s, 64, 0.1 * NS, LightPulse::default()), ax);
+            let Ok(meas) = m.measure_clean(&cube, w, h) else {
+                panic!("measure");
+            };
+            let img = match spad_image(&m, &meas, &steady) {
+                Ok(i) => i,
+                Err(e) => panic!("{e}"),
+            };
+            let what = format!("{mode:?}, dead {dead_s}, ambient {ambient}");
+            assert!(
+                img.histogram.iter().all(|v| v.is_finite() && *v >= 0.0),
+                "{what}"
+            );
+            assert!(
+                img.counts.iter().all(|v| v.is_finite() && *v >= 0.0),
+                "{what}"
+            );
+            assert!(
+                img.coates.iter().all(|v| v.is_nan() || v.is_finite()),
+                "{what}"
+            );
+            // At most 1e9 detections per bin, and per cycle at most one per d + 1 bins.
+            let per_px: f64 = img
+                .pixel(&img.histogram, 0, 0)
+                .iter()
+                .map(|&v| f64::from(v))
+                .sum();
+            let d = (dead_s / (0.1 * NS)).round();
+            assert!(
+                per_px <= 1e9 * (64.0 / (d + 1.0)).ceil() * (1.0 + 1e-9),
+                "{what}: {per_px}"
+            );
+        }
+    }
+}
