@@ -327,6 +327,17 @@ fn the_sensor_tab_opens_on_the_window_and_flags_gates_outside_it() {
         hi - lo < 1.5 * (axis.end_s() - lo.min(axis.t0_s)) + 4e-9,
         "{lo}..{hi}"
     );
+    // It opens on a gate that sees light: the LiDAR's gate 0 closes before its pulse
+    // (centred 5 ns after the trigger) has lit anything, and shows black.
+    let snap = h.state().snapshot().unwrap();
+    let gate = h.state().sensor.gate;
+    assert!(gate > 0, "opened on gate 0");
+    let plane = h
+        .state()
+        .sensor
+        .shown_plane(&snap)
+        .expect("the shown gate is measured");
+    assert!(plane.iter().any(|&v| v > 0.0), "gate {gate} is black");
     // The LiDAR's 256 gates of 1 ns run far past this window: flagged.
     assert!(
         h.query_by_label_contains("outside the rendered window")

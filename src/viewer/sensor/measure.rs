@@ -66,6 +66,24 @@ pub(super) fn shared_white(model: &SensorModel, snap: &FilmSnapshot) -> Option<f
     tprf_core::film::quantile_positive(values.into_iter(), 0.999)
 }
 
+/// The gate that measures the most light over the grid of [`shared_white`]: the one the
+/// tab opens on (a LiDAR's first gates see nothing before its pulse has fired). `None`
+/// when no gate sees any light.
+pub(super) fn brightest_gate(model: &SensorModel, snap: &FilmSnapshot) -> Option<usize> {
+    let mut sums = vec![0.0f64; model.kernels().len()];
+    for (x, y) in white_sample(snap.width(), snap.height()) {
+        let tprf = snap.pixel(x, y);
+        for (s, k) in sums.iter_mut().zip(model.kernels()) {
+            *s += k.dot(&tprf);
+        }
+    }
+    sums.iter()
+        .enumerate()
+        .filter(|(_, s)| s.is_finite() && **s > 0.0)
+        .max_by(|a, b| a.1.total_cmp(b.1))
+        .map(|(i, _)| i)
+}
+
 /// Threads for the background measurements: half the cores.
 pub(super) fn background_pool() -> Option<&'static rayon::ThreadPool> {
     static POOL: std::sync::OnceLock<Option<rayon::ThreadPool>> = std::sync::OnceLock::new();
@@ -174,5 +192,29 @@ mod tests {
             white <= top * (1.0 + 1e-6) && white > 0.9 * top,
             "{white} vs {top}"
         );
+    }
+
+    /// Every pixel returns light at 10 ns; the gated preset's 1 ns pulse from the
+    /// trigger puts it at 10-11.1 ns, inside gate 3 of its 3 ns gates from 0 ns.
+    #[test]
+    fn the_tab_opens_on_the_gate_that_sees_the_light() {
+        let (side, bins) = (8, 240);
+        let layout = FilmLayout {
+            width: side,
+            height: side,
+            axis: TimeAxis::new(0.0, 1e-10, bins).unwrap(),
+            bounces_separate: 0,
+        };
+        let mut cube = vec![0.0f32; side * side * bins];
+        for p in 0..side * side {
+            cube[p * bins + 100] = 1.0;
+        }
+        let snap = FilmSnapshot::from_dense(layout, 1, 1, &cube, &[], None);
+        let model = SensorModel::new(Sensor::builtin("gated").unwrap(), layout.axis).unwrap();
+        assert_eq!(brightest_gate(&model, &snap), Some(3));
+        // A dark film: no gate to prefer.
+        let dark =
+            FilmSnapshot::from_dense(layout, 1, 1, &vec![0.0; side * side * bins], &[], None);
+        assert_eq!(brightest_gate(&model, &dark), None);
     }
 }

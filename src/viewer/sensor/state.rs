@@ -3,7 +3,7 @@
 //! snapshot's [`FilmSnapshot::generation`] (an address would be reused by the next one).
 
 use super::handles::Handle;
-use super::measure::{Measured, background_pool, measure_all, shared_white};
+use super::measure::{Measured, background_pool, brightest_gate, measure_all, shared_white};
 use super::view::TimeView;
 use crate::viewer::textures::TextureCache;
 use std::sync::Arc;
@@ -77,11 +77,14 @@ impl SensorState {
         };
         self.gate = self.gate.min(model.gate_count().saturating_sub(1));
         // A new preset, kind, gate count or film window: the editor opens anew on the
-        // window and the pulse.
+        // window and the pulse, and on the gate that sees the most light.
         let layout = layout_key(model.sensor(), &axis);
         if self.view_key.as_ref() != Some(&layout) {
             self.view = None;
             self.view_key = Some(layout.clone());
+            if let Some(g) = brightest_gate(&model, snap) {
+                self.gate = g;
+            }
         }
         let key = snap.generation();
         // A finished background measurement.
