@@ -143,6 +143,20 @@ pub fn format_value(v: f64, unit: &str) -> String {
     }
 }
 
+/// `v` to `digits` significant digits in plain decimals (`1.499` -> `1.50` at 3), for a
+/// second axis whose marks follow the first one's (optical path under round ns).
+pub fn format_sig(v: f64, digits: u32) -> String {
+    if !v.is_finite() || v == 0.0 {
+        return format_value(v, "");
+    }
+    let mag = v.abs().log10().floor();
+    if !(-3.0..6.0).contains(&mag) {
+        return trim_exp(format!("{v:.*e}", digits.saturating_sub(1) as usize));
+    }
+    let decimals = (f64::from(digits) - 1.0 - mag).max(0.0) as usize;
+    format!("{v:.decimals$}")
+}
+
 /// The decimals that write `step` exactly (a 2.5 step needs one), at most 12.
 fn decimals_of(step: f64) -> usize {
     (0..12)
@@ -334,6 +348,17 @@ mod tests {
         assert_eq!(format_value(12.0, "ns"), "12.00 ns");
         assert_eq!(format_value(0.0, "m"), "0 m");
         assert_eq!(format_value(2.0e7, ""), "2e7");
+    }
+
+    #[test]
+    fn second_axis_labels_keep_three_digits() {
+        // 5 ns of light travel is 1.49896229 m.
+        assert_eq!(format_sig(1.49896229, 3), "1.50");
+        assert_eq!(format_sig(14.9896229, 3), "15.0");
+        assert_eq!(format_sig(149.896229, 3), "150");
+        assert_eq!(format_sig(0.0149896, 3), "0.0150");
+        assert_eq!(format_sig(0.0, 3), "0");
+        assert_eq!(format_sig(1.5e-5, 3), "1.5e-5");
     }
 
     #[test]

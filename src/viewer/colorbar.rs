@@ -99,7 +99,7 @@ impl ColorBar<'_> {
             let mut rows = vec![label];
             if let Some((unit2, convert)) = self.second {
                 let v = self.scale.value(f);
-                rows.push(axes::format_value(convert(v), unit2));
+                rows.push(format!("{} {unit2}", axes::format_sig(convert(v), 3)));
             }
             let galleys: Vec<_> = rows
                 .into_iter()

@@ -39,14 +39,16 @@ pub(crate) fn tick(mark: GridMark, _range: &RangeInclusive<f64>) -> String {
     axes::format_tick(mark.value, mark.step_size)
 }
 
-/// A tick label on a log10 axis: `10^value` (`1e-3`, or `3.2e-4` between decades).
+/// A tick label on a log10 axis: `10^value`, plainly from 1e-3 to 1e4 (`0.01`, `3.2`,
+/// `100`), else in scientific notation (`1e-6`, `3.2e-7` between decades).
 pub(crate) fn log_tick(mark: GridMark, _range: &RangeInclusive<f64>) -> String {
     let v = 10f64.powf(mark.value);
-    if (mark.value - mark.value.round()).abs() < 1e-9 {
-        format!("1e{}", mark.value.round() as i64)
-    } else {
-        let s = format!("{v:.1e}");
-        s.replace(".0e", "e")
+    let decade = (mark.value - mark.value.round()).abs() < 1e-9;
+    let plain = (-3.0..5.0).contains(&mark.value.floor());
+    match (decade, plain) {
+        (true, true) => format!("{v:.*}", (-mark.value.round()).max(0.0) as usize),
+        (true, false) => format!("1e{}", mark.value.round() as i64),
+        (false, _) => axes::format_sig(v, 2),
     }
 }
 
@@ -68,7 +70,7 @@ pub(crate) fn time_plot<'a>(plot: Plot<'a>, y_label: &str, y_log: bool) -> Plot<
             AxisHints::new_x()
                 .label("optical path (m)")
                 .formatter(|m: GridMark, _: &RangeInclusive<f64>| {
-                    axes::format_value(m.value * 1e-9 * C_M_PER_S, "")
+                    axes::format_sig(m.value * 1e-9 * C_M_PER_S, 3)
                 })
                 .placement(VPlacement::Top),
         ])
@@ -122,8 +124,23 @@ mod tests {
                 },
                 &(0.0..=1.0)
             ),
-            "1e-3"
+            "0.001"
         );
+        let at = |value: f64| {
+            log_tick(
+                GridMark {
+                    value,
+                    step_size: 0.5,
+                },
+                &(0.0..=1.0),
+            )
+        };
+        assert_eq!(at(0.0), "1");
+        assert_eq!(at(1.0), "10");
+        assert_eq!(at(0.5), "3.2");
+        assert_eq!(at(-0.5), "0.32");
+        assert_eq!(at(-6.0), "1e-6");
+        assert_eq!(at(-6.5), "3.2e-7");
         assert_eq!(
             log_tick(
                 GridMark {

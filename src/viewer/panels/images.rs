@@ -268,8 +268,16 @@ impl TprfApp {
                 .inner;
             hovered = hovered.or(h);
         }
-        let readout_rect =
-            Rect::from_min_max(egui::pos2(full.left(), full.bottom() - READOUT_H), full.max);
+        // The readout right under the time slice when the small images sit beside it
+        // (wrapping there), else along the panel's bottom.
+        let readout_rect = if l.below {
+            Rect::from_min_max(egui::pos2(full.left(), full.bottom() - READOUT_H), full.max)
+        } else {
+            Rect::from_min_max(
+                egui::pos2(full.left(), big_rect.bottom() + GAP / 2.0),
+                egui::pos2(big_rect.right(), full.bottom()),
+            )
+        };
         let text = match (hovered, self.selection) {
             (Some((x, y)), _) => self.pixel_readout(snap, x, y),
             (None, Some(s)) if s.x0 == s.x1 && s.y0 == s.y1 => {
@@ -278,7 +286,12 @@ impl TprfApp {
             _ => "Hover a pixel to read its value".to_string(),
         };
         ui.scope_builder(UiBuilder::new().max_rect(readout_rect), |ui| {
-            ui.add(egui::Label::new(RichText::new(text).monospace()).truncate());
+            let label = egui::Label::new(RichText::new(text));
+            ui.add(if l.below {
+                label.truncate()
+            } else {
+                label.wrap()
+            });
         });
         ui.advance_cursor_after_rect(full);
     }
