@@ -388,6 +388,47 @@ fn switching_presets_keeps_the_exposure_steady() {
     assert_eq!(at_once, later);
 }
 
+/// The status line counts wall time, and a render with a target shows a progress bar
+/// with the time left; an error target stops the render once the film's own error
+/// estimate is at or under it.
+#[test]
+fn progress_is_shown_in_wall_time_toward_the_target() {
+    // A target far away: still rendering while we look.
+    let mut h = harness(small_settings("builtin:cornell", 8, 16, 10_000_000));
+    let start = Instant::now();
+    loop {
+        h.step();
+        let s = h.state().status().unwrap();
+        if s.state == WorkerState::Rendering && s.spp > 0 {
+            break;
+        }
+        assert!(start.elapsed() < Duration::from_secs(60), "no pass");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // Let the wall clock run past the last pass.
+    std::thread::sleep(Duration::from_millis(300));
+    h.run_steps(2);
+    let bar = label_with(&h, "% · ~");
+    assert!(bar.ends_with(" left"), "{bar}");
+    let line = label_with(&h, "s wall");
+    let shown = number_after(&line, "spp  ·");
+    let s = h.state().status().unwrap();
+    // Wall time: at least the status's time at the last pass, and it keeps running.
+    assert!(shown >= s.elapsed_s - 0.05, "{line} vs {}", s.elapsed_s);
+    assert!(line.contains("frame") && line.contains("ms"), "{line}");
+
+    // An error target of 20 %: done once the estimate is under it.
+    let mut h = harness(ViewerSettings {
+        error_target_pct: 20.0,
+        ..small_settings("builtin:cornell", 8, 16, 0)
+    });
+    wait_done(&mut h, Duration::from_secs(120));
+    let e = h.state().snapshot().unwrap().error_estimate.unwrap();
+    assert!(e <= 0.2, "stopped at {e}");
+    let bar = label_with(&h, "target reached");
+    assert!(!bar.is_empty());
+}
+
 /// With no system file dialog, "Open cube…" offers a path field; the cube opens and
 /// the panel shows its own facts.
 #[test]
