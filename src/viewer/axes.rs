@@ -221,11 +221,26 @@ pub fn bar_ticks(scale: BarScale, length_px: f64, label_px: f64) -> Vec<(f64, St
         return Vec::new();
     }
     match scale {
-        BarScale::Linear { lo, hi } => axis_marks(lo, hi, length_px, label_px)
-            .into_iter()
-            .filter(|m| m.step >= axis_marks_major(lo, hi, length_px, label_px))
-            .map(|m| (scale.fraction(m.value), format_tick(m.value, m.step)))
-            .collect(),
+        BarScale::Linear { lo, hi } => {
+            // The round step for labels `label_px` apart; where that leaves fewer than
+            // two ticks inside (0.6-1.4 m on a short bar: only "1"), the next finer
+            // round steps, so a value can always be read off the bar.
+            let major = axis_marks_major(lo, hi, length_px, label_px);
+            let steps = [
+                major,
+                nice_step(0.4 * major).unwrap_or(major),
+                finer_step(major),
+            ];
+            let ticks = |step: f64| multiples(lo, hi, step);
+            let step = steps
+                .into_iter()
+                .find(|&s| ticks(s).len() >= 2)
+                .unwrap_or(major);
+            ticks(step)
+                .into_iter()
+                .map(|v| (scale.fraction(v), format_tick(v, step)))
+                .collect()
+        }
         BarScale::Log { lo, hi } => {
             let (e_lo, e_hi) = (lo.log10().ceil() as i32, hi.log10().floor() as i32);
             let decades = (hi / lo).log10();
@@ -383,6 +398,21 @@ mod tests {
         let t = bar_ticks(BarScale::Log { lo: 1.5, hi: 60.0 }, 300.0, 40.0);
         let labels: Vec<&str> = t.iter().map(|x| x.1.as_str()).collect();
         assert_eq!(labels, vec!["2", "5", "10", "20", "50"]);
+        // A short bar over 0.6-1.4 m: at 64 px a label, the 0.5 step leaves only "1";
+        // a finer round step gives several.
+        let t = bar_ticks(BarScale::Linear { lo: 0.6, hi: 1.4 }, 125.0, 64.0);
+        let labels: Vec<&str> = t.iter().map(|x| x.1.as_str()).collect();
+        assert_eq!(labels, vec!["0.6", "0.8", "1.0", "1.2", "1.4"]);
+        // A signed range keeps its zero in the middle.
+        let t = bar_ticks(
+            BarScale::Linear {
+                lo: -0.03,
+                hi: 0.03,
+            },
+            125.0,
+            64.0,
+        );
+        assert!(t.len() >= 2 && t.iter().any(|x| x.1 == "0" && (x.0 - 0.5).abs() < 1e-9));
         // Nothing to draw: no ticks, no panic.
         assert!(bar_ticks(BarScale::Log { lo: 0.0, hi: 1.0 }, 100.0, 40.0).is_empty());
         assert!(bar_ticks(BarScale::Linear { lo: 1.0, hi: 1.0 }, 100.0, 40.0).is_empty());

@@ -9,6 +9,7 @@ use super::view::{Coverage, coverage, gates_fitted, main_span, window_covering};
 use crate::viewer::axes::{self, BIN_UNIT, BarScale};
 use crate::viewer::colorbar::ColorBar;
 use crate::viewer::colormap::{self, ColorMap, Tone};
+use crate::viewer::layout::image_layout;
 use crate::viewer::textures::TextureCache;
 use eframe::egui::{self, RichText, Sense, TextureHandle, Vec2};
 use tprf_core::film::{FilmSnapshot, MAX_BINS};
@@ -187,13 +188,14 @@ fn measurement_images(
         }
     };
     let ctx = ui.ctx().clone();
-    ui.horizontal_wrapped(|ui| {
+    ui.horizontal(|ui| {
         let l = ui.label(format!("gate i (of {gates})"));
         ui.add(egui::Slider::new(gate_sel, 0..=gates.saturating_sub(1)))
             .labelled_by(l.id);
-        ui.label(gate_time_label(model, gate));
-        ui.label(RichText::new(&status).weak());
+        ui.add(egui::Label::new(gate_time_label(model, gate)).truncate());
     });
+    // On its own line: wrapped beside the slider it was drawn over the row.
+    ui.add(egui::Label::new(RichText::new(&status).weak()).truncate());
     out.action = coverage_ui(ui, state, snap);
     let pulse = main_span(model.light());
     let shown_cov = model.gates().get(gate).map_or(Coverage::Inside, |g| {
@@ -201,23 +203,41 @@ fn measurement_images(
     });
     let derived = measured.filter(|m| m.depth().is_some());
     let avail = ui.available_size();
-    let cols = if derived.is_some() { 2.0 } else { 1.0 };
     let readout_h = 26.0;
     let title_h = 22.0;
-    let col_w = (avail.x - 12.0 * (cols - 1.0)) / cols;
+    let extra = title_h + BAR_H + 8.0;
     let aspect = w.max(1) as f32 / h.max(1) as f32;
-    let img_h = (avail.y - readout_h - title_h - BAR_H - 12.0).max(16.0);
-    let big = Vec2::new(col_w.min(img_h * aspect), 0.0);
-    let big = Vec2::new(big.x, big.x / aspect);
+    // Two derived images (AMCW depth and its multipath error): the measurement large,
+    // those two beside or under it, as the main tab lays out its images. One (first
+    // return depth): two equal columns. None: the measurement alone.
+    let two = derived.is_some_and(|m| m.amcw_error_m.is_some());
+    let (big, small, below) = if two {
+        let l = image_layout((avail.x, avail.y - readout_h), aspect, extra, 12.0);
+        (
+            Vec2::new(l.big.0, l.big.1),
+            Vec2::new(l.small.0, l.small.1),
+            l.below,
+        )
+    } else {
+        let cols = if derived.is_some() { 2.0 } else { 1.0 };
+        let col_w = (avail.x - 12.0 * (cols - 1.0)) / cols;
+        let img_h = (avail.y - readout_h - extra).max(16.0);
+        let side = col_w.min(img_h * aspect).max(16.0);
+        let size = Vec2::new(side, side / aspect);
+        (size, size, false)
+    };
     let mut hovered: Option<(usize, usize)> = None;
-    ui.horizontal_top(|ui| {
+    let mut measurement = |ui: &mut egui::Ui, out: &mut ImagesOutcome| {
         ui.vertical(|ui| {
             ui.set_width(big.x);
-            ui.label(
-                RichText::new(format!(
-                    "M_{gate}: gate {gate}'s measurement (one exposure for all gates)"
-                ))
-                .strong(),
+            ui.add(
+                egui::Label::new(
+                    RichText::new(format!(
+                        "M_{gate}: gate {gate}'s measurement (one exposure for all gates)"
+                    ))
+                    .strong(),
+                )
+                .truncate(),
             );
             let tone = Tone {
                 scale: white.map_or(1.0, |m| 1.0 / m),
@@ -280,47 +300,56 @@ fn measurement_images(
             return;
         };
         let key = hash(&(m.snapshot, &m.sensor));
-        ui.vertical(|ui| {
-            let (lo, hi) = m.depth_range;
-            let amcw = m.amcw_error_m.is_some();
-            let title = if amcw {
-                "AMCW depth"
-            } else {
-                "first-return depth"
-            };
-            ui.label(RichText::new(title).strong());
-            let small_h = if amcw {
-                (big.y - title_h - BAR_H - 8.0) / 2.0
-            } else {
-                big.y
-            };
-            let small = Vec2::new((small_h * aspect).min(col_w), 0.0);
-            let small = Vec2::new(small.x, small.x / aspect);
-            ui.set_width(small.x);
-            let tex = textures.get(&ctx, "depth", key, || depth_image(depth, w, h, lo, hi));
-            let Picked { clicked, hover, .. } = pick(ui, &tex, w, h, small, "depth image");
-            out.clicked = out.clicked.or(clicked);
-            hovered = hovered.or(hover);
-            ColorBar {
-                of: "depth",
-                ramp: &colormap::turbo,
-                scale: BarScale::Linear {
-                    lo: f64::from(lo),
-                    hi: f64::from(hi).max(f64::from(lo) + 1e-6),
-                },
-                unit: "m",
-                second: None,
-                note: "depth = c × round-trip time / 2; black: no return",
-            }
-            .ui(ui, small.x);
-            if let Some(err) = &m.amcw_error_m {
+        let (lo, hi) = m.depth_range;
+        let depth_block = |ui: &mut egui::Ui,
+                           textures: &mut TextureCache<u64>,
+                           out: &mut ImagesOutcome|
+         -> Option<(usize, usize)> {
+            ui.vertical(|ui| {
+                ui.set_width(small.x);
+                let title = if two {
+                    "AMCW depth"
+                } else {
+                    "first-return depth"
+                };
+                ui.add(egui::Label::new(RichText::new(title).strong()).truncate());
+                let tex = textures.get(&ctx, "depth", key, || depth_image(depth, w, h, lo, hi));
+                let Picked { clicked, hover, .. } = pick(ui, &tex, w, h, small, "depth image");
+                out.clicked = out.clicked.or(clicked);
+                ColorBar {
+                    of: "depth",
+                    ramp: &colormap::turbo,
+                    scale: BarScale::Linear {
+                        lo: f64::from(lo),
+                        hi: f64::from(hi).max(f64::from(lo) + 1e-6),
+                    },
+                    unit: "m",
+                    second: None,
+                    note: "depth = c × round-trip time / 2; black: no return",
+                }
+                .ui(ui, small.x);
+                hover
+            })
+            .inner
+        };
+        let error_block = |ui: &mut egui::Ui,
+                           textures: &mut TextureCache<u64>,
+                           out: &mut ImagesOutcome|
+         -> Option<(usize, usize)> {
+            let err = m.amcw_error_m.as_ref()?;
+            ui.vertical(|ui| {
+                ui.set_width(small.x);
                 let a = m.error_abs_max;
-                ui.label(RichText::new("multipath error: AMCW − true first return").strong());
+                ui.add(
+                    egui::Label::new(
+                        RichText::new("multipath error: AMCW − true first return").strong(),
+                    )
+                    .truncate(),
+                );
                 let tex = textures.get(&ctx, "amcw-error", key, || error_image(err, w, h, a));
                 let Picked { clicked, hover, .. } =
                     pick(ui, &tex, w, h, small, "multipath error image");
                 out.clicked = out.clicked.or(clicked);
-                hovered = hovered.or(hover);
                 let a = f64::from(a).max(1e-9);
                 ColorBar {
                     of: "multipath error",
@@ -331,9 +360,26 @@ fn measurement_images(
                     note: "red: AMCW reads too far; blue: too near",
                 }
                 .ui(ui, small.x);
-            }
-        });
-    });
+                hover
+            })
+            .inner
+        };
+        let mut smalls = |ui: &mut egui::Ui| {
+            let a = depth_block(ui, textures, out);
+            let b = error_block(ui, textures, out);
+            hovered = hovered.or(a).or(b);
+        };
+        if below {
+            ui.horizontal_top(|ui| smalls(ui));
+        } else {
+            ui.vertical(|ui| smalls(ui));
+        }
+    };
+    if below {
+        ui.vertical(|ui| measurement(ui, &mut out));
+    } else {
+        ui.horizontal_top(|ui| measurement(ui, &mut out));
+    }
     let text = match hovered {
         Some((x, y)) => readout(state, snap, plane, gate, x, y),
         None => "Hover a pixel to read its measurement".to_string(),
@@ -357,9 +403,9 @@ fn readout(
         "pixel ({x}, {y}) · M_{gate} = {}",
         axes::format_value(f64::from(plane.get(i).copied().unwrap_or(0.0)), BIN_UNIT)
     );
-    if let Some(m) = &state.measured
-        && state.is_current(snap)
-    {
+    // The depth images on screen are the latest full measurement's (a pass behind
+    // while the renderer runs): read out what is shown.
+    if let Some(m) = &state.measured {
         if let Some(d) = m.depth().and_then(|d| d.get(i)) {
             if d.is_finite() {
                 s += &format!(" · depth {d:.3} m");
