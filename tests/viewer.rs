@@ -9,7 +9,7 @@
 
 use eframe::egui::{Event, Key, Modifiers, PointerButton, Pos2, Vec2};
 use egui_kittest::Harness;
-use egui_kittest::kittest::Queryable;
+use egui_kittest::kittest::{NodeT, Queryable};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use tprf::viewer::sensor::SensorState;
@@ -182,6 +182,288 @@ fn scrub_click_and_plot_a_pixel() {
         names.contains(&format!("pin: pixel ({px}, {py})")),
         "pinned curve kept: {names:?}"
     );
+}
+
+/// The number after `key` in `text` (up to the next space): `3.2e-4` in "… = 3.2e-4 W".
+fn number_after(text: &str, key: &str) -> f64 {
+    let rest = &text[text
+        .find(key)
+        .unwrap_or_else(|| panic!("{key:?} not in {text:?}"))
+        + key.len()..];
+    let word = rest.trim_start().split(' ').next().unwrap();
+    word.parse()
+        .unwrap_or_else(|e| panic!("{word:?} in {text:?}: {e}"))
+}
+
+/// The label of the node whose label contains `part`.
+fn label_with(h: &Harness<'static, TprfApp>, part: &str) -> String {
+    let node = h.get_by_label_contains(part).accesskit_node();
+    // A text label carries its text as its value.
+    node.label()
+        .filter(|l| l.contains(part))
+        .or_else(|| node.value())
+        .unwrap_or_default()
+}
+
+/// Every image has a colour bar with its unit; the readout under the cursor gives the
+/// hovered pixel's value in the scrubber's bin (checked against the film) and when its
+/// light peaks; an EV step changes the bar.
+#[test]
+fn images_have_colour_bars_and_a_readout_under_the_cursor() {
+    let (side, bins) = (24, 48);
+    let mut h = harness(small_settings("builtin:cornell", side, bins, 8));
+    wait_done(&mut h, Duration::from_secs(120));
+    let snap = h.state().snapshot().unwrap();
+    let (px, py) = (17, 6);
+    let tprf = snap.pixel(px, py);
+    let peak = (0..bins)
+        .max_by(|&a, &b| tprf[a].total_cmp(&tprf[b]))
+        .unwrap();
+    {
+        let app = h.state_mut();
+        app.playing = false;
+        app.bin = peak;
+    }
+    h.run_steps(2);
+    for (of, unit) in [
+        ("colour bar: time slice", "W m⁻² sr⁻¹ s"),
+        ("colour bar: steady image", "W m⁻² sr⁻¹"),
+        ("colour bar: rainbow image", "ns"),
+    ] {
+        let l = label_with(&h, of);
+        assert!(l.ends_with(&format!("{unit}, linear")), "{l}");
+    }
+    // Hover the pixel: the readout names it, with its value in this bin and unit.
+    let pos = pixel_pos(&h, "time slice", px, py, side, side);
+    h.hover_at(pos);
+    h.run_steps(2);
+    let readout = label_with(&h, &format!("pixel ({px}, {py}) · bin {peak}:"));
+    let shown = number_after(&readout, &format!("bin {peak}:"));
+    let want = f64::from(tprf[peak]);
+    assert!(want > 0.0);
+    assert!(
+        (shown - want).abs() <= 1e-3 * want,
+        "{readout}: film has {want}"
+    );
+    assert!(readout.contains("W m⁻² sr⁻¹ s"), "{readout}");
+    let steady: f64 = tprf.iter().map(|&v| f64::from(v)).sum();
+    let shown = number_after(&readout, "steady");
+    assert!((shown - steady).abs() <= 1e-3 * steady, "{readout}");
+    let t_peak_ns = snap.axis().bin_center_s(peak) * 1e9;
+    let shown = number_after(&readout, "peak at");
+    assert!(
+        (shown - t_peak_ns).abs() < 1e-3,
+        "{readout}: peak at {t_peak_ns} ns"
+    );
+    // One stop more exposure halves the value shown white, and the bar says so.
+    let top = |h: &Harness<'static, TprfApp>| {
+        let l = label_with(h, "colour bar: time slice");
+        number_after(&l, "…")
+    };
+    let before = top(&h);
+    h.state_mut().settings.ev = 1.0;
+    h.run_steps(2);
+    let after = top(&h);
+    assert!((after / before - 0.5).abs() < 1e-3, "{before} -> {after}");
+}
+
+/// After a resolution change the selected pixel and the pins point at the same scene
+/// point of the new film, and the window says so.
+#[test]
+fn the_selection_follows_a_resolution_change() {
+    let mut h = harness(small_settings("builtin:cornell", 24, 32, 2));
+    wait_done(&mut h, Duration::from_secs(60));
+    h.state_mut().playing = false;
+    let pos = pixel_pos(&h, "time slice", 17, 6, 24, 24);
+    click_at(&mut h, pos);
+    assert_eq!(h.state().selection, Some(Selection::pixel(17, 6)));
+    h.get_by_label("📌 Pin").click();
+    h.step();
+    let pos = pixel_pos(&h, "time slice", 3, 20, 24, 24);
+    click_at(&mut h, pos);
+    h.state_mut().pending.width = 48;
+    h.state_mut().pending.height = 48;
+    h.step();
+    h.get_by_label("Apply & restart").click();
+    wait_done(&mut h, Duration::from_secs(60));
+    let snap = h.state().snapshot().unwrap();
+    assert_eq!((snap.width(), snap.height()), (48, 48));
+    // Pixel (x, y) of 24 holds [x/24, (x+1)/24): its centre is in pixel 2x + 1 of 48.
+    assert_eq!(h.state().selection, Some(Selection::pixel(7, 41)));
+    assert_eq!(h.state().pins, vec![Selection::pixel(35, 13)]);
+    assert!(
+        h.state()
+            .messages()
+            .iter()
+            .any(|m| m.contains("same scene point")),
+        "{:?}",
+        h.state().messages()
+    );
+}
+
+/// The sensor tab opens on the film's window and the pulse (not on all 256 LiDAR
+/// gates); gates outside the window are said so, and fitting them clears it.
+#[test]
+fn the_sensor_tab_opens_on_the_window_and_flags_gates_outside_it() {
+    let mut h = harness(ViewerSettings {
+        mode: Mode::Sensor,
+        ..small_settings("builtin:cornell", 16, 64, 4)
+    });
+    wait_done(&mut h, Duration::from_secs(120));
+    h.run_steps(3);
+    let axis = *h.state().snapshot().unwrap().axis();
+    let (lo, hi) = h
+        .state()
+        .sensor
+        .editor_view_s()
+        .expect("the editor was drawn");
+    assert!(
+        lo <= axis.t0_s && hi >= axis.end_s(),
+        "{lo}..{hi} vs the window"
+    );
+    // The LiDAR pulse, 2 ns FWHM at 5 ns, is in view; the 256 ns of gates are not.
+    assert!(lo <= 4e-9 && hi >= 6e-9, "{lo}..{hi}");
+    assert!(
+        hi - lo < 1.5 * (axis.end_s() - lo.min(axis.t0_s)) + 4e-9,
+        "{lo}..{hi}"
+    );
+    // It opens on a gate that sees light: the LiDAR's gate 0 closes before its pulse
+    // (centred 5 ns after the trigger) has lit anything, and shows black.
+    let snap = h.state().snapshot().unwrap();
+    let gate = h.state().sensor.gate;
+    assert!(gate > 0, "opened on gate 0");
+    let plane = h
+        .state()
+        .sensor
+        .shown_plane(&snap)
+        .expect("the shown gate is measured");
+    assert!(plane.iter().any(|&v| v > 0.0), "gate {gate} is black");
+    // The LiDAR's 256 gates of 1 ns run far past this window: flagged.
+    assert!(
+        h.query_by_label_contains("outside the rendered window")
+            .is_some()
+    );
+    // Gated camera: 8 gates of 3 ns from the window's start, past its end.
+    h.get_by_label("gated").click();
+    h.run_steps(2);
+    let warning = label_with(&h, "lie outside the rendered window");
+    assert!(warning.contains("of 8"), "{warning}");
+    h.get_by_label("Fit the gates to the window").click();
+    h.run_steps(2);
+    assert!(
+        h.query_by_label_contains("outside the rendered window")
+            .is_none()
+    );
+    let Exposure::Box { width_s, count, .. } = h.state().settings.sensor.exposure else {
+        panic!("box gates expected");
+    };
+    assert_eq!(count, 8);
+    assert!((width_s * 8.0 - (axis.end_s() - axis.t0_s)).abs() < 1e-15);
+}
+
+/// Switching presets never shows one preset's image with another's exposure: the
+/// white point taken at once is the one all gates' measurement gives later.
+#[test]
+fn switching_presets_keeps_the_exposure_steady() {
+    let mut h = harness(ViewerSettings {
+        mode: Mode::Sensor,
+        ..small_settings("builtin:cornell", 16, 64, 4)
+    });
+    wait_done(&mut h, Duration::from_secs(120));
+    wait_sensor(&mut h);
+    let lidar = h.state().sensor.shared_white().unwrap();
+    h.get_by_label("gated").click();
+    h.run_steps(2);
+    let at_once = h
+        .state()
+        .sensor
+        .shared_white()
+        .expect("an exposure at once");
+    assert_ne!(
+        at_once, lidar,
+        "the gated camera's own exposure, not the LiDAR's"
+    );
+    wait_sensor(&mut h);
+    let later = h.state().sensor.shared_white().unwrap();
+    assert_eq!(at_once, later);
+}
+
+/// The status line counts wall time, and a render with a target shows a progress bar
+/// with the time left; an error target stops the render once the film's own error
+/// estimate is at or under it.
+#[test]
+fn progress_is_shown_in_wall_time_toward_the_target() {
+    // A target far away: still rendering while we look.
+    let mut h = harness(small_settings("builtin:cornell", 8, 16, 10_000_000));
+    let start = Instant::now();
+    loop {
+        h.step();
+        let s = h.state().status().unwrap();
+        if s.state == WorkerState::Rendering && s.spp > 0 {
+            break;
+        }
+        assert!(start.elapsed() < Duration::from_secs(60), "no pass");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // Let the wall clock run past the last pass.
+    std::thread::sleep(Duration::from_millis(300));
+    h.run_steps(2);
+    let bar = label_with(&h, "% · ~");
+    assert!(bar.ends_with(" left"), "{bar}");
+    let line = label_with(&h, "s wall");
+    let shown = number_after(&line, "spp  ·");
+    let s = h.state().status().unwrap();
+    // Wall time: at least the status's time at the last pass, and it keeps running.
+    assert!(shown >= s.elapsed_s - 0.05, "{line} vs {}", s.elapsed_s);
+    assert!(line.contains("frame") && line.contains("ms"), "{line}");
+
+    // An error target of 20 %: done once the estimate is under it.
+    let mut h = harness(ViewerSettings {
+        error_target_pct: 20.0,
+        ..small_settings("builtin:cornell", 8, 16, 0)
+    });
+    wait_done(&mut h, Duration::from_secs(120));
+    let e = h.state().snapshot().unwrap().error_estimate.unwrap();
+    assert!(e <= 0.2, "stopped at {e}");
+    let bar = label_with(&h, "target reached");
+    assert!(!bar.is_empty());
+}
+
+/// With no system file dialog, "Open cube…" offers a path field; the cube opens and
+/// the panel shows its own facts.
+#[test]
+fn without_a_file_dialog_a_path_field_opens_a_cube() {
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("viewer-path-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_tprf"))
+        .args(["render", "builtin:canopy", "--width", "10", "--height", "8"])
+        .args(["--spp", "2", "--bins", "30", "--out"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let mut h = harness(small_settings("builtin:cornell", 12, 16, 1));
+    h.state_mut().file_dialogs = false;
+    h.get_by_label("Open cube…").click();
+    h.run_steps(2);
+    let field = h.get_by_label("path");
+    field.focus();
+    h.step();
+    h.get_by_label("path").type_text(&dir.display().to_string());
+    h.step();
+    h.get_by_label("OK").click();
+    h.run_steps(3);
+    let snap = h.state().snapshot().expect("the cube is shown");
+    assert_eq!((snap.width(), snap.height(), snap.axis().bins), (10, 8, 30));
+    h.get_by_label("10 × 8 px × 30 bins");
+    // A cube without bounce layers shows no bounce toggles.
+    assert!(h.query_by_label_contains("no bounce layers").is_some());
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]

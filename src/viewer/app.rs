@@ -4,13 +4,16 @@
 
 use super::Start;
 use super::exports::Exports;
+use super::files::PathPrompt;
 use super::selection::Selection;
 use super::sensor::{self, SensorState};
 use super::settings::{Mode, ViewerSettings};
 use super::source::Source;
 use super::textures::{ImageKey, TextureCache};
+use super::tone::{Exposure, View};
 use eframe::egui::{self, RichText};
 use std::time::Instant;
+use tprf_core::film::FilmSnapshot;
 use tprf_core::transport::worker::WorkerState;
 
 /// The tprf window.
@@ -28,17 +31,26 @@ pub struct TprfApp {
     /// The selected pixel or box, and pinned ones.
     pub selection: Option<Selection>,
     pub pins: Vec<Selection>,
+    /// Width and height of the film the selection and pins were made on: on a film of
+    /// another size they are moved onto the same scene point.
+    pub(super) selection_film: Option<(usize, usize)>,
     /// The pixel where a box drag on an image started.
     pub(super) drag_start: Option<(usize, usize)>,
     /// The slice, steady and rainbow images.
     pub(super) textures: TextureCache<ImageKey>,
+    /// How each image's texture was exposed (for its colour bar).
+    pub(super) exposures: Vec<(View, Exposure)>,
     pub(super) messages: Vec<String>,
     /// Files being written in the background.
     pub(super) exports: Exports,
-    /// Smoothed time our `ui()` takes, ms.
-    pub(super) frame_ms: f32,
+    /// Frame times (smoothed), ms.
+    pub(super) timing: FrameTiming,
     /// The sensor's model, measurements and textures.
     pub sensor: SensorState,
+    /// Whether "Open…" and "Save…" use the system file dialog (else a path field).
+    pub file_dialogs: bool,
+    /// The path window, while open.
+    pub(super) path_prompt: Option<PathPrompt>,
     pub(super) ctx: egui::Context,
 }
 
@@ -59,6 +71,13 @@ impl TprfApp {
         start: Start,
     ) -> TprfApp {
         let settings = settings.sanitized();
+        // Units are written with superscripts (W m⁻² sr⁻¹): the monospace font has the
+        // ones the proportional font lacks.
+        let mut fonts = egui::FontDefinitions::default();
+        if let Some(family) = fonts.families.get_mut(&egui::FontFamily::Proportional) {
+            family.push("Hack".to_owned());
+        }
+        cc.egui_ctx.set_fonts(fonts);
         let mut app = TprfApp {
             pending: settings.clone(),
             settings,
@@ -69,12 +88,16 @@ impl TprfApp {
             play_accum: 0.0,
             selection: None,
             pins: Vec::new(),
+            selection_film: None,
             drag_start: None,
             textures: TextureCache::default(),
+            exposures: Vec::new(),
             messages: Vec::new(),
             exports: Exports::default(),
-            frame_ms: 0.0,
+            timing: FrameTiming::default(),
             sensor: SensorState::default(),
+            file_dialogs: super::files::dialogs_enabled(),
+            path_prompt: None,
             ctx: cc.egui_ctx.clone(),
         };
         match start {
@@ -92,11 +115,81 @@ impl TprfApp {
     pub fn messages(&self) -> &[String] {
         &self.messages
     }
+
+    /// Select `sel` on `snap` (the film it was picked on).
+    pub(super) fn select(&mut self, sel: Selection, snap: &FilmSnapshot) {
+        self.selection = Some(sel);
+        self.selection_film = Some((snap.width(), snap.height()));
+    }
+
+    /// Keep the selection and pins on the film `(w, h)`: made on a film of another size
+    /// (a resolution change), they move to the same scene point, and the window says so.
+    fn follow_film_size(&mut self, w: usize, h: usize) {
+        match self.selection_film {
+            Some(from) if from != (w, h) => {
+                if let Some(s) = &mut self.selection {
+                    *s = s.rescaled(from, (w, h));
+                }
+                for p in &mut self.pins {
+                    *p = p.rescaled(from, (w, h));
+                }
+                if self.selection.is_some() || !self.pins.is_empty() {
+                    self.messages.push(format!(
+                        "selection and pins moved from the {}×{} film to the same scene points \
+                         of the {w}×{h} film",
+                        from.0, from.1
+                    ));
+                }
+            }
+            _ => {}
+        }
+        self.selection_film = Some((w, h));
+        // Something to plot from the first frame: the pixel at the image centre.
+        let sel = self.selection.get_or_insert(Selection::pixel(w / 2, h / 2));
+        *sel = sel.clamped(w, h);
+        for p in &mut self.pins {
+            *p = p.clamped(w, h);
+        }
+    }
+}
+
+/// The UI thread's time per frame, smoothed: our drawing, the whole frame's CPU time
+/// (egui layout, tessellation and painting, as eframe reports it) and the time between
+/// frames.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FrameTiming {
+    /// Our `ui()`, ms.
+    pub ui_ms: f32,
+    /// The previous frame's CPU time including painting (eframe), ms.
+    pub cpu_ms: Option<f32>,
+    /// From one frame's start to the next, ms (includes waiting for input or vsync).
+    pub interval_ms: f32,
+    pub(super) last_start: Option<Instant>,
+}
+
+impl FrameTiming {
+    /// Exponential smoothing: the new value weighs 1/10.
+    fn smooth(old: f32, new: f32) -> f32 {
+        if old == 0.0 {
+            new
+        } else {
+            0.9 * old + 0.1 * new
+        }
+    }
 }
 
 impl eframe::App for TprfApp {
-    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+    fn ui(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {
         let started = Instant::now();
+        if let Some(last) = self.timing.last_start {
+            let gap = started.duration_since(last).as_secs_f32() * 1e3;
+            self.timing.interval_ms = FrameTiming::smooth(self.timing.interval_ms, gap);
+        }
+        self.timing.last_start = Some(started);
+        if let Some(cpu) = frame.info().cpu_usage {
+            let old = self.timing.cpu_ms.unwrap_or(0.0);
+            self.timing.cpu_ms = Some(FrameTiming::smooth(old, cpu * 1e3));
+        }
         let ctx = ui.ctx().clone();
         self.messages.extend(self.exports.finished());
         self.handle_dropped_files(&ctx);
@@ -125,20 +218,15 @@ impl eframe::App for TprfApp {
             self.bin = self.bin.min(bins - 1);
         }
         if let Some(s) = &snap {
-            // Something to plot from the first frame: the pixel at the image centre. A
-            // selection from another resolution is clamped onto this one.
-            let (w, h) = (s.width(), s.height());
-            let sel = self.selection.get_or_insert(Selection::pixel(w / 2, h / 2));
-            *sel = sel.clamped(w, h);
-            for p in &mut self.pins {
-                *p = p.clamped(w, h);
-            }
+            self.follow_film_size(s.width(), s.height());
         }
         self.handle_keys(&ctx, bins);
         self.advance_playback(&ctx, bins);
 
         let sensor_mode = self.settings.mode == Mode::Sensor;
         if sensor_mode && let Some(s) = &snap {
+            self.sensor.auto_start = matches!(self.source, super::source::Source::Live(_))
+                && self.settings.t0.trim().is_empty();
             self.sensor.update(&self.settings.sensor, s);
         }
         let window_w = ui.available_width();
@@ -179,8 +267,24 @@ impl eframe::App for TprfApp {
         }
         egui::CentralPanel::default().show(ui, |ui| match &snap {
             Some(s) if sensor_mode => {
-                if let Some((x, y)) = sensor::images_ui(ui, &mut self.sensor, s) {
-                    self.selection = Some(Selection::pixel(x, y));
+                let out = sensor::images_ui(ui, &mut self.sensor, s);
+                if let Some((x, y)) = out.clicked {
+                    self.select(Selection::pixel(x, y), s);
+                }
+                match out.action {
+                    Some(sensor::CoverageAction::ExtendWindow { t0_s, dt_s, bins }) => {
+                        self.pending.t0 = format!("{:.6} ns", t0_s * 1e9);
+                        self.pending.dt = format!("{:.6} ps", dt_s * 1e12);
+                        self.pending.bins = bins;
+                        self.messages.push(format!(
+                            "rendering again over {:.3} … {:.3} ns to cover the gates",
+                            t0_s * 1e9,
+                            (t0_s + dt_s * bins as f64) * 1e9
+                        ));
+                        self.apply_pending();
+                    }
+                    Some(sensor::CoverageAction::FitGates(e)) => self.settings.sensor.exposure = e,
+                    None => {}
                 }
             }
             Some(s) => self.images_ui(ui, s),
@@ -204,13 +308,15 @@ impl eframe::App for TprfApp {
                 });
             }
         });
+        self.path_prompt_ui(&ctx);
         if let Some(WorkerState::Failed(e)) = self.status().map(|s| s.state) {
             let m = format!("render failed: {e}");
             if !self.messages.contains(&m) {
                 self.messages.push(m);
             }
         }
-        self.frame_ms = 0.9 * self.frame_ms + 0.1 * started.elapsed().as_secs_f32() * 1e3;
+        let ui_ms = started.elapsed().as_secs_f32() * 1e3;
+        self.timing.ui_ms = FrameTiming::smooth(self.timing.ui_ms, ui_ms);
     }
 
     fn save(&mut self, storage: &mut dyn eframe::Storage) {

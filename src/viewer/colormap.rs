@@ -51,21 +51,39 @@ fn srgb(x: f64) -> u8 {
     tprf_core::export::srgb8(x)
 }
 
+/// The colour of `t` in `[0, 1]` under `map` (what a pixel of tone `t` and its place on
+/// the colour bar show).
+pub fn color_of(map: ColorMap, t: f64) -> [u8; 3] {
+    match map {
+        ColorMap::Gray => {
+            let g = srgb(t);
+            [g, g, g]
+        }
+        ColorMap::Inferno => {
+            let c = colorous::INFERNO.eval_continuous(t.clamp(0.0, 1.0));
+            [c.r, c.g, c.b]
+        }
+    }
+}
+
+/// The rainbow view's hue of `t` in `[0, 1]` (turbo), also used for depth images.
+pub fn turbo(t: f64) -> [u8; 3] {
+    let c = colorous::TURBO.eval_continuous(t.clamp(0.0, 1.0));
+    [c.r, c.g, c.b]
+}
+
+/// The signed-error colour of `t` in `[0, 1]`: blue (0) - white (0.5) - red (1).
+pub fn diverging(t: f64) -> [u8; 3] {
+    let c = colorous::RED_BLUE.eval_continuous((1.0 - t).clamp(0.0, 1.0));
+    [c.r, c.g, c.b]
+}
+
 /// RGBA8 pixels of a scalar image.
 pub fn colorize(values: &[f32], tone: &Tone, map: ColorMap) -> Vec<u8> {
     let mut out = Vec::with_capacity(values.len() * 4);
     for &v in values {
-        let t = tone.map(v as f64);
-        match map {
-            ColorMap::Gray => {
-                let g = srgb(t);
-                out.extend_from_slice(&[g, g, g, 255]);
-            }
-            ColorMap::Inferno => {
-                let c = colorous::INFERNO.eval_continuous(t);
-                out.extend_from_slice(&[c.r, c.g, c.b, 255]);
-            }
-        }
+        let [r, g, b] = color_of(map, tone.map(v as f64));
+        out.extend_from_slice(&[r, g, b, 255]);
     }
     out
 }
@@ -78,10 +96,10 @@ pub fn rainbow(peak_bins: &[Option<u32>], energy: &[f32], bins: usize, tone: &To
         match bin {
             Some(b) => {
                 let hue = b as f64 / bins.saturating_sub(1).max(1) as f64;
-                let c = colorous::TURBO.eval_continuous(hue.clamp(0.0, 1.0));
+                let [r, g, b] = turbo(hue);
                 let k = tone.map(energy as f64).sqrt();
                 let f = |x: u8| (x as f64 * k).round().clamp(0.0, 255.0) as u8;
-                out.extend_from_slice(&[f(c.r), f(c.g), f(c.b), 255]);
+                out.extend_from_slice(&[f(r), f(g), f(b), 255]);
             }
             None => out.extend_from_slice(&[0, 0, 0, 255]),
         }

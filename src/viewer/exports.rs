@@ -7,7 +7,7 @@ use super::app::TprfApp;
 use super::colormap;
 use super::tone::{self, View};
 use eframe::egui;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::mpsc::{Receiver, Sender, channel};
 use std::thread::JoinHandle;
@@ -128,17 +128,9 @@ fn write_video(
 }
 
 impl TprfApp {
-    /// Ask for a file and save `view` of `snap` there as shown (encoded in the
-    /// background).
-    pub(super) fn save_view_png(&mut self, view: View, snap: &Arc<FilmSnapshot>) {
-        let Some(path) = rfd::FileDialog::new()
-            .add_filter("PNG", &["png"])
-            .set_file_name("tprf.png")
-            .save_file()
-        else {
-            return;
-        };
-        let rgba = tone::view_pixels(view, snap, self.bin, &self.settings);
+    /// Save `view` of `snap` at `path` as shown (encoded in the background).
+    pub(super) fn save_view_png(&mut self, view: View, snap: &Arc<FilmSnapshot>, path: PathBuf) {
+        let (rgba, _) = tone::view_pixels(view, snap, self.bin, &self.settings);
         let (w, h) = (snap.width(), snap.height());
         let what = path.display().to_string();
         let write = move || write_png_rgba(&path, w, h, rgba);
@@ -147,12 +139,9 @@ impl TprfApp {
         }
     }
 
-    /// Ask for a folder and write every bin there as a PNG plus an animated GIF, with
-    /// one global exposure (coloured and encoded in the background).
-    pub(super) fn save_video(&mut self, snap: &Arc<FilmSnapshot>) {
-        let Some(dir) = rfd::FileDialog::new().pick_folder() else {
-            return;
-        };
+    /// Write every bin into the folder `dir` as a PNG plus an animated GIF, with one
+    /// global exposure (coloured and encoded in the background).
+    pub(super) fn save_video(&mut self, snap: &Arc<FilmSnapshot>, dir: PathBuf) {
         let tone = tone::global_tone(&self.settings, snap);
         let map = self.settings.colormap;
         let snap = snap.clone();
@@ -167,16 +156,9 @@ impl TprfApp {
         }
     }
 
-    /// Ask for a file and write the plotted curves there: one row per bin with its
-    /// start (s), centre (ns) and optical path length (m), one column per curve.
-    pub(super) fn export_csv(&mut self, snap: &FilmSnapshot) {
-        let Some(path) = rfd::FileDialog::new()
-            .add_filter("CSV", &["csv"])
-            .set_file_name("tprf.csv")
-            .save_file()
-        else {
-            return;
-        };
+    /// Write the plotted curves to `path`: one row per bin with its start (s), centre
+    /// (ns) and optical path length (m), one column per curve.
+    pub(super) fn export_csv(&mut self, snap: &FilmSnapshot, path: &Path) {
         let curves = self.plotted_curves(snap);
         let axis = *snap.axis();
         let mut header: Vec<String> = ["bin", "t_start_s", "t_center_ns", "opl_m"]
@@ -197,8 +179,9 @@ impl TprfApp {
             );
             row
         });
-        if let Err(e) = export::write_csv(&path, &header, rows) {
-            self.messages.push(format!("{e:#}"));
+        match export::write_csv(path, &header, rows) {
+            Ok(()) => self.messages.push(format!("saved {}", path.display())),
+            Err(e) => self.messages.push(format!("{e:#}")),
         }
     }
 }

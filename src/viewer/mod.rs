@@ -13,14 +13,24 @@
 //! - `panels`: one file per panel (top bar, controls, scrubber, images, plots, status);
 //! - `exports`: PNG, video and CSV files saved from the window, images encoded in the
 //!   background;
-//! - [`colormap`], [`timeline`]: pure colour and time-axis mappings;
+//! - [`colormap`], [`timeline`], [`axes`], [`layout`]: pure colour, time-axis, tick and
+//!   number, and image-layout mappings (tested without a window);
+//! - `colorbar`, `plotting`: the colour bar under every image, and egui_plot set up
+//!   with readable ticks and units;
+//! - `files`: choosing a file: the system dialog, or a path typed in the window when
+//!   the dialog cannot open;
 //! - [`sensor`]: the sensor tab (model, background measurement, envelope editor).
 
 mod app;
+pub mod axes;
+mod colorbar;
 pub mod colormap;
 mod exports;
+mod files;
+pub mod layout;
 mod panels;
 mod playback;
+mod plotting;
 mod selection;
 pub mod sensor;
 mod settings;
@@ -29,7 +39,8 @@ mod textures;
 pub mod timeline;
 mod tone;
 
-pub use app::TprfApp;
+pub use app::{FrameTiming, TprfApp};
+pub use files::FileAction;
 pub use selection::Selection;
 pub use settings::{Mode, ViewerSettings};
 

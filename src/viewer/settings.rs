@@ -22,6 +22,8 @@ pub struct ViewerSettings {
     pub dt: String,
     /// Samples per pixel to stop at (0 = keep going).
     pub spp_target: u64,
+    /// Relative error estimate (%) to stop at (0 = keep going).
+    pub error_target_pct: f64,
     pub max_bounces: u32,
     pub channel: Channel,
     pub seed: u64,
@@ -61,6 +63,7 @@ impl Default for ViewerSettings {
             t0: String::new(),
             dt: String::new(),
             spp_target: 0,
+            error_target_pct: 0.0,
             max_bounces: 1024,
             channel: Channel::Gray,
             seed: 0,
@@ -96,6 +99,9 @@ impl ViewerSettings {
         if !self.ev.is_finite() {
             self.ev = 0.0;
         }
+        if !(self.error_target_pct.is_finite() && self.error_target_pct > 0.0) {
+            self.error_target_pct = 0.0;
+        }
         self
     }
 
@@ -111,6 +117,7 @@ impl ViewerSettings {
             t0: other.t0.clone(),
             dt: other.dt.clone(),
             spp_target: other.spp_target,
+            error_target_pct: other.error_target_pct,
             max_bounces: other.max_bounces,
             channel: other.channel,
             seed: other.seed,
@@ -154,6 +161,7 @@ impl ViewerSettings {
                 ..Default::default()
             },
             spp_target: (self.spp_target > 0).then_some(self.spp_target),
+            error_target: (self.error_target_pct > 0.0).then(|| self.error_target_pct / 100.0),
         })
     }
 }

@@ -77,6 +77,7 @@ impl TprfApp {
                     meta: Box::new(meta),
                 };
                 self.selection = None;
+                self.selection_film = None;
                 self.pins.clear();
             }
             Err(e) => self.messages.push(format!(
@@ -91,6 +92,7 @@ impl TprfApp {
     pub(super) fn open_scene(&mut self, scene: String) {
         self.pending.scene = scene;
         self.selection = None;
+        self.selection_film = None;
         self.pins.clear();
         self.apply_pending();
     }

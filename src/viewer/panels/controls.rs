@@ -4,9 +4,11 @@
 
 use crate::viewer::app::TprfApp;
 use crate::viewer::colormap::{ColorMap, ExposureMode};
+use crate::viewer::files::FileAction;
 use crate::viewer::sensor;
 use crate::viewer::settings::{MAX_BINS, MAX_SIDE};
-use crate::viewer::tone::View;
+use crate::viewer::source::Source;
+use crate::viewer::tone::{SLICE_FLOOR, SLICE_PERCENTILE};
 use eframe::egui::{self, RichText};
 use std::sync::Arc;
 use tprf_core::film::FilmSnapshot;
@@ -21,22 +23,84 @@ impl TprfApp {
         snap: Option<&Arc<FilmSnapshot>>,
     ) {
         let axis = snap.map(|s| *s.axis());
-        if let Some(m) = sensor::controls_ui(ui, &mut self.settings.sensor, axis.as_ref()) {
+        let out = sensor::controls_ui(ui, &mut self.settings.sensor, axis.as_ref());
+        if let Some(m) = out.message {
             self.messages.push(m);
+        }
+        if let Some(a) = out.file {
+            self.choose_file(a);
         }
         if let Some(e) = &self.sensor.error {
             ui.label(RichText::new(e).color(ui.visuals().error_fg_color));
         }
     }
 
-    /// Scene, Render, Display, Save and Messages.
+    /// Scene (or the cube's own facts), Render, Display, Save and Messages.
     pub(crate) fn controls_ui(&mut self, ui: &mut egui::Ui) {
-        ui.heading("Scene");
-        ui.label(RichText::new(&self.settings.scene).monospace());
-        if let Some(s) = self.status() {
-            ui.label(format!("{} triangles", s.triangles));
-            for n in &s.notes {
-                ui.label(RichText::new(format!("note: {n}")).small().weak());
+        if let Source::Cube {
+            dir,
+            meta,
+            snapshot,
+        } = &self.source
+        {
+            ui.heading("Cube");
+            ui.label(RichText::new(dir.display().to_string()).monospace());
+            let axis = snapshot.axis();
+            egui::Grid::new("cube-grid").num_columns(2).show(ui, |ui| {
+                let mut row = |k: &str, v: String| {
+                    ui.label(k);
+                    ui.label(v);
+                    ui.end_row();
+                };
+                row("scene", meta.scene.clone());
+                row(
+                    "film",
+                    format!("{} × {} px × {} bins", meta.width, meta.height, meta.bins),
+                );
+                row("spp", meta.spp.to_string());
+                row(
+                    "window",
+                    format!(
+                        "{} … {} (bins of {})",
+                        format_time(axis.t0_s),
+                        format_time(axis.end_s()),
+                        format_time(axis.dt_s)
+                    ),
+                );
+                row("band", meta.channel.clone());
+                row(
+                    "bounce layers",
+                    if snapshot.layers() > 1 {
+                        format!("{}", snapshot.layers())
+                    } else {
+                        "none".into()
+                    },
+                );
+                row(
+                    "rendered",
+                    format!("in {:.1} s, {} passes", meta.wall_seconds, meta.passes),
+                );
+                if let Some(e) = meta.error_estimate {
+                    row("error estimate", format!("{:.2} %", 100.0 * e));
+                }
+            });
+            for n in &meta.notes {
+                ui.label(RichText::new(format!("note: {n}")).weak());
+            }
+            ui.label(
+                RichText::new("The render settings below start a new render of a scene.").weak(),
+            );
+        } else {
+            ui.heading("Scene");
+            ui.label(RichText::new(&self.settings.scene).monospace());
+            if let Some(s) = self.status() {
+                ui.label(format!(
+                    "{} triangles · set up in {:.1} s",
+                    s.triangles, s.setup_s
+                ));
+                for n in &s.notes {
+                    ui.label(RichText::new(format!("note: {n}")).weak());
+                }
             }
         }
         ui.separator();
@@ -101,6 +165,18 @@ impl TprfApp {
                 ui.add(egui::DragValue::new(&mut p.spp_target).range(0..=1_000_000))
                     .labelled_by(l.id);
                 ui.end_row();
+                let l = ui
+                    .label("Stop at error")
+                    .on_hover_text("relative error estimate of the cube; 0: keep refining");
+                ui.add(
+                    egui::DragValue::new(&mut p.error_target_pct)
+                        .range(0.0..=100.0)
+                        .speed(0.05)
+                        .max_decimals(2)
+                        .suffix(" %"),
+                )
+                .labelled_by(l.id);
+                ui.end_row();
                 let l = ui.label("Max bounces");
                 ui.add(egui::DragValue::new(&mut p.max_bounces).range(1..=100_000))
                     .labelled_by(l.id);
@@ -138,16 +214,13 @@ impl TprfApp {
         if let Some(s) = self.status()
             && let Some(axis) = s.axis
         {
-            ui.label(
-                RichText::new(format!(
-                    "window {} … {} ({} bins of {})",
-                    format_time(axis.t0_s),
-                    format_time(axis.end_s()),
-                    axis.bins,
-                    format_time(axis.dt_s)
-                ))
-                .small(),
-            );
+            ui.label(format!(
+                "window {} … {} ({} bins of {})",
+                format_time(axis.t0_s),
+                format_time(axis.end_s()),
+                axis.bins,
+                format_time(axis.dt_s)
+            ));
         }
     }
 
@@ -163,6 +236,20 @@ impl TprfApp {
         });
         ui.add(egui::Slider::new(&mut s.ev, -10.0..=10.0).text("EV"));
         ui.checkbox(&mut s.log_image, "Log scale (3 decades)");
+        ui.label(
+            RichText::new(match s.exposure {
+                ExposureMode::PerFrame => format!(
+                    "per frame: white = the {:.1}th percentile of the slice's pixels (at \
+                     least {:.0} % of the cube's white)",
+                    SLICE_PERCENTILE * 100.0,
+                    SLICE_FLOOR * 100.0
+                ),
+                ExposureMode::Global => {
+                    "global: white = the 99.9th percentile of the cube's lit bins".into()
+                }
+            })
+            .weak(),
+        );
         ui.horizontal(|ui| {
             ui.label("Colours");
             ui.selectable_value(&mut s.colormap, ColorMap::Inferno, "inferno");
@@ -180,26 +267,20 @@ impl TprfApp {
         ui.heading("Save");
         let snap = self.snapshot();
         ui.add_enabled_ui(snap.is_some(), |ui| {
-            if ui.button("Time slice as PNG…").clicked()
-                && let Some(snap) = &snap
-            {
-                self.save_view_png(View::Slice, snap);
+            if ui.button("Time slice as PNG…").clicked() {
+                self.choose_file(FileAction::SaveSlicePng);
             }
-            if ui.button("Steady image as PNG…").clicked()
-                && let Some(snap) = &snap
-            {
-                self.save_view_png(View::Steady, snap);
+            if ui.button("Steady image as PNG…").clicked() {
+                self.choose_file(FileAction::SaveSteadyPng);
             }
-            if ui.button("Video as frames + GIF…").clicked()
-                && let Some(snap) = &snap
-            {
-                self.save_video(snap);
+            if ui.button("Video as frames + GIF…").clicked() {
+                self.choose_file(FileAction::SaveVideo);
             }
         });
         if self.exports.busy() {
             ui.horizontal(|ui| {
                 ui.spinner();
-                ui.label(RichText::new("saving…").small());
+                ui.label("saving…");
             });
         }
     }

@@ -2,8 +2,9 @@
 //! plot while a render runs.
 
 use crate::viewer::app::TprfApp;
+use crate::viewer::plotting;
 use eframe::egui::{self, RichText};
-use egui_plot::{Line, Plot, PlotPoints};
+use egui_plot::{AxisHints, Line, Plot, PlotPoints};
 
 impl TprfApp {
     /// Nothing for a loaded cube or before the first estimate.
@@ -14,7 +15,9 @@ impl TprfApp {
         if status.error_history.is_empty() {
             return;
         }
-        ui.label(RichText::new("Error estimate (two half buffers) against time").small());
+        ui.label(RichText::new(
+            "Error estimate (two half buffers) against wall time, log-log",
+        ));
         let pts: PlotPoints = status
             .error_history
             .iter()
@@ -22,12 +25,22 @@ impl TprfApp {
             .map(|(t, e)| [t.log10(), e.log10()])
             .collect();
         Plot::new("error-plot")
-            .height(110.0)
+            .height(130.0)
             .allow_drag(false)
             .allow_zoom(false)
             .allow_scroll(false)
-            .x_axis_label("log10 s")
-            .y_axis_label("log10 rel. error")
+            .x_grid_spacer(plotting::spacer(60.0))
+            .y_grid_spacer(plotting::spacer(24.0))
+            .custom_x_axes(vec![
+                AxisHints::new_x()
+                    .label("wall time (s)")
+                    .formatter(plotting::log_tick),
+            ])
+            .custom_y_axes(vec![
+                AxisHints::new_y()
+                    .label("rel. error")
+                    .formatter(plotting::log_tick),
+            ])
             .show(ui, |plot_ui| plot_ui.line(Line::new("error", pts)));
     }
 }

@@ -1,40 +1,56 @@
 //! The central panel in transient mode: the time slice, the steady image and the
-//! rainbow image, with pixel picking (click a pixel, drag a box) and a hover readout.
+//! rainbow image, each with its colour bar and unit, laid out to grow with the window;
+//! pixel picking (click a pixel, drag a box); and a readout of the pixel under the
+//! cursor (value with its unit, peak arrival time) under the images and at the pointer.
 
 use super::PIN_COLORS;
 use crate::viewer::app::TprfApp;
+use crate::viewer::axes::{self, BIN_UNIT, BarScale, STEADY_UNIT};
+use crate::viewer::colorbar::ColorBar;
+use crate::viewer::colormap;
+use crate::viewer::layout::image_layout;
 use crate::viewer::selection::Selection;
 use crate::viewer::textures::ImageKey;
 use crate::viewer::timeline::bin_label;
 use crate::viewer::tone::{View, view_pixels};
-use eframe::egui::{self, Color32, RichText, Sense, TextureHandle, Vec2};
+use eframe::egui::{self, Color32, Rect, RichText, Sense, TextureHandle, UiBuilder, Vec2};
 use tprf_core::film::FilmSnapshot;
+use tprf_core::units::C_M_PER_S;
+
+/// Height of an image's title row, points.
+const TITLE_H: f32 = 22.0;
+/// Height of the readout line under the images, points.
+const READOUT_H: f32 = 24.0;
+/// Space between image blocks, points.
+const GAP: f32 = 10.0;
 
 impl TprfApp {
-    /// The texture of `view`, made again only when the snapshot, bin or tone changed.
+    /// The texture of `view` and how it was exposed, made again only when the snapshot,
+    /// bin or tone changed.
     fn texture(&mut self, view: View, snap: &FilmSnapshot) -> TextureHandle {
         let key = ImageKey::new(view, snap, self.bin, &self.settings);
+        let (bin, settings) = (self.bin, &self.settings);
+        let exposures = &mut self.exposures;
         self.textures.get(&self.ctx, view.name(), key, || {
-            egui::ColorImage::from_rgba_unmultiplied(
-                [snap.width(), snap.height()],
-                &view_pixels(view, snap, self.bin, &self.settings),
-            )
+            let (px, exposure) = view_pixels(view, snap, bin, settings);
+            exposures.retain(|(v, _)| *v != view);
+            exposures.push((view, exposure));
+            egui::ColorImage::from_rgba_unmultiplied([snap.width(), snap.height()], &px)
         })
     }
 
-    /// One image, as large as fits in `max`, with pixel picking; updates the selection.
+    /// One image at `size` with pixel picking; updates the selection and returns the
+    /// pixel under the pointer.
     fn image_ui(
         &mut self,
         ui: &mut egui::Ui,
         view: View,
         snap: &FilmSnapshot,
-        max: Vec2,
+        size: Vec2,
         label: &str,
-    ) {
+    ) -> Option<(usize, usize)> {
         let tex = self.texture(view, snap);
-        let (w, h) = (snap.width() as f32, snap.height() as f32);
-        let scale = (max.x / w).min(max.y / h).max(0.01);
-        let size = Vec2::new(w * scale, h * scale);
+        let scale = size.x / snap.width().max(1) as f32;
         let response = ui.add(egui::Image::new((tex.id(), size)).sense(Sense::click_and_drag()));
         response.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Image, true, label));
         crate::viewer::textures::shrunk_note_ui(ui, &tex, snap.width(), snap.height());
@@ -54,7 +70,7 @@ impl TprfApp {
             && response.dragged()
         {
             let end = to_pixel(pos);
-            self.selection = Some(
+            self.select(
                 Selection {
                     x0: start.0,
                     y0: start.1,
@@ -62,6 +78,7 @@ impl TprfApp {
                     y1: end.1,
                 }
                 .normalized(),
+                snap,
             );
         }
         if response.drag_stopped() {
@@ -71,7 +88,7 @@ impl TprfApp {
             && let Some(pos) = response.interact_pointer_pos()
         {
             let (x, y) = to_pixel(pos);
-            self.selection = Some(Selection::pixel(x, y));
+            self.select(Selection::pixel(x, y), snap);
         }
         // Outline the selection and pins.
         let painter = ui.painter_at(response.rect);
@@ -80,7 +97,7 @@ impl TprfApp {
             let min = response.rect.min + Vec2::new(s.x0 as f32, s.y0 as f32) * scale;
             let max = response.rect.min + Vec2::new((s.x1 + 1) as f32, (s.y1 + 1) as f32) * scale;
             painter.rect_stroke(
-                egui::Rect::from_min_max(min, max).expand(1.0),
+                Rect::from_min_max(min, max).expand(1.0),
                 0.0,
                 (1.5, color),
                 egui::StrokeKind::Outside,
@@ -92,36 +109,191 @@ impl TprfApp {
         if let Some(s) = &self.selection {
             outline(s, PIN_COLORS[0]);
         }
-        if let Some(pos) = response.hover_pos() {
-            let (x, y) = to_pixel(pos);
-            let v = snap.pixel(x, y).get(self.bin).copied().unwrap_or(0.0);
-            response.on_hover_text(format!(
-                "({x}, {y})  slice {v:.4e}  steady {:.4e}",
-                snap.pixel(x, y).iter().map(|&v| v as f64).sum::<f64>()
-            ));
+        let hovered = response.hover_pos().map(to_pixel);
+        if let Some((x, y)) = hovered {
+            response.on_hover_text_at_pointer(self.pixel_readout(snap, x, y));
+        }
+        hovered
+    }
+
+    /// What the window says of pixel `(x, y)`: its value in the scrubber's bin and its
+    /// steady value with their units, and when its light peaks (ns and optical path m).
+    pub fn pixel_readout(&self, snap: &FilmSnapshot, x: usize, y: usize) -> String {
+        let axis = snap.axis();
+        let tprf = snap.pixel(x, y);
+        let v = tprf.get(self.bin).copied().unwrap_or(0.0);
+        let steady: f64 = tprf.iter().map(|&v| f64::from(v)).sum();
+        let peak = snap
+            .peak_bins()
+            .get(y * snap.width() + x)
+            .copied()
+            .flatten()
+            .map_or("no light".to_string(), |b| {
+                let t = axis.bin_center_s(b as usize);
+                format!("peak at {:.3} ns ({:.3} m)", t * 1e9, t * C_M_PER_S)
+            });
+        format!(
+            "pixel ({x}, {y}) · bin {}: {} · steady {} · {peak}",
+            self.bin,
+            axes::format_value(f64::from(v), BIN_UNIT),
+            axes::format_value(steady, STEADY_UNIT),
+        )
+    }
+
+    /// The colour bar of `view`, from the exposure its texture was made with.
+    fn view_bar_ui(&self, ui: &mut egui::Ui, view: View, snap: &FilmSnapshot, width: f32) {
+        let axis = snap.axis();
+        let map = self.settings.colormap;
+        let exposure = self
+            .exposures
+            .iter()
+            .find(|(v, _)| *v == view)
+            .map(|e| &e.1);
+        let Some(exposure) = exposure else {
+            return;
+        };
+        match view {
+            View::Slice => {
+                let ramp = move |t: f64| colormap::color_of(map, t);
+                ColorBar {
+                    of: "time slice",
+                    ramp: &ramp,
+                    scale: exposure.bar_scale(),
+                    unit: BIN_UNIT,
+                    second: None,
+                    note: &format!(
+                        "radiance in the bin (integral over the bin, unit pulse energy); {}",
+                        exposure.note
+                    ),
+                }
+                .ui(ui, width);
+            }
+            View::Steady => {
+                let ramp = |t: f64| colormap::color_of(colormap::ColorMap::Gray, t);
+                ColorBar {
+                    of: "steady image",
+                    ramp: &ramp,
+                    scale: exposure.bar_scale(),
+                    unit: STEADY_UNIT,
+                    second: None,
+                    note: &format!("steady-state radiance (sum over bins); {}", exposure.note),
+                }
+                .ui(ui, width);
+            }
+            View::Rainbow => {
+                let first = axis.bin_center_s(0) * 1e9;
+                let last = axis.bin_center_s(axis.bins.saturating_sub(1)) * 1e9;
+                let (lo, hi) = if last > first {
+                    (first, last)
+                } else {
+                    (first - 0.5 * axis.dt_s * 1e9, first + 0.5 * axis.dt_s * 1e9)
+                };
+                let to_m = |ns: f64| ns * 1e-9 * C_M_PER_S;
+                ColorBar {
+                    of: "rainbow image",
+                    ramp: &colormap::turbo,
+                    scale: BarScale::Linear { lo, hi },
+                    unit: "ns",
+                    second: Some(("m", &to_m)),
+                    note: &format!(
+                        "hue: arrival time of the pixel's peak (ns; optical path in m); {}",
+                        exposure.note
+                    ),
+                }
+                .ui(ui, width);
+            }
         }
     }
 
-    /// The time slice large on the left, the steady and rainbow images beside it.
+    /// One image with its title over it and its colour bar under it; returns the pixel
+    /// under the pointer.
+    fn image_block_ui(
+        &mut self,
+        ui: &mut egui::Ui,
+        view: View,
+        snap: &FilmSnapshot,
+        size: Vec2,
+    ) -> Option<(usize, usize)> {
+        let (title, label) = match view {
+            View::Slice => (
+                format!("Time slice · {}", bin_label(snap.axis(), self.bin)),
+                "time slice",
+            ),
+            View::Steady => ("Steady state (sum over time)".to_string(), "steady image"),
+            View::Rainbow => ("Rainbow (hue = peak arrival)".to_string(), "rainbow image"),
+        };
+        ui.add_sized(
+            Vec2::new(size.x, TITLE_H - 4.0),
+            egui::Label::new(RichText::new(title).strong()).truncate(),
+        );
+        let hovered = self.image_ui(ui, view, snap, size, label);
+        self.view_bar_ui(ui, view, snap, size.x);
+        hovered
+    }
+
+    /// The time slice large, the steady and rainbow images beside or under it (whichever
+    /// lets the slice grow larger), and the readout of the pixel under the pointer (or
+    /// of the selected pixel).
     pub(crate) fn images_ui(&mut self, ui: &mut egui::Ui, snap: &FilmSnapshot) {
-        let avail = ui.available_size();
-        let side_w = (avail.x * 0.3).max(120.0);
-        ui.horizontal_top(|ui| {
-            ui.vertical(|ui| {
-                ui.label(
-                    RichText::new(format!("Time slice · {}", bin_label(snap.axis(), self.bin)))
-                        .strong(),
-                );
-                let max = Vec2::new(avail.x - side_w - 16.0, avail.y - 24.0);
-                self.image_ui(ui, View::Slice, snap, max, "time slice");
-            });
-            ui.vertical(|ui| {
-                let max = Vec2::new(side_w, (avail.y - 60.0) / 2.0);
-                ui.label(RichText::new("Steady state (sum over time)").strong());
-                self.image_ui(ui, View::Steady, snap, max, "steady image");
-                ui.label(RichText::new("Rainbow (hue = peak arrival)").strong());
-                self.image_ui(ui, View::Rainbow, snap, max, "rainbow image");
+        let full = ui.available_rect_before_wrap();
+        let bar_h = 2.0 + 10.0 + 2.0 + 2.0 * 14.0;
+        let extra = TITLE_H + bar_h + 2.0 * ui.spacing().item_spacing.y;
+        let aspect = snap.width().max(1) as f32 / snap.height().max(1) as f32;
+        let area = (full.width(), full.height() - READOUT_H);
+        let l = image_layout(area, aspect, extra, GAP);
+        let big = Vec2::new(l.big.0, l.big.1);
+        let small = Vec2::new(l.small.0, l.small.1);
+        let block = |min: egui::Pos2, size: Vec2| {
+            Rect::from_min_size(min, Vec2::new(size.x, size.y + extra))
+        };
+        let big_rect = block(full.min, big);
+        let (r1, r2) = if l.below {
+            let y = big_rect.bottom() + GAP;
+            let r1 = block(egui::pos2(full.left(), y), small);
+            (r1, block(egui::pos2(r1.right() + GAP, y), small))
+        } else {
+            let x = big_rect.right() + GAP;
+            let r1 = block(egui::pos2(x, full.top()), small);
+            (r1, block(egui::pos2(x, r1.bottom() + GAP), small))
+        };
+        let mut hovered = None;
+        for (rect, view, size) in [
+            (big_rect, View::Slice, big),
+            (r1, View::Steady, small),
+            (r2, View::Rainbow, small),
+        ] {
+            let h = ui
+                .scope_builder(UiBuilder::new().max_rect(rect), |ui| {
+                    self.image_block_ui(ui, view, snap, size)
+                })
+                .inner;
+            hovered = hovered.or(h);
+        }
+        // The readout right under the time slice when the small images sit beside it
+        // (wrapping there), else along the panel's bottom.
+        let readout_rect = if l.below {
+            Rect::from_min_max(egui::pos2(full.left(), full.bottom() - READOUT_H), full.max)
+        } else {
+            Rect::from_min_max(
+                egui::pos2(full.left(), big_rect.bottom() + GAP / 2.0),
+                egui::pos2(big_rect.right(), full.bottom()),
+            )
+        };
+        let text = match (hovered, self.selection) {
+            (Some((x, y)), _) => self.pixel_readout(snap, x, y),
+            (None, Some(s)) if s.x0 == s.x1 && s.y0 == s.y1 => {
+                format!("selected {}", self.pixel_readout(snap, s.x0, s.y0))
+            }
+            _ => "Hover a pixel to read its value".to_string(),
+        };
+        ui.scope_builder(UiBuilder::new().max_rect(readout_rect), |ui| {
+            let label = egui::Label::new(RichText::new(text));
+            ui.add(if l.below {
+                label.truncate()
+            } else {
+                label.wrap()
             });
         });
+        ui.advance_cursor_after_rect(full);
     }
 }

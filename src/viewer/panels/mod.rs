@@ -12,23 +12,52 @@ mod top_bar;
 
 use eframe::egui::Color32;
 
-/// The selection's colour (index 0), then the pins'.
+/// The selection's colour (index 0), then the pins'. None is the scrubber's or a
+/// bounce curve's (see the test).
 const PIN_COLORS: [Color32; 6] = [
     Color32::from_rgb(0x4e, 0xc9, 0xff),
     Color32::from_rgb(0xff, 0x9f, 0x43),
-    Color32::from_rgb(0x7b, 0xe0, 0x7b),
     Color32::from_rgb(0xff, 0x6b, 0xd6),
-    Color32::from_rgb(0xff, 0xe0, 0x66),
-    Color32::from_rgb(0xb0, 0x9c, 0xff),
+    Color32::from_rgb(0xf0, 0xf0, 0x50),
+    Color32::from_rgb(0x2e, 0xd8, 0xa8),
+    Color32::from_rgb(0x30, 0x50, 0xff),
 ];
 
-/// The per-bounce curves: 1, 2, 3, more than 3 scattering events.
+/// The per-bounce curves (drawn dashed): 1, 2, 3, more than 3 scattering events.
 const BOUNCE_COLORS: [Color32; 4] = [
-    Color32::from_rgb(0xff, 0x55, 0x55),
-    Color32::from_rgb(0x55, 0xdd, 0x55),
-    Color32::from_rgb(0x66, 0x99, 0xff),
-    Color32::from_rgb(0xcc, 0xcc, 0xcc),
+    Color32::from_rgb(0xff, 0x50, 0x50),
+    Color32::from_rgb(0x6c, 0xe0, 0x4c),
+    Color32::from_rgb(0xa8, 0x78, 0xff),
+    Color32::from_rgb(0xb4, 0xb4, 0xb4),
 ];
 
-/// The scrubber's bin, on the ruler and on the plot.
-const SCRUBBER_COLOR: Color32 = Color32::from_rgb(0xff, 0x9f, 0x43);
+/// The scrubber's bin, on the ruler and on the plot: white, like no curve.
+const SCRUBBER_COLOR: Color32 = Color32::from_rgb(0xff, 0xff, 0xff);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every pair of curve colours on the TPRF plot (selection, pins, bounces, scrubber)
+    /// differs by at least 80 in RGB distance, so no two read as the same curve.
+    #[test]
+    fn plot_colours_do_not_collide() {
+        let all: Vec<Color32> = PIN_COLORS
+            .iter()
+            .chain(&BOUNCE_COLORS)
+            .chain(std::iter::once(&SCRUBBER_COLOR))
+            .copied()
+            .collect();
+        for (i, a) in all.iter().enumerate() {
+            for b in &all[i + 1..] {
+                let d = [a.r(), a.g(), a.b()]
+                    .iter()
+                    .zip([b.r(), b.g(), b.b()])
+                    .map(|(x, y)| (f32::from(*x) - f32::from(y)).powi(2))
+                    .sum::<f32>()
+                    .sqrt();
+                assert!(d >= 80.0, "{a:?} and {b:?} are {d:.0} apart");
+            }
+        }
+    }
+}

@@ -4,6 +4,9 @@
 
 use super::{BOUNCE_COLORS, PIN_COLORS, SCRUBBER_COLOR};
 use crate::viewer::app::TprfApp;
+use crate::viewer::axes::{self, BIN_UNIT};
+use crate::viewer::files::FileAction;
+use crate::viewer::plotting;
 use crate::viewer::selection::Selection;
 use crate::viewer::sensor;
 use eframe::egui::{self, Color32, RichText};
@@ -11,13 +14,16 @@ use egui_plot::{Legend, Line, Plot, PlotPoints, VLine};
 use tprf_core::film::{FilmSnapshot, TimeAxis};
 use tprf_core::units::C_M_PER_S;
 
+/// Layers a film needs for the per-bounce curves: direct, 1, 2, 3, more than 3.
+const BOUNCE_LAYERS: usize = 5;
+
 impl TprfApp {
     /// The curves the TPRF plot shows: (name, colour, values per bin).
     pub fn plotted_curves(&self, snap: &FilmSnapshot) -> Vec<(String, Color32, Vec<f64>)> {
         let mut curves = Vec::new();
         if let Some(sel) = &self.selection {
             curves.push((sel.label(), PIN_COLORS[0], sel.tprf(snap, None)));
-            if snap.layers() >= 5 {
+            if snap.layers() >= BOUNCE_LAYERS {
                 // Layers: 0 direct, 1, 2, 3, 4 = more than 3.
                 for (k, show) in self.settings.show_bounces.iter().enumerate() {
                     if *show {
@@ -46,11 +52,17 @@ impl TprfApp {
         ui.heading("TPRF");
         ui.horizontal_wrapped(|ui| {
             ui.checkbox(&mut self.settings.plot_log, "log");
-            for (k, name) in ["1", "2", "3", ">3"].iter().enumerate() {
-                ui.checkbox(
-                    &mut self.settings.show_bounces[k],
-                    RichText::new(*name).color(BOUNCE_COLORS[k]),
-                );
+            // Bounce curves only where the film has the layers.
+            if snap.layers() >= BOUNCE_LAYERS {
+                ui.label("bounces:");
+                for (k, name) in ["1", "2", "3", ">3"].iter().enumerate() {
+                    ui.checkbox(
+                        &mut self.settings.show_bounces[k],
+                        RichText::new(*name).color(BOUNCE_COLORS[k]),
+                    );
+                }
+            } else {
+                ui.label(RichText::new("no bounce layers in this film").weak());
             }
         });
         ui.horizontal(|ui| {
@@ -75,7 +87,7 @@ impl TprfApp {
                 )
                 .clicked()
             {
-                self.export_csv(snap);
+                self.choose_file(FileAction::SaveCsv);
             }
         });
         if self.selection.is_none() && self.pins.is_empty() {
@@ -96,16 +108,15 @@ impl TprfApp {
             if max > 0.0 { max * 1e-6 } else { 1e-30 }
         });
         let plot_h = (ui.available_height() - 150.0).max(160.0);
-        let response = Plot::new("tprf-plot")
+        let y_label = if log {
+            format!("radiance per bin, log ({BIN_UNIT})")
+        } else {
+            format!("radiance per bin ({BIN_UNIT})")
+        };
+        let plot = Plot::new("tprf-plot")
             .height(plot_h)
             .legend(Legend::default())
             .allow_drag(false)
-            .x_axis_label("arrival time (ns)")
-            .y_axis_label(if log {
-                "log10 radiance per bin"
-            } else {
-                "radiance per bin"
-            })
             .label_formatter(move |hover| {
                 let (name, pos) = match hover {
                     egui_plot::HoverPosition::NearDataPoint {
@@ -118,24 +129,31 @@ impl TprfApp {
                 let t_ns = pos.x;
                 let v = if log { 10f64.powf(pos.y) } else { pos.y };
                 Some(format!(
-                    "{name}\n{t_ns:.3} ns · {:.3} m\n{v:.4e}",
-                    t_ns * 1e-9 * C_M_PER_S
+                    "{name}\n{t_ns:.3} ns · {:.3} m\n{}",
+                    t_ns * 1e-9 * C_M_PER_S,
+                    axes::format_value(v, BIN_UNIT)
                 ))
             })
             .include_x(axis.t0_s * 1e9)
-            .include_x(axis.end_s() * 1e9)
-            .show(ui, |plot_ui| {
-                for (name, color, values) in &curves {
-                    plot_ui.line(
-                        Line::new(name.clone(), step_points(&axis, values, log_floor))
-                            .color(*color),
-                    );
-                }
-                plot_ui.vline(
-                    VLine::new("scrubber", axis.bin_center_s(bin_now) * 1e9).color(SCRUBBER_COLOR),
-                );
-                plot_ui.pointer_coordinate()
-            });
+            .include_x(axis.end_s() * 1e9);
+        let response = plotting::time_plot(plot, &y_label, log).show(ui, |plot_ui| {
+            for (name, color, values) in &curves {
+                let bounce = BOUNCE_COLORS.contains(color);
+                let line =
+                    Line::new(name.clone(), step_points(&axis, values, log_floor)).color(*color);
+                plot_ui.line(if bounce {
+                    line.style(egui_plot::LineStyle::dashed_dense()).width(1.2)
+                } else {
+                    line.width(1.8)
+                });
+            }
+            plot_ui.vline(
+                VLine::new("scrubber", axis.bin_center_s(bin_now) * 1e9)
+                    .color(SCRUBBER_COLOR)
+                    .style(egui_plot::LineStyle::dotted_loose()),
+            );
+            plot_ui.pointer_coordinate()
+        });
         // Drag on the plot moves the scrubber.
         if (response.response.dragged() || response.response.clicked())
             && let Some(p) = response.inner
@@ -164,26 +182,27 @@ impl TprfApp {
             _ => Vec::new(),
         };
         let h = ui.available_height();
-        ui.label(
-            RichText::new("Drag the handles: Light(t) and the gates over the pixel's TPRF").small(),
-        );
-        sensor::editor_ui(
-            ui,
-            &mut self.sensor,
-            &mut self.settings.sensor,
-            &tprf,
-            snap.axis(),
-            (h * 0.42).max(160.0),
-        );
-        sensor::pixel_plots_ui(
-            ui,
-            &mut self.sensor,
-            &tprf,
-            &m_pixel,
-            (h * 0.2).max(90.0),
-            snap,
-            (sel.y0, sel.x0),
-        );
+        let axis = *snap.axis();
+        // Scrolls when the window is too short for the three plots.
+        egui::ScrollArea::vertical().show(ui, |ui| {
+            sensor::editor_ui(
+                ui,
+                &mut self.sensor,
+                &mut self.settings.sensor,
+                &tprf,
+                &axis,
+                (h * 0.36).max(170.0),
+            );
+            sensor::pixel_plots_ui(
+                ui,
+                &mut self.sensor,
+                &tprf,
+                &m_pixel,
+                (h * 0.19).max(110.0),
+                snap,
+                (sel.y0, sel.x0),
+            );
+        });
     }
 }
 

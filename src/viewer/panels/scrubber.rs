@@ -11,7 +11,23 @@ impl TprfApp {
     /// The playback buttons over the ruler of `axis`.
     pub(crate) fn scrubber_ui(&mut self, ui: &mut egui::Ui, axis: &TimeAxis) {
         let bins = axis.bins;
-        ui.horizontal(|ui| {
+        // Wraps rather than clipping the time readout in a narrow window; the time
+        // comes first, whole.
+        ui.horizontal_wrapped(|ui| {
+            ui.add(
+                egui::Label::new(
+                    RichText::new(format!(
+                        "bin {} / {} · t = {}",
+                        self.bin,
+                        bins,
+                        bin_label(axis, self.bin)
+                    ))
+                    .monospace()
+                    .strong(),
+                )
+                .wrap_mode(egui::TextWrapMode::Extend),
+            );
+            ui.separator();
             if ui.button("⏮").on_hover_text("First bin").clicked() {
                 self.bin = 0;
             }
@@ -36,20 +52,10 @@ impl TprfApp {
                     .logarithmic(true)
                     .text("bins/s"),
             );
-            ui.separator();
-            ui.label(
-                RichText::new(format!(
-                    "bin {} / {}   t = {}",
-                    self.bin,
-                    bins,
-                    bin_label(axis, self.bin)
-                ))
-                .monospace(),
-            );
         });
         // The scrub bar: drag or click anywhere on it.
         let (rect, response) = ui.allocate_exact_size(
-            Vec2::new(ui.available_width(), 28.0),
+            Vec2::new(ui.available_width(), 32.0),
             Sense::click_and_drag(),
         );
         let ruler = TimeRuler {
@@ -70,7 +76,7 @@ impl TprfApp {
             axis.end_s(),
             ((rect.width() / 90.0) as usize).max(2),
         );
-        let font = egui::FontId::proportional(10.0);
+        let font = egui::FontId::proportional(12.0);
         for t in ticks {
             let x = ruler.x_of_time(t);
             painter.line_segment(

@@ -1,6 +1,7 @@
 //! The top bar: the mode, opening a scene or a cube, and the render's pause and restart.
 
 use crate::viewer::app::TprfApp;
+use crate::viewer::files::FileAction;
 use crate::viewer::settings::Mode;
 use crate::viewer::source::Source;
 use eframe::egui;
@@ -22,19 +23,15 @@ impl TprfApp {
                 .button("Open glTF…")
                 .on_hover_text("Render a .gltf/.glb scene (or drop one on the window)")
                 .clicked()
-                && let Some(p) = rfd::FileDialog::new()
-                    .add_filter("glTF", &["gltf", "glb"])
-                    .pick_file()
             {
-                self.open_scene(p.display().to_string());
+                self.choose_file(FileAction::OpenScene);
             }
             if ui
                 .button("Open cube…")
                 .on_hover_text("Show a folder written by `tprf render`")
                 .clicked()
-                && let Some(p) = rfd::FileDialog::new().pick_folder()
             {
-                self.open_cube(&p);
+                self.choose_file(FileAction::OpenCube);
             }
             for name in tprf_core::scene::builtin::NAMES {
                 if ui.button(format!("builtin:{name}")).clicked() {

@@ -3,6 +3,7 @@
 
 use super::kinds::{EXPOSURE_KINDS, LIGHT_KINDS, exposure_of_kind, label_of, light_of_kind};
 use super::{GATE_COLOR, LIGHT_COLOR};
+use crate::viewer::files::FileAction;
 use eframe::egui::{self, RichText};
 use tprf_core::film::TimeAxis;
 use tprf_core::sensor::{Acquisition, Exposure, LightPulse, Sensor, Spad};
@@ -143,14 +144,22 @@ fn spad_ui(ui: &mut egui::Ui, spad: &mut Spad) {
     });
 }
 
-/// The sensor's controls (left panel): presets, light, gates, noise. Returns a message
-/// to show when a preset file could not be read or written.
+/// What the sensor's controls ask of the window.
+#[derive(Default)]
+pub(crate) struct ControlsOutcome {
+    /// A message to show (a preset that did not parse).
+    pub(crate) message: Option<String>,
+    /// A sensor file to load or save (the window asks for its path).
+    pub(crate) file: Option<FileAction>,
+}
+
+/// The sensor's controls (left panel): presets, light, gates, noise.
 pub(crate) fn controls_ui(
     ui: &mut egui::Ui,
     sensor: &mut Sensor,
     axis: Option<&TimeAxis>,
-) -> Option<String> {
-    let mut message = None;
+) -> ControlsOutcome {
+    let mut out = ControlsOutcome::default();
     ui.heading("Sensor");
     if !sensor.name.is_empty() {
         ui.label(RichText::new(&sensor.name).strong());
@@ -164,7 +173,7 @@ pub(crate) fn controls_ui(
             {
                 match Sensor::builtin(name) {
                     Ok(s) => *sensor = s,
-                    Err(e) => message = Some(e.to_string()),
+                    Err(e) => out.message = Some(e.to_string()),
                 }
             }
         }
@@ -172,32 +181,11 @@ pub(crate) fn controls_ui(
             .button("Load…")
             .on_hover_text("A sensor file (TOML)")
             .clicked()
-            && let Some(p) = rfd::FileDialog::new()
-                .add_filter("sensor", &["toml"])
-                .pick_file()
         {
-            match Sensor::from_path(&p) {
-                Ok(s) => *sensor = s,
-                Err(e) => message = Some(e.to_string()),
-            }
+            out.file = Some(FileAction::LoadSensor);
         }
-        if ui.button("Save…").clicked()
-            && let Some(p) = rfd::FileDialog::new()
-                .add_filter("sensor", &["toml"])
-                .set_file_name("sensor.toml")
-                .save_file()
-        {
-            let r = sensor
-                .to_toml_string()
-                .map_err(|e| e.to_string())
-                .and_then(|t| {
-                    use std::io::Write;
-                    tprf_core::export::write_atomic(&p, |f| Ok(f.write_all(t.as_bytes())?))
-                        .map_err(|e| format!("{e:#}"))
-                });
-            if let Err(e) = r {
-                message = Some(format!("cannot save {}: {e}", p.display()));
-            }
+        if ui.button("Save…").clicked() {
+            out.file = Some(FileAction::SaveSensor);
         }
     });
     let dt_s = axis.map_or(1e-10, |a| a.dt_s);
@@ -420,5 +408,5 @@ pub(crate) fn controls_ui(
             .labelled_by(l.id);
         ui.end_row();
     });
-    message
+    out
 }

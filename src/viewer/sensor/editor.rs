@@ -1,13 +1,26 @@
 //! The envelope editor: Light(t) and every Exposure_i(t) on one time axis over the
-//! selected pixel's TPRF, with handles to drag (their maths in `handles`).
+//! selected pixel's TPRF, with handles to drag (their maths in `handles`). It opens on
+//! the film's window and the pulse ([`TimeView::fit`]); the scroll wheel zooms about
+//! the pointer, dragging empty space pans, a double click fits again. Shift while
+//! dragging a handle moves it a tenth as far. Time the film does not cover is shaded
+//! and gates that need it are drawn red.
 
 use super::handles::{Handle, drag_handle, handles};
 use super::state::SensorState;
-use super::{GATE_COLOR, LIGHT_COLOR, TPRF_COLOR, gate_time_label};
+use super::view::{Coverage, TimeView, coverage, declutter, main_span};
+use super::{GATE_COLOR, LIGHT_COLOR, OUTSIDE_COLOR, TPRF_COLOR, gate_time_label};
+use crate::viewer::plotting;
 use eframe::egui::{self, Color32, RichText};
-use egui_plot::{Line, Plot, PlotPoint, PlotPoints, Points, VLine};
+use egui_plot::{Line, Plot, PlotPoint, PlotPoints, Points, Span, VLine};
 use tprf_core::film::TimeAxis;
 use tprf_core::sensor::Sensor;
+
+/// Handles closer than this on screen are moved apart, points.
+const HANDLE_GAP_PX: f32 = 13.0;
+/// A press this near a handle grabs it, points.
+const GRAB_PX: f32 = 10.0;
+/// Shift-drag moves a handle this share of the pointer's movement.
+const FINE: f64 = 0.1;
 
 /// The envelope editor: Light(t) and every Exposure_i(t) on one time axis with the
 /// pixel's TPRF behind them, each scaled to its own peak; drag the handles.
@@ -22,8 +35,10 @@ pub(crate) fn editor_ui(
     let Some(model) = state.model() else {
         return;
     };
-    let (lo, hi) = model.time_span_s();
-    let n = 600;
+    let pulse = main_span(model.light());
+    let view = state.view.unwrap_or_else(|| TimeView::fit(axis, pulse));
+    let (lo, hi) = (view.lo_s, view.hi_s);
+    let n = 800;
     let ts: Vec<f64> = (0..=n)
         .map(|k| lo + (hi - lo) * k as f64 / n as f64)
         .collect();
@@ -37,18 +52,29 @@ pub(crate) fn editor_ui(
     };
     let light = norm(model.light_curve(&ts));
     let delta = model.light().delta_time_s();
-    let gates = model.gate_count();
-    // Every gate, faint, when there are not too many; the selected one bright.
-    let shown: Vec<usize> = if gates <= 64 {
-        (0..gates).collect()
-    } else {
-        vec![]
-    };
-    let gate_curves: Vec<(usize, Vec<f64>)> = shown
+    // The gates in view, faint (at most 64); the selected one bright. Red where the
+    // film lacks light they need.
+    let in_view: Vec<usize> = model
+        .gates()
         .iter()
-        .map(|&i| (i, model.exposure_curve(i, &ts)))
+        .enumerate()
+        .filter(|(_, g)| g.support_s().is_none_or(|(a, b)| b >= lo && a <= hi))
+        .map(|(i, _)| i)
+        .take(64)
+        .collect();
+    let gate_curves: Vec<(usize, Vec<f64>, Coverage)> = in_view
+        .iter()
+        .map(|&i| {
+            let cov = model.gates().get(i).map_or(Coverage::Inside, |g| {
+                coverage(g, pulse, axis, state.auto_start)
+            });
+            (i, model.exposure_curve(i, &ts), cov)
+        })
         .collect();
     let sel = model.exposure_curve(state.gate, &ts);
+    let sel_cov = model.gates().get(state.gate).map_or(Coverage::Inside, |g| {
+        coverage(g, pulse, axis, state.auto_start)
+    });
     let gate_peak = gate_curves
         .iter()
         .flat_map(|c| c.1.iter())
@@ -72,115 +98,195 @@ pub(crate) fn editor_ui(
         .collect();
     let hs = handles(sensor, axis);
     let gate_label = gate_time_label(model, state.gate);
+    let sel_color = if sel_cov == Coverage::Inside {
+        GATE_COLOR
+    } else {
+        OUTSIDE_COLOR
+    };
     ui.horizontal_wrapped(|ui| {
-        ui.label(RichText::new("— Light").color(LIGHT_COLOR).small());
-        ui.label(
-            RichText::new(format!("— Exposure_{} {gate_label}", state.gate))
-                .color(GATE_COLOR)
-                .small(),
-        );
-        ui.label(RichText::new("■ TPRF").color(TPRF_COLOR).small());
-        ui.label(RichText::new("white dots: drag").small());
+        ui.label(RichText::new("— Light").color(LIGHT_COLOR));
+        ui.label(RichText::new(format!("— Exposure_{} {gate_label}", state.gate)).color(sel_color));
+        ui.label(RichText::new("■ TPRF").color(TPRF_COLOR));
+        ui.label(RichText::new("▨ not rendered").color(OUTSIDE_COLOR));
     });
-    let response = Plot::new("sensor-editor")
+    ui.label(
+        RichText::new("Drag the dots (Shift: fine) · scroll: zoom · drag: pan · double-click: fit")
+            .weak(),
+    );
+    let plot = Plot::new("sensor-editor")
         .height(height)
         .allow_drag(false)
         .allow_zoom(false)
         .allow_scroll(false)
-        .include_y(0.0)
-        .include_y(1.05)
-        .x_axis_label("time after the trigger (ns)")
-        .y_axis_label("each scaled to its peak")
-        .show(ui, |p| {
-            p.line(
-                Line::new("TPRF (pixel)", PlotPoints::from(tprf_steps))
-                    .color(TPRF_COLOR)
-                    .fill(0.0)
-                    .fill_alpha(0.35),
-            );
-            for (i, c) in &gate_curves {
-                if *i != state.gate {
-                    let pts: Vec<[f64; 2]> = ts
-                        .iter()
-                        .zip(c)
-                        .map(|(t, v)| [t * 1e9, v / gate_peak])
-                        .collect();
-                    p.line(
-                        Line::new("Exposure_i", PlotPoints::from(pts))
-                            .color(GATE_COLOR.gamma_multiply(0.25)),
-                    );
-                }
+        .allow_double_click_reset(false)
+        .allow_boxed_zoom(false)
+        .show_x(false)
+        .show_y(false);
+    let plot = plotting::time_plot(plot, "each scaled to its peak", false);
+    let response = plot.show(ui, |p| {
+        p.set_plot_bounds_x(lo * 1e9..=hi * 1e9);
+        p.set_plot_bounds_y(-0.06..=1.12);
+        let (w0, w1) = (axis.t0_s * 1e9, axis.end_s() * 1e9);
+        let shade = OUTSIDE_COLOR.gamma_multiply(0.18);
+        if lo * 1e9 < w0 {
+            p.span(Span::new("not rendered", (lo * 1e9).min(w0)..=w0).fill(shade));
+        }
+        if hi * 1e9 > w1 {
+            p.span(Span::new("not rendered", w1..=(hi * 1e9).max(w1)).fill(shade));
+        }
+        p.line(
+            Line::new("TPRF (pixel)", PlotPoints::from(tprf_steps))
+                .color(TPRF_COLOR)
+                .fill(0.0)
+                .fill_alpha(0.35),
+        );
+        for (i, c, cov) in &gate_curves {
+            if *i != state.gate {
+                let pts: Vec<[f64; 2]> = ts
+                    .iter()
+                    .zip(c)
+                    .map(|(t, v)| [t * 1e9, v / gate_peak])
+                    .collect();
+                let color = if *cov == Coverage::Inside {
+                    GATE_COLOR
+                } else {
+                    OUTSIDE_COLOR
+                };
+                p.line(
+                    Line::new("Exposure_i", PlotPoints::from(pts)).color(color.gamma_multiply(0.3)),
+                );
             }
-            let pts: Vec<[f64; 2]> = ts
-                .iter()
-                .zip(&sel)
-                .map(|(t, v)| [t * 1e9, v / gate_peak])
-                .collect();
-            p.line(
-                Line::new(
-                    format!("Exposure_{} {gate_label}", state.gate),
-                    PlotPoints::from(pts),
-                )
-                .color(GATE_COLOR)
-                .width(2.0),
-            );
-            match delta {
-                Some(t) => p.vline(
-                    VLine::new("Light (delta)", t * 1e9)
+        }
+        let pts: Vec<[f64; 2]> = ts
+            .iter()
+            .zip(&sel)
+            .map(|(t, v)| [t * 1e9, v / gate_peak])
+            .collect();
+        p.line(
+            Line::new(
+                format!("Exposure_{} {gate_label}", state.gate),
+                PlotPoints::from(pts),
+            )
+            .color(sel_color)
+            .width(2.0),
+        );
+        match delta {
+            Some(t) => p.vline(
+                VLine::new("Light (delta)", t * 1e9)
+                    .color(LIGHT_COLOR)
+                    .width(2.0),
+            ),
+            None => {
+                let pts: Vec<[f64; 2]> =
+                    ts.iter().zip(&light).map(|(t, v)| [t * 1e9, *v]).collect();
+                p.line(
+                    Line::new("Light", PlotPoints::from(pts))
                         .color(LIGHT_COLOR)
                         .width(2.0),
-                ),
-                None => {
-                    let pts: Vec<[f64; 2]> =
-                        ts.iter().zip(&light).map(|(t, v)| [t * 1e9, *v]).collect();
-                    p.line(
-                        Line::new("Light", PlotPoints::from(pts))
-                            .color(LIGHT_COLOR)
-                            .width(2.0),
-                    );
-                }
+                );
             }
-            let pts: Vec<[f64; 2]> = hs.iter().map(|h| [h.t_s * 1e9, h.y]).collect();
-            p.points(
-                Points::new("handles", PlotPoints::from(pts))
-                    .radius(5.0)
-                    .color(Color32::WHITE),
-            );
-            let screen: Vec<(Handle, egui::Pos2)> = hs
-                .iter()
-                .map(|h| {
-                    (
-                        h.handle,
-                        p.screen_from_plot(PlotPoint::new(h.t_s * 1e9, h.y)),
-                    )
-                })
-                .collect();
-            (screen, p.pointer_coordinate())
-        });
-    let (screen, pointer) = response.inner;
+        }
+        // Handles where they are, then moved apart on screen so none hides another.
+        let mut screen: Vec<(f32, f32)> = hs
+            .iter()
+            .map(|h| {
+                let s = p.screen_from_plot(PlotPoint::new(h.t_s * 1e9, h.y));
+                (s.x, s.y)
+            })
+            .collect();
+        declutter(&mut screen, HANDLE_GAP_PX);
+        let drawn: Vec<(Handle, egui::Pos2)> = hs
+            .iter()
+            .zip(&screen)
+            .map(|(h, s)| (h.handle, egui::pos2(s.0, s.1)))
+            .collect();
+        let pts: Vec<[f64; 2]> = drawn
+            .iter()
+            .map(|(_, s)| {
+                let v = p.plot_from_screen(*s);
+                [v.x, v.y]
+            })
+            .collect();
+        p.points(
+            Points::new("handles", PlotPoints::from(pts))
+                .radius(5.0)
+                .color(Color32::WHITE),
+        );
+        drawn
+    });
+    let drawn = response.inner;
+    state.view.get_or_insert(view);
     let r = &response.response;
-    if r.drag_started()
-        && let Some(pos) = r.interact_pointer_pos()
-    {
-        state.drag = screen
+    // Seconds per screen point along x.
+    let s_per_px = response.transform.dvalue_dpos()[0] * 1e-9;
+    let y_per_px = response.transform.dvalue_dpos()[1];
+    let near = |pos: egui::Pos2| {
+        drawn
             .iter()
             .map(|(h, p)| (*h, p.distance(pos)))
-            .filter(|(_, d)| *d < 12.0)
+            .filter(|(_, d)| *d < GRAB_PX)
             .min_by(|a, b| a.1.total_cmp(&b.1))
-            .map(|(h, _)| h);
+            .map(|(h, _)| h)
+    };
+    if r.drag_started() {
+        state.drag = r.interact_pointer_pos().and_then(near);
     }
-    if r.dragged()
-        && let (Some(h), Some(p)) = (state.drag, pointer)
-    {
-        drag_handle(sensor, h, p.x * 1e-9, p.y, axis);
+    let fine = ui.input(|i| i.modifiers.shift);
+    if r.dragged() {
+        let d = r.drag_delta();
+        let k = if fine { FINE } else { 1.0 };
+        match state.drag {
+            // The handle moves by the pointer's movement (a tenth with Shift).
+            Some(h) => {
+                if let Some(now) = handles(sensor, axis).into_iter().find(|p| p.handle == h) {
+                    let t = now.t_s + f64::from(d.x) * s_per_px * k;
+                    let y = now.y + f64::from(d.y) * y_per_px * k;
+                    drag_handle(sensor, h, t, y, axis);
+                }
+            }
+            // Empty space: pan.
+            None => state.view = Some(view.panned(-f64::from(d.x) * s_per_px)),
+        }
     }
     if r.drag_stopped() {
         state.drag = None;
     }
-    if let Some(pos) = r.hover_pos()
-        && screen.iter().any(|(_, p)| p.distance(pos) < 12.0)
-    {
-        ui.ctx().set_cursor_icon(egui::CursorIcon::Grab);
+    if r.double_clicked() {
+        state.view = Some(TimeView::fit(axis, pulse));
+    }
+    let hover = r.hover_pos();
+    if r.hovered() {
+        let (scroll, zoom) = ui.input(|i| (i.smooth_scroll_delta, i.zoom_delta()));
+        let about_s = hover.map_or(0.5 * (lo + hi), |p| {
+            response.transform.value_from_position(p).x * 1e-9
+        });
+        let mut v = state.view.unwrap_or(view);
+        if scroll.y != 0.0 {
+            v = v.zoomed(about_s, (-f64::from(scroll.y) * 0.003).exp());
+        }
+        if zoom != 1.0 {
+            v = v.zoomed(about_s, 1.0 / f64::from(zoom));
+        }
+        if scroll.x != 0.0 {
+            v = v.panned(-f64::from(scroll.x) * s_per_px);
+        }
+        if scroll != egui::Vec2::ZERO {
+            // Taken here: the panel's scroll area does not scroll as well.
+            ui.input_mut(|i| i.smooth_scroll_delta = egui::Vec2::ZERO);
+        }
+        state.view = Some(v);
+    }
+    if let Some(h) = hover.and_then(near).or(state.drag) {
+        ui.ctx().set_cursor_icon(if state.drag.is_some() {
+            egui::CursorIcon::Grabbing
+        } else {
+            egui::CursorIcon::Grab
+        });
+        let text = format!(
+            "{} — drag; hold Shift for fine steps",
+            h.describe(sensor, axis)
+        );
+        r.clone().on_hover_text_at_pointer(text);
     }
     r.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Figure, true, "envelope editor"));
 }

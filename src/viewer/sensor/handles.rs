@@ -24,6 +24,25 @@ pub(super) enum Handle {
     GateKnot(usize),
 }
 
+impl Handle {
+    /// What the handle is and where it stands now: "Light centre: 5.000 ns".
+    pub(super) fn describe(self, sensor: &Sensor, axis: &TimeAxis) -> String {
+        let name = match self {
+            Handle::LightTime => "Light time (centre, onset or start)".to_string(),
+            Handle::LightWidth => "Light width".to_string(),
+            Handle::LightKnot(k) => format!("Light knot {k}"),
+            Handle::GateTime => "gate 0's time (start or centre)".to_string(),
+            Handle::GateWidth => "gate width".to_string(),
+            Handle::GateStep => "gate 1: the step between gates".to_string(),
+            Handle::GateKnot(k) => format!("gate knot {k}"),
+        };
+        match handles(sensor, axis).into_iter().find(|h| h.handle == self) {
+            Some(h) => format!("{name}: at {:.4} ns", h.t_s * 1e9),
+            None => name,
+        }
+    }
+}
+
 /// A handle where it is drawn: time (s) and height on the editor's 0..1 scale.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct HandlePos {

@@ -1,36 +1,64 @@
 //! The central panel in sensor mode: the measurement M_i of the gate shown (one
-//! exposure over all gates), the depth image and, for AMCW, the multipath error; click a
-//! pixel to select it.
+//! exposure over all gates), the depth image and, for AMCW, the multipath error, each
+//! with its colour bar and unit; a readout of the pixel under the pointer; and, when
+//! gates need light the film does not hold, which ones, with the two ways out.
 
 use super::gate_time_label;
 use super::measure::SpadView;
 use super::state::SensorState;
+use super::view::{Coverage, coverage, gates_fitted, main_span, window_covering};
+use crate::viewer::axes::{self, BIN_UNIT, BarScale};
+use crate::viewer::colorbar::ColorBar;
 use crate::viewer::colormap::{self, ColorMap, Tone};
+use crate::viewer::layout::image_layout;
 use crate::viewer::textures::TextureCache;
 use eframe::egui::{self, RichText, Sense, TextureHandle, Vec2};
-use tprf_core::film::FilmSnapshot;
+use tprf_core::film::{FilmSnapshot, MAX_BINS};
+use tprf_core::sensor::Exposure;
+use tprf_core::units::format_time;
 
-/// The measurement image of the gate shown and the derived images. Returns a clicked
-/// pixel.
+/// What the user asked for about gates outside the film's window.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum CoverageAction {
+    /// Render again over this window: start (s), bin width (s), bins.
+    ExtendWindow { t0_s: f64, dt_s: f64, bins: usize },
+    /// Replace the gates with these, fitted to the window.
+    FitGates(Exposure),
+}
+
+/// What the sensor images report back: a clicked pixel, an action.
+#[derive(Default)]
+pub(crate) struct ImagesOutcome {
+    pub(crate) clicked: Option<(usize, usize)>,
+    pub(crate) action: Option<CoverageAction>,
+}
+
+/// Height of a colour bar with its labels, points.
+const BAR_H: f32 = 30.0;
+
+/// The measurement image of the gate shown and the derived images.
 pub(crate) fn images_ui(
     ui: &mut egui::Ui,
     state: &mut SensorState,
     snap: &FilmSnapshot,
-) -> Option<(usize, usize)> {
+) -> ImagesOutcome {
     let (w, h) = (snap.width(), snap.height());
     // The textures are taken out for the frame so the measurements can be borrowed.
     let mut textures = std::mem::take(&mut state.textures);
     let mut gate_sel = state.gate;
     let mut view = state.spad_view;
-    let clicked = if state.spad(snap).is_some() {
-        spad_images(ui, state, snap, &mut textures, &mut gate_sel, &mut view)
+    let out = if state.spad(snap).is_some() {
+        ImagesOutcome {
+            clicked: spad_images(ui, state, snap, &mut textures, &mut gate_sel, &mut view),
+            action: None,
+        }
     } else {
         measurement_images(ui, state, snap, &mut textures, &mut gate_sel, w, h)
     };
     state.textures = textures;
     state.gate = gate_sel;
     state.spad_view = view;
-    clicked
+    out
 }
 
 /// The SPAD's images: TDC bin `k` of the histogram chosen (expected, one realisation,
@@ -81,6 +109,13 @@ fn spad_images(
     let avail = ui.available_size();
     let side = (avail.x - 16.0) / 2.0;
     let max = Vec2::new(side, avail.y - 40.0);
+    // The largest image of the film's aspect inside `max`.
+    let fit = |max: Vec2| {
+        let scale = (max.x / w.max(1) as f32)
+            .min(max.y / h.max(1) as f32)
+            .max(0.01);
+        Vec2::new(w as f32, h as f32) * scale
+    };
     ui.horizontal_top(|ui| {
         ui.vertical(|ui| {
             ui.label(
@@ -102,7 +137,7 @@ fn spad_images(
                     &colormap::colorize(plane, &tone, ColorMap::Inferno),
                 )
             });
-            if let Some(p) = pick(ui, &tex, w, h, max, "SPAD bin image") {
+            if let Some(p) = pick(ui, &tex, w, h, fit(max), "SPAD bin image").clicked {
                 clicked = Some(p);
             }
         });
@@ -117,12 +152,108 @@ fn spad_images(
             );
             let depth = sp.depth(*view);
             let tex = textures.get(&ctx, "spad-depth", key, || depth_image(depth, w, h, lo, hi));
-            if let Some(p) = pick(ui, &tex, w, h, max, "SPAD depth image") {
+            if let Some(p) = pick(ui, &tex, w, h, fit(max), "SPAD depth image").clicked {
                 clicked = Some(p);
             }
         });
     });
     clicked
+}
+
+/// `[1, 2, 3, 5]` as "1–3, 5".
+pub(crate) fn index_ranges(v: &[usize]) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    let mut i = 0;
+    while i < v.len() {
+        let mut j = i;
+        while j + 1 < v.len() && v[j + 1] == v[j] + 1 {
+            j += 1;
+        }
+        parts.push(if j > i {
+            format!("{}–{}", v[i], v[j])
+        } else {
+            v[i].to_string()
+        });
+        i = j + 1;
+    }
+    parts.join(", ")
+}
+
+/// The warning about gates that need light outside the window, with its two buttons.
+fn coverage_ui(
+    ui: &mut egui::Ui,
+    state: &SensorState,
+    snap: &FilmSnapshot,
+) -> Option<CoverageAction> {
+    let model = state.model.as_ref()?;
+    let axis = snap.axis();
+    let pulse = main_span(model.light());
+    let cov: Vec<Coverage> = model
+        .gates()
+        .iter()
+        .map(|g| coverage(g, pulse, axis, state.auto_start))
+        .collect();
+    let of = |c: Coverage| -> Vec<usize> {
+        cov.iter()
+            .enumerate()
+            .filter(|(_, x)| **x == c)
+            .map(|(i, _)| i)
+            .collect()
+    };
+    let (outside, partial) = (of(Coverage::Outside), of(Coverage::Partial));
+    if outside.is_empty() && partial.is_empty() {
+        return None;
+    }
+    let window = format!("{} … {}", format_time(axis.t0_s), format_time(axis.end_s()));
+    let mut text = String::from("⚠ ");
+    if !outside.is_empty() {
+        text += &format!(
+            "gate{} {} of {} lie outside the rendered window {window}: no data, black",
+            if outside.len() > 1 { "s" } else { "" },
+            index_ranges(&outside),
+            cov.len()
+        );
+    }
+    if !partial.is_empty() {
+        if !outside.is_empty() {
+            text += "; ";
+        }
+        text += &format!(
+            "gate{} {} partly outside it: light missing",
+            if partial.len() > 1 { "s" } else { "" },
+            index_ranges(&partial)
+        );
+    }
+    let mut action = None;
+    ui.horizontal_wrapped(|ui| {
+        ui.label(RichText::new(text).color(ui.visuals().warn_fg_color));
+        let (t0, dt, bins) = window_covering(model.gates(), pulse, axis, MAX_BINS);
+        if ui
+            .button("Extend the window to cover the gates")
+            .on_hover_text(format!(
+                "render again over {} … {} ({bins} bins of {})",
+                format_time(t0),
+                format_time(t0 + dt * bins as f64),
+                format_time(dt)
+            ))
+            .clicked()
+        {
+            action = Some(CoverageAction::ExtendWindow {
+                t0_s: t0,
+                dt_s: dt,
+                bins,
+            });
+        }
+        if let Some(fitted) = gates_fitted(&model.sensor().exposure, axis)
+            && ui
+                .button("Fit the gates to the window")
+                .on_hover_text("the same number of gates, tiling the rendered window")
+                .clicked()
+        {
+            action = Some(CoverageAction::FitGates(fitted));
+        }
+    });
+    action
 }
 
 /// The images of [`images_ui`], drawn with `state` borrowed and its `textures` and gate
@@ -136,10 +267,11 @@ fn measurement_images(
     gate_sel: &mut usize,
     w: usize,
     h: usize,
-) -> Option<(usize, usize)> {
+) -> ImagesOutcome {
+    let mut out = ImagesOutcome::default();
     let (Some(model), Some(plane)) = (state.model.as_ref(), state.shown_plane(snap)) else {
         ui.label(state.error.clone().unwrap_or_else(|| "Measuring…".into()));
-        return None;
+        return out;
     };
     let current = state.is_current(snap);
     let gates = model.gate_count();
@@ -151,12 +283,12 @@ fn measurement_images(
         format!("{x:?}").hash(&mut hasher);
         hasher.finish()
     };
-    let plane_key = hash(&(snap.generation(), model.sensor(), gate, current));
     let measured = state.measured.as_ref();
-    // One exposure over all gates (from the full measurement, even a stale one).
-    let all_max = measured
-        .and_then(|m| m.robust_max)
+    // One exposure over all gates, the same before and after all gates are measured.
+    let white = state
+        .shared_white()
         .or_else(|| colormap::quantile_positive(plane.iter().copied(), 0.999));
+    let plane_key = hash(&(snap.generation(), model.sensor(), gate, current, white));
     let status = match measured {
         Some(m) if current => format!("all {gates} gates measured in {:.0} ms", m.millis),
         _ => {
@@ -165,22 +297,59 @@ fn measurement_images(
         }
     };
     let ctx = ui.ctx().clone();
-    let mut clicked = None;
     ui.horizontal(|ui| {
         let l = ui.label(format!("gate i (of {gates})"));
         ui.add(egui::Slider::new(gate_sel, 0..=gates.saturating_sub(1)))
             .labelled_by(l.id);
-        ui.label(gate_time_label(model, gate));
-        ui.label(RichText::new(&status).weak().small());
+        ui.add(egui::Label::new(gate_time_label(model, gate)).truncate());
     });
+    // On its own line: wrapped beside the slider it was drawn over the row.
+    ui.add(egui::Label::new(RichText::new(&status).weak()).truncate());
+    out.action = coverage_ui(ui, state, snap);
+    let pulse = main_span(model.light());
+    let shown_cov = model.gates().get(gate).map_or(Coverage::Inside, |g| {
+        coverage(g, pulse, snap.axis(), state.auto_start)
+    });
+    let derived = measured.filter(|m| m.depth().is_some());
     let avail = ui.available_size();
-    let side = (avail.x - 16.0) / 2.0;
-    let max = Vec2::new(side, avail.y - 40.0);
-    ui.horizontal_top(|ui| {
+    let readout_h = 26.0;
+    let title_h = 22.0;
+    let extra = title_h + BAR_H + 8.0;
+    let aspect = w.max(1) as f32 / h.max(1) as f32;
+    // Two derived images (AMCW depth and its multipath error): the measurement large,
+    // those two beside or under it, as the main tab lays out its images. One (first
+    // return depth): two equal columns. None: the measurement alone.
+    let two = derived.is_some_and(|m| m.amcw_error_m.is_some());
+    let (big, small, below) = if two {
+        let l = image_layout((avail.x, avail.y - readout_h), aspect, extra, 12.0);
+        (
+            Vec2::new(l.big.0, l.big.1),
+            Vec2::new(l.small.0, l.small.1),
+            l.below,
+        )
+    } else {
+        let cols = if derived.is_some() { 2.0 } else { 1.0 };
+        let col_w = (avail.x - 12.0 * (cols - 1.0)) / cols;
+        let img_h = (avail.y - readout_h - extra).max(16.0);
+        let side = col_w.min(img_h * aspect).max(16.0);
+        let size = Vec2::new(side, side / aspect);
+        (size, size, false)
+    };
+    let mut hovered: Option<(usize, usize)> = None;
+    let mut measurement = |ui: &mut egui::Ui, out: &mut ImagesOutcome| {
         ui.vertical(|ui| {
-            ui.label(RichText::new(format!("M_{gate} (one exposure over all gates)")).strong());
+            ui.set_width(big.x);
+            ui.add(
+                egui::Label::new(
+                    RichText::new(format!(
+                        "M_{gate}: gate {gate}'s measurement (one exposure for all gates)"
+                    ))
+                    .strong(),
+                )
+                .truncate(),
+            );
             let tone = Tone {
-                scale: all_max.map_or(1.0, |m| 1.0 / m),
+                scale: white.map_or(1.0, |m| 1.0 / m),
                 log: false,
                 decades: 3.0,
             };
@@ -190,53 +359,176 @@ fn measurement_images(
                     &colormap::colorize(plane, &tone, ColorMap::Inferno),
                 )
             });
-            if let Some(p) = pick(ui, &tex, w, h, max, "measurement image") {
-                clicked = Some(p);
+            let Picked {
+                clicked,
+                hover,
+                rect,
+            } = pick(ui, &tex, w, h, big, "measurement image");
+            out.clicked = out.clicked.or(clicked);
+            hovered = hovered.or(hover);
+            if shown_cov != Coverage::Inside {
+                let text = if shown_cov == Coverage::Outside {
+                    format!("gate {gate} lies outside the rendered window: no data")
+                } else {
+                    format!("gate {gate} is partly outside the rendered window")
+                };
+                let painter = ui.painter_at(rect);
+                let galley = painter.layout(
+                    text,
+                    egui::FontId::proportional(15.0),
+                    egui::Color32::WHITE,
+                    rect.width() - 16.0,
+                );
+                let at = rect.center() - galley.size() / 2.0;
+                painter.rect_filled(
+                    egui::Rect::from_min_size(at, galley.size()).expand(6.0),
+                    4.0,
+                    egui::Color32::from_black_alpha(200),
+                );
+                painter.galley(at, galley, egui::Color32::WHITE);
             }
+            let ramp = |t: f64| colormap::color_of(ColorMap::Inferno, t);
+            ColorBar {
+                of: "measurement",
+                ramp: &ramp,
+                scale: BarScale::Linear {
+                    lo: 0.0,
+                    hi: white.unwrap_or(1.0),
+                },
+                unit: BIN_UNIT,
+                second: None,
+                note: "M_i: a bin's unit times the light's energy; white = the 99.9th \
+                       percentile of all gates' clean measurements on a grid of pixels",
+            }
+            .ui(ui, big.x);
         });
-        let Some(m) = measured else {
+        let Some(m) = derived else {
             return;
         };
         let Some(depth) = m.depth() else {
             return;
         };
         let key = hash(&(m.snapshot, &m.sensor));
-        ui.vertical(|ui| {
-            let (lo, hi) = m.depth_range;
-            let title = if m.amcw_error_m.is_some() {
-                "AMCW depth (m)"
-            } else {
-                "first-return depth (m)"
-            };
-            ui.label(RichText::new(format!("{title}: {lo:.3} … {hi:.3}")).strong());
-            let small = Vec2::new(
-                max.x,
-                if m.amcw_error_m.is_some() {
-                    max.y / 2.0 - 20.0
+        let (lo, hi) = m.depth_range;
+        let depth_block = |ui: &mut egui::Ui,
+                           textures: &mut TextureCache<u64>,
+                           out: &mut ImagesOutcome|
+         -> Option<(usize, usize)> {
+            ui.vertical(|ui| {
+                ui.set_width(small.x);
+                let title = if two {
+                    "AMCW depth"
                 } else {
-                    max.y
-                },
-            );
-            let tex = textures.get(&ctx, "depth", key, || depth_image(depth, w, h, lo, hi));
-            if let Some(p) = pick(ui, &tex, w, h, small, "depth image") {
-                clicked = Some(p);
-            }
-            if let Some(err) = &m.amcw_error_m {
+                    "first-return depth"
+                };
+                ui.add(egui::Label::new(RichText::new(title).strong()).truncate());
+                let tex = textures.get(&ctx, "depth", key, || depth_image(depth, w, h, lo, hi));
+                let Picked { clicked, hover, .. } = pick(ui, &tex, w, h, small, "depth image");
+                out.clicked = out.clicked.or(clicked);
+                ColorBar {
+                    of: "depth",
+                    ramp: &colormap::turbo,
+                    scale: BarScale::Linear {
+                        lo: f64::from(lo),
+                        hi: f64::from(hi).max(f64::from(lo) + 1e-6),
+                    },
+                    unit: "m",
+                    second: None,
+                    note: "depth = c × round-trip time / 2; black: no return",
+                }
+                .ui(ui, small.x);
+                hover
+            })
+            .inner
+        };
+        let error_block = |ui: &mut egui::Ui,
+                           textures: &mut TextureCache<u64>,
+                           out: &mut ImagesOutcome|
+         -> Option<(usize, usize)> {
+            let err = m.amcw_error_m.as_ref()?;
+            ui.vertical(|ui| {
+                ui.set_width(small.x);
                 let a = m.error_abs_max;
-                ui.label(
-                    RichText::new(format!(
-                        "multipath error: AMCW − true first return, ±{a:.3} m"
-                    ))
-                    .strong(),
+                ui.add(
+                    egui::Label::new(
+                        RichText::new("multipath error: AMCW − true first return").strong(),
+                    )
+                    .truncate(),
                 );
                 let tex = textures.get(&ctx, "amcw-error", key, || error_image(err, w, h, a));
-                if let Some(p) = pick(ui, &tex, w, h, small, "multipath error image") {
-                    clicked = Some(p);
+                let Picked { clicked, hover, .. } =
+                    pick(ui, &tex, w, h, small, "multipath error image");
+                out.clicked = out.clicked.or(clicked);
+                let a = f64::from(a).max(1e-9);
+                ColorBar {
+                    of: "multipath error",
+                    ramp: &colormap::diverging,
+                    scale: BarScale::Linear { lo: -a, hi: a },
+                    unit: "m",
+                    second: None,
+                    note: "red: AMCW reads too far; blue: too near",
                 }
+                .ui(ui, small.x);
+                hover
+            })
+            .inner
+        };
+        let mut smalls = |ui: &mut egui::Ui| {
+            let a = depth_block(ui, textures, out);
+            let b = error_block(ui, textures, out);
+            hovered = hovered.or(a).or(b);
+        };
+        if below {
+            ui.horizontal_top(|ui| smalls(ui));
+        } else {
+            ui.vertical(|ui| smalls(ui));
+        }
+    };
+    if below {
+        ui.vertical(|ui| measurement(ui, &mut out));
+    } else {
+        ui.horizontal_top(|ui| measurement(ui, &mut out));
+    }
+    let text = match hovered {
+        Some((x, y)) => readout(state, snap, plane, gate, x, y),
+        None => "Hover a pixel to read its measurement".to_string(),
+    };
+    ui.add(egui::Label::new(RichText::new(text).monospace()).truncate());
+    out
+}
+
+/// What the window says of pixel `(x, y)` in sensor mode: M_i with its unit, the depth
+/// and multipath error where shown.
+fn readout(
+    state: &SensorState,
+    snap: &FilmSnapshot,
+    plane: &[f32],
+    gate: usize,
+    x: usize,
+    y: usize,
+) -> String {
+    let i = y * snap.width() + x;
+    let mut s = format!(
+        "pixel ({x}, {y}) · M_{gate} = {}",
+        axes::format_value(f64::from(plane.get(i).copied().unwrap_or(0.0)), BIN_UNIT)
+    );
+    // The depth images on screen are the latest full measurement's (a pass behind
+    // while the renderer runs): read out what is shown.
+    if let Some(m) = &state.measured {
+        if let Some(d) = m.depth().and_then(|d| d.get(i)) {
+            if d.is_finite() {
+                s += &format!(" · depth {d:.3} m");
+            } else {
+                s += " · depth: no return";
             }
-        });
-    });
-    clicked
+        }
+        if let Some(e) = m.amcw_error_m.as_ref().and_then(|e| e.get(i))
+            && e.is_finite()
+        {
+            s += &format!(" · multipath error {e:+.3} m");
+        }
+    }
+    s
 }
 
 /// Depth in turbo between `lo` and `hi`; no return is black.
@@ -246,8 +538,8 @@ fn depth_image(depth: &[f32], w: usize, h: usize, lo: f32, hi: f32) -> egui::Col
         .iter()
         .flat_map(|&d| {
             if d.is_finite() {
-                let c = colorous::TURBO.eval_continuous(((d - lo) / span).clamp(0.0, 1.0) as f64);
-                [c.r, c.g, c.b, 255]
+                let [r, g, b] = colormap::turbo(f64::from((d - lo) / span));
+                [r, g, b, 255]
             } else {
                 [0, 0, 0, 255]
             }
@@ -263,9 +555,9 @@ fn error_image(err: &[f32], w: usize, h: usize, a: f32) -> egui::ColorImage {
         .iter()
         .flat_map(|&e| {
             if e.is_finite() {
-                let c = colorous::RED_BLUE
-                    .eval_continuous((0.5 - 0.5 * (e / a).clamp(-1.0, 1.0)) as f64);
-                [c.r, c.g, c.b, 255]
+                let [r, g, b] =
+                    colormap::diverging(f64::from(0.5 + 0.5 * (e / a).clamp(-1.0, 1.0)));
+                [r, g, b, 255]
             } else {
                 [0, 0, 0, 255]
             }
@@ -274,25 +566,54 @@ fn error_image(err: &[f32], w: usize, h: usize, a: f32) -> egui::ColorImage {
     egui::ColorImage::from_rgba_unmultiplied([w, h], &px)
 }
 
-/// An image that reports the pixel clicked.
+/// What [`pick`] saw: the pixel clicked, the one under the pointer, the image's
+/// rectangle.
+struct Picked {
+    clicked: Option<(usize, usize)>,
+    hover: Option<(usize, usize)>,
+    rect: egui::Rect,
+}
+
+/// An image at `size` that reports the pixel clicked and the one under the pointer,
+/// and its rectangle.
 fn pick(
     ui: &mut egui::Ui,
     tex: &TextureHandle,
     w: usize,
     h: usize,
-    max: Vec2,
+    size: Vec2,
     label: &str,
-) -> Option<(usize, usize)> {
-    let scale = (max.x / w as f32).min(max.y / h as f32).max(0.01);
-    let r = ui.add(
-        egui::Image::new((tex.id(), Vec2::new(w as f32, h as f32) * scale)).sense(Sense::click()),
-    );
+) -> Picked {
+    let scale = size.x / w.max(1) as f32;
+    let r = ui.add(egui::Image::new((tex.id(), size)).sense(Sense::click()));
     r.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Image, true, label));
+    let to_pixel = |pos: egui::Pos2| {
+        let p = (pos - r.rect.min) / scale;
+        (
+            (p.x.max(0.0) as usize).min(w.saturating_sub(1)),
+            (p.y.max(0.0) as usize).min(h.saturating_sub(1)),
+        )
+    };
     crate::viewer::textures::shrunk_note_ui(ui, tex, w, h);
-    let pos = r.interact_pointer_pos().filter(|_| r.clicked())?;
-    let p = (pos - r.rect.min) / scale;
-    Some((
-        (p.x.max(0.0) as usize).min(w.saturating_sub(1)),
-        (p.y.max(0.0) as usize).min(h.saturating_sub(1)),
-    ))
+    let clicked = r
+        .interact_pointer_pos()
+        .filter(|_| r.clicked())
+        .map(to_pixel);
+    Picked {
+        clicked,
+        hover: r.hover_pos().map(to_pixel),
+        rect: r.rect,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::index_ranges;
+
+    #[test]
+    fn indices_read_as_ranges() {
+        assert_eq!(index_ranges(&[4, 5, 6, 7]), "4–7");
+        assert_eq!(index_ranges(&[0, 4, 5, 7]), "0, 4–5, 7");
+        assert_eq!(index_ranges(&[]), "");
+    }
 }

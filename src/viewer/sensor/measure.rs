@@ -101,7 +101,7 @@ pub(super) struct Measured {
     /// AMCW depth minus the depth of the TPRF's own first return (multipath error), m.
     pub(super) amcw_error_m: Option<Vec<f32>>,
     pub(super) millis: f64,
-    /// 99.9 % quantile of the positive measurements: one exposure for all gates.
+    /// One exposure for all gates: [`shared_white`] of the film and sensor.
     pub(super) robust_max: Option<f64>,
     /// Finite range of the depth image (m), and the largest |multipath error| (m).
     pub(super) depth_range: (f32, f32),
@@ -117,6 +117,56 @@ impl Measured {
             .as_deref()
             .or(self.amcw.as_ref().map(|a| a.depth_m.as_slice()))
     }
+}
+
+/// Pixels the shared exposure reads: a grid of about [`WHITE_PIXELS`] pixels.
+const WHITE_PIXELS: usize = 256;
+
+/// The pixels of the grid [`shared_white`] reads.
+fn white_sample(w: usize, h: usize) -> impl Iterator<Item = (usize, usize)> {
+    let step = ((w * h) as f64 / WHITE_PIXELS as f64)
+        .sqrt()
+        .ceil()
+        .max(1.0) as usize;
+    let (ox, oy) = (step / 2, step / 2);
+    (0..h.div_ceil(step)).flat_map(move |j| {
+        (0..w.div_ceil(step)).filter_map(move |i| {
+            let (x, y) = (ox + i * step, oy + j * step);
+            (x < w && y < h).then_some((x, y))
+        })
+    })
+}
+
+/// The white point shared by every gate's image: the 99.9 % quantile of the positive
+/// clean measurements of all gates on a fixed grid of about [`WHITE_PIXELS`] pixels.
+/// Cheap enough to compute in the frame right after a preset is picked, and the same
+/// number the background measurement reports for that film and sensor, so the images
+/// do not change brightness when all gates arrive.
+pub(super) fn shared_white(model: &SensorModel, snap: &FilmSnapshot) -> Option<f64> {
+    let mut values = Vec::new();
+    for (x, y) in white_sample(snap.width(), snap.height()) {
+        let tprf = snap.pixel(x, y);
+        values.extend(model.kernels().iter().map(|k| k.dot(&tprf) as f32));
+    }
+    tprf_core::film::quantile_positive(values.into_iter(), 0.999)
+}
+
+/// The gate that measures the most light over the grid of [`shared_white`]: the one the
+/// tab opens on (a LiDAR's first gates see nothing before its pulse has fired). `None`
+/// when no gate sees any light.
+pub(super) fn brightest_gate(model: &SensorModel, snap: &FilmSnapshot) -> Option<usize> {
+    let mut sums = vec![0.0f64; model.kernels().len()];
+    for (x, y) in white_sample(snap.width(), snap.height()) {
+        let tprf = snap.pixel(x, y);
+        for (s, k) in sums.iter_mut().zip(model.kernels()) {
+            *s += k.dot(&tprf);
+        }
+    }
+    sums.iter()
+        .enumerate()
+        .filter(|(_, s)| s.is_finite() && **s > 0.0)
+        .max_by(|a, b| a.1.total_cmp(b.1))
+        .map(|(i, _)| i)
 }
 
 /// Threads for the background measurements: half the cores.
@@ -151,7 +201,7 @@ pub(super) fn measure_all(
         None => None,
     };
     model.apply_noise_cached(&mut m, &mut noise_field);
-    let robust_max = tprf_core::film::robust_max(&m.values);
+    let robust_max = shared_white(model, snap);
     let depth_m = model.first_return_depth(&m);
     let amcw = model.amcw(&m);
     let amcw_error_m = amcw.as_ref().map(|a| {
@@ -188,4 +238,77 @@ fn finite_range(v: &[f32]) -> (f32, f32) {
         .filter(|x| x.is_finite())
         .fold((f32::MAX, f32::MIN), |(a, b), &x| (a.min(x), b.max(x)));
     if lo <= hi { (lo, hi) } else { (0.0, 0.0) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tprf_core::film::{FilmLayout, TimeAxis};
+    use tprf_core::sensor::{Exposure, LightPulse, TimeOrigin};
+
+    /// One box gate over the whole window and a delta pulse at 0: each pixel measures
+    /// its steady value, so the shared white is the top of the sampled steady values
+    /// (pixel p of the ramp film sums to 10 (p + 1) + 45 over 10 bins).
+    #[test]
+    fn the_shared_white_is_a_quantile_of_the_sampled_measurements() {
+        let (side, bins) = (40, 10);
+        let layout = FilmLayout {
+            width: side,
+            height: side,
+            axis: TimeAxis::new(1e-9, 1e-10, bins).unwrap(),
+            bounces_separate: 0,
+        };
+        let cube: Vec<f32> = (0..side * side * bins)
+            .map(|i| ((i / bins) + (i % bins) + 1) as f32)
+            .collect();
+        let snap = FilmSnapshot::from_dense(layout, 1, 1, &cube, &[], None);
+        let sensor = Sensor::new(
+            LightPulse::Delta {
+                t_s: 0.0,
+                energy: 1.0,
+            },
+            Exposure::Box {
+                origin: TimeOrigin::Window,
+                start_s: 0.0,
+                width_s: 1e-9,
+                step_s: None,
+                count: 1,
+                gain: 1.0,
+            },
+        );
+        let model = SensorModel::new(sensor, layout.axis).unwrap();
+        let white = shared_white(&model, &snap).expect("a white point");
+        // The grid: every 3rd pixel from (1, 1) (40 x 40 / 256 -> step 3); the
+        // largest sampled pixel is (37, 37), p = 37 * 40 + 37.
+        let p = 37.0 * 40.0 + 37.0;
+        let top = 10.0 * (p + 1.0) + 45.0;
+        assert!(
+            white <= top * (1.0 + 1e-6) && white > 0.9 * top,
+            "{white} vs {top}"
+        );
+    }
+
+    /// Every pixel returns light at 10 ns; the gated preset's 1 ns pulse from the
+    /// trigger puts it at 10-11.1 ns, inside gate 3 of its 3 ns gates from 0 ns.
+    #[test]
+    fn the_tab_opens_on_the_gate_that_sees_the_light() {
+        let (side, bins) = (8, 240);
+        let layout = FilmLayout {
+            width: side,
+            height: side,
+            axis: TimeAxis::new(0.0, 1e-10, bins).unwrap(),
+            bounces_separate: 0,
+        };
+        let mut cube = vec![0.0f32; side * side * bins];
+        for p in 0..side * side {
+            cube[p * bins + 100] = 1.0;
+        }
+        let snap = FilmSnapshot::from_dense(layout, 1, 1, &cube, &[], None);
+        let model = SensorModel::new(Sensor::builtin("gated").unwrap(), layout.axis).unwrap();
+        assert_eq!(brightest_gate(&model, &snap), Some(3));
+        // A dark film: no gate to prefer.
+        let dark =
+            FilmSnapshot::from_dense(layout, 1, 1, &vec![0.0; side * side * bins], &[], None);
+        assert_eq!(brightest_gate(&model, &dark), None);
+    }
 }

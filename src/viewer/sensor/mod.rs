@@ -10,6 +10,8 @@
 //! - `measure`: all gates, noise and derived depth, on a background pool;
 //! - `handles`: where the editor's handles are and what dragging one changes (pure);
 //! - `kinds`: a new light or gate sequence of a kind, sized for the window (pure);
+//! - `view`: the editor's time range, gates outside the film's window and the ways out,
+//!   handles kept apart (pure);
 //! - `controls`, `editor`, `plots`, `images`: the widgets.
 
 mod controls;
@@ -20,10 +22,11 @@ mod kinds;
 mod measure;
 mod plots;
 mod state;
+mod view;
 
 pub(crate) use controls::controls_ui;
 pub(crate) use editor::editor_ui;
-pub(crate) use images::images_ui;
+pub(crate) use images::{CoverageAction, images_ui};
 pub(crate) use plots::pixel_plots_ui;
 pub use state::SensorState;
 
@@ -33,6 +36,8 @@ use tprf_core::sensor::SensorModel;
 const LIGHT_COLOR: Color32 = Color32::from_rgb(0xff, 0xc8, 0x3d);
 const GATE_COLOR: Color32 = Color32::from_rgb(0x4d, 0xc3, 0xff);
 const TPRF_COLOR: Color32 = Color32::from_gray(0x90);
+/// Gates and times outside the film's window.
+const OUTSIDE_COLOR: Color32 = Color32::from_rgb(0xff, 0x5a, 0x5a);
 
 /// "(centre X ns)" of gate `i`, or nothing when the gate has no centre.
 fn gate_time_label(model: &SensorModel, i: usize) -> String {

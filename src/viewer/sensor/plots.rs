@@ -1,10 +1,14 @@
-//! One pixel through the sensor (the paper's Figures 6 and 7): TPRF * Light on the
-//! bins, and M_i against the gate i (click a point to show that gate).
+//! One pixel through the sensor (the paper's Figures 6 and 7): TPRF * Light over every
+//! bin it reaches (past the window's ends too, where the pulse carries it), and M_i
+//! against the gate i (click a point to show that gate; gates outside the window red).
 
 use super::state::SensorState;
-use super::{GATE_COLOR, LIGHT_COLOR};
+use super::view::{Coverage, coverage, main_span};
+use super::{GATE_COLOR, LIGHT_COLOR, OUTSIDE_COLOR};
+use crate::viewer::axes::BIN_UNIT;
+use crate::viewer::plotting;
 use eframe::egui::{self, Color32, RichText};
-use egui_plot::{Line, Plot, PlotPoints, Points, VLine};
+use egui_plot::{Line, Plot, PlotPoints, Points, Span, VLine};
 use tprf_core::film::FilmSnapshot;
 use tprf_core::sensor::spad::spad_pixel;
 
@@ -23,63 +27,88 @@ pub(crate) fn pixel_plots_ui(
     pixel: (usize, usize),
 ) {
     let axis = snap.axis();
+    let Some(model) = state.model() else {
+        return;
+    };
     let Some(trace) = state.pixel_trace(tprf) else {
         return;
     };
-    ui.label(RichText::new("(TPRF * Light)(t) of the pixel").small());
-    let steps: Vec<[f64; 2]> = trace
-        .tprf_light
+    let (k0, full) = model.tprf_light_full(tprf);
+    ui.label(RichText::new(
+        "(TPRF * Light)(t) of the pixel: what reaches the sensor, pulse included",
+    ));
+    let dt_ns = axis.dt_s * 1e9;
+    let steps: Vec<[f64; 2]> = full
         .iter()
         .enumerate()
-        .flat_map(|(b, &v)| {
-            [
-                [axis.bin_start_s(b) * 1e9, v],
-                [(axis.bin_start_s(b) + axis.dt_s) * 1e9, v],
-            ]
+        .flat_map(|(j, &v)| {
+            let t = axis.t0_s * 1e9 + (k0 + j as i64) as f64 * dt_ns;
+            [[t, v], [t + dt_ns, v]]
         })
         .collect();
-    Plot::new("sensor-tprf-light")
+    let plot = Plot::new("sensor-tprf-light")
         .height(height)
         .allow_drag(false)
-        .x_axis_label("arrival time (ns)")
-        .show(ui, |p| {
-            p.line(Line::new("TPRF * Light", PlotPoints::from(steps)).color(LIGHT_COLOR))
-        });
+        .include_y(0.0);
+    plotting::time_plot(plot, &format!("per bin ({BIN_UNIT})"), false).show(ui, |p| {
+        p.span(
+            Span::new("rendered window", axis.t0_s * 1e9..=axis.end_s() * 1e9)
+                .fill(Color32::from_white_alpha(10)),
+        );
+        p.line(Line::new("TPRF * Light", PlotPoints::from(steps)).color(LIGHT_COLOR))
+    });
     if spad_plot_ui(ui, state, &trace.m_clean, tprf, height, snap, pixel) {
         return;
     }
-    ui.label(
-        RichText::new("M_i of the pixel (with noise once all gates are measured); click a gate")
-            .small(),
-    );
+    let Some(model) = state.model() else {
+        return;
+    };
+    ui.label(RichText::new(
+        "M_i of the pixel (with noise once all gates are measured); click a gate",
+    ));
     let m_clean: Vec<f32> = trace.m_clean.iter().map(|&v| v as f32).collect();
     let m_pixel = if m_pixel.is_empty() {
         &m_clean[..]
     } else {
         m_pixel
     };
+    let pulse = main_span(model.light());
+    let outside: Vec<bool> = model
+        .gates()
+        .iter()
+        .map(|g| coverage(g, pulse, axis, state.auto_start) != Coverage::Inside)
+        .collect();
     let pts: Vec<[f64; 2]> = m_pixel
         .iter()
         .enumerate()
         .map(|(i, &v)| [i as f64, v as f64])
         .collect();
+    let (inside_pts, outside_pts): (Vec<[f64; 2]>, Vec<[f64; 2]>) = pts
+        .iter()
+        .partition(|p| !outside.get(p[0] as usize).copied().unwrap_or(false));
     let gate = state.gate;
-    let r = Plot::new("sensor-m")
+    let plot = Plot::new("sensor-m")
         .height(height)
         .allow_drag(false)
-        .x_axis_label("gate i")
-        .show(ui, |p| {
-            p.line(Line::new("M_i", PlotPoints::from(pts.clone())).color(GATE_COLOR));
+        .include_y(0.0);
+    let r = plotting::value_plot(plot, "gate i", &format!("M_i ({BIN_UNIT})")).show(ui, |p| {
+        p.line(Line::new("M_i", PlotPoints::from(pts.clone())).color(GATE_COLOR));
+        p.points(
+            Points::new("M_i", PlotPoints::from(inside_pts))
+                .radius(2.5)
+                .color(GATE_COLOR),
+        );
+        if !outside_pts.is_empty() {
             p.points(
-                Points::new("", PlotPoints::from(pts))
-                    .radius(2.0)
-                    .color(GATE_COLOR),
+                Points::new("outside the rendered window", PlotPoints::from(outside_pts))
+                    .radius(3.5)
+                    .shape(egui_plot::MarkerShape::Cross)
+                    .color(OUTSIDE_COLOR),
             );
-            p.vline(
-                VLine::new("gate shown", gate as f64).color(Color32::from_rgb(0xff, 0x9f, 0x43)),
-            );
-            p.pointer_coordinate()
-        });
+        }
+        p.vline(VLine::new("gate shown", gate as f64).color(Color32::WHITE));
+        p.pointer_coordinate()
+    });
     if r.response.clicked()
         && let Some(p) = r.inner
         && p.x.is_finite()

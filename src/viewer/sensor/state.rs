@@ -3,7 +3,10 @@
 //! snapshot's [`FilmSnapshot::generation`] (an address would be reused by the next one).
 
 use super::handles::Handle;
-use super::measure::{Measured, SpadMeasured, SpadView, background_pool, measure_all};
+use super::measure::{
+    Measured, SpadMeasured, SpadView, background_pool, brightest_gate, measure_all, shared_white,
+};
+use super::view::TimeView;
 use crate::viewer::textures::TextureCache;
 use std::sync::Arc;
 use std::sync::mpsc::{Receiver, TryRecvError, channel};
@@ -41,6 +44,16 @@ pub struct SensorState {
     pub(super) spad_view: SpadView,
     /// The editor's handle being dragged.
     pub(super) drag: Option<Handle>,
+    /// The editor's time range (`None`: fit to the window and pulse when next drawn).
+    pub(super) view: Option<TimeView>,
+    /// The exposure shared by all gates' images and the sensor layout it was taken for
+    /// (see [`layout_key`]).
+    pub(super) white: Option<(String, Option<f64>)>,
+    /// The layout the editor's view was fitted for.
+    view_key: Option<String>,
+    /// Whether the film's window starts at its first light (an automatic window):
+    /// then no gate misses light before the window's start.
+    pub auto_start: bool,
     pub(super) textures: TextureCache<u64>,
 }
 
@@ -67,6 +80,16 @@ impl SensorState {
             },
         };
         self.gate = self.gate.min(model.gate_count().saturating_sub(1));
+        // A new preset, kind, gate count or film window: the editor opens anew on the
+        // window and the pulse, and on the gate that sees the most light.
+        let layout = layout_key(model.sensor(), &axis);
+        if self.view_key.as_ref() != Some(&layout) {
+            self.view = None;
+            self.view_key = Some(layout.clone());
+            if let Some(g) = brightest_gate(&model, snap) {
+                self.gate = g;
+            }
+        }
         let key = snap.generation();
         // A finished background measurement.
         if let Some(rx) = &self.job {
@@ -79,6 +102,16 @@ impl SensorState {
                 Err(TryRecvError::Disconnected) => self.job = None,
                 Err(TryRecvError::Empty) => {}
             }
+        }
+        // The shared exposure: from the full measurement once current; measured now on
+        // a small grid of pixels when the layout changed (a preset picked), so the
+        // images never show another sensor's exposure.
+        if self.is_current_for(key, model.sensor()) {
+            if let Some(m) = &self.measured {
+                self.white = Some((layout.clone(), m.robust_max));
+            }
+        } else if self.white.as_ref().is_none_or(|w| w.0 != layout) {
+            self.white = Some((layout.clone(), shared_white(&model, snap)));
         }
         if !self.is_current_for(key, model.sensor()) {
             if self.job.is_none() {
@@ -165,6 +198,16 @@ impl SensorState {
             .map(|p| p.values.as_slice())
     }
 
+    /// The white point all gates' images share (measurement units).
+    pub fn shared_white(&self) -> Option<f64> {
+        self.white.as_ref().and_then(|w| w.1)
+    }
+
+    /// The editor's time range in seconds, once it has been drawn.
+    pub fn editor_view_s(&self) -> Option<(f64, f64)> {
+        self.view.map(|v| (v.lo_s, v.hi_s))
+    }
+
     /// The sensor model of the last valid sensor, with its kernels.
     pub fn model(&self) -> Option<&SensorModel> {
         self.model.as_ref()
@@ -193,4 +236,19 @@ impl SensorState {
     pub fn pixel_trace(&self, tprf: &[f32]) -> Option<PixelTrace> {
         self.model.as_ref()?.pixel_trace(tprf).ok()
     }
+}
+
+/// What fixes the layout of a sensor over a film: its name, light and gate kinds, gate
+/// count and the film's window. A new one refits the editor and retakes the exposure.
+fn layout_key(sensor: &Sensor, axis: &tprf_core::film::TimeAxis) -> String {
+    format!(
+        "{}|{}|{}|{}|{}|{}|{}",
+        sensor.name,
+        sensor.light.kind_name(),
+        sensor.exposure.kind_name(),
+        sensor.exposure.count(),
+        axis.t0_s,
+        axis.dt_s,
+        axis.bins
+    )
 }

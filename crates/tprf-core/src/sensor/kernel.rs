@@ -256,6 +256,26 @@ impl BinTransfer {
         }
     }
 
+    /// `(TPRF * Light)` integrated over every bin it reaches, those outside the TPRF's
+    /// axis included: `(k0, v)` with `v[j]` the integral over bin `k0 + j` of the axis
+    /// extended both ways (`k0` may be negative). Nothing is cut: `sum v` is the TPRF's
+    /// sum times the light's energy (as far as `max_offset` allowed the transfer).
+    pub fn apply_full(&self, tprf: &[f32]) -> (i64, Vec<f64>) {
+        if self.weights.is_empty() || tprf.is_empty() {
+            return (0, vec![0.0; tprf.len()]);
+        }
+        let mut out = vec![0.0; tprf.len() + self.weights.len() - 1];
+        for (b, &v) in tprf.iter().enumerate() {
+            if v == 0.0 {
+                continue;
+            }
+            for (j, &w) in self.weights.iter().enumerate() {
+                out[b + j] += f64::from(v) * w;
+            }
+        }
+        (self.first_offset, out)
+    }
+
     /// `(TPRF * Light)` integrated over each bin of the TPRF's axis (what falls past
     /// the last bin is not shown).
     pub fn apply(&self, tprf: &[f32]) -> Vec<f64> {
@@ -273,5 +293,44 @@ impl BinTransfer {
             }
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A delta 3 bins after the trigger moves the TPRF 3 bins later, times its energy;
+    /// the full result keeps what the clipped one drops past the end.
+    #[test]
+    fn the_full_convolution_keeps_what_falls_outside() {
+        let dt = 1e-9;
+        let light = crate::sensor::LightPulse::Delta {
+            t_s: 3.0 * dt,
+            energy: 2.0,
+        }
+        .compile()
+        .unwrap();
+        let t = BinTransfer::new(&light, dt, 10);
+        let tprf = [1.0f32, 0.0, 0.5, 0.25];
+        let (k0, full) = t.apply_full(&tprf);
+        let clipped = t.apply(&tprf);
+        let at = |k: i64| {
+            usize::try_from(k - k0)
+                .ok()
+                .and_then(|j| full.get(j))
+                .copied()
+                .unwrap_or(0.0)
+        };
+        // Bins 3, 5 and 6 of the extended axis.
+        assert!((at(3) - 2.0).abs() < 1e-9);
+        assert!((at(5) - 1.0).abs() < 1e-9);
+        assert!((at(6) - 0.5).abs() < 1e-9);
+        assert!((full.iter().sum::<f64>() - 3.5).abs() < 1e-9);
+        // The axis' own bins agree with the clipped result, which loses bins 5 and 6.
+        for (k, c) in clipped.iter().enumerate() {
+            assert!((at(k as i64) - c).abs() < 1e-12);
+        }
+        assert!((clipped.iter().sum::<f64>() - 2.0).abs() < 1e-9);
     }
 }

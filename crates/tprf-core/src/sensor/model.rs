@@ -223,6 +223,13 @@ impl SensorModel {
         })
     }
 
+    /// `(TPRF * Light)` of one pixel over every bin it reaches, past the window's ends
+    /// included: `(k0, v)`, `v[j]` the integral over bin `k0 + j` of the axis extended
+    /// both ways (see [`BinTransfer::apply_full`]).
+    pub fn tprf_light_full(&self, tprf: &[f32]) -> (i64, Vec<f64>) {
+        self.transfer.apply_full(tprf)
+    }
+
     /// `Light(t)` at each of `t_s` (W per unit of the cube's pulse energy); a delta
     /// light is 0 here: see [`Light::delta_time_s`].
     pub fn light_curve(&self, t_s: &[f64]) -> Vec<f64> {

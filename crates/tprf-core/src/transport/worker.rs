@@ -28,6 +28,9 @@ pub struct RenderJob {
     pub settings: RenderSettings,
     /// Stop after this many samples per pixel (`None`: until stopped).
     pub spp_target: Option<u64>,
+    /// Stop once the film's relative error estimate is at or below this (`None`: not on
+    /// the error).
+    pub error_target: Option<f64>,
 }
 
 /// Where the worker is.
@@ -76,8 +79,14 @@ pub struct WorkerStatus {
     pub state: WorkerState,
     pub spp: u64,
     pub passes: u64,
-    /// Wall seconds since rendering began (pauses excluded, snapshot making included).
+    /// Wall seconds since rendering began (pauses excluded, snapshot making included),
+    /// at the end of the last pass.
     pub elapsed_s: f64,
+    /// When the last pass ended (its status written): a reader adds the time since to
+    /// `elapsed_s` while rendering, for a clock that runs between passes.
+    pub updated_at: Option<Instant>,
+    /// Seconds spent loading the scene, building the BVH and choosing the window.
+    pub setup_s: f64,
     pub passes_per_s: f64,
     pub rays: u64,
     /// (elapsed seconds, relative error estimate) after each pass with both halves.
@@ -120,6 +129,8 @@ impl RenderWorker {
                 spp: 0,
                 passes: 0,
                 elapsed_s: 0.0,
+                updated_at: None,
+                setup_s: 0.0,
                 passes_per_s: 0.0,
                 rays: 0,
                 error_history: Vec::new(),
@@ -204,6 +215,7 @@ fn set_status(shared: &Shared, f: impl FnOnce(&mut WorkerStatus)) {
 }
 
 fn run(job: &RenderJob, shared: &Shared, on_update: &(dyn Fn() + Sync)) -> Result<(), RenderError> {
+    let setup_start = Instant::now();
     let scene: Scene = scene::load(&job.scene)?;
     let notes = scene.notes.clone();
     let triangles = scene.triangles.len();
@@ -218,6 +230,8 @@ fn run(job: &RenderJob, shared: &Shared, on_update: &(dyn Fn() + Sync)) -> Resul
     let mut film = TprfFilm::new(layout)?;
     set_status(shared, |s| {
         s.state = WorkerState::Rendering;
+        s.setup_s = setup_start.elapsed().as_secs_f64();
+        s.updated_at = Some(Instant::now());
         s.axis = Some(axis);
         s.triangles = triangles;
         s.notes = notes;
@@ -258,6 +272,7 @@ fn run(job: &RenderJob, shared: &Shared, on_update: &(dyn Fn() + Sync)) -> Resul
                     s.spp = report.spp;
                     s.passes = film.passes();
                     s.elapsed_s = secs;
+                    s.updated_at = Some(Instant::now());
                     s.passes_per_s = film.passes() as f64 / secs.max(1e-9);
                     s.rays = report.rays;
                     s.store = film.store_stats();
@@ -268,14 +283,28 @@ fn run(job: &RenderJob, shared: &Shared, on_update: &(dyn Fn() + Sync)) -> Resul
                 });
                 on_update();
                 let pause_start = Instant::now();
+                let mut was_paused = false;
                 while shared.paused.load(Ordering::Relaxed) && !shared.stop.load(Ordering::Relaxed)
                 {
+                    was_paused = true;
                     set_status(shared, |s| s.state = WorkerState::Paused);
                     std::thread::sleep(Duration::from_millis(30));
                 }
                 paused_time += pause_start.elapsed();
+                if was_paused {
+                    // The clock runs on from the end of the pause.
+                    set_status(shared, |s| s.updated_at = Some(Instant::now()));
+                }
                 if shared.stop.load(Ordering::Relaxed) {
                     stopped = true;
+                    return ControlFlow::Break(());
+                }
+                // The error target reached: done, like the spp target.
+                if job
+                    .error_target
+                    .zip(error)
+                    .is_some_and(|(target, e)| e <= target)
+                {
                     return ControlFlow::Break(());
                 }
                 ControlFlow::Continue(())
