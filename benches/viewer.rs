@@ -138,6 +138,94 @@ fn main() {
     if part("sensor") {
         sensor();
     }
+    if part("throughput") {
+        throughput();
+    }
+}
+
+/// Samples per pixel per wall second, window against `tprf render`: the real app
+/// (egui_kittest, UI frames at a 60 Hz pace, playback on, the pointer over the image)
+/// renders to `spp` from the moment it opens; then the CLI renders the same film to the
+/// same spp with the worker's thread count and the same bounce layers (3), timed from
+/// process start to exit (writing `tprf.npy` included), with the render time it reports.
+fn throughput() {
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .saturating_sub(1)
+        .max(1);
+    println!(
+        "\nWindow against CLI, builtin:cornell, {threads} render thread(s), same spp, one run\n"
+    );
+    println!(
+        "| film | spp | window wall s | window spp/s | CLI wall s | CLI render s | CLI spp/s (wall) | window / CLI | CLI wall / render |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|");
+    for (side, bins, spp) in [(256usize, 512usize, 32u64), (512, 1024, 8)] {
+        let settings = ViewerSettings {
+            width: side,
+            height: side,
+            bins,
+            spp_target: spp,
+            ..ViewerSettings::default()
+        };
+        let opened = Instant::now();
+        let mut h = Harness::builder()
+            .with_size(Vec2::new(1280.0, 800.0))
+            .build_eframe(move |cc| TprfApp::with_settings(cc, settings, Start::Default));
+        let mut hovering = false;
+        let window_s = loop {
+            let t = Instant::now();
+            h.step();
+            let shapes = h.output().shapes.clone();
+            let _ = h.ctx.tessellate(shapes, 1.0);
+            if !hovering && let Some(n) = h.query_by_label("time slice") {
+                let c = n.rect().center();
+                h.hover_at(Pos2::new(c.x, c.y));
+                hovering = true;
+            }
+            let status = h.state().status();
+            if let Some(s) = &status
+                && let tprf_core::transport::worker::WorkerState::Failed(e) = &s.state
+            {
+                panic!("render failed: {e}");
+            }
+            if status.is_some_and(|s| s.spp >= spp) {
+                break opened.elapsed().as_secs_f64();
+            }
+            assert!(
+                opened.elapsed() < Duration::from_secs(600),
+                "window too slow"
+            );
+            std::thread::sleep(Duration::from_micros(16_667).saturating_sub(t.elapsed()));
+        };
+        drop(h);
+        let out = std::env::temp_dir().join(format!("tprf-bench-throughput-{side}"));
+        let started = Instant::now();
+        let run = std::process::Command::new(env!("CARGO_BIN_EXE_tprf"))
+            .args(["render", "builtin:cornell", "--bounces-separate", "3"])
+            .args(["--width", &side.to_string(), "--height", &side.to_string()])
+            .args(["--bins", &bins.to_string(), "--spp", &spp.to_string()])
+            .args(["--threads", &threads.to_string(), "--out"])
+            .arg(&out)
+            .output()
+            .expect("tprf render runs");
+        let cli_s = started.elapsed().as_secs_f64();
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        let meta: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("tprf.json")).unwrap()).unwrap();
+        let render_s = meta["render_seconds"].as_f64().unwrap();
+        let _ = std::fs::remove_dir_all(&out);
+        let (w_rate, c_rate) = (spp as f64 / window_s, spp as f64 / cli_s);
+        println!(
+            "| {side} x {side} x {bins} | {spp} | {window_s:.1} | {w_rate:.2} | {cli_s:.1} | {render_s:.1} | {c_rate:.2} | {:.2} | {:.2} |",
+            w_rate / c_rate,
+            cli_s / render_s
+        );
+    }
 }
 
 fn frames() {

@@ -630,6 +630,24 @@ fn screenshots() {
     h.run_steps(4);
     let img = h.render().expect("a wgpu adapter for screenshots");
     img.save(dir.join("sensor.png")).unwrap();
+
+    // The SPAD preset on the same film: a bin of the histogram, its depth, and the
+    // pixel's histogram with pile-up and the Coates estimate.
+    {
+        let app = h.state_mut();
+        app.settings.sensor = Sensor::builtin("spad").unwrap();
+        app.sensor.gate = 0;
+    }
+    h.run_steps(2);
+    let snap = h.state().snapshot().unwrap();
+    let start = std::time::Instant::now();
+    while !h.state().sensor.is_current(&snap) && start.elapsed() < Duration::from_secs(120) {
+        h.step();
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    h.run_steps(4);
+    let img = h.render().expect("a wgpu adapter for screenshots");
+    img.save(dir.join("spad.png")).unwrap();
 }
 
 #[test]

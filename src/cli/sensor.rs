@@ -151,9 +151,16 @@ pub fn run(a: &SensorArgs) -> Result<()> {
         .filter(|k| k.weights.is_empty())
         .count();
     if unread > 0 {
+        let (what, rest) = if spad.is_some() {
+            (
+                "TDC bins",
+                "they count ambient light, dark counts and afterpulses only",
+            )
+        } else {
+            ("gates", "their measurements are noise only")
+        };
         eprintln!(
-            "note: {unread} of {n} gates see no light from the cube's window ({} .. {}); \
-             their measurements are noise only",
+            "note: {unread} of {n} {what} see no light from the cube's window ({} .. {}); {rest}",
             format_time(axis.t0_s),
             format_time(axis.end_s())
         );

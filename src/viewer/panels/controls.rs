@@ -113,7 +113,7 @@ impl TprfApp {
             ui.separator();
             ui.heading("Messages");
             for m in &self.messages {
-                ui.label(RichText::new(m).color(ui.visuals().warn_fg_color));
+                ui.label(RichText::new(m).color(super::message_color(ui, m)));
             }
             if ui.button("Clear").clicked() {
                 self.messages.clear();

@@ -10,7 +10,16 @@ mod scrubber;
 mod status_line;
 mod top_bar;
 
-use eframe::egui::Color32;
+use eframe::egui::{self, Color32};
+
+/// A message's colour: a file written is news, anything else a warning.
+fn message_color(ui: &egui::Ui, m: &str) -> Color32 {
+    if m.starts_with("saved ") {
+        ui.visuals().strong_text_color()
+    } else {
+        ui.visuals().warn_fg_color
+    }
+}
 
 /// The selection's colour (index 0), then the pins'. None is the scrubber's or a
 /// bounce curve's (see the test).

@@ -195,7 +195,7 @@ impl TprfApp {
             ui.label(self.status_line(snap));
             if let Some(m) = self.messages.last() {
                 ui.separator();
-                ui.label(RichText::new(m).color(ui.visuals().warn_fg_color));
+                ui.label(RichText::new(m).color(super::message_color(ui, m)));
             }
         });
     }

@@ -96,8 +96,7 @@ fn spad_images(
             img.sampler.name(),
             state.measured.as_ref().map_or(0.0, |m| m.millis)
         ))
-        .weak()
-        .small(),
+        .weak(),
     );
     let hash = |x: &dyn std::fmt::Debug| {
         use std::hash::{Hash, Hasher};
@@ -107,56 +106,111 @@ fn spad_images(
     };
     let key = hash(&(snap.generation(), model.sensor(), *view));
     let avail = ui.available_size();
+    let title_h = 22.0;
+    let readout_h = 26.0;
     let side = (avail.x - 16.0) / 2.0;
-    let max = Vec2::new(side, avail.y - 40.0);
+    let max = Vec2::new(side, avail.y - title_h - BAR_H - readout_h - 12.0);
     // The largest image of the film's aspect inside `max`.
-    let fit = |max: Vec2| {
+    let size = {
         let scale = (max.x / w.max(1) as f32)
             .min(max.y / h.max(1) as f32)
             .max(0.01);
         Vec2::new(w as f32, h as f32) * scale
     };
+    let white = sp.robust_max(*view);
+    let plane = img.plane(sp.values(*view), bin);
+    let depth = sp.depth(*view);
+    let mut hovered = None;
     ui.horizontal_top(|ui| {
         ui.vertical(|ui| {
-            ui.label(
-                RichText::new(format!(
-                    "{} counts in bin {bin} (one exposure over all bins)",
-                    view.label()
-                ))
-                .strong(),
+            ui.set_width(size.x);
+            ui.add(
+                egui::Label::new(
+                    RichText::new(format!(
+                        "{} counts in bin {bin} (one exposure over all bins)",
+                        view.label()
+                    ))
+                    .strong(),
+                )
+                .truncate(),
             );
             let tone = Tone {
-                scale: sp.robust_max(*view).map_or(1.0, |m| 1.0 / m),
+                scale: white.map_or(1.0, |m| 1.0 / m),
                 log: false,
                 decades: 3.0,
             };
-            let plane = img.plane(sp.values(*view), bin);
             let tex = textures.get(&ctx, "spad-bin", hash(&(key, bin)), || {
                 egui::ColorImage::from_rgba_unmultiplied(
                     [w, h],
                     &colormap::colorize(plane, &tone, ColorMap::Inferno),
                 )
             });
-            if let Some(p) = pick(ui, &tex, w, h, fit(max), "SPAD bin image").clicked {
-                clicked = Some(p);
+            let p = pick(ui, &tex, w, h, size, "SPAD bin image");
+            clicked = clicked.or(p.clicked);
+            hovered = hovered.or(p.hover);
+            let ramp = |t: f64| colormap::color_of(ColorMap::Inferno, t);
+            ColorBar {
+                of: "SPAD counts",
+                ramp: &ramp,
+                scale: BarScale::Linear {
+                    lo: 0.0,
+                    hi: white.unwrap_or(1.0),
+                },
+                unit: "counts",
+                second: None,
+                note: "counts per TDC bin over all cycles; white = the 99.9th percentile of \
+                       this histogram's bins over all pixels",
             }
+            .ui(ui, size.x);
         });
         ui.vertical(|ui| {
+            ui.set_width(size.x);
             let (lo, hi) = sp.depth_range(*view);
-            ui.label(
-                RichText::new(format!(
-                    "first-return depth of the {} histogram (m): {lo:.3} … {hi:.3}",
-                    view.label()
-                ))
-                .strong(),
+            ui.add(
+                egui::Label::new(
+                    RichText::new(format!(
+                        "first-return depth of the {} histogram",
+                        view.label()
+                    ))
+                    .strong(),
+                )
+                .truncate(),
             );
-            let depth = sp.depth(*view);
             let tex = textures.get(&ctx, "spad-depth", key, || depth_image(depth, w, h, lo, hi));
-            if let Some(p) = pick(ui, &tex, w, h, fit(max), "SPAD depth image").clicked {
-                clicked = Some(p);
+            let p = pick(ui, &tex, w, h, size, "SPAD depth image");
+            clicked = clicked.or(p.clicked);
+            hovered = hovered.or(p.hover);
+            ColorBar {
+                of: "depth",
+                ramp: &colormap::turbo,
+                scale: BarScale::Linear {
+                    lo: f64::from(lo),
+                    hi: f64::from(hi).max(f64::from(lo) + 1e-6),
+                },
+                unit: "m",
+                second: None,
+                note: "depth = c × round-trip time / 2 of the histogram's first peak; \
+                       black: no return",
             }
+            .ui(ui, size.x);
         });
     });
+    let text = match hovered {
+        Some((x, y)) => {
+            let i = y * w + x;
+            let mut s = format!(
+                "pixel ({x}, {y}) · bin {bin}: {} counts",
+                axes::format_value(f64::from(plane.get(i).copied().unwrap_or(0.0)), "")
+            );
+            match depth.get(i) {
+                Some(d) if d.is_finite() => s += &format!(" · depth {d:.3} m"),
+                _ => s += " · no return",
+            }
+            s
+        }
+        None => "Hover a pixel to read its counts and depth".to_string(),
+    };
+    ui.add(egui::Label::new(RichText::new(text).monospace()).truncate());
     clicked
 }
 

@@ -163,52 +163,57 @@ fn spad_plot_ui(
     let counts = img.pixel(&img.counts, y, x);
     let curve = |v: &[f32]| bin_steps(centres, width_s, v.iter().map(|&v| f64::from(v)));
     let shown = centres.get(state.gate).copied();
-    ui.label(
-        RichText::new(format!(
-            "SPAD histogram of pixel ({y}, {x}) over {} cycles: expected (piled up), one \
+    ui.label(RichText::new(format!(
+        "SPAD histogram of pixel ({y}, {x}) over {} cycles: expected (piled up), one \
              realisation, its Coates estimate, and N r_k without pile-up",
-            model.sensor().spad.as_ref().map_or(0, |s| s.cycles)
-        ))
-        .small(),
-    );
-    let r = Plot::new("sensor-spad")
+        model.sensor().spad.as_ref().map_or(0, |s| s.cycles)
+    )));
+    // Head room above the highest curve for the legend, which would hide the peak.
+    let top = [&counts[..], &expected[..], &coates[..]]
+        .into_iter()
+        .flatten()
+        .map(|&v| f64::from(v))
+        .chain(px.unpiled.iter().chain(&px.signal).copied())
+        .filter(|v| v.is_finite())
+        .fold(0.0, f64::max);
+    let plot = Plot::new("sensor-spad")
         .height(1.25 * height)
         .allow_drag(false)
-        .x_axis_label("TDC time (ns)")
-        .legend(egui_plot::Legend::default())
-        .show(ui, |p| {
-            p.line(
-                Line::new("realisation", PlotPoints::from(curve(&counts)))
-                    .color(Color32::from_gray(0x80)),
-            );
-            p.line(
-                Line::new("expected histogram", PlotPoints::from(curve(&expected)))
-                    .color(GATE_COLOR),
-            );
-            p.line(
-                Line::new("Coates estimate", PlotPoints::from(curve(&coates))).color(COATES_COLOR),
-            );
-            p.line(
-                Line::new(
-                    "N r_k (no pile-up)",
-                    PlotPoints::from(bin_steps(centres, width_s, px.unpiled.iter().copied())),
-                )
-                .color(TRUTH_COLOR),
-            );
-            p.line(
-                Line::new(
-                    "TPRF * Light detected",
-                    PlotPoints::from(bin_steps(centres, width_s, px.signal.iter().copied())),
-                )
-                .color(LIGHT_COLOR),
-            );
-            if let Some(c) = shown {
-                p.vline(
-                    VLine::new("bin shown", c * 1e9).color(Color32::from_rgb(0xff, 0x9f, 0x43)),
-                );
-            }
-            p.pointer_coordinate()
-        });
+        .include_y(0.0)
+        .include_y(1.7 * top)
+        .legend(
+            egui_plot::Legend::default()
+                .position(egui_plot::Corner::RightTop)
+                .background_alpha(0.6),
+        );
+    let r = plotting::value_plot(plot, "TDC time (ns)", "counts per bin").show(ui, |p| {
+        p.line(
+            Line::new("realisation", PlotPoints::from(curve(&counts)))
+                .color(Color32::from_gray(0x80)),
+        );
+        p.line(
+            Line::new("expected histogram", PlotPoints::from(curve(&expected))).color(GATE_COLOR),
+        );
+        p.line(Line::new("Coates estimate", PlotPoints::from(curve(&coates))).color(COATES_COLOR));
+        p.line(
+            Line::new(
+                "N r_k (no pile-up)",
+                PlotPoints::from(bin_steps(centres, width_s, px.unpiled.iter().copied())),
+            )
+            .color(TRUTH_COLOR),
+        );
+        p.line(
+            Line::new(
+                "TPRF * Light detected",
+                PlotPoints::from(bin_steps(centres, width_s, px.signal.iter().copied())),
+            )
+            .color(LIGHT_COLOR),
+        );
+        if let Some(c) = shown {
+            p.vline(VLine::new("bin shown", c * 1e9).color(Color32::from_rgb(0xff, 0x9f, 0x43)));
+        }
+        p.pointer_coordinate()
+    });
     if r.response.clicked()
         && let Some(p) = r.inner
         && p.x.is_finite()
