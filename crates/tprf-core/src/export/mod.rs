@@ -5,11 +5,13 @@
 use crate::film::{FilmError, FilmLayout, FilmSnapshot, LeftOutCounts, StoreStats, TimeAxis};
 use npyz::WriterBuilder;
 use serde::{Deserialize, Serialize};
+use sparse_file::SparseWriter;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 pub mod sensor;
+pub mod sparse_file;
 pub mod staging;
 pub mod zarr;
 
@@ -357,7 +359,8 @@ pub fn write_npy_f32(path: &Path, shape: &[u64], data: &[f32]) -> Result<(), Exp
 /// Write a snapshot's cube as a float32 C-order `.npy`: `[H, W, T]` for the total
 /// (`layer` `None`) or `[L, H, W, T]` for all per-bounce layers (`layer` `Some(_)` is
 /// ignored beyond choosing that form). Rows are made dense one at a time, so the only
-/// cube-sized memory is the file.
+/// cube-sized memory is the file, and blocks of zeros are left as holes in it
+/// ([`sparse_file`]): the write costs what the light stored, not the dense size.
 pub fn write_snapshot_npy(
     path: &Path,
     snap: &FilmSnapshot,
@@ -375,19 +378,25 @@ pub fn write_snapshot_npy(
         (vec![h, w, t], vec![None])
     };
     write_atomic(path, |out| {
-        let mut npy = npyz::WriteOptions::<f32>::new()
+        // Blocks of bins no light reached are holes in the file, not written zeros.
+        let mut sparse = npyz::WriteOptions::<f32>::new()
             .default_dtype()
             .shape(&shape)
-            .writer(out)
-            .begin_nd()?;
-        let mut row = Vec::new();
+            .writer(SparseWriter::new(&mut *out))
+            .write_header_only()?;
+        // The data: little-endian float32 (the header's `<f4`), a row at a time.
+        let (mut row, mut bytes) = (Vec::new(), Vec::new());
         for plane in planes {
             for y in 0..snap.height() {
                 snap.row_dense(y, plane, &mut row);
-                npy.extend(row.iter().copied())?;
+                bytes.clear();
+                bytes.extend(row.iter().flat_map(|v| v.to_le_bytes()));
+                sparse.write_all(&bytes)?;
             }
         }
-        npy.finish()?;
+        let (len, out) = sparse.finish()?;
+        out.flush()?;
+        out.get_ref().set_len(len)?;
         Ok(())
     })
 }
