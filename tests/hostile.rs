@@ -574,6 +574,105 @@ fn ctrl_c_during_a_render_to_a_new_folder_leaves_nothing() {
     );
 }
 
+/// The staging folders (`.NAME.tmp-*`) beside `target`.
+fn staging_folders(target: &Path) -> Vec<PathBuf> {
+    let name = target.file_name().unwrap().to_string_lossy().into_owned();
+    let prefix = format!(".{name}.tmp-");
+    std::fs::read_dir(target.parent().unwrap())
+        .map(|d| {
+            d.flatten()
+                .filter(|e| e.file_name().to_string_lossy().starts_with(&prefix))
+                .map(|e| e.path())
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+#[cfg(unix)]
+#[test]
+fn ctrl_c_while_the_output_is_written_keeps_the_old_folder_whole() {
+    let dir = tmp("sigint-write");
+    let out = dir.join("cube");
+    let out_s = out.to_str().unwrap().to_string();
+    let render = |bins: &'static str, frames: bool| -> Vec<String> {
+        let mut args: Vec<&str> = vec![
+            "render",
+            "builtin:cornell",
+            "--out",
+            &out_s,
+            "--width",
+            "96",
+            "--height",
+            "96",
+            "--spp",
+            "1",
+            "--bins",
+            bins,
+        ];
+        if frames {
+            args.push("--frames");
+        }
+        args.into_iter().map(String::from).collect()
+    };
+    // The old output: a small render, its files remembered byte for byte.
+    let old_args = render("8", false);
+    let o = tprf_limited(
+        &old_args.iter().map(|s| s.as_str()).collect::<Vec<_>>(),
+        None,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let old: Vec<(PathBuf, Vec<u8>)> = ["tprf.json", "tprf.npy", "steady.png"]
+        .iter()
+        .map(|f| (out.join(f), std::fs::read(out.join(f)).unwrap()))
+        .collect();
+    // The new render writes 4096 frames: Ctrl-C lands while its folder is being written.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_tprf"))
+        .args(render("4096", true))
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    let mut seen_writing = false;
+    while start.elapsed() < Duration::from_secs(120) {
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        if let Some(staging) = staging_folders(&out).first()
+            && staging.join("frames").is_dir()
+        {
+            seen_writing = true;
+            let killed = Command::new("kill")
+                .args(["-INT", &child.id().to_string()])
+                .status()
+                .unwrap();
+            assert!(killed.success());
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    let o = child.wait_with_output().unwrap();
+    assert!(seen_writing, "the write ended before it was seen");
+    assert!(!o.status.success(), "an interrupted write must not exit 0");
+    assert!(
+        stderr(&o).contains("interrupted"),
+        "the message says so: {}",
+        stderr(&o)
+    );
+    for (path, bytes) in &old {
+        assert_eq!(
+            &std::fs::read(path).unwrap(),
+            bytes,
+            "{} changed",
+            path.display()
+        );
+    }
+    assert!(
+        !out.join("frames").exists(),
+        "new frames beside the old cube"
+    );
+    assert_eq!(staging_folders(&out), Vec::<PathBuf>::new());
+}
+
 #[test]
 fn a_convergence_run_larger_than_memory_is_refused() {
     // 4096 x 4096 x 8 = 2^27 pixel-bins (the run's fixed cap) at 32 B each: 4 GiB.

@@ -2,7 +2,10 @@
 //! time-slice frames). Every file is written to a temporary name and renamed, so an
 //! existing file is replaced atomically and a failed write loses nothing.
 
-use crate::film::{FilmError, FilmLayout, FilmSnapshot, LeftOutCounts, StoreStats, TimeAxis};
+use crate::film::{
+    DENSE_BAND_VALUES, FilmError, FilmLayout, FilmSnapshot, LeftOutCounts, StoreStats, TimeAxis,
+};
+pub use npy_read::NpyF32;
 use npyz::WriterBuilder;
 use serde::{Deserialize, Serialize};
 use sparse_file::SparseWriter;
@@ -10,6 +13,7 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
+mod npy_read;
 pub mod sensor;
 pub mod sparse_file;
 pub mod staging;
@@ -404,6 +408,13 @@ pub fn write_snapshot_npy(
 /// Read a cube `tprf.npy` written by `tprf render` with the `tprf.json` beside it,
 /// checking that the array's shape is the metadata's `[H, W, T]`.
 pub fn read_cube(npy: &Path) -> Result<(CubeMetadata, Vec<f32>), ExportError> {
+    let (meta, cube) = open_cube(npy)?;
+    Ok((meta, cube.read_all()?))
+}
+
+/// [`read_cube`] without reading the values: the metadata and the open array, its
+/// shape checked.
+pub fn open_cube(npy: &Path) -> Result<(CubeMetadata, NpyF32), ExportError> {
     let meta_path = npy.with_file_name("tprf.json");
     let bytes = crate::budget::read_file(&meta_path, "tprf.json").map_err(|e| match e {
         crate::budget::BudgetError::Io { source, .. } => ExportError::NoMetadata {
@@ -418,17 +429,17 @@ pub fn read_cube(npy: &Path) -> Result<(CubeMetadata, Vec<f32>), ExportError> {
             source,
         })?;
     meta.check_not_empty(&meta_path)?;
-    let (shape, data) = read_npy_f32(npy)?;
+    let cube = NpyF32::open(npy)?;
     let expected = vec![meta.height as u64, meta.width as u64, meta.bins as u64];
-    if shape != expected {
+    if cube.shape() != expected {
         return Err(ExportError::Shape {
             path: npy.to_path_buf(),
-            shape,
+            shape: cube.shape().to_vec(),
             layout: "[H, W, T]",
             expected,
         });
     }
-    Ok((meta, data))
+    Ok((meta, cube))
 }
 
 /// A folder written by `tprf render` as a film snapshot: the cube, and its per-bounce
@@ -440,89 +451,88 @@ pub fn load_snapshot(dir: &Path) -> Result<(CubeMetadata, FilmSnapshot), ExportE
         let snap = cube.snapshot()?;
         return Ok((cube.meta, snap));
     }
-    let (meta, cube) = read_cube(&dir.join("tprf.npy"))?;
+    let (meta, cube) = open_cube(&dir.join("tprf.npy"))?;
     let axis = meta.axis().map_err(|source| ExportError::Axis {
         path: dir.join("tprf.json"),
         source,
     })?;
     let bounces_path = dir.join("tprf_bounces.npy");
-    let (bounces, bounces_separate) = if meta.bounces_separate > 0 && bounces_path.exists() {
-        let (bshape, b) = read_npy_f32(&bounces_path)?;
-        let layers = meta.bounces_separate as u64 + 2;
+    let bounces = if meta.bounces_separate > 0 && bounces_path.exists() {
+        let b = NpyF32::open(&bounces_path)?;
         let expected = vec![
-            layers,
+            meta.bounces_separate as u64 + 2,
             meta.height as u64,
             meta.width as u64,
             meta.bins as u64,
         ];
-        if bshape != expected {
+        if b.shape() != expected {
             return Err(ExportError::Shape {
                 path: bounces_path,
-                shape: bshape,
+                shape: b.shape().to_vec(),
                 layout: "[layers, H, W, T]",
                 expected,
             });
         }
-        (b, meta.bounces_separate)
+        Some(b)
     } else {
-        (Vec::new(), 0)
+        None
     };
     let layout = FilmLayout {
         width: meta.width,
         height: meta.height,
         axis,
-        bounces_separate,
+        bounces_separate: if bounces.is_some() {
+            meta.bounces_separate
+        } else {
+            0
+        },
     };
-    let snapshot = FilmSnapshot::from_dense(
+    let (w, h, t) = (meta.width as u64, meta.height as u64, meta.bins as u64);
+    let layers = bounces.as_ref().map_or(0, |b| b.shape()[0] as usize);
+    // One dense band of rows at a time; the light read so far is what stays.
+    let band_bytes = 4 * (DENSE_BAND_VALUES as u64).max(w * t);
+    let read = |y0: usize, layer: Option<usize>, out: &mut [f32]| match (layer, &bounces) {
+        (None, _) => cube.read(y0 as u64 * w * t, out),
+        (Some(l), Some(b)) => b.read((l as u64 * h + y0 as u64) * w * t, out),
+        (Some(_), None) => Ok(()),
+    };
+    let after_band = |rows_done: usize, heap_bytes: usize| {
+        if rows_done < meta.height {
+            crate::budget::check(
+                band_bytes,
+                "the cube",
+                format_args!(
+                    "reading rows {rows_done}.. of {} (the light of the rows before holds {})",
+                    cube.path().display(),
+                    crate::budget::format_bytes(heap_bytes as u64)
+                ),
+            )?;
+        }
+        Ok(())
+    };
+    crate::budget::check(
+        band_bytes + 28 * w * h,
+        "the cube",
+        format_args!("reading {}", cube.path().display()),
+    )?;
+    let snapshot = FilmSnapshot::from_dense_rows(
         layout,
         meta.spp,
         meta.passes,
-        &cube,
-        &bounces,
+        layers,
         meta.error_estimate,
-    );
+        read,
+        after_band,
+    )?;
     Ok((meta, snapshot))
 }
 
-/// A regular file read whole ([`crate::budget::read_file`]); a failure to read it is an
-/// [`ExportError::Read`].
-fn read_file(path: &Path, subject: &str) -> Result<Vec<u8>, ExportError> {
-    crate::budget::read_file(path, subject).map_err(|e| match e {
-        crate::budget::BudgetError::Io { path, source } => ExportError::Read { path, source },
-        e => e.into(),
-    })
-}
-
-/// Read a float32 array written by [`write_npy_f32`] (or numpy), with its shape.
+/// Read a float32 array written by [`write_npy_f32`] (or numpy), with its shape: the
+/// header checked against the file's length, then the values, budgeted, in one copy.
 pub fn read_npy_f32(path: &Path) -> Result<(Vec<u64>, Vec<f32>), ExportError> {
-    let path_buf = || path.to_path_buf();
-    let bytes = read_file(path, "the .npy array")?;
-    let npy = npyz::NpyFile::new(&bytes[..]).map_err(|source| ExportError::NotNpy {
-        path: path_buf(),
-        source,
-    })?;
-    let shape = npy.shape().to_vec();
-    if npy.order() != npyz::Order::C {
-        return Err(ExportError::FortranOrder { path: path_buf() });
-    }
-    // The header's shape against the bytes that follow it, before anything is collected.
-    let need_bytes = npy_f32_bytes(&shape);
-    let have_bytes = bytes.len() as u64;
-    if need_bytes > have_bytes {
-        return Err(ExportError::Truncated {
-            path: path_buf(),
-            shape,
-            need_bytes,
-            have_bytes,
-        });
-    }
-    let data = npy
-        .into_vec::<f32>()
-        .map_err(|source| ExportError::NotF32 {
-            path: path_buf(),
-            source,
-        })?;
-    Ok((shape, data))
+    let npy = NpyF32::open(path)?;
+    let data = npy.read_all()?;
+    Ok((npy.shape().to_vec(), data))
 }
 
 /// Write pretty JSON.

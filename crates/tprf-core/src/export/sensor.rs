@@ -49,7 +49,7 @@ macro_rules! bail {
     };
 }
 
-use super::{read_npy_f32, write_csv, write_json, write_npy_f32, write_png_rgb};
+use super::{NpyF32, write_csv, write_json, write_npy_f32, write_png_rgb};
 use crate::film::{TimeAxis, quantile};
 use crate::sensor::{FirstReturn, Measurements, SensorModel, SpadImage, derived};
 
@@ -66,8 +66,8 @@ struct CubeWindow {
     height: Option<usize>,
 }
 
-/// A cube `tprf sensor` measures: `tprf.npy` read whole (a cube that fits; numpy's
-/// form), or `tprf.zarr` read a tile of pixels at a time, so that a cube larger than
+/// A cube `tprf sensor` measures: `tprf.npy` (numpy's form) read a band of rows at a
+/// time, or `tprf.zarr` read a tile of pixels at a time, so that a cube larger than
 /// memory is measured in memory that follows one tile.
 pub struct SensorCube {
     /// The render folder.
@@ -79,22 +79,22 @@ pub struct SensorCube {
 }
 
 enum CubeForm {
-    /// `tprf.npy` `[H, W, T]`, and the path of `tprf_bounces.npy` when it is there.
+    /// `tprf.npy` `[H, W, T]`, and `tprf_bounces.npy` `[L, H, W, T]` when it is there
+    /// with a single-scattering layer (`L >= 3`) and the cube's shape.
     Npy {
-        cube: Vec<f32>,
-        path: std::path::PathBuf,
-        bounces: Option<std::path::PathBuf>,
+        cube: NpyF32,
+        bounces: Option<NpyF32>,
     },
     Zarr(Box<super::zarr::ZarrCube>),
 }
 
-/// The most bytes of cube a tile read from `tprf.zarr` holds by default: 256 MiB (or a
+/// The most bytes of cube a tile read from the cube holds by default: 256 MiB (or a
 /// quarter of the memory free, if less). One tile is in memory at a time.
 pub const DEFAULT_TILE_BYTES: u64 = 256 << 20;
 
 impl SensorCube {
-    /// Opens the cube of render folder `dir`: `tprf.npy` (read now) or, without one,
-    /// `tprf.zarr` (read tile by tile as it is measured). `tprf.json` needs only the time
+    /// Opens the cube of render folder `dir`: `tprf.npy` or, without one, `tprf.zarr`;
+    /// either is read tile by tile as it is measured. `tprf.json` needs only the time
     /// window (`t0_s`, `dt_s`, `bins`; `width` and `height` are checked when present), so
     /// `.npy` cubes written by other tools can be measured too.
     pub fn open(dir: &Path) -> Result<SensorCube> {
@@ -137,12 +137,13 @@ impl SensorCube {
                 form: CubeForm::Zarr(Box::new(z)),
             });
         }
-        let (shape, cube) = read_npy_f32(&npy_path)?;
-        let (h, w, t) = match shape[..] {
+        let cube = NpyF32::open(&npy_path)?;
+        let (h, w, t) = match cube.shape()[..] {
             [h, w, t] => (h as usize, w as usize, t as usize),
             _ => bail!(
-                "{} has shape {shape:?}; expected [H, W, T]",
-                npy_path.display()
+                "{} has shape {:?}; expected [H, W, T]",
+                npy_path.display(),
+                cube.shape()
             ),
         };
         super::check_not_empty(&npy_path, w, h, t)?;
@@ -159,30 +160,82 @@ impl SensorCube {
                 axis.bins
             );
         }
-        let bounces = Some(dir.join("tprf_bounces.npy")).filter(|p| p.exists());
+        let bounces_path = dir.join("tprf_bounces.npy");
+        let bounces = if bounces_path.exists() {
+            let b = NpyF32::open(&bounces_path)?;
+            let s = b.shape();
+            (s.len() == 4 && s[0] >= 3 && s[1..] == [h as u64, w as u64, t as u64]).then_some(b)
+        } else {
+            None
+        };
         Ok(SensorCube {
             dir: dir.to_path_buf(),
             width: w,
             height: h,
             axis,
-            form: CubeForm::Npy {
-                cube,
-                path: npy_path,
-                bounces,
-            },
+            form: CubeForm::Npy { cube, bounces },
         })
+    }
+
+    /// Where the cube is read from.
+    fn path(&self) -> &Path {
+        match &self.form {
+            CubeForm::Npy { cube, .. } => cube.path(),
+            CubeForm::Zarr(z) => &z.path,
+        }
+    }
+
+    /// The tile `(first row, first column, rows, columns)` of the cube (`layer` `None`)
+    /// or of bounce layer `l`, `[rows, columns, T]`.
+    fn read_tile(
+        &self,
+        (y0, x0, rows, cols): (usize, usize, usize, usize),
+        layer: Option<usize>,
+    ) -> Result<Vec<f32>> {
+        let t = self.axis.bins;
+        match &self.form {
+            CubeForm::Zarr(z) => Ok(z.read_tile(y0, x0, rows, cols, layer)?),
+            CubeForm::Npy { cube, bounces } => {
+                let npy = match layer {
+                    None => cube,
+                    Some(_) => match bounces {
+                        Some(b) => b,
+                        None => bail!("the cube has no single-scattering layer"),
+                    },
+                };
+                let plane = (self.width * self.height * t) as u64;
+                let base = layer.map_or(0, |l| l as u64 * plane);
+                let mut out = vec![0.0f32; rows * cols * t];
+                for (dy, dst) in out.chunks_exact_mut((cols * t).max(1)).enumerate() {
+                    let first = base + (((y0 + dy) * self.width + x0) * t) as u64;
+                    npy.read(first, dst)?;
+                }
+                Ok(out)
+            }
+        }
+    }
+
+    /// Whether the cube has a single-scattering layer (layer 1 of the bounce layers).
+    fn has_single_layer(&self) -> bool {
+        match &self.form {
+            CubeForm::Npy { bounces, .. } => bounces.is_some(),
+            CubeForm::Zarr(z) => z.layers() >= 3,
+        }
     }
 
     /// The tiles the cube is read in, `(first row, first column, rows, columns)`, for
     /// tiles of at most `tile_bytes` (at least one Zarr chunk's pixels, all bins):
-    /// whole bands of chunk rows when a band fits, else pieces of one chunk row. One
-    /// tile for `tprf.npy`, which is in memory already.
+    /// whole bands of chunk rows when a band fits, else pieces of one chunk row (for
+    /// `tprf.npy`, a chunk is one pixel).
     pub fn tiles(&self, tile_bytes: u64) -> Vec<(usize, usize, usize, usize)> {
         let (w, h) = (self.width, self.height);
-        if matches!(self.form, CubeForm::Npy { .. }) || w == 0 || h == 0 {
+        if w == 0 || h == 0 {
             return vec![(0, 0, h, w)];
         }
-        let [cy, cx, _] = super::zarr::CHUNK.map(|c| c as usize);
+        let [cy, cx, _] = match self.form {
+            CubeForm::Npy { .. } => [1, 1, 0],
+            CubeForm::Zarr(_) => super::zarr::CHUNK.map(|c| c as usize),
+        };
         let pixel_bytes = (self.axis.bins as u64).saturating_mul(4).max(1);
         let fit = usize::try_from(tile_bytes / pixel_bytes).unwrap_or(usize::MAX);
         let (rows, cols) = if fit >= w.saturating_mul(cy) {
@@ -248,48 +301,40 @@ pub fn measure_cube(
     }
     let n = model.gate_count();
     let t = axis.bins;
+    let amcw = model.wants_amcw();
+    let spad = model.sensor().spad.is_some();
+    // The whole-image arrays: the measurements, the AMCW reference, the steady image.
+    let image_values = (n + usize::from(amcw) + usize::from(spad)) as u64 * (w * h) as u64;
+    crate::budget::check(
+        image_values.saturating_mul(4),
+        "the measurement",
+        format_args!("{n} gates of {w} x {h} pixels"),
+    )
+    .map_err(|e| SensorFilesError::Export(e.into()))?;
     let mut m = Measurements {
         gates: n,
         height: h,
         width: w,
         values: vec![0.0; n * w * h],
     };
-    let amcw = model.wants_amcw();
     // Layer 1 (single scattering) of the bounce layers, for the AMCW reference.
-    let npy_single = match &cube.form {
-        CubeForm::Npy {
-            bounces: Some(p), ..
-        } if amcw => read_single_layer(p, w, h, t)?,
-        _ => None,
-    };
-    let zarr_single = matches!(&cube.form, CubeForm::Zarr(z) if amcw && z.layers() >= 3);
-    let single = npy_single.is_some() || zarr_single;
+    let single = amcw && cube.has_single_layer();
     let mut depth = if amcw {
         vec![f32::NAN; w * h]
     } else {
         Vec::new()
     };
     let mut traces = vec![Vec::new(); pixels.len()];
-    let mut steady = model.sensor().spad.is_some().then(|| vec![0.0f32; w * h]);
+    let mut steady = spad.then(|| vec![0.0f32; w * h]);
     let budget = crate::budget::available()
         .map_or(tile_bytes, |free| tile_bytes.min(free.bytes / 4))
         / if single { 2 } else { 1 };
     let tiles = cube.tiles(budget);
     let first_return = FirstReturn::default();
     for &(y0, x0, rows, cols) in &tiles {
-        let read;
-        let tile: &[f32] = match &cube.form {
-            CubeForm::Npy { cube, .. } => cube,
-            CubeForm::Zarr(z) => {
-                read = z.read_tile(y0, x0, rows, cols, None)?;
-                &read
-            }
-        };
-        let path = match &cube.form {
-            CubeForm::Npy { path, .. } => path.clone(),
-            CubeForm::Zarr(z) => z.path.clone(),
-        };
-        check_finite(tile, (y0, x0), cols, t, &path)?;
+        let tile = cube.read_tile((y0, x0, rows, cols), None)?;
+        let tile = &tile[..];
+        check_finite(tile, (y0, x0), cols, t, cube.path())?;
         let part = model.measure_clean(tile, cols, rows)?;
         for i in 0..n {
             for (dy, src) in part.plane(i).chunks_exact(cols).enumerate() {
@@ -298,13 +343,11 @@ pub fn measure_cube(
             }
         }
         if amcw {
-            let part = match (&npy_single, &cube.form) {
-                (Some(layer), _) => derived::tprf_centroid_depth(layer, cols, rows, &axis),
-                (None, CubeForm::Zarr(z)) if zarr_single => {
-                    let layer = z.read_tile(y0, x0, rows, cols, Some(1))?;
-                    derived::tprf_centroid_depth(&layer, cols, rows, &axis)
-                }
-                _ => derived::tprf_first_return_depth(tile, cols, rows, &axis, &first_return),
+            let part = if single {
+                let layer = cube.read_tile((y0, x0, rows, cols), Some(1))?;
+                derived::tprf_centroid_depth(&layer, cols, rows, &axis)
+            } else {
+                derived::tprf_first_return_depth(tile, cols, rows, &axis, &first_return)
             };
             for (dy, src) in part.chunks_exact(cols).enumerate() {
                 let at = (y0 + dy) * w + x0;
@@ -345,19 +388,6 @@ pub fn measure_cube(
         steady,
         tiles: tiles.len(),
     })
-}
-
-/// Layer 1 (single scattering) of `tprf_bounces.npy` `[L, H, W, T]`, when it has one
-/// and its shape fits the cube; `None` otherwise.
-fn read_single_layer(path: &Path, w: usize, h: usize, t: usize) -> Result<Option<Vec<f32>>> {
-    let (shape, mut layers) = read_npy_f32(path)?;
-    let n = w * h * t;
-    if shape.len() == 4 && shape[0] >= 3 && shape[1..] == [h as u64, w as u64, t as u64] {
-        layers.truncate(2 * n);
-        layers.drain(..n);
-        return Ok(Some(layers));
-    }
-    Ok(None)
 }
 
 /// Refuse a tile (`cols` pixels wide, its first pixel at `origin` = (row, column) of

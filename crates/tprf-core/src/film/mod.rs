@@ -16,6 +16,8 @@ pub use error::FilmError;
 pub use filter::TimeFilter;
 pub use layout::FilmLayout;
 pub use sink::{LeftOut, LeftOutCounts, PixelSink};
-pub use snapshot::{FilmSnapshot, SnapshotBuilder, quantile, quantile_positive, robust_max};
+pub use snapshot::{
+    DENSE_BAND_VALUES, FilmSnapshot, SnapshotBuilder, quantile, quantile_positive, robust_max,
+};
 pub use store::{BYTES_PER_PIXEL, PassTally, StoreStats, TprfFilm};
 pub use time_axis::{MAX_BINS, TimeAxis};

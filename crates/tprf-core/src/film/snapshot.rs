@@ -38,6 +38,10 @@ static NEXT_GENERATION: std::sync::atomic::AtomicU64 = std::sync::atomic::Atomic
 /// At most this many values are looked at for [`FilmSnapshot::robust_max`].
 const ROBUST_MAX_SAMPLES: usize = 1 << 20;
 
+/// Values of a band of rows made dense at a time by [`FilmSnapshot::from_dense_rows`]
+/// (64 MiB of f32; at least one row).
+pub const DENSE_BAND_VALUES: usize = 1 << 24;
+
 impl FilmSnapshot {
     /// A snapshot sharing a film's rows (sums of `spp` samples per pixel).
     pub(super) fn from_rows(
@@ -60,27 +64,87 @@ impl FilmSnapshot {
         bounces: &[f32],
         error_estimate: Option<f64>,
     ) -> FilmSnapshot {
-        use rayon::prelude::*;
         let (w, h, t) = (layout.width, layout.height, layout.axis.bins);
         let plane = w * h * t;
         let layers = bounces.len().checked_div(plane).unwrap_or(0);
-        let rows: Vec<Arc<FilmRow>> = (0..h)
-            .into_par_iter()
-            .map(|y| {
-                let span = y * w * t..(y + 1) * w * t;
-                let mut row = FilmRow::from_dense(cube.get(span.clone()).unwrap_or(&[]), w, t);
-                for l in 0..layers {
-                    let s = l * plane + span.start..l * plane + span.end;
-                    row.push_dense_layer(bounces.get(s).unwrap_or(&[]), w, t);
-                }
-                Arc::new(row)
-            })
-            .collect();
+        let read = |y0: usize, layer: Option<usize>, out: &mut [f32]| {
+            let src = match layer {
+                None => cube,
+                Some(l) => bounces.get(l * plane..).unwrap_or(&[]),
+            };
+            let src = src.get(y0 * w * t..).unwrap_or(&[]);
+            let n = out.len().min(src.len());
+            out[..n].copy_from_slice(&src[..n]);
+            out[n..].fill(0.0);
+            Ok::<(), std::convert::Infallible>(())
+        };
+        match FilmSnapshot::from_dense_rows(
+            layout,
+            spp,
+            passes,
+            layers,
+            error_estimate,
+            read,
+            |_, _| Ok(()),
+        ) {
+            Ok(s) => s,
+            Err(never) => match never {},
+        }
+    }
+
+    /// A snapshot of means read a band of rows at a time, so that only one band is
+    /// dense in memory: `read(y0, layer, out)` fills `out` (`[rows, W, T]` from row `y0`)
+    /// with the total (`layer` `None`) or bounce layer `l` of `layers`; zeros are not
+    /// stored. After each band, `after_band(rows_done, heap_bytes)` may stop the read
+    /// (a memory budget).
+    pub fn from_dense_rows<E>(
+        layout: FilmLayout,
+        spp: u64,
+        passes: u64,
+        layers: usize,
+        error_estimate: Option<f64>,
+        mut read: impl FnMut(usize, Option<usize>, &mut [f32]) -> Result<(), E>,
+        mut after_band: impl FnMut(usize, usize) -> Result<(), E>,
+    ) -> Result<FilmSnapshot, E> {
+        use rayon::prelude::*;
+        let (w, h, t) = (layout.width, layout.height, layout.axis.bins);
+        let row_len = (w * t).max(1);
+        let band = (DENSE_BAND_VALUES / row_len).clamp(1, h.max(1));
+        let mut rows: Vec<FilmRow> = Vec::with_capacity(h);
+        let mut buf = Vec::new();
+        let mut heap_bytes = 0;
+        for y0 in (0..h).step_by(band) {
+            let n = band.min(h - y0);
+            buf.resize(n * w * t, 0.0);
+            read(y0, None, &mut buf)?;
+            let mut built: Vec<FilmRow> = buf
+                .par_chunks(row_len)
+                .map(|px| FilmRow::from_dense(px, w, t))
+                .collect();
+            for l in 0..layers {
+                read(y0, Some(l), &mut buf)?;
+                built
+                    .par_iter_mut()
+                    .zip(buf.par_chunks(row_len))
+                    .for_each(|(row, px)| row.push_dense_layer(px, w, t));
+            }
+            heap_bytes += built.iter().map(FilmRow::heap_bytes).sum::<usize>();
+            rows.extend(built);
+            after_band(y0 + n, heap_bytes)?;
+        }
         let layout = FilmLayout {
             bounces_separate: if layers >= 2 { (layers - 2) as u32 } else { 0 },
             ..layout
         };
-        FilmSnapshot::summarised(layout, spp, passes, rows, 1.0, error_estimate)
+        let rows = rows.into_iter().map(Arc::new).collect();
+        Ok(FilmSnapshot::summarised(
+            layout,
+            spp,
+            passes,
+            rows,
+            1.0,
+            error_estimate,
+        ))
     }
 
     fn summarised(
