@@ -466,3 +466,127 @@ proptest! {
         prop_assert!(run.is_ok(), "panicked on {text}");
     }
 }
+
+// ---- the sensor's settings, as the viewer's sliders and fields set them ----
+
+/// JSON pointers of the numeric leaves of `v`, and of strings that start with a number
+/// (times and rates with a unit: "5 ns", "1 MHz").
+fn numeric_leaves(v: &Value, at: String, out: &mut Vec<String>) {
+    match v {
+        Value::Number(_) => out.push(at),
+        Value::String(s)
+            if s.trim_start()
+                .starts_with(|c: char| c.is_ascii_digit() || c == '-') =>
+        {
+            out.push(at)
+        }
+        Value::Array(a) => {
+            for (i, x) in a.iter().enumerate() {
+                numeric_leaves(x, format!("{at}/{i}"), out);
+            }
+        }
+        Value::Object(o) => {
+            for (k, x) in o {
+                numeric_leaves(
+                    x,
+                    format!("{at}/{}", k.replace('~', "~0").replace('/', "~1")),
+                    out,
+                );
+            }
+        }
+        _ => {}
+    }
+}
+
+/// A small cube `[3, 4, 256]` over 0..25.6 ns: a return per pixel at its own time and
+/// a weak tail, so every gate and derived output has something to read.
+fn small_cube() -> (tprf_core::sensor::TimeAxis, Vec<f32>) {
+    let axis = tprf_core::sensor::TimeAxis::new(0.0, 0.1e-9, 256).unwrap();
+    let mut cube = vec![0.0f32; 3 * 4 * 256];
+    for (p, px) in cube.chunks_exact_mut(256).enumerate() {
+        px[20 + 17 * p] = 1.0 + p as f32;
+        for (b, v) in px.iter_mut().enumerate().skip(21 + 17 * p) {
+            *v = 1e-3 / (1 + b) as f32;
+        }
+    }
+    (axis, cube)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: cases(), failure_persistence: None, ..ProptestConfig::default() })]
+
+    /// Any values in any of a built-in sensor's fields (as the sensor tab's sliders and
+    /// text fields can set them, and beyond): refused with a message, or a model whose
+    /// measurements are finite and non-negative, whose depths are finite or NaN (no
+    /// return), and whose SPAD histograms are finite. Never a panic.
+    #[test]
+    fn sensor_settings_measure_finite_or_are_refused(
+        preset in 0usize..tprf_core::sensor::BUILTIN_PRESETS.len(),
+        edits in prop::collection::vec((any::<prop::sample::Index>(), prop_oneof![
+            Just(-1.0), Just(0.0), Just(1e-300), Just(1e-12), Just(0.5), Just(1.0), Just(3.0),
+            Just(64.0), Just(1e6), Just(1e9), Just(1e15), Just(1e300), Just(f64::MAX),
+            Just(-1e300), Just(4294967296.0), (-1e3f64..1e3),
+        ]), 1..4),
+        unit in prop::sample::select(vec!["", " ns", " ps", " s", " m", " MHz", " Hz"]),
+    ) {
+        limit_memory();
+        let (_, text) = tprf_core::sensor::BUILTIN_PRESETS[preset];
+        let sensor = tprf_core::sensor::Sensor::from_toml_str(text).unwrap();
+        let mut doc = serde_json::to_value(&sensor).unwrap();
+        let mut leaves = Vec::new();
+        numeric_leaves(&doc, String::new(), &mut leaves);
+        for (at, value) in &edits {
+            if leaves.is_empty() {
+                break;
+            }
+            let p = at.get(&leaves).clone();
+            let slot = doc.pointer_mut(&p).unwrap();
+            *slot = match slot {
+                Value::String(_) => Value::String(format!("{value}{unit}")),
+                _ if value.fract() == 0.0 && value.abs() < 1e18 => json!(*value as i64),
+                _ => json!(value),
+            };
+        }
+        let run = std::panic::catch_unwind(|| -> Result<(), String> {
+            let Ok(sensor) = serde_json::from_value::<tprf_core::sensor::Sensor>(doc.clone()) else {
+                return Ok(()); // refused as it is read
+            };
+            let (axis, cube) = small_cube();
+            let Ok(model) = tprf_core::sensor::SensorModel::new(sensor, axis) else {
+                return Ok(()); // refused as it is compiled
+            };
+            let clean = model.measure_clean(&cube, 4, 3).map_err(|e| e.to_string())?;
+            let mut m = clean.clone();
+            model.apply_noise(&mut m);
+            if let Some(v) = m.values.iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
+                return Err(format!("measurement {v}"));
+            }
+            let no_inf = |what: &str, d: &[f32]| match d.iter().find(|v| v.is_infinite()) {
+                Some(v) => Err(format!("{what} {v}")),
+                None => Ok(()),
+            };
+            if let Some(d) = model.first_return_depth(&m) {
+                no_inf("first-return depth", &d)?;
+            }
+            if let Some(a) = model.amcw(&m) {
+                no_inf("AMCW depth", &a.depth_m)?;
+                no_inf("AMCW amplitude", &a.amplitude)?;
+            }
+            if model.sensor().spad.is_some() {
+                let steady: Vec<f32> = cube.chunks_exact(256).map(|p| p.iter().sum()).collect();
+                if let Ok(s) = tprf_core::sensor::spad_image(&model, &clean, &steady) {
+                    if let Some(v) = s.histogram.iter().chain(&s.counts).find(|v| !v.is_finite()) {
+                        return Err(format!("SPAD count {v}"));
+                    }
+                    no_inf("SPAD depth", &s.depth_coates_m)?;
+                }
+            }
+            Ok(())
+        });
+        match run {
+            Err(_) => prop_assert!(false, "panicked on {doc}"),
+            Ok(Err(e)) => prop_assert!(false, "{e} from {doc}"),
+            Ok(Ok(())) => {}
+        }
+    }
+}

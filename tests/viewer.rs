@@ -1206,3 +1206,75 @@ fn a_cube_without_pixels_is_an_error_in_the_window() {
     );
     render(&mut h);
 }
+
+/// JSON pointers of the numeric leaves of `v` (every slider and number field of the
+/// settings, the sensor's included).
+fn numeric_leaves(v: &serde_json::Value, at: String, out: &mut Vec<String>) {
+    match v {
+        serde_json::Value::Number(_) => out.push(at),
+        serde_json::Value::Array(a) => {
+            for (i, x) in a.iter().enumerate() {
+                numeric_leaves(x, format!("{at}/{i}"), out);
+            }
+        }
+        serde_json::Value::Object(o) => {
+            for (k, x) in o {
+                numeric_leaves(x, format!("{at}/{k}"), out);
+            }
+        }
+        _ => {}
+    }
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig {
+        cases: std::env::var("PROPTEST_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(12),
+        failure_persistence: None,
+        ..proptest::prelude::ProptestConfig::default()
+    })]
+
+    /// Any values in any of the window's settings (display, playback, sensor; the
+    /// render's size kept small here, its clamping is `absurd_settings_are_clamped_or_refused`),
+    /// in either tab: a few frames run without a panic, and what the window keeps is
+    /// finite and in range.
+    #[test]
+    fn any_settings_run_without_a_panic_or_a_nan(
+        edits in proptest::collection::vec((proptest::prelude::any::<proptest::sample::Index>(), proptest::prop_oneof![
+            proptest::strategy::Just(-1.0), proptest::strategy::Just(0.0), proptest::strategy::Just(1e-300),
+            proptest::strategy::Just(0.5), proptest::strategy::Just(3.0), proptest::strategy::Just(1e9),
+            proptest::strategy::Just(1e300), proptest::strategy::Just(-1e300), (-1e4f64..1e4),
+        ]), 1..5),
+        sensor_tab in proptest::prelude::any::<bool>(),
+        preset in 0usize..tprf_core::sensor::BUILTIN_PRESETS.len(),
+    ) {
+        let mut settings = small_settings("builtin:cornell", 12, 48, 2);
+        settings.sensor = Sensor::from_toml_str(tprf_core::sensor::BUILTIN_PRESETS[preset].1).unwrap();
+        settings.mode = if sensor_tab { Mode::Sensor } else { Mode::Transient };
+        let mut doc = serde_json::to_value(&settings).unwrap();
+        let mut leaves = Vec::new();
+        numeric_leaves(&doc, String::new(), &mut leaves);
+        for (at, value) in &edits {
+            let p = at.get(&leaves).clone();
+            *doc.pointer_mut(&p).unwrap() = if value.fract() == 0.0 && value.abs() < 1e18 {
+                serde_json::json!(*value as i64)
+            } else {
+                serde_json::json!(value)
+            };
+        }
+        let Ok(mut settings) = serde_json::from_value::<ViewerSettings>(doc.clone()) else {
+            return Ok(()); // not a settings value at all (a negative count, say)
+        };
+        // The render stays small: a big one would only take longer.
+        settings.width = settings.width.clamp(1, 24);
+        settings.height = settings.height.clamp(1, 24);
+        settings.bins = settings.bins.clamp(1, 256);
+        settings.spp_target = settings.spp_target.clamp(1, 4);
+        let mut h = harness(settings);
+        h.run_steps(4);
+        std::thread::sleep(Duration::from_millis(100));
+        h.run_steps(4);
+        let s = &h.state().settings;
+        proptest::prop_assert!(s.ev.is_finite() && s.play_bins_per_s.is_finite(), "{doc}");
+        proptest::prop_assert!(s.width >= 1 && s.height >= 1 && s.bins >= 1, "{doc}");
+    }
+}

@@ -8,13 +8,16 @@ use eframe::egui::{self, RichText};
 use tprf_core::film::TimeAxis;
 use tprf_core::sensor::{Acquisition, Exposure, LightPulse, Sensor, Spad};
 
-/// A time in ns, stored in seconds.
+/// A time in ns, stored in seconds, within the sensor's +-1 s
+/// ([`tprf_core::sensor::MAX_TIME_S`]).
 fn time_ns(ui: &mut egui::Ui, label: &str, t_s: &mut f64, speed_ns: f64) {
     let l = ui.label(label);
     let mut ns = *t_s * 1e9;
+    let max_ns = tprf_core::sensor::MAX_TIME_S * 1e9;
     if ui
         .add(
             egui::DragValue::new(&mut ns)
+                .range(-max_ns..=max_ns)
                 .speed(speed_ns)
                 .suffix(" ns")
                 .max_decimals(4),

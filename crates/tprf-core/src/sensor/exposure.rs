@@ -12,6 +12,9 @@ use serde::{Deserialize, Serialize};
 use std::f64::consts::{PI, SQRT_2, TAU};
 use std::sync::Arc;
 
+/// The lowest AMCW modulation frequency: 1 mHz (an unambiguous range of 1.5e11 m).
+pub const MIN_AMCW_FREQ_HZ: f64 = 1e-3;
+
 use super::values::{Point, count, hertz, option_seconds, seconds};
 use super::{SensorError, finite, non_negative, positive};
 
@@ -385,11 +388,11 @@ impl Exposure {
                 gain,
                 ..
             } => {
-                let start = finite("exposure.start_s", *start_s)?;
+                let start = super::time_s("exposure.start_s", *start_s)?;
                 // A zero-width gate is allowed: it is open for no time and measures 0.
-                let width = non_negative("exposure.width_s", *width_s)?;
-                let step = finite("exposure.step_s", step_s.unwrap_or(width))?;
-                let gain = non_negative("exposure.gain", *gain)?;
+                let width = super::duration_s("exposure.width_s", *width_s, false)?;
+                let step = super::time_s("exposure.step_s", step_s.unwrap_or(width))?;
+                let gain = super::scale("exposure.gain", *gain)?;
                 (0..n)
                     .map(|i| {
                         let a = offset + start + step * i as f64;
@@ -408,9 +411,9 @@ impl Exposure {
                 peak,
                 ..
             } => {
-                let centre = finite("exposure.centre_s", *centre_s)?;
-                let fwhm = positive("exposure.fwhm_s", *fwhm_s)?;
-                let step = finite("exposure.step_s", step_s.unwrap_or(fwhm))?;
+                let centre = super::time_s("exposure.centre_s", *centre_s)?;
+                let fwhm = super::duration_s("exposure.fwhm_s", *fwhm_s, true)?;
+                let step = super::time_s("exposure.step_s", step_s.unwrap_or(fwhm))?;
                 let peak = non_negative("exposure.peak", *peak)?;
                 (0..n)
                     .map(|i| Gate::Gaussian {
@@ -422,7 +425,7 @@ impl Exposure {
             }
             Exposure::PiecewiseLinear { points, step_s, .. } => {
                 let shape = Arc::new(PwlShape::new(points)?);
-                let step = finite("exposure.step_s", *step_s)?;
+                let step = super::time_s("exposure.step_s", *step_s)?;
                 (0..n)
                     .map(|i| Gate::PiecewiseLinear {
                         shape: shape.clone(),
@@ -437,6 +440,14 @@ impl Exposure {
                 ..
             } => {
                 let freq_hz = positive("exposure.freq_hz", *freq_hz)?;
+                // The unambiguous range c / (2 f) must be a float32 distance.
+                if freq_hz < MIN_AMCW_FREQ_HZ {
+                    return Err(SensorError::OutOfRange {
+                        what: "exposure.freq_hz".into(),
+                        value: freq_hz,
+                        rule: ">= 1 mHz (the unambiguous range c / 2f is then 1.5e11 m)",
+                    });
+                }
                 let phase0 = finite("exposure.phase0_deg", *phase0_deg)?.to_radians();
                 let modulation = non_negative("exposure.modulation", *modulation)?;
                 if modulation > 1.0 {
@@ -460,9 +471,9 @@ impl Exposure {
                 jitter_fwhm_s,
                 ..
             } => {
-                let start = finite("exposure.start_s", *start_s)?;
-                let width = positive("exposure.bin_width_s", *bin_width_s)?;
-                let sigma = non_negative("exposure.jitter_fwhm_s", *jitter_fwhm_s)?
+                let start = super::time_s("exposure.start_s", *start_s)?;
+                let width = super::duration_s("exposure.bin_width_s", *bin_width_s, true)?;
+                let sigma = super::duration_s("exposure.jitter_fwhm_s", *jitter_fwhm_s, false)?
                     / super::light::FWHM_PER_SIGMA;
                 (0..n)
                     .map(|i| Gate::tdc_bin(offset + start + width * i as f64, width, sigma))
@@ -794,16 +805,17 @@ mod tests {
     fn window_origin_shifts_gates() {
         let e = Exposure::Box {
             origin: TimeOrigin::Window,
-            start_s: 1.0,
-            width_s: 1.0,
-            step_s: Some(2.0),
+            start_s: 1e-9,
+            width_s: 1e-9,
+            step_s: Some(2e-9),
             count: 3,
             gain: 1.0,
         };
-        let Ok(g) = e.gates(10.0) else {
+        let Ok(g) = e.gates(10e-9) else {
             panic!("valid");
         };
-        assert_eq!(g[2].centre_s(), Some(15.5));
+        let centre = g[2].centre_s().unwrap_or(f64::NAN);
+        assert!((centre - 15.5e-9).abs() < 1e-21, "{centre}");
     }
 
     #[test]

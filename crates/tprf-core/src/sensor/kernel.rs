@@ -175,10 +175,19 @@ pub fn folded_kernels(
                 max: MAX_TDC_COPIES,
             });
         }
-        let mut i = n_lo;
-        while i <= n_hi {
-            copies.push((k, g.shifted(i * cycle_s)));
-            i += 1.0;
+        // Cycle numbers beyond 2^52 are not distinct doubles: shifts by them would repeat.
+        if n_lo.abs().max(n_hi.abs()) > (1u64 << 52) as f64 {
+            return Err(super::SensorError::Invalid(format!(
+                "the cube's window ({:e} .. {:e} s) lies {:e} laser cycles of {cycle_s:e} s \
+                 from the trigger: too many to tell apart",
+                axis.t0_s,
+                axis.end_s(),
+                n_lo.abs().max(n_hi.abs())
+            )));
+        }
+        // Counted in integers: `i += 1.0` stops moving at large `i`.
+        for j in 0..n.max(0.0) as u64 {
+            copies.push((k, g.shifted((n_lo + j as f64) * cycle_s)));
         }
     }
     let pieces: Vec<(usize, SparseKernel)> = copies

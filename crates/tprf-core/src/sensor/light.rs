@@ -216,16 +216,16 @@ impl LightPulse {
     /// Checks every value (finite times, widths >= 0, energy >= 0, sorted knots ...)
     /// and builds the normalised envelope.
     pub fn compile(&self) -> Result<Light, SensorError> {
-        let energy = non_negative("light.energy", self.energy())?;
+        let energy = super::scale("light.energy", self.energy())?;
         let shape = match self {
             LightPulse::Delta { t_s, .. } => Shape::Delta {
-                t_s: finite("light.t_s", *t_s)?,
+                t_s: super::time_s("light.t_s", *t_s)?,
             },
             LightPulse::Gaussian {
                 centre_s, fwhm_s, ..
             } => {
-                let mu_s = finite("light.centre_s", *centre_s)?;
-                let fwhm = non_negative("light.fwhm_s", *fwhm_s)?;
+                let mu_s = super::time_s("light.centre_s", *centre_s)?;
+                let fwhm = super::duration_s("light.fwhm_s", *fwhm_s, false)?;
                 if fwhm == 0.0 {
                     Shape::Delta { t_s: mu_s }
                 } else {
@@ -238,8 +238,8 @@ impl LightPulse {
             LightPulse::Rect {
                 start_s, width_s, ..
             } => {
-                let start_s = finite("light.start_s", *start_s)?;
-                let width = non_negative("light.width_s", *width_s)?;
+                let start_s = super::time_s("light.start_s", *start_s)?;
+                let width = super::duration_s("light.width_s", *width_s, false)?;
                 if width == 0.0 {
                     Shape::Delta { t_s: start_s }
                 } else {
@@ -250,8 +250,8 @@ impl LightPulse {
                 }
             }
             LightPulse::Exponential { onset_s, tau_s, .. } => {
-                let onset_s = finite("light.onset_s", *onset_s)?;
-                let tau_s = non_negative("light.tau_s", *tau_s)?;
+                let onset_s = super::time_s("light.onset_s", *onset_s)?;
+                let tau_s = super::duration_s("light.tau_s", *tau_s, false)?;
                 if tau_s == 0.0 {
                     Shape::Delta { t_s: onset_s }
                 } else {
@@ -264,9 +264,9 @@ impl LightPulse {
                 fall_s,
                 ..
             } => {
-                let onset_s = finite("light.onset_s", *onset_s)?;
-                let rise_s = non_negative("light.rise_s", *rise_s)?;
-                let fall_s = non_negative("light.fall_s", *fall_s)?;
+                let onset_s = super::time_s("light.onset_s", *onset_s)?;
+                let rise_s = super::duration_s("light.rise_s", *rise_s, false)?;
+                let fall_s = super::duration_s("light.fall_s", *fall_s, false)?;
                 if fall_s == 0.0 && rise_s == 0.0 {
                     Shape::Delta { t_s: onset_s }
                 } else if rise_s >= fall_s {
@@ -293,8 +293,8 @@ impl LightPulse {
                 lobes,
                 ..
             } => {
-                let centre_s = finite("light.centre_s", *centre_s)?;
-                let width_s = non_negative("light.width_s", *width_s)?;
+                let centre_s = super::time_s("light.centre_s", *centre_s)?;
+                let width_s = super::duration_s("light.width_s", *width_s, false)?;
                 if *lobes > MAX_LOBES {
                     return Err(SensorError::TooMany {
                         what: "light.lobes".into(),

@@ -125,6 +125,60 @@ pub(crate) fn non_negative(what: &str, value: f64) -> Result<f64, SensorError> {
     }
 }
 
+/// The largest factor a setting may scale a measurement by: measurements are float32
+/// (largest 3.4e38), and a cube bin times a kernel times this stays inside it.
+pub(crate) const MAX_SCALE: f64 = 1e30;
+
+/// `value` if `>= 0` and at most [`MAX_SCALE`] (a gain, an energy, a noise level).
+pub(crate) fn scale(what: &str, value: f64) -> Result<f64, SensorError> {
+    non_negative(what, value)?;
+    if value <= MAX_SCALE {
+        Ok(value)
+    } else {
+        Err(SensorError::OutOfRange {
+            what: what.to_string(),
+            value,
+            rule: "<= 1e30 (measurements are float32)",
+        })
+    }
+}
+
+/// The largest time or duration a sensor setting may hold: one second (3e8 m of light
+/// path; a laser cycle of 1 Hz). Beyond it, depths and gate positions leave float32.
+pub const MAX_TIME_S: f64 = 1.0;
+
+/// A time in seconds: finite and within `+-MAX_TIME_S`.
+pub(crate) fn time_s(what: &str, value: f64) -> Result<f64, SensorError> {
+    finite(what, value)?;
+    if value.abs() <= MAX_TIME_S {
+        Ok(value)
+    } else {
+        Err(SensorError::OutOfRange {
+            what: what.to_string(),
+            value,
+            rule: "within +-1 s (a time of flight)",
+        })
+    }
+}
+
+/// A duration in seconds: `>= 0` (`> 0` when `strict`) and at most `MAX_TIME_S`.
+pub(crate) fn duration_s(what: &str, value: f64, strict: bool) -> Result<f64, SensorError> {
+    if strict {
+        positive(what, value)?;
+    } else {
+        non_negative(what, value)?;
+    }
+    if value <= MAX_TIME_S {
+        Ok(value)
+    } else {
+        Err(SensorError::OutOfRange {
+            what: what.to_string(),
+            value,
+            rule: "<= 1 s",
+        })
+    }
+}
+
 /// `value` if finite and `> 0`.
 pub(crate) fn positive(what: &str, value: f64) -> Result<f64, SensorError> {
     finite(what, value)?;

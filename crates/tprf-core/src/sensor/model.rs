@@ -90,6 +90,16 @@ impl SensorModel {
         };
         let weights: u64 = kernels.iter().map(|k| k.weights.len() as u64).sum();
         check_weights(weights, gates.len(), &axis)?;
+        for (i, k) in kernels.iter().enumerate() {
+            let total: f64 = k.weights.iter().map(|w| w.abs()).sum();
+            if !(total <= super::MAX_SCALE) {
+                return Err(SensorError::Invalid(format!(
+                    "gate {i}'s kernel sums to {total:.3e} (light energy x exposure gain): \
+                     above 1e30 its measurements would overflow float32; lower \
+                     light.energy or exposure.gain"
+                )));
+            }
+        }
         let packed = PackedKernels::new(&kernels, axis.bins);
         let transfer = BinTransfer::new(&light, axis.dt_s, axis.bins.saturating_sub(1));
         Ok(SensorModel {
@@ -172,7 +182,19 @@ impl SensorModel {
         width: usize,
         height: usize,
     ) -> Result<Measurements, SensorError> {
-        measure_clean(&self.packed, cube, width, height)
+        let m = measure_clean(&self.packed, cube, width, height)?;
+        let plane = (width * height).max(1);
+        if let Some(j) = m.values.iter().position(|v| !v.is_finite()) {
+            let (gate, p) = (j / plane, j % plane);
+            return Err(SensorError::Invalid(format!(
+                "gate {gate} at pixel (row {}, column {}) measures {}: the cube times the \
+                 gate's kernel is outside float32 (or the cube holds NaN or infinite bins)",
+                p / width.max(1),
+                p % width.max(1),
+                m.values[j]
+            )));
+        }
+        Ok(m)
     }
 
     /// [`SensorModel::measure_clean`] of a film snapshot, reading only its stored bins.

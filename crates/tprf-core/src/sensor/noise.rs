@@ -15,7 +15,7 @@ use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::{SensorError, non_negative};
+use super::SensorError;
 
 /// Measurements per random stream: stream `c` serves the indices `c CHUNK ..
 /// (c + 1) CHUNK` in order, whatever the thread that runs it.
@@ -112,10 +112,10 @@ impl NoiseField {
 }
 
 impl Noise {
-    /// Checks `sigma >= 0` and `photons_per_energy >= 0`, both finite.
+    /// Checks `sigma` and `photons_per_energy` in `0..=1e30` (measurements are float32).
     pub fn validate(&self) -> Result<(), SensorError> {
-        non_negative("noise.sigma", self.sigma)?;
-        non_negative("noise.photons_per_energy", self.photons_per_energy)?;
+        super::scale("noise.sigma", self.sigma)?;
+        super::scale("noise.photons_per_energy", self.photons_per_energy)?;
         Ok(())
     }
 

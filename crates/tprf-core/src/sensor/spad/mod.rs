@@ -159,7 +159,7 @@ impl Spad {
         non_negative("spad.ambient_rate_hz", self.ambient_rate_hz)?;
         non_negative("spad.ambient_lamp_hz", self.ambient_lamp_hz)?;
         non_negative("spad.dark_count_rate_hz", self.dark_count_rate_hz)?;
-        non_negative("spad.dead_time_s", self.dead_time_s)?;
+        crate::sensor::duration_s("spad.dead_time_s", self.dead_time_s, false)?;
         finite(
             "laser cycle (exposure.bins x exposure.bin_width_s)",
             cycle_s,
@@ -172,7 +172,7 @@ impl Spad {
             )));
         }
         probability("spad.afterpulse_probability", self.afterpulse_probability)?;
-        non_negative("spad.afterpulse_delay_s", self.afterpulse_delay_s)?;
+        crate::sensor::duration_s("spad.afterpulse_delay_s", self.afterpulse_delay_s, false)?;
         if self.afterpulse_probability > 0.0 && !(self.afterpulse_delay_s > 0.0) {
             return Err(SensorError::OutOfRange {
                 what: "spad.afterpulse_delay_s".into(),
