@@ -627,6 +627,14 @@ fn screenshots() {
         app.sensor.gate = 5;
     }
     h.remove_cursor();
+    h.run_steps(2);
+    // All gates measured: the strip of gate images under the measurement shows.
+    let snap = h.state().snapshot().unwrap();
+    let start = std::time::Instant::now();
+    while !h.state().sensor.is_current(&snap) && start.elapsed() < Duration::from_secs(120) {
+        h.step();
+        std::thread::sleep(Duration::from_millis(20));
+    }
     h.run_steps(4);
     let img = h.render().expect("a wgpu adapter for screenshots");
     img.save(dir.join("sensor.png")).unwrap();
@@ -864,6 +872,11 @@ fn sensor_mode_measures_the_cached_film_within_a_frame() {
             &format!("pixel {p}, sum over gates"),
         );
     }
+    // Under the images, the strip of gate images: a click on one shows that gate.
+    h.run_steps(2);
+    h.get_by_label("gate 3 thumbnail").click();
+    h.run_steps(2);
+    assert_eq!(h.state().sensor.gate, 3);
     // A gate entirely before the window measures exactly zero.
     h.state_mut().settings.sensor.exposure = Exposure::Box {
         origin: TimeOrigin::Pulse,

@@ -22,6 +22,9 @@ const GRAB_PX: f32 = 10.0;
 /// Shift-drag moves a handle this share of the pointer's movement.
 const FINE: f64 = 0.1;
 
+/// Most gates drawn one by one in the editor; more are drawn as one band.
+const MAX_GATES_DRAWN: usize = 8;
+
 /// The envelope editor: Light(t) and every Exposure_i(t) on one time axis with the
 /// pixel's TPRF behind them, each scaled to its own peak; drag the handles.
 pub(crate) fn editor_ui(
@@ -140,7 +143,32 @@ pub(crate) fn editor_ui(
                 .fill(0.0)
                 .fill_alpha(0.35),
         );
-        for (i, c, cov) in &gate_curves {
+        // Many gates (a digitiser's boxes, a TDC's bins) as one band: where any other
+        // gate is open, its height the largest of them; a few (AMCW phases) one by one.
+        if gate_curves.len() > MAX_GATES_DRAWN {
+            let mut env = vec![0.0f64; ts.len()];
+            for (i, c, _) in &gate_curves {
+                if *i != state.gate {
+                    for (e, v) in env.iter_mut().zip(c) {
+                        *e = e.max(*v / gate_peak);
+                    }
+                }
+            }
+            let pts: Vec<[f64; 2]> = ts.iter().zip(&env).map(|(t, v)| [t * 1e9, *v]).collect();
+            p.line(
+                Line::new(
+                    format!("the other {} gates", gate_curves.len() - 1),
+                    PlotPoints::from(pts),
+                )
+                .color(GATE_COLOR.gamma_multiply(0.45))
+                .fill(0.0)
+                .fill_alpha(0.12),
+            );
+        }
+        for (i, c, cov) in gate_curves
+            .iter()
+            .filter(|_| gate_curves.len() <= MAX_GATES_DRAWN)
+        {
             if *i != state.gate {
                 let pts: Vec<[f64; 2]> = ts
                     .iter()

@@ -106,6 +106,7 @@ fn spad_images(
     };
     let key = hash(&(snap.generation(), model.sensor(), *view));
     let avail = ui.available_size();
+    let avail = Vec2::new(avail.x, avail.y - strip_height(avail.y, bins));
     let title_h = 22.0;
     let readout_h = 26.0;
     let side = (avail.x - 16.0) / 2.0;
@@ -211,6 +212,23 @@ fn spad_images(
         None => "Hover a pixel to read its counts and depth".to_string(),
     };
     ui.add(egui::Label::new(RichText::new(text).monospace()).truncate());
+    let values = sp.values(*view);
+    let tone = white.map_or(1.0, |m| 1.0 / m);
+    let planes = |k: usize| img.plane(values, k);
+    let thumb_key = |k: usize| hash(&(key, k, "strip"));
+    if let Some(k) = gate_strip(
+        ui,
+        textures,
+        (w, h),
+        bins,
+        bin,
+        "TDC bin",
+        tone,
+        &planes,
+        &thumb_key,
+    ) {
+        *gate_sel = k;
+    }
     clicked
 }
 
@@ -366,6 +384,7 @@ fn measurement_images(
     });
     let derived = measured.filter(|m| m.depth().is_some());
     let avail = ui.available_size();
+    let avail = Vec2::new(avail.x, avail.y - strip_height(avail.y, gates));
     let readout_h = 26.0;
     let title_h = 22.0;
     let extra = title_h + BAR_H + 8.0;
@@ -548,7 +567,117 @@ fn measurement_images(
         None => "Hover a pixel to read its measurement".to_string(),
     };
     ui.add(egui::Label::new(RichText::new(text).monospace()).truncate());
+    if let Some(m) = measured.filter(|_| current) {
+        let tone = white.map_or(1.0, |v| 1.0 / v);
+        let planes = |i: usize| m.m.plane(i);
+        let key = |i: usize| hash(&(snap.generation(), model.sensor(), i, white));
+        if let Some(i) = gate_strip(
+            ui,
+            textures,
+            (w, h),
+            gates,
+            gate,
+            "gate",
+            tone,
+            &planes,
+            &key,
+        ) {
+            *gate_sel = i;
+        }
+    }
     out
+}
+
+/// The height kept under the images for the strip of gate images ([`gate_strip`]) in a
+/// panel `avail_h` points tall: a fifth of it, 90 to 160 points, when there are several
+/// gates and the images keep at least 320 points.
+fn strip_height(avail_h: f32, gates: usize) -> f32 {
+    let strip = (0.2 * avail_h).clamp(90.0, 160.0);
+    if gates >= 2 && avail_h - strip >= 320.0 {
+        strip
+    } else {
+        0.0
+    }
+}
+
+/// Texture names of the strip's thumbnails (one per slot).
+const STRIP_NAMES: [&str; 16] = [
+    "strip-0", "strip-1", "strip-2", "strip-3", "strip-4", "strip-5", "strip-6", "strip-7",
+    "strip-8", "strip-9", "strip-10", "strip-11", "strip-12", "strip-13", "strip-14", "strip-15",
+];
+
+/// A row of small images of the gates (or TDC bins) around the one shown, in the space
+/// left under the images, on one exposure (`tone`: 1 / white): the whole sequence read
+/// at a glance, the shown one outlined; a click shows that one. The gate clicked.
+#[allow(clippy::too_many_arguments)]
+fn gate_strip<'a>(
+    ui: &mut egui::Ui,
+    textures: &mut TextureCache<u64>,
+    (w, h): (usize, usize),
+    count: usize,
+    shown: usize,
+    what: &str,
+    tone: f64,
+    plane: &dyn Fn(usize) -> &'a [f32],
+    key: &dyn Fn(usize) -> u64,
+) -> Option<usize> {
+    const MIN_THUMB: f32 = 40.0;
+    const GAP: f32 = 6.0;
+    let label_h = 20.0;
+    let avail = ui.available_size();
+    let aspect = w.max(1) as f32 / h.max(1) as f32;
+    let thumb_h = (avail.y - label_h - 16.0).min(140.0);
+    if count < 2 || thumb_h < MIN_THUMB {
+        return None;
+    }
+    let thumb = Vec2::new(thumb_h * aspect, thumb_h);
+    let fit = (((avail.x + GAP) / (thumb.x + GAP)) as usize).clamp(1, STRIP_NAMES.len());
+    let n = fit.min(count);
+    let first = shown.saturating_sub(n / 2).min(count - n);
+    ui.add_space(8.0);
+    ui.label(
+        RichText::new(format!(
+            "{what}s {first}..{} of {count}, one exposure; click one to show it",
+            first + n - 1
+        ))
+        .weak(),
+    );
+    let ctx = ui.ctx().clone();
+    let tone = Tone {
+        scale: tone,
+        log: false,
+        decades: 3.0,
+    };
+    let mut clicked = None;
+    ui.horizontal(|ui| {
+        ui.spacing_mut().item_spacing.x = GAP;
+        for (slot, i) in (first..first + n).enumerate() {
+            let tex = textures.get(&ctx, STRIP_NAMES[slot], key(i), || {
+                egui::ColorImage::from_rgba_unmultiplied(
+                    [w, h],
+                    &colormap::colorize(plane(i), &tone, ColorMap::Inferno),
+                )
+            });
+            let r = ui
+                .add(egui::Image::new((tex.id(), thumb)).sense(Sense::click()))
+                .on_hover_text(format!("{what} {i}"));
+            r.widget_info(|| {
+                egui::WidgetInfo::labeled(egui::Role::Image, true, format!("{what} {i} thumbnail"))
+            });
+            if i == shown {
+                ui.painter().rect_stroke(
+                    r.rect.expand(2.0),
+                    2.0,
+                    egui::Stroke::new(2.0, ui.visuals().selection.bg_fill),
+                    egui::StrokeKind::Outside,
+                );
+            }
+            if r.clicked() {
+                clicked = Some(i);
+            }
+        }
+    });
+    clicked
 }
 
 /// What the window says of pixel `(x, y)` in sensor mode: M_i with its unit, the depth
