@@ -204,7 +204,7 @@ mod tests {
         let path = temp("be.npy");
         let dict = "{'descr': '>f4', 'fortran_order': False, 'shape': (3,), }";
         let mut header = dict.to_string();
-        while (10 + header.len() + 1) % 64 != 0 {
+        while !(10 + header.len() + 1).is_multiple_of(64) {
             header.push(' ');
         }
         header.push('\n');
