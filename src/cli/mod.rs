@@ -1,4 +1,4 @@
-//! The command line: `tprf render`, `tprf oned`, `tprf view`, `tprf sensor`,
+//! The command line: `tprf render`, `tprf merge`, `tprf oned`, `tprf view`, `tprf sensor`,
 //! `tprf converge`, `tprf stability`, one file per command with its arguments. The
 //! work is done by `tprf_core` (and the viewer); a command checks its arguments, calls
 //! the library, reports progress, and its errors end here, printed once.
@@ -6,6 +6,7 @@
 mod args;
 pub mod converge;
 mod interrupt;
+pub mod merge;
 pub mod oned;
 pub mod render;
 pub mod sensor;
@@ -15,6 +16,7 @@ pub mod view;
 use clap::{Parser, Subcommand};
 
 use converge::ConvergeArgs;
+use merge::MergeArgs;
 use oned::OnedArgs;
 pub use oned::print_oned;
 use render::RenderArgs;
@@ -37,6 +39,9 @@ pub struct Cli {
 pub enum Command {
     /// Render a transient cube (TPRF per pixel) of a scene.
     Render(RenderArgs),
+    /// Merge the shard folders of `tprf render --shard K/N` into one cube folder: what
+    /// one process rendering the whole image writes, bit for bit.
+    Merge(MergeArgs),
     /// The paper's 1-D world: print the exact impulse train (and the binned TPRF).
     Oned(OnedArgs),
     /// Measure a rendered cube with a time-of-flight sensor (light pulse, exposure
@@ -60,6 +65,7 @@ pub fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Some(Command::Render(a)) => render::run(a),
+        Some(Command::Merge(a)) => merge::run(a),
         Some(Command::Oned(a)) => oned::run(a),
         Some(Command::Converge(a)) => converge::run(a),
         Some(Command::Stability(a)) => stability::run(a),
