@@ -389,3 +389,127 @@ fn shard_settings_that_cannot_be_split_are_refused() {
     let e = run(&["--spp", "2", "--shard", "0/1", "--band-rows", "4", "--format", "zarr"]);
     assert!(e.contains("multiple of its chunk height (32 rows)"), "{e}");
 }
+
+/// `tprf batch MANIFEST ARGS...`.
+fn batch(manifest: &Path, args: &[&str]) -> Output {
+    let mut all = vec!["batch", manifest.to_str().unwrap()];
+    all.extend_from_slice(args);
+    tprf(&all)
+}
+
+/// When `tprf.json` of a job's output was last written.
+fn written_at(out: &Path) -> std::time::SystemTime {
+    std::fs::metadata(out.join("tprf.json"))
+        .unwrap()
+        .modified()
+        .unwrap()
+}
+
+#[test]
+fn a_batch_resumes_rendering_only_what_is_missing() {
+    let dir = tempdir("batch");
+    let manifest = dir.join("batch.toml");
+    std::fs::write(
+        &manifest,
+        r#"
+[defaults]
+width = 12
+height = 10
+spp = 3
+bins = 16
+
+[[job]]
+name = "lidar"
+scene = "builtin:cornell"
+out = "out/lidar"
+sensors = ["builtin:lidar"]
+
+[[sweep]]
+scenes = ["builtin:cornell"]
+out = "out/{scene}-{settings}"
+settings = [{ name = "a", seed = 1 }, { name = "b", seed = 2, spp = 5 }]
+"#,
+    )
+    .unwrap();
+    let o = batch(&manifest, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("3 rendered, 0 skipped"), "{}", stderr(&o));
+    let out = dir.join("out");
+    assert!(out.join("lidar/sensor-lidar/sensor.json").is_file());
+    // The sweep's job is the render its settings give.
+    let one = dir.join("one-b");
+    render(
+        "builtin:cornell",
+        &one,
+        &["--width", "12", "--height", "10", "--spp", "5", "--bins", "16", "--seed", "2"],
+    );
+    assert!(bytes(&one.join("tprf.npy")) == bytes(&out.join("cornell-b/tprf.npy")));
+
+    let before: Vec<_> = ["lidar", "cornell-a", "cornell-b"]
+        .iter()
+        .map(|j| written_at(&out.join(j)))
+        .collect();
+    let o = batch(&manifest, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("0 rendered, 3 skipped"), "{}", stderr(&o));
+
+    // One output deleted: only it is rendered again.
+    std::fs::remove_dir_all(out.join("cornell-a")).unwrap();
+    let o = batch(&manifest, &[]);
+    assert!(stderr(&o).contains("1 rendered, 2 skipped"), "{}", stderr(&o));
+    assert!(out.join("cornell-a/tprf.npy").is_file());
+    assert_eq!(written_at(&out.join("lidar")), before[0]);
+    assert_eq!(written_at(&out.join("cornell-b")), before[2]);
+    // A sensor's outputs deleted: the sensor runs again, the cube is kept.
+    std::fs::remove_dir_all(out.join("lidar/sensor-lidar")).unwrap();
+    let o = batch(&manifest, &["--only", "lidar"]);
+    assert!(stderr(&o).contains("1 rendered, 0 skipped"), "{}", stderr(&o));
+    assert!(out.join("lidar/sensor-lidar/sensor.json").is_file());
+    assert_eq!(written_at(&out.join("lidar")), before[0]);
+
+    // The list says what is complete.
+    let o = batch(&manifest, &["--list"]);
+    let list = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert_eq!(list.lines().count(), 3, "{list}");
+    assert!(list.lines().all(|l| l.contains("\tcomplete\t")), "{list}");
+}
+
+#[test]
+fn a_failed_batch_job_is_reported_and_the_others_go_on() {
+    let dir = tempdir("batch-fail");
+    let manifest = dir.join("batch.toml");
+    std::fs::write(
+        &manifest,
+        r#"
+[[job]]
+scene = "builtin:nosuchscene"
+out = "broken"
+width = 8
+height = 8
+spp = 1
+bins = 8
+
+[[job]]
+scene = "builtin:cornell"
+out = "fine"
+width = 8
+height = 8
+spp = 1
+bins = 8
+"#,
+    )
+    .unwrap();
+    let o = batch(&manifest, &[]);
+    let e = stderr(&o);
+    assert!(!o.status.success());
+    assert!(e.contains("job broken failed") && e.contains("nosuchscene"), "{e}");
+    assert!(e.contains("1 of 2 jobs failed: broken"), "{e}");
+    assert!(dir.join("fine/tprf.npy").is_file());
+    let o = batch(&manifest, &["--only", "nope"]);
+    assert!(stderr(&o).contains("no job of that name (it has broken, fine)"), "{}", stderr(&o));
+    // Bad manifests.
+    std::fs::write(&manifest, "[[job]]\nscene = \"builtin:cornell\"\nout = \"x\"\nspp = \"many\"\n")
+        .unwrap();
+    let o = batch(&manifest, &[]);
+    assert!(!o.status.success() && stderr(&o).contains("not a batch manifest"), "{}", stderr(&o));
+}
