@@ -18,8 +18,8 @@ fn stderr(o: &Output) -> String {
 }
 
 fn tempdir(name: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join(format!("shard-{name}-{}", std::process::id()));
+    let d =
+        Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("shard-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
@@ -193,11 +193,24 @@ fn merged_zarr_shards_are_the_one_process_store_chunk_for_chunk() {
     ];
     let one = dir.join("one");
     render("builtin:cornell", &one, &args);
-    for n in [1, 2, 3] {
-        let parts = shards(&dir, "builtin:cornell", &args, n);
-        let merged = dir.join(format!("merged-{n}"));
+    // Bands of whole chunks (the default: every chunk file linked), and thinner bands
+    // whose chunks the merge puts together from several shards.
+    for (n, band_rows) in [(1, "32"), (2, "32"), (3, "32"), (3, "8"), (2, "12")] {
+        let sharded = [&args[..], &["--band-rows", band_rows]].concat();
+        let parts: Vec<PathBuf> = shards(&dir, "builtin:cornell", &sharded, n)
+            .into_iter()
+            .enumerate()
+            .map(|(k, p)| {
+                let to = dir.join(format!("b{band_rows}-s{k}-of-{n}"));
+                std::fs::rename(&p, &to).unwrap();
+                to
+            })
+            .collect();
+        let merged = dir.join(format!("merged-{n}-{band_rows}"));
         let o = merge(&merged, &parts);
         assert!(o.status.success(), "{}", stderr(&o));
+        let linked_all = stderr(&o).contains(" 0 copied");
+        assert_eq!(linked_all, band_rows == "32", "{}", stderr(&o));
         let (a, b) = (
             tree(&one.join("tprf.zarr")),
             tree(&merged.join("tprf.zarr")),
@@ -213,7 +226,11 @@ fn merged_zarr_shards_are_the_one_process_store_chunk_for_chunk() {
             if path.as_os_str() == "zarr.json" {
                 continue;
             }
-            assert!(*one_bytes == b[path], "{} differs ({n} shards)", path.display());
+            assert!(
+                *one_bytes == b[path],
+                "{} differs ({n} shards of {band_rows} rows)",
+                path.display()
+            );
             chunks += path.starts_with("cube/c") as usize;
         }
         assert!(chunks > 4, "only {chunks} chunks");
@@ -224,14 +241,29 @@ fn merged_zarr_shards_are_the_one_process_store_chunk_for_chunk() {
         // The merged store reads back as the cube.
         let cube = tprf_core::export::zarr::ZarrCube::open(&merged.join("tprf.zarr")).unwrap();
         assert!(cube.meta.shard.is_none());
-        assert_eq!(bytes(&one.join("steady.png")), bytes(&merged.join("steady.png")));
+        assert_eq!(
+            bytes(&one.join("steady.png")),
+            bytes(&merged.join("steady.png"))
+        );
     }
 }
 
 /// A fixed window, so two renders of other settings still agree on it.
 const SMALL: &[&str] = &[
-    "--width", "16", "--height", "8", "--spp", "2", "--bins", "16", "--band-rows", "4",
-    "--t0", "3m", "--dt", "0.5m",
+    "--width",
+    "16",
+    "--height",
+    "8",
+    "--spp",
+    "2",
+    "--bins",
+    "16",
+    "--band-rows",
+    "4",
+    "--t0",
+    "3m",
+    "--dt",
+    "0.5m",
 ];
 
 fn shard_with(dir: &Path, name: &str, k: usize, extra: &[&str]) -> PathBuf {
@@ -273,7 +305,11 @@ fn shards_of_another_render_are_refused_naming_the_difference() {
     assert!(ok.status.success(), "{}", stderr(&ok));
 
     let seed = shard_with(&dir, "seed", 1, &["--seed", "7"]);
-    refused(&dir, &[s0.clone(), seed], &["shard 1", "seed 7", "shard 0", "seed 0"]);
+    refused(
+        &dir,
+        &[s0.clone(), seed],
+        &["shard 1", "seed 7", "shard 0", "seed 0"],
+    );
 
     let scene_dir = dir.join("scene");
     let o = tprf(&[
@@ -299,7 +335,11 @@ fn shards_of_another_render_are_refused_naming_the_difference() {
         "1/2",
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    refused(&dir, &[s0.clone(), scene_dir], &["scene", "fnv1a64:", "builtin:cornell"]);
+    refused(
+        &dir,
+        &[s0.clone(), scene_dir],
+        &["scene", "fnv1a64:", "builtin:cornell"],
+    );
 
     let window = shard_with(&dir, "window", 1, &["--t0", "4m"]);
     refused(&dir, &[s0.clone(), window], &["t0_s"]);
@@ -315,7 +355,11 @@ fn shards_of_another_render_are_refused_naming_the_difference() {
     third[at + 1] = "2";
     third.extend(["--shard", "2/3"]);
     render("builtin:cornell", &out, &third);
-    refused(&dir, &[s0.clone(), s1.clone(), out], &["shard count n 3", "shard count n 2"]);
+    refused(
+        &dir,
+        &[s0.clone(), s1.clone(), out],
+        &["shard count n 3", "shard count n 2"],
+    );
 }
 
 #[test]
@@ -323,14 +367,22 @@ fn a_missing_repeated_or_truncated_shard_is_refused() {
     let dir = tempdir("broken");
     let s0 = shard_with(&dir, "s0", 0, &[]);
     let s1 = shard_with(&dir, "s1", 1, &[]);
-    refused(&dir, std::slice::from_ref(&s0), &["shard 1 of 2 is missing", "given: 0"]);
+    refused(
+        &dir,
+        std::slice::from_ref(&s0),
+        &["shard 1 of 2 is missing", "given: 0"],
+    );
     let again = dir.join("s0-again");
     std::fs::create_dir_all(&again).unwrap();
     for e in std::fs::read_dir(&s0).unwrap() {
         let p = e.unwrap().path();
         std::fs::copy(&p, again.join(p.file_name().unwrap())).unwrap();
     }
-    refused(&dir, &[s0.clone(), again, s1.clone()], &["shard 0 is given twice"]);
+    refused(
+        &dir,
+        &[s0.clone(), again, s1.clone()],
+        &["shard 0 is given twice"],
+    );
 
     // Truncated: the cube file cut short by a byte.
     let cut = dir.join("cut");
@@ -347,9 +399,17 @@ fn a_missing_repeated_or_truncated_shard_is_refused() {
         .unwrap()
         .set_len(len - 1)
         .unwrap();
-    refused(&dir, &[s0.clone(), cut.clone()], &["shard 1", "tprf.npy", "truncated"]);
+    refused(
+        &dir,
+        &[s0.clone(), cut.clone()],
+        &["shard 1", "tprf.npy", "truncated"],
+    );
     std::fs::remove_file(&npy).unwrap();
-    refused(&dir, &[s0.clone(), cut], &["shard 1", "cannot open tprf.npy"]);
+    refused(
+        &dir,
+        &[s0.clone(), cut],
+        &["shard 1", "cannot open tprf.npy"],
+    );
 
     // A whole render is not a shard.
     let whole = dir.join("whole");
@@ -386,8 +446,8 @@ fn shard_settings_that_cannot_be_split_are_refused() {
     assert!(e.contains("--seconds") && e.contains("--shard"), "{e}");
     let e = run(&["--spp", "2", "--shard", "2/2"]);
     assert!(e.contains("K/N"), "{e}");
-    let e = run(&["--spp", "2", "--shard", "0/1", "--band-rows", "4", "--format", "zarr"]);
-    assert!(e.contains("multiple of its chunk height (32 rows)"), "{e}");
+    let e = run(&["--spp", "2", "--shard", "0/2", "--band-rows", "0"]);
+    assert!(e.contains("--band-rows must be at least 1"), "{e}");
 }
 
 /// `tprf batch MANIFEST ARGS...`.
@@ -433,7 +493,11 @@ settings = [{ name = "a", seed = 1 }, { name = "b", seed = 2, spp = 5 }]
     .unwrap();
     let o = batch(&manifest, &[]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stderr(&o).contains("3 rendered, 0 skipped"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("3 rendered, 0 skipped"),
+        "{}",
+        stderr(&o)
+    );
     let out = dir.join("out");
     assert!(out.join("lidar/sensor-lidar/sensor.json").is_file());
     // The sweep's job is the render its settings give.
@@ -441,7 +505,9 @@ settings = [{ name = "a", seed = 1 }, { name = "b", seed = 2, spp = 5 }]
     render(
         "builtin:cornell",
         &one,
-        &["--width", "12", "--height", "10", "--spp", "5", "--bins", "16", "--seed", "2"],
+        &[
+            "--width", "12", "--height", "10", "--spp", "5", "--bins", "16", "--seed", "2",
+        ],
     );
     assert!(bytes(&one.join("tprf.npy")) == bytes(&out.join("cornell-b/tprf.npy")));
 
@@ -451,19 +517,31 @@ settings = [{ name = "a", seed = 1 }, { name = "b", seed = 2, spp = 5 }]
         .collect();
     let o = batch(&manifest, &[]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stderr(&o).contains("0 rendered, 3 skipped"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("0 rendered, 3 skipped"),
+        "{}",
+        stderr(&o)
+    );
 
     // One output deleted: only it is rendered again.
     std::fs::remove_dir_all(out.join("cornell-a")).unwrap();
     let o = batch(&manifest, &[]);
-    assert!(stderr(&o).contains("1 rendered, 2 skipped"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("1 rendered, 2 skipped"),
+        "{}",
+        stderr(&o)
+    );
     assert!(out.join("cornell-a/tprf.npy").is_file());
     assert_eq!(written_at(&out.join("lidar")), before[0]);
     assert_eq!(written_at(&out.join("cornell-b")), before[2]);
     // A sensor's outputs deleted: the sensor runs again, the cube is kept.
     std::fs::remove_dir_all(out.join("lidar/sensor-lidar")).unwrap();
     let o = batch(&manifest, &["--only", "lidar"]);
-    assert!(stderr(&o).contains("1 rendered, 0 skipped"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("1 rendered, 0 skipped"),
+        "{}",
+        stderr(&o)
+    );
     assert!(out.join("lidar/sensor-lidar/sensor.json").is_file());
     assert_eq!(written_at(&out.join("lidar")), before[0]);
 
@@ -502,14 +580,51 @@ bins = 8
     let o = batch(&manifest, &[]);
     let e = stderr(&o);
     assert!(!o.status.success());
-    assert!(e.contains("job broken failed") && e.contains("nosuchscene"), "{e}");
+    assert!(
+        e.contains("job broken failed") && e.contains("nosuchscene"),
+        "{e}"
+    );
     assert!(e.contains("1 of 2 jobs failed: broken"), "{e}");
     assert!(dir.join("fine/tprf.npy").is_file());
     let o = batch(&manifest, &["--only", "nope"]);
-    assert!(stderr(&o).contains("no job of that name (it has broken, fine)"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("no job of that name (it has broken, fine)"),
+        "{}",
+        stderr(&o)
+    );
     // Bad manifests.
-    std::fs::write(&manifest, "[[job]]\nscene = \"builtin:cornell\"\nout = \"x\"\nspp = \"many\"\n")
-        .unwrap();
+    std::fs::write(
+        &manifest,
+        "[[job]]\nscene = \"builtin:cornell\"\nout = \"x\"\nspp = \"many\"\n",
+    )
+    .unwrap();
     let o = batch(&manifest, &[]);
-    assert!(!o.status.success() && stderr(&o).contains("not a batch manifest"), "{}", stderr(&o));
+    assert!(
+        !o.status.success() && stderr(&o).contains("not a batch manifest"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn a_truncated_zarr_chunk_is_refused() {
+    let dir = tempdir("zarr-cut");
+    let args = [
+        "--width", "16", "--height", "64", "--spp", "2", "--bins", "16", "--format", "zarr",
+        "--t0", "3m", "--dt", "0.5m",
+    ];
+    let parts = shards(&dir, "builtin:cornell", &args, 2);
+    let chunk = tree(&parts[1].join("tprf.zarr"))
+        .into_keys()
+        .find(|p| p.starts_with("cube/c"))
+        .expect("shard 1 wrote no chunk");
+    let file = parts[1].join("tprf.zarr").join(&chunk);
+    let len = std::fs::metadata(&file).unwrap().len();
+    std::fs::OpenOptions::new()
+        .write(true)
+        .open(&file)
+        .unwrap()
+        .set_len(len / 2)
+        .unwrap();
+    refused(&dir, &parts, &["shard 1", "does not decode"]);
 }

@@ -183,9 +183,10 @@ pub fn load_jobs(path: &Path) -> Result<Vec<Job>> {
     let mut jobs = Vec::new();
     for j in m.job {
         let name = j.name.unwrap_or_else(|| {
-            j.out
-                .file_name()
-                .map_or_else(|| j.out.display().to_string(), |n| n.to_string_lossy().into_owned())
+            j.out.file_name().map_or_else(
+                || j.out.display().to_string(),
+                |n| n.to_string_lossy().into_owned(),
+            )
         });
         jobs.push(Job {
             name,
@@ -267,7 +268,10 @@ fn render_argv(job: &Job, threads: Option<usize>) -> Vec<String> {
     flag("dt", s.dt.clone());
     flag("seed", s.seed.map(|v| v.to_string()));
     flag("max-bounces", s.max_bounces.map(|v| v.to_string()));
-    flag("bounces-separate", s.bounces_separate.map(|v| v.to_string()));
+    flag(
+        "bounces-separate",
+        s.bounces_separate.map(|v| v.to_string()),
+    );
     flag("channel", s.channel.clone());
     flag("format", s.format.clone());
     flag("threads", threads.map(|v| v.to_string()));
@@ -399,7 +403,10 @@ pub fn run(a: &BatchArgs) -> Result<()> {
             bail!(
                 "--only {name}: {} has no job of that name (it has {})",
                 a.manifest.display(),
-                jobs.iter().map(|j| j.name.as_str()).collect::<Vec<_>>().join(", ")
+                jobs.iter()
+                    .map(|j| j.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
             );
         }
     }
@@ -409,7 +416,11 @@ pub fn run(a: &BatchArgs) -> Result<()> {
         .collect();
     if a.list {
         for j in &chosen {
-            let state = if incomplete(j).is_none() { "complete" } else { "to do" };
+            let state = if incomplete(j).is_none() {
+                "complete"
+            } else {
+                "to do"
+            };
             println!("{}\t{state}\t{}", j.name, j.out.display());
         }
         return Ok(());
@@ -439,7 +450,12 @@ pub fn run(a: &BatchArgs) -> Result<()> {
         start.elapsed().as_secs_f64()
     );
     if !failed.is_empty() {
-        bail!("{} of {} jobs failed: {}", failed.len(), chosen.len(), failed.join(", "));
+        bail!(
+            "{} of {} jobs failed: {}",
+            failed.len(),
+            chosen.len(),
+            failed.join(", ")
+        );
     }
     Ok(())
 }

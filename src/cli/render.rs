@@ -78,7 +78,9 @@ pub struct RenderArgs {
     /// process writes, bit for bit. Needs --spp (a time budget is not reproducible).
     #[arg(long, conflicts_with_all = ["seconds", "frames"])]
     pub shard: Option<String>,
-    /// Rows per band of --shard (a multiple of 32, the Zarr chunk height, for a Zarr cube).
+    /// Rows per band of --shard. Bands of whole Zarr chunks (32 rows, the default) let
+    /// `tprf merge` link every chunk file; thinner bands share chunks, which the merge
+    /// decodes and encodes again.
     #[arg(long, default_value_t = shard::DEFAULT_BAND_ROWS, requires = "shard")]
     pub band_rows: usize,
 }
@@ -180,7 +182,7 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
     let format = a.format.resolve(&[h, w, t]);
     let fingerprint = match &spec {
         Some(spec) => {
-            spec.check(a.height, format == CubeFormat::Zarr)?;
+            spec.check(a.height)?;
             film = film.with_rows(&spec.rows(a.height));
             Some(shard::scene_fingerprint(&a.scene)?)
         }

@@ -21,8 +21,8 @@
 
 use super::{CubeMetadata, ExportError};
 use crate::film::{StoreStats, TimeFilter, half_error_from_terms};
-use serde::{Deserialize, Serialize};
 use npyz::WriterBuilder;
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::{Read, Write};
@@ -49,16 +49,13 @@ pub enum ShardError {
         bands: usize,
         n: usize,
     },
-    #[error(
-        "a Zarr cube's bands must be a multiple of its chunk height ({chunk_rows} rows), \
-         so each chunk has one shard (got --band-rows {band_rows})"
-    )]
-    BandNotChunk { band_rows: usize, chunk_rows: usize },
     #[error("--band-rows must be at least 1")]
     NoBandRows,
     #[error("no shard folders given")]
     NoShards,
-    #[error("{dir} is not a shard: its tprf.json has no \"shard\" section (render it with --shard K/N)")]
+    #[error(
+        "{dir} is not a shard: its tprf.json has no \"shard\" section (render it with --shard K/N)"
+    )]
     NotAShard { dir: PathBuf },
     #[error("shard {k} is given twice: {first} and {second}")]
     Duplicate {
@@ -68,16 +65,8 @@ pub enum ShardError {
     },
     #[error("shard {k} of {n} is missing (given: {given})")]
     Missing { k: usize, n: usize, given: String },
-    #[error("shard {k} ({dir}) has {field} {value}, shard {k0} ({dir0}) has {field} {value0}")]
-    Mismatch {
-        field: &'static str,
-        k: usize,
-        dir: PathBuf,
-        value: String,
-        k0: usize,
-        dir0: PathBuf,
-        value0: String,
-    },
+    #[error("{0}")]
+    Mismatch(Box<FieldMismatch>),
     #[error("shard {k} ({dir}): {message}")]
     Broken {
         k: usize,
@@ -93,6 +82,19 @@ pub enum ShardError {
 }
 
 type Result<T> = std::result::Result<T, ShardError>;
+
+/// Two shards that differ in a field every shard of one render shares.
+#[derive(Debug, thiserror::Error)]
+#[error("shard {k} ({dir}) has {field} {value}, shard {k0} ({dir0}) has {field} {value0}")]
+pub struct FieldMismatch {
+    pub field: &'static str,
+    pub k: usize,
+    pub dir: PathBuf,
+    pub value: String,
+    pub k0: usize,
+    pub dir0: PathBuf,
+    pub value0: String,
+}
 
 /// Which part of the image a shard renders: bands of `band_rows` rows, band `b` going to
 /// shard `b mod n`; this is shard `k`.
@@ -139,16 +141,8 @@ impl ShardSpec {
         (0..height).map(|y| self.owner(y) == self.k).collect()
     }
 
-    /// Refuse a split that leaves a shard without rows, or (for a Zarr cube, `zarr`)
-    /// bands that cut a chunk between two shards.
-    pub fn check(&self, height: usize, zarr: bool) -> Result<()> {
-        let chunk_rows = super::zarr::CHUNK[0] as usize;
-        if zarr && !self.band_rows.is_multiple_of(chunk_rows) {
-            return Err(ShardError::BandNotChunk {
-                band_rows: self.band_rows,
-                chunk_rows,
-            });
-        }
+    /// Refuse a split that leaves a shard without rows.
+    pub fn check(&self, height: usize) -> Result<()> {
         let bands = self.bands(height);
         if bands < self.n {
             return Err(ShardError::FewBands {
@@ -319,7 +313,7 @@ pub fn check_set(mut shards: Vec<Shard>) -> Result<Vec<Shard>> {
     for s in &shards[1..] {
         for ((field, v0), (_, v)) in reference.iter().zip(fingerprint(s)) {
             if *v0 != v {
-                return Err(ShardError::Mismatch {
+                return Err(ShardError::Mismatch(Box::new(FieldMismatch {
                     field,
                     k: s.info.k,
                     dir: s.dir.clone(),
@@ -327,7 +321,7 @@ pub fn check_set(mut shards: Vec<Shard>) -> Result<Vec<Shard>> {
                     k0: first.info.k,
                     dir0: first.dir.clone(),
                     value0: v0.clone(),
-                });
+                })));
             }
         }
     }
@@ -519,7 +513,9 @@ fn read_steady(shards: &[Shard], spec: &ShardSpec, w: usize, h: usize) -> Result
             if have != data_bytes {
                 return Err(broken(
                     s,
-                    format!("{STEADY_NAME} holds {have} bytes of data, its shape needs {data_bytes}"),
+                    format!(
+                        "{STEADY_NAME} holds {have} bytes of data, its shape needs {data_bytes}"
+                    ),
                 ));
             }
             let npy = npyz::NpyFile::new(&bytes[..])
@@ -553,7 +549,10 @@ fn open_npy(s: &Shard, name: &str, shape: &[u64]) -> Result<(File, u64)> {
     if npy.shape() != shape {
         return Err(broken(
             s,
-            format!("{name} has shape {:?}, its tprf.json says {shape:?}", npy.shape()),
+            format!(
+                "{name} has shape {:?}, its tprf.json says {shape:?}",
+                npy.shape()
+            ),
         ));
     }
     let data_at = (head.len() - npy.into_inner().len()) as u64;
@@ -567,7 +566,11 @@ fn open_npy(s: &Shard, name: &str, shape: &[u64]) -> Result<(File, u64)> {
             s,
             format!(
                 "{name} is {have} bytes, its header's shape {shape:?} makes {need}: {}",
-                if have < need { "truncated" } else { "longer than its array" }
+                if have < need {
+                    "truncated"
+                } else {
+                    "longer than its array"
+                }
             ),
         ));
     }
@@ -669,9 +672,13 @@ fn chunk_files(s: &Shard, group: &Path) -> Result<Vec<(PathBuf, String, Vec<u64>
 }
 
 /// `tprf.zarr` from the shards' groups: the group and arrays made anew with the merged
-/// metadata, then each shard's chunk files checked (in its own bands, a zstd frame that
-/// decodes to one chunk) and hard-linked in (copied across file systems). Chunks are
-/// never re-encoded: the merged store holds the very bytes one machine writes.
+/// metadata, then each chunk file checked (decoded: a whole chunk, zero in the rows
+/// that are not its shard's) and put in place. A chunk that one shard wrote (always,
+/// with bands of whole chunks) is hard-linked in (copied across file systems): never
+/// re-encoded, the very bytes one machine writes. A chunk whose rows several shards
+/// share (bands thinner than a chunk) is made from each row's shard's rows and encoded
+/// as the render encodes it (the same bytes, since the same data goes into the same
+/// encoder).
 fn merge_zarr(
     shards: &[Shard],
     spec: &ShardSpec,
@@ -686,8 +693,10 @@ fn merge_zarr(
     } else {
         0
     };
-    let mut plan = Vec::new();
-    let cy = super::zarr::CHUNK[0];
+    let height = meta.height;
+    let cy = super::zarr::CHUNK[0] as usize;
+    // Chunk files by their place in the store: (shard, file, first row of the tile).
+    let mut plan: BTreeMap<PathBuf, Vec<(&Shard, PathBuf, usize)>> = BTreeMap::new();
     for s in shards {
         let group = s.dir.join(name);
         super::zarr::ZarrCube::open(&group)?;
@@ -697,65 +706,114 @@ fn merge_zarr(
                 .iter()
                 .find(|(d, _)| *d == array_dir)
                 .map_or(0, |d| d.1);
-            let y = index.get(row_at).copied().unwrap_or(0) * cy;
-            if index.len() != dims || y >= meta.height as u64 {
+            let y0 = (index.get(row_at).copied().unwrap_or(0) as usize).saturating_mul(cy);
+            if index.len() != dims || y0 >= height {
                 return Err(broken(
                     s,
                     format!("{} is not a chunk of the cube", path.display()),
                 ));
             }
-            if spec.owner(y as usize) != s.info.k {
+            let y1 = (y0 + cy).min(height);
+            if !(y0..y1).any(|y| spec.owner(y) == s.info.k) {
                 return Err(broken(
                     s,
                     format!(
-                        "{} holds rows {y}.. of shard {}, not its own",
-                        path.display(),
-                        spec.owner(y as usize)
+                        "{} holds rows {y0}..{y1}, none of them its own",
+                        path.display()
                     ),
                 ));
             }
             let rel = path.strip_prefix(&group).unwrap_or(&path).to_path_buf();
-            plan.push((s, path, rel));
+            plan.entry(rel).or_default().push((s, path, y0));
         }
     }
-    // Every chunk decodes to a whole chunk (a truncated or corrupt file is refused).
-    plan.par_iter().try_for_each(|(s, path, _)| {
-        let bytes =
-            std::fs::read(path).map_err(|e| broken(s, format!("{}: {e}", path.display())))?;
-        let decoded = zstd::bulk::decompress(&bytes, super::zarr::CHUNK_BYTES)
-            .map_err(|e| broken(s, format!("{} does not decode: {e}", path.display())))?;
-        if decoded.len() != super::zarr::CHUNK_BYTES {
-            return Err(broken(
-                s,
-                format!(
-                    "{} decodes to {} bytes, not a chunk's {}",
-                    path.display(),
-                    decoded.len(),
-                    super::zarr::CHUNK_BYTES
-                ),
-            ));
-        }
-        Ok(())
-    })?;
     let target = dir.join(name);
     let shape = [meta.height as u64, meta.width as u64, meta.bins as u64];
     super::zarr::create_group(&target, meta, shape, layers)?;
-    for (s, path, rel) in &plan {
+    let row_bytes = (super::zarr::CHUNK[1] * super::zarr::CHUNK[2] * 4) as usize;
+    let linked = std::sync::atomic::AtomicU64::new(0);
+    let copied = std::sync::atomic::AtomicU64::new(0);
+    let read = std::sync::atomic::AtomicU64::new(0);
+    let plan: Vec<_> = plan.into_iter().collect();
+    plan.par_iter().try_for_each(|(rel, files)| -> Result<()> {
         let to = target.join(rel);
         if let Some(parent) = to.parent() {
             super::create_dir(parent)?;
         }
-        let len = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
-        if std::fs::hard_link(path, &to).is_ok() {
-            report.chunks_linked += 1;
-        } else {
-            std::fs::copy(path, &to).map_err(|e| {
-                broken(s, format!("cannot copy {} to {}: {e}", path.display(), to.display()))
-            })?;
-            report.chunks_copied += 1;
+        let mut decoded = Vec::with_capacity(files.len());
+        for (s, path, y0) in files {
+            let bytes =
+                std::fs::read(path).map_err(|e| broken(s, format!("{}: {e}", path.display())))?;
+            read.fetch_add(bytes.len() as u64, std::sync::atomic::Ordering::Relaxed);
+            let chunk = zstd::bulk::decompress(&bytes, super::zarr::CHUNK_BYTES)
+                .map_err(|e| broken(s, format!("{} does not decode: {e}", path.display())))?;
+            if chunk.len() != super::zarr::CHUNK_BYTES {
+                return Err(broken(
+                    s,
+                    format!(
+                        "{} decodes to {} bytes, not a chunk's {}",
+                        path.display(),
+                        chunk.len(),
+                        super::zarr::CHUNK_BYTES
+                    ),
+                ));
+            }
+            // Rows of the tile that are not this shard's (or below the image) are zero.
+            for (r, row) in chunk.chunks_exact(row_bytes).enumerate() {
+                let y = y0 + r;
+                let own = y < height && spec.owner(y) == s.info.k;
+                if !own && row.iter().any(|&b| b != 0) {
+                    return Err(broken(
+                        s,
+                        format!("{} has light in row {y}, not its own", path.display()),
+                    ));
+                }
+            }
+            decoded.push((s, path, *y0, chunk));
         }
-        report.bytes_read += len;
-    }
+        if let [(s, path, _, _)] = &decoded[..] {
+            if std::fs::hard_link(path, &to).is_ok() {
+                linked.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            } else {
+                std::fs::copy(path, &to).map_err(|e| {
+                    broken(
+                        s,
+                        format!("cannot copy {} to {}: {e}", path.display(), to.display()),
+                    )
+                })?;
+                copied.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            }
+            return Ok(());
+        }
+        // Several shards' rows in one chunk: each row from its shard.
+        let mut chunk = vec![0u8; super::zarr::CHUNK_BYTES];
+        for (s, _, y0, part) in &decoded {
+            for (r, (dst, src)) in chunk
+                .chunks_exact_mut(row_bytes)
+                .zip(part.chunks_exact(row_bytes))
+                .enumerate()
+            {
+                if y0 + r < height && spec.owner(y0 + r) == s.info.k {
+                    dst.copy_from_slice(src);
+                }
+            }
+        }
+        let encoded = zstd::bulk::compress(&chunk, super::zarr::ZSTD_LEVEL).map_err(|e| {
+            ExportError::Zarr {
+                path: to.clone(),
+                message: format!("zstd: {e}"),
+            }
+        })?;
+        std::fs::write(&to, encoded).map_err(|source| ExportError::Create {
+            path: to.clone(),
+            source,
+        })?;
+        copied.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        Ok(())
+    })?;
+    report.chunks_linked += linked.into_inner();
+    report.chunks_copied += copied.into_inner();
+    report.bytes_read += read.into_inner();
     super::zarr::sync_dir(&target)?;
     Ok(())
 }

@@ -29,7 +29,7 @@ pub const CHUNK: [u64; 3] = [32, 32, 256];
 pub const ZARR_NAME: &str = "tprf.zarr";
 
 /// zstd level of the chunks (the arrays' `zstd` codec, without checksum).
-const ZSTD_LEVEL: i32 = 1;
+pub(crate) const ZSTD_LEVEL: i32 = 1;
 
 /// The arrays' paths in the group.
 const CUBE: &str = "/cube";
@@ -66,6 +66,13 @@ pub fn write_snapshot_zarr(path: &Path, snap: &FilmSnapshot, meta: &CubeMetadata
     sync_dir(path)
 }
 
+/// A group's store, its array `cube`, and `bounces` when it has one.
+pub type NewGroup = (
+    Arc<FilesystemStore>,
+    Array<FilesystemStore>,
+    Option<Array<FilesystemStore>>,
+);
+
 /// A new, empty `tprf.zarr` group at `path` (a folder, replaced) for a cube of `[H, W,
 /// T]` `shape`: the group's metadata with `meta` in its attributes, the array `cube`, and
 /// `bounces` when `layers > 0`; no chunks. Its store and arrays, to write chunks into.
@@ -74,11 +81,7 @@ pub fn create_group(
     meta: &CubeMetadata,
     [h, w, t]: [u64; 3],
     layers: usize,
-) -> Result<(
-    Arc<FilesystemStore>,
-    Array<FilesystemStore>,
-    Option<Array<FilesystemStore>>,
-)> {
+) -> Result<NewGroup> {
     let err = zarr_err(path);
     if path.exists() {
         std::fs::remove_dir_all(path).map_err(|source| ExportError::Create {

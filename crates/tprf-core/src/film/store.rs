@@ -104,7 +104,11 @@ impl TprfFilm {
     /// pixel and the sample index, and each row is built from its own old row alone.
     pub fn with_rows(mut self, rows: &[bool]) -> TprfFilm {
         let h = self.layout.height;
-        self.rows_rendered = Some((0..h).map(|y| rows.get(y).copied().unwrap_or(false)).collect());
+        self.rows_rendered = Some(
+            (0..h)
+                .map(|y| rows.get(y).copied().unwrap_or(false))
+                .collect(),
+        );
         self
     }
 
@@ -117,7 +121,9 @@ impl TprfFilm {
 
     /// Rows a pass renders.
     pub fn rows_rendered(&self) -> usize {
-        (0..self.layout.height).filter(|&y| self.renders_row(y)).count()
+        (0..self.layout.height)
+            .filter(|&y| self.renders_row(y))
+            .count()
     }
 
     /// Per row, the two sums of the two-half error estimate as the row was last built:
