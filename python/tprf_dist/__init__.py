@@ -194,6 +194,9 @@ def render_sharded(
         raise ValueError(f"n_shards must be at least 1 (got {n_shards})")
     binary = find_tprf(binary)
     flags = render_args_to_flags(render_args)
+    if not scene.startswith("builtin:"):
+        # Workers may run in another folder: the scene by its absolute path.
+        scene = str(Path(scene).resolve())
     out_path = Path(out).resolve()
     parts_dir = Path(parts).resolve() if parts else out_path.with_name(out_path.name + ".parts")
     run_id = uuid.uuid4().hex[:8]

@@ -301,9 +301,12 @@ pub fn incomplete(job: &Job) -> Option<String> {
 /// `tprf.json`, a shard's folder, other settings than the job's, or no cube file.
 pub fn cube_incomplete(job: &Job) -> Option<String> {
     let json = job.out.join("tprf.json");
-    let bytes = match std::fs::read(&json) {
+    if !json.exists() {
+        return Some(format!("{} is missing", json.display()));
+    }
+    let bytes = match tprf_core::budget::read_file(&json, "tprf.json") {
         Ok(b) => b,
-        Err(_) => return Some(format!("{} is missing", json.display())),
+        Err(e) => return Some(format!("{} cannot be read: {e}", json.display())),
     };
     let meta: CubeMetadata = match serde_json::from_slice(&bytes) {
         Ok(m) => m,

@@ -132,6 +132,10 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
         .as_deref()
         .map(|s| ShardSpec::parse(s, a.band_rows))
         .transpose()?;
+    // Before the scene and the pilot: a split that cannot be made is refused at once.
+    if let Some(spec) = &spec {
+        spec.check(a.height)?;
+    }
     let t0_s = a.t0.as_deref().map(|t| time_s(t, "--t0")).transpose()?;
     let dt_s = a.dt.as_deref().map(|t| time_s(t, "--dt")).transpose()?;
     let scene = scene::load(&a.scene)?;
@@ -182,7 +186,6 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
     let format = a.format.resolve(&[h, w, t]);
     let fingerprint = match &spec {
         Some(spec) => {
-            spec.check(a.height)?;
             film = film.with_rows(&spec.rows(a.height));
             Some(shard::scene_fingerprint(&a.scene)?)
         }

@@ -253,9 +253,12 @@ pub struct Shard {
 /// Read a shard folder's `tprf.json`; refuse one without a shard section.
 pub fn read_shard(dir: &Path) -> Result<Shard> {
     let path = dir.join("tprf.json");
-    let bytes = std::fs::read(&path).map_err(|source| ExportError::NoMetadata {
-        path: path.clone(),
-        source,
+    let bytes = crate::budget::read_file(&path, "tprf.json").map_err(|e| match e {
+        crate::budget::BudgetError::Io { source, .. } => ExportError::NoMetadata {
+            path: path.clone(),
+            source,
+        },
+        e => e.into(),
     })?;
     let meta: CubeMetadata =
         serde_json::from_slice(&bytes).map_err(|source| ExportError::Metadata {
@@ -498,7 +501,7 @@ fn read_steady(shards: &[Shard], spec: &ShardSpec, w: usize, h: usize) -> Result
         .iter()
         .map(|s| {
             let path = s.dir.join(STEADY_NAME);
-            let bytes = std::fs::read(&path)
+            let bytes = crate::budget::read_file(&path, STEADY_NAME)
                 .map_err(|e| broken(s, format!("cannot read {STEADY_NAME}: {e}")))?;
             let npy = npyz::NpyFile::new(&bytes[..])
                 .map_err(|e| broken(s, format!("{STEADY_NAME} is not a .npy file: {e}")))?;
