@@ -411,6 +411,32 @@ fn a_missing_repeated_or_truncated_shard_is_refused() {
         &["shard 1", "cannot open tprf.npy"],
     );
 
+    // Metadata that claims an enormous image: refused, nothing allocated for it.
+    for (field, value, wanted) in [
+        ("height", 1u64 << 40, "bands of rows"),
+        ("width", 1u64 << 40, "memory"),
+        ("width", 1u64 << 62, "overflows"),
+    ] {
+        let huge: Vec<PathBuf> = [&s0, &s1]
+            .iter()
+            .enumerate()
+            .map(|(k, from)| {
+                let to = dir.join(format!("huge-{field}-{value}-{k}"));
+                let _ = std::fs::remove_dir_all(&to);
+                std::fs::create_dir_all(&to).unwrap();
+                for e in std::fs::read_dir(from).unwrap() {
+                    let p = e.unwrap().path();
+                    std::fs::copy(&p, to.join(p.file_name().unwrap())).unwrap();
+                }
+                let mut meta = json(&to.join("tprf.json"));
+                meta[field] = serde_json::json!(value);
+                std::fs::write(to.join("tprf.json"), meta.to_string()).unwrap();
+                to
+            })
+            .collect();
+        refused(&dir, &huge, &[wanted]);
+    }
+
     // A whole render is not a shard.
     let whole = dir.join("whole");
     render("builtin:cornell", &whole, &unsharded(SMALL));

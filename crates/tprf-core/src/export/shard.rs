@@ -37,6 +37,8 @@ pub const STEADY_NAME: &str = "shard_steady.npy";
 pub enum ShardError {
     #[error(transparent)]
     Export(#[from] ExportError),
+    #[error(transparent)]
+    Budget(#[from] crate::budget::BudgetError),
     #[error("--shard must be K/N with 0 <= K < N (got '{given}')")]
     Spec { given: String },
     #[error(
@@ -360,13 +362,25 @@ pub fn check_set(mut shards: Vec<Shard>) -> Result<Vec<Shard>> {
             n,
             band_rows: s.info.band_rows,
         };
-        let expected = ShardInfo::row_ranges(&spec, s.meta.height);
         let broken = |message: String| ShardError::Broken {
             k: s.info.k,
             dir: s.dir.clone(),
             message,
         };
-        if spec.band_rows == 0 || s.info.rows != expected {
+        // Counted before any list of that length is made: a tprf.json can claim any size.
+        let bands = spec.bands(s.meta.height);
+        let own_bands = bands.saturating_sub(spec.k).div_ceil(n);
+        if spec.band_rows == 0 || s.info.rows.len() != own_bands {
+            return Err(broken(format!(
+                "it lists {} bands of rows; shard {} of {n} of an image {} rows high in bands of {} has {own_bands}",
+                s.info.rows.len(),
+                s.info.k,
+                s.meta.height,
+                s.info.band_rows
+            )));
+        }
+        let expected = ShardInfo::row_ranges(&spec, s.meta.height);
+        if s.info.rows != expected {
             return Err(broken(format!(
                 "its rows {:?} are not shard {} of {n}'s bands of {} rows ({expected:?})",
                 s.info.rows, s.info.k, s.info.band_rows
@@ -380,6 +394,28 @@ pub fn check_set(mut shards: Vec<Shard>) -> Result<Vec<Shard>> {
             )));
         }
     }
+    // Every row's bytes and the cube's planes, before a merge allocates them.
+    let m = &first.meta;
+    let row_bytes = (m.width as u64)
+        .checked_mul(m.bins as u64)
+        .and_then(|v| v.checked_mul(8));
+    let pixels = (m.width as u64).checked_mul(m.height as u64);
+    let need = row_bytes.zip(pixels.and_then(|p| p.checked_mul(16)));
+    let Some((row_bytes, steady_bytes)) = need else {
+        return Err(ShardError::Broken {
+            k: first.info.k,
+            dir: first.dir.clone(),
+            message: format!("its size {} x {} x {} overflows", m.width, m.height, m.bins),
+        });
+    };
+    crate::budget::check(
+        row_bytes.saturating_add(steady_bytes),
+        "the merge",
+        format_args!(
+            "rows of {} x {} pixels x {} bins",
+            m.width, m.height, m.bins
+        ),
+    )?;
     shards.sort_by_key(|s| s.info.k);
     Ok(shards)
 }
