@@ -209,7 +209,7 @@ fn merged_zarr_shards_are_the_one_process_store_chunk_for_chunk() {
         let merged = dir.join(format!("merged-{n}-{band_rows}"));
         let o = merge(&merged, &parts);
         assert!(o.status.success(), "{}", stderr(&o));
-        let linked_all = stderr(&o).contains(" 0 copied");
+        let linked_all = stderr(&o).contains(" 0 put together");
         assert_eq!(linked_all, band_rows == "32", "{}", stderr(&o));
         let (a, b) = (
             tree(&one.join("tprf.zarr")),

@@ -21,10 +21,11 @@ pub struct MergeArgs {
 pub fn run(a: &MergeArgs) -> Result<()> {
     let start = Instant::now();
     let report = shard::merge(&a.shards, &a.out)?;
-    let linked = if report.chunks_linked + report.chunks_copied > 0 {
+    let chunks = report.chunks_linked + report.chunks_copied + report.chunks_combined;
+    let linked = if chunks > 0 {
         format!(
-            ", {} chunk files linked, {} copied",
-            report.chunks_linked, report.chunks_copied
+            ", {} chunk files linked, {} copied, {} put together from several shards",
+            report.chunks_linked, report.chunks_copied, report.chunks_combined
         )
     } else {
         String::new()

@@ -476,7 +476,10 @@ pub struct MergeReport {
     pub bytes_read: u64,
     /// Chunk files hard-linked rather than copied (Zarr on one file system).
     pub chunks_linked: u64,
+    /// Chunk files copied (the shards on another file system).
     pub chunks_copied: u64,
+    /// Chunks several shards wrote parts of, put together and encoded again.
+    pub chunks_combined: u64,
 }
 
 /// Merge shard folders `dirs` into the cube folder `out` (written beside it and swapped
@@ -772,6 +775,7 @@ fn merge_zarr(
     let row_bytes = (super::zarr::CHUNK[1] * super::zarr::CHUNK[2] * 4) as usize;
     let linked = std::sync::atomic::AtomicU64::new(0);
     let copied = std::sync::atomic::AtomicU64::new(0);
+    let combined = std::sync::atomic::AtomicU64::new(0);
     let read = std::sync::atomic::AtomicU64::new(0);
     let plan: Vec<_> = plan.into_iter().collect();
     plan.par_iter().try_for_each(|(rel, files)| -> Result<()> {
@@ -847,11 +851,12 @@ fn merge_zarr(
             path: to.clone(),
             source,
         })?;
-        copied.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        combined.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         Ok(())
     })?;
     report.chunks_linked += linked.into_inner();
     report.chunks_copied += copied.into_inner();
+    report.chunks_combined += combined.into_inner();
     report.bytes_read += read.into_inner();
     super::zarr::sync_dir(&target)?;
     Ok(())
