@@ -46,20 +46,35 @@ def main():
 
     print(f"render: builtin:cornell {side}x{side}, {spp} spp, 256 bins (fixed window); "
           f"load average at start {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores\n")
-    rows = []
-    for threads in (1, 2):
-        t = best(lambda: run([binary, "render", "builtin:cornell", "--out", str(tmp / "one"),
-                              "--threads", str(threads), *flags]), a.repeat)
-        rows.append((f"one process, {threads} thread(s)", t))
-    for workers in (1, 2):
-        with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                          dashboard_address=None) as cluster, Client(cluster) as client:
-            client.run(lambda: None)
+    # Every configuration once per round, rounds repeated, best kept: on a shared
+    # machine a quiet or busy moment then falls on all of them alike.
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as c1, Client(c1) as one_worker, \
+            LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                         dashboard_address=None) as c2, Client(c2) as two_workers:
+        for c in (one_worker, two_workers):
+            c.run(lambda: None)
+
+        def one(threads):
+            return lambda: run([binary, "render", "builtin:cornell", "--out",
+                                str(tmp / "one"), "--threads", str(threads), *flags])
+
+        def dist(client, n):
+            return lambda: tprf_dist.render_sharded(
+                "builtin:cornell", str(tmp / "dist"), n, client=client, binary=binary,
+                threads=1, **args)
+
+        configs = [("one process, 1 thread", one(1)), ("one process, 2 threads", one(2))]
+        for name, client, workers in (("1 worker", one_worker, 1),
+                                      ("2 workers", two_workers, 2)):
             for n in sorted({workers, 2 * workers, 8}):
-                t = best(lambda: tprf_dist.render_sharded(
-                    "builtin:cornell", str(tmp / "dist"), n, client=client, binary=binary,
-                    threads=1, **args), a.repeat)
-                rows.append((f"Dask, {workers} worker(s) x 1 thread, {n} shards (+ merge)", t))
+                configs.append((f"Dask, {name} x 1 thread, {n} shards (+ merge)",
+                                dist(client, n)))
+        times = {name: [] for name, _ in configs}
+        for _ in range(a.repeat):
+            for name, f in configs:
+                times[name].append(best(f, 1))
+        rows = [(name, min(times[name])) for name, _ in configs]
     # Work added by splitting: the shards' time inside render passes, summed, against
     # one single-threaded process's (both from tprf.json; not wall time, so less
     # sensitive to other load).
