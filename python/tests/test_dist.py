@@ -49,6 +49,30 @@ def test_sharded_render_is_the_one_process_render(client, tprf_bin, tmp_path):
     assert not (tmp_path / "merged.parts").exists()
 
 
+def test_sharded_zarr_render_is_the_one_process_store(client, tprf_bin, tmp_path):
+    # Bands of 4 rows share each 32-row chunk among the 3 shards.
+    args = dict(ARGS, format="zarr", spp=8)
+    one_process(tprf_bin, tmp_path / "one", args)
+    out = tprf_dist.render_sharded("builtin:cornell", str(tmp_path / "merged"), 3,
+                                   client=client, binary=tprf_bin, **args)
+    one = tmp_path / "one" / "tprf.zarr"
+    files = sorted(p.relative_to(one) for p in one.rglob("*") if p.is_file())
+    merged = Path(out) / "tprf.zarr"
+    assert files == sorted(p.relative_to(merged) for p in merged.rglob("*") if p.is_file())
+    chunks = [f for f in files if f.parts[:2] == ("cube", "c")]
+    assert chunks
+    for f in files:
+        if f.name != "zarr.json" or f.parent != Path("."):
+            assert (one / f).read_bytes() == (merged / f).read_bytes(), f
+    assert meta(tmp_path / "one") == meta(out)
+
+
+def test_a_split_without_enough_bands_is_refused_before_any_task(client, tprf_bin, tmp_path):
+    with pytest.raises(ValueError, match="fewer than the 16 shards"):
+        tprf_dist.render_sharded("builtin:cornell", str(tmp_path / "x"), 16, client=client,
+                                 binary=tprf_bin, **ARGS)
+
+
 def _worker_pids(client):
     return set(client.run(os.getpid).values())
 

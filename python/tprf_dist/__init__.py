@@ -192,6 +192,15 @@ def render_sharded(
     """
     if n_shards < 1:
         raise ValueError(f"n_shards must be at least 1 (got {n_shards})")
+    # Refused here rather than by every task (each retried): too few bands.
+    height = int(render_args.get("height", 256))
+    band_rows = int(render_args.get("band_rows", 32))
+    bands = -(-height // max(band_rows, 1))
+    if bands < n_shards:
+        raise ValueError(
+            f"{height} rows in bands of {band_rows} make {bands} band(s), fewer than the "
+            f"{n_shards} shards: use fewer shards or a smaller band_rows"
+        )
     binary = find_tprf(binary)
     flags = render_args_to_flags(render_args)
     if not scene.startswith("builtin:"):
