@@ -1,11 +1,13 @@
-//! The command line: `tprf render`, `tprf oned`, `tprf view`, `tprf sensor`,
+//! The command line: `tprf render`, `tprf merge`, `tprf batch`, `tprf oned`, `tprf view`, `tprf sensor`,
 //! `tprf converge`, `tprf stability`, one file per command with its arguments. The
 //! work is done by `tprf_core` (and the viewer); a command checks its arguments, calls
 //! the library, reports progress, and its errors end here, printed once.
 
 mod args;
+pub mod batch;
 pub mod converge;
 mod interrupt;
+pub mod merge;
 pub mod oned;
 pub mod render;
 pub mod sensor;
@@ -14,7 +16,9 @@ pub mod view;
 
 use clap::{Parser, Subcommand};
 
+use batch::BatchArgs;
 use converge::ConvergeArgs;
+use merge::MergeArgs;
 use oned::OnedArgs;
 pub use oned::print_oned;
 use render::RenderArgs;
@@ -37,6 +41,13 @@ pub struct Cli {
 pub enum Command {
     /// Render a transient cube (TPRF per pixel) of a scene.
     Render(RenderArgs),
+    /// Merge the shard folders of `tprf render --shard K/N` into one cube folder: what
+    /// one process rendering the whole image writes, bit for bit.
+    Merge(MergeArgs),
+    /// Render many jobs from a TOML manifest (jobs, and sweeps of scenes x settings,
+    /// each optionally measured by sensor presets); complete outputs are skipped, so a
+    /// re-run resumes.
+    Batch(BatchArgs),
     /// The paper's 1-D world: print the exact impulse train (and the binned TPRF).
     Oned(OnedArgs),
     /// Measure a rendered cube with a time-of-flight sensor (light pulse, exposure
@@ -60,6 +71,8 @@ pub fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Some(Command::Render(a)) => render::run(a),
+        Some(Command::Merge(a)) => merge::run(a),
+        Some(Command::Batch(a)) => batch::run(a),
         Some(Command::Oned(a)) => oned::run(a),
         Some(Command::Converge(a)) => converge::run(a),
         Some(Command::Stability(a)) => stability::run(a),
@@ -78,7 +91,7 @@ pub fn main() -> std::process::ExitCode {
 
 /// An error and its causes, "a: b: c", a cause its parent's message already quotes
 /// left out (an I/O error some messages carry and also give as their source).
-fn message_chain(e: &anyhow::Error) -> String {
+pub(crate) fn message_chain(e: &anyhow::Error) -> String {
     let mut text = String::new();
     for cause in e.chain() {
         let more = cause.to_string();

@@ -9,6 +9,7 @@ use std::time::Instant;
 use anyhow::{Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
+use tprf_core::export::shard::{self, ShardInfo, ShardSpec};
 use tprf_core::export::{self, BIN_VALUE, CameraMetadata, CubeFormat, CubeMetadata};
 use tprf_core::film::{FilmLayout, TprfFilm};
 use tprf_core::scene::{self, Channel};
@@ -71,6 +72,17 @@ pub struct RenderArgs {
     /// The spectral band the one-channel cube records: red, green, blue or gray.
     #[arg(long, default_value_t = Channel::Gray, value_parser = parse_channel)]
     pub channel: Channel,
+    /// Render only shard K of N (0-based, "K/N"): the image's bands of --band-rows rows,
+    /// band b going to shard b mod N, with the same passes and window as the whole
+    /// render. `tprf merge` puts the N shard folders together into the cube one
+    /// process writes, bit for bit. Needs --spp (a time budget is not reproducible).
+    #[arg(long, conflicts_with_all = ["seconds", "frames"])]
+    pub shard: Option<String>,
+    /// Rows per band of --shard. Bands of whole Zarr chunks (32 rows, the default) let
+    /// `tprf merge` link every chunk file; thinner bands share chunks, which the merge
+    /// decodes and encodes again.
+    #[arg(long, default_value_t = shard::DEFAULT_BAND_ROWS, requires = "shard")]
+    pub band_rows: usize,
 }
 
 fn parse_channel(s: &str) -> Result<Channel, String> {
@@ -100,6 +112,9 @@ fn check_render_args(a: &RenderArgs) -> Result<()> {
     if a.threads == Some(0) {
         bail!("--threads must be at least 1");
     }
+    if a.shard.is_some() && a.seconds.is_some() {
+        bail!("--shard needs a fixed --spp: a --seconds budget gives each shard other passes");
+    }
     Ok(())
 }
 
@@ -112,6 +127,15 @@ pub fn run(a: &RenderArgs) -> Result<()> {
 
 fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
     let start = Instant::now();
+    let spec = a
+        .shard
+        .as_deref()
+        .map(|s| ShardSpec::parse(s, a.band_rows))
+        .transpose()?;
+    // Before the scene and the pilot: a split that cannot be made is refused at once.
+    if let Some(spec) = &spec {
+        spec.check(a.height)?;
+    }
     let t0_s = a.t0.as_deref().map(|t| time_s(t, "--t0")).transpose()?;
     let dt_s = a.dt.as_deref().map(|t| time_s(t, "--dt")).transpose()?;
     let scene = scene::load(&a.scene)?;
@@ -160,6 +184,13 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
     let parent = existing_ancestor(&a.out);
     let (w, h, t) = (a.width as u64, a.height as u64, axis.bins as u64);
     let format = a.format.resolve(&[h, w, t]);
+    let fingerprint = match &spec {
+        Some(spec) => {
+            film = film.with_rows(&spec.rows(a.height));
+            Some(shard::scene_fingerprint(&a.scene)?)
+        }
+        None => None,
+    };
     // A dense cube: refuse now, not after the render, what cannot be written.
     let file_bytes = export::npy_f32_bytes(&[h, w, t]).saturating_add(export::npy_f32_bytes(&[
         layout.bounce_layers() as u64,
@@ -258,7 +289,35 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
         store: film.store_stats(),
         render_seconds: last.map_or(0.0, |r| r.render_s),
         notes: scene.notes.clone(),
+        shard: match (&spec, fingerprint) {
+            (Some(spec), Some(scene_fingerprint)) => {
+                let terms = film.row_error_terms();
+                Some(ShardInfo {
+                    k: spec.k,
+                    n: spec.n,
+                    band_rows: spec.band_rows,
+                    rows: ShardInfo::row_ranges(spec, a.height),
+                    half_spp: film.half_spp(),
+                    scene_fingerprint,
+                    filter: film.time_filter(),
+                    format: match format {
+                        CubeFormat::Zarr => "zarr",
+                        _ => "npy",
+                    }
+                    .into(),
+                    row_error_terms: (0..a.height)
+                        .filter(|&y| film.renders_row(y))
+                        .map(|y| [terms[y].0, terms[y].1])
+                        .collect(),
+                    store_list_bytes: film.row_list_bytes(),
+                })
+            }
+            _ => None,
+        },
     };
+    if spec.is_some() {
+        shard::write_steady(dir, a.width, a.height, &steady)?;
+    }
     if format == CubeFormat::Zarr {
         export::zarr::write_snapshot_zarr(&dir.join(export::zarr::ZARR_NAME), &snap, &meta)?;
     } else {
@@ -272,8 +331,15 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
     super::interrupt::check()?;
     staging.commit()?;
     eprintln!(
-        "wrote {} ({} spp, {:.1} s, {:.2} Mrays/s{})",
+        "wrote {}{} ({} spp, {:.1} s, {:.2} Mrays/s{})",
         a.out.display(),
+        spec.map_or(String::new(), |s| format!(
+            " (shard {}/{}: {} of {} rows)",
+            s.k,
+            s.n,
+            film.rows_rendered(),
+            a.height
+        )),
         film.spp(),
         meta.wall_seconds,
         meta.rays_traced as f64 / meta.wall_seconds.max(1e-9) / 1e6,

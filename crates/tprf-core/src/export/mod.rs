@@ -15,6 +15,7 @@ use std::path::{Path, PathBuf};
 
 mod npy_read;
 pub mod sensor;
+pub mod shard;
 pub mod sparse_file;
 pub mod staging;
 pub mod zarr;
@@ -164,6 +165,10 @@ pub struct CubeMetadata {
     #[serde(default, deserialize_with = "pass_count")]
     pub passes: u64,
     pub notes: Vec<String>,
+    /// Only in a shard's folder (`tprf render --shard K/N`): which part of the render it
+    /// holds, and what `tprf merge` needs to check and merge it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shard: Option<shard::ShardInfo>,
 }
 
 /// `passes` as a count; cubes written before it was summarised list one record per pass.

@@ -29,7 +29,7 @@ pub const CHUNK: [u64; 3] = [32, 32, 256];
 pub const ZARR_NAME: &str = "tprf.zarr";
 
 /// zstd level of the chunks (the arrays' `zstd` codec, without checksum).
-const ZSTD_LEVEL: i32 = 1;
+pub(crate) const ZSTD_LEVEL: i32 = 1;
 
 /// The arrays' paths in the group.
 const CUBE: &str = "/cube";
@@ -51,12 +51,38 @@ fn zarr_err(path: &Path) -> impl Fn(&dyn std::fmt::Display) -> ExportError + '_ 
 /// chunks that received a run are made dense, compressed and written; tiles are
 /// encoded in parallel on the rayon pool.
 pub fn write_snapshot_zarr(path: &Path, snap: &FilmSnapshot, meta: &CubeMetadata) -> Result<()> {
-    let err = zarr_err(path);
-    let (w, h, t) = (
-        snap.width() as u64,
+    let shape = [
         snap.height() as u64,
+        snap.width() as u64,
         snap.axis().bins as u64,
-    );
+    ];
+    let (store, cube, bounces) = create_group(path, meta, shape, snap.layers())?;
+    write_runs(path, &store, &cube, snap, None)?;
+    if let Some(bounces) = &bounces {
+        for l in 0..snap.layers() {
+            write_runs(path, &store, bounces, snap, Some(l))?;
+        }
+    }
+    sync_dir(path)
+}
+
+/// A group's store, its array `cube`, and `bounces` when it has one.
+pub type NewGroup = (
+    Arc<FilesystemStore>,
+    Array<FilesystemStore>,
+    Option<Array<FilesystemStore>>,
+);
+
+/// A new, empty `tprf.zarr` group at `path` (a folder, replaced) for a cube of `[H, W,
+/// T]` `shape`: the group's metadata with `meta` in its attributes, the array `cube`, and
+/// `bounces` when `layers > 0`; no chunks. Its store and arrays, to write chunks into.
+pub fn create_group(
+    path: &Path,
+    meta: &CubeMetadata,
+    [h, w, t]: [u64; 3],
+    layers: usize,
+) -> Result<NewGroup> {
+    let err = zarr_err(path);
     if path.exists() {
         std::fs::remove_dir_all(path).map_err(|source| ExportError::Create {
             path: path.to_path_buf(),
@@ -88,26 +114,37 @@ pub fn write_snapshot_zarr(path: &Path, snap: &FilmSnapshot, meta: &CubeMetadata
         Ok::<_, ExportError>(array)
     };
     let cube = array(vec![h, w, t], CHUNK.to_vec(), &["y", "x", "t"], CUBE)?;
-    write_runs(path, &store, &cube, snap, None)?;
-    let layers = snap.layers();
-    if layers > 0 {
+    let bounces = if layers > 0 {
         let mut chunk = vec![1];
         chunk.extend(CHUNK);
-        let bounces = array(
+        Some(array(
             vec![layers as u64, h, w, t],
             chunk,
             &["layer", "y", "x", "t"],
             BOUNCES,
-        )?;
-        for l in 0..layers {
-            write_runs(path, &store, &bounces, snap, Some(l))?;
-        }
-    }
+        )?)
+    } else {
+        None
+    };
+    Ok((store, cube, bounces))
+}
+
+/// Make everything written under the group folder `path` durable
+/// ([`sync_filesystem`]).
+pub fn sync_dir(path: &Path) -> Result<()> {
     sync_filesystem(path).map_err(|source| ExportError::Create {
         path: path.to_path_buf(),
         source,
     })
 }
+
+/// The folders of the arrays' chunks inside a group: `cube/c` (chunk files
+/// `cube/c/Y/X/T`) and `bounces/c` (`bounces/c/L/Y/X/T`), with the position of the
+/// row-tile index `Y` in a chunk's index.
+pub const CHUNK_DIRS: [(&str, usize); 2] = [("cube/c", 0), ("bounces/c", 1)];
+
+/// Bytes of one decoded chunk (float32, [`CHUNK`]; edge chunks are stored whole).
+pub const CHUNK_BYTES: usize = (CHUNK[0] * CHUNK[1] * CHUNK[2] * 4) as usize;
 
 /// Flush what was written under `dir` to disk, in one call for all its files:
 /// `syncfs` on Linux, `sync` on other Unixes; nothing elsewhere.

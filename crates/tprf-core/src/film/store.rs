@@ -51,6 +51,9 @@ pub struct TprfFilm {
     spp: [u64; 2],
     passes: u64,
     filter: TimeFilter,
+    /// The rows a pass renders (`None`: all). A shard of a render renders its bands of
+    /// rows only; the others stay empty.
+    rows_rendered: Option<Arc<[bool]>>,
 }
 
 impl TprfFilm {
@@ -83,6 +86,7 @@ impl TprfFilm {
             spp: [0, 0],
             passes: 0,
             filter: TimeFilter::Box,
+            rows_rendered: None,
         })
     }
 
@@ -91,6 +95,42 @@ impl TprfFilm {
     pub fn with_time_filter(mut self, filter: TimeFilter) -> TprfFilm {
         self.filter = filter;
         self
+    }
+
+    /// The film rendering only the rows `y` with `rows[y]` true (one flag per row; a
+    /// missing flag is false); set it before the first pass. Every other row stays
+    /// empty and costs nothing. A rendered row holds exactly what it holds in a film
+    /// that renders every row: a pixel's samples depend only on the seed, the half, the
+    /// pixel and the sample index, and each row is built from its own old row alone.
+    pub fn with_rows(mut self, rows: &[bool]) -> TprfFilm {
+        let h = self.layout.height;
+        self.rows_rendered = Some(
+            (0..h)
+                .map(|y| rows.get(y).copied().unwrap_or(false))
+                .collect(),
+        );
+        self
+    }
+
+    /// Whether a pass renders row `y`.
+    pub fn renders_row(&self, y: usize) -> bool {
+        self.rows_rendered
+            .as_ref()
+            .is_none_or(|r| r.get(y).copied().unwrap_or(false))
+    }
+
+    /// Rows a pass renders.
+    pub fn rows_rendered(&self) -> usize {
+        (0..self.layout.height)
+            .filter(|&y| self.renders_row(y))
+            .count()
+    }
+
+    /// Per row, the two sums of the two-half error estimate as the row was last built:
+    /// `(sum (a / n_a - b / n_b)^2, sum ((a + b) / n)^2)` over its bins (see
+    /// [`TprfFilm::half_error_estimate`] and [`half_error_from_terms`]).
+    pub fn row_error_terms(&self) -> Vec<(f64, f64)> {
+        self.rows.iter().map(|r| r.err_terms).collect()
     }
 
     pub fn time_filter(&self) -> TimeFilter {
@@ -133,6 +173,7 @@ impl TprfFilm {
         let filter = self.filter;
         let mut spp_after = self.spp;
         spp_after[half] += spp_in_pass;
+        let rows_rendered = self.rows_rendered.clone();
         let results: Vec<(Arc<FilmRow>, super::row::RowTally)> = self
             .rows
             .par_iter()
@@ -140,6 +181,12 @@ impl TprfFilm {
             .map_init(
                 || RowWork::new(&layout),
                 |work, (y, old)| {
+                    if rows_rendered
+                        .as_ref()
+                        .is_some_and(|r| !r.get(y).copied().unwrap_or(false))
+                    {
+                        return (old.clone(), super::row::RowTally::default());
+                    }
                     let (row, tally) = render_row(
                         old,
                         y,
@@ -161,7 +208,8 @@ impl TprfFilm {
             tally.outside_per_pixel += t.outside;
             tally.left_out += t.left_out;
         }
-        tally.outside_per_pixel /= (layout.pixels() as f64).max(1.0);
+        let pixels = layout.width * self.rows_rendered();
+        tally.outside_per_pixel /= (pixels as f64).max(1.0);
         self.spp = spp_after;
         self.passes += 1;
         tally
@@ -257,20 +305,30 @@ impl TprfFilm {
             .collect()
     }
 
-    /// How much the store holds against a dense cube.
+    /// How much the store holds against a dense cube (of the rows it renders: a shard's
+    /// rows' stores add up to the whole film's, but for the list of rows itself, counted
+    /// once per shard).
     pub fn store_stats(&self) -> StoreStats {
         let mut s = StoreStats {
             dense_bins: self.layout.cells(),
             dense_bytes: self.layout.dense_bytes(),
             ..StoreStats::default()
         };
-        for r in &self.rows {
+        for (y, r) in self.rows.iter().enumerate() {
+            if !self.renders_row(y) {
+                continue;
+            }
             s.stored_bins += r.stored_bins() as u64;
             s.runs += r.runs() as u64;
             s.bytes += r.heap_bytes() as u64;
         }
-        s.bytes += (self.rows.capacity() * std::mem::size_of::<Arc<FilmRow>>()) as u64;
+        s.bytes += self.row_list_bytes();
         s
+    }
+
+    /// Heap bytes of the film's list of rows (in [`TprfFilm::store_stats`]'s `bytes`).
+    pub fn row_list_bytes(&self) -> u64 {
+        (self.rows.capacity() * std::mem::size_of::<Arc<FilmRow>>()) as u64
     }
 
     /// Relative RMS error of the cube estimated from the two independent halves, no
@@ -278,18 +336,28 @@ impl TprfFilm {
     /// combined mean is estimated by `|a - b| * sqrt(n_a n_b) / (n_a + n_b)` per bin,
     /// relative to the L2 norm of the combined mean. `None` until both halves have samples.
     pub fn half_error_estimate(&self) -> Option<f64> {
-        let [na, nb] = self.spp;
-        if na == 0 || nb == 0 {
-            return None;
-        }
-        let (na, nb) = (na as f64, nb as f64);
-        let n = na + nb;
-        let (diff2, norm2) = self.rows.iter().fold((0.0, 0.0), |acc, r| {
-            (acc.0 + r.err_terms.0, acc.1 + r.err_terms.1)
-        });
-        if norm2 == 0.0 {
-            return Some(0.0);
-        }
-        Some((diff2.sqrt() * (na * nb).sqrt() / n) / norm2.sqrt())
+        half_error_from_terms(self.spp, self.rows.iter().map(|r| r.err_terms))
     }
+}
+
+/// The two-half error estimate ([`TprfFilm::half_error_estimate`]) from the samples per
+/// half and the rows' error terms ([`TprfFilm::row_error_terms`]) in row order: the one
+/// formula, so a cube merged from shards' rows gets the estimate bit for bit.
+pub fn half_error_from_terms(
+    half_spp: [u64; 2],
+    row_terms: impl IntoIterator<Item = (f64, f64)>,
+) -> Option<f64> {
+    let [na, nb] = half_spp;
+    if na == 0 || nb == 0 {
+        return None;
+    }
+    let (na, nb) = (na as f64, nb as f64);
+    let n = na + nb;
+    let (diff2, norm2) = row_terms
+        .into_iter()
+        .fold((0.0, 0.0), |acc, t| (acc.0 + t.0, acc.1 + t.1));
+    if norm2 == 0.0 {
+        return Some(0.0);
+    }
+    Some((diff2.sqrt() * (na * nb).sqrt() / n) / norm2.sqrt())
 }

@@ -228,7 +228,7 @@ impl Renderer {
             self.rays.fetch_add(rays, Ordering::Relaxed);
         });
         PassStats {
-            paths: (w * h) as u64 * spp as u64,
+            paths: (w * film.rows_rendered()) as u64 * spp as u64,
             rays: self.rays_traced() - rays_before,
             outside_per_pixel: tally.outside_per_pixel,
             left_out: tally.left_out,
