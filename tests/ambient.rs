@@ -189,3 +189,153 @@ fn the_ambient_image_does_not_depend_on_the_thread_count() {
     );
     assert!(mean > 10.0 && mean < 140.0, "{mean}");
 }
+
+fn tprf(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_tprf"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn out_dir(name: &str) -> std::path::PathBuf {
+    let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("ambient")
+        .join(name);
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+/// `tprf render` writes `ambient.npy` (or `tprf.zarr/ambient`) and records it in
+/// `tprf.json`; the readers find it; a folder without it (an old one) still loads; and
+/// `tprf sensor` adds it: a box-gated sensor's measurement grows by `A x width` per
+/// gate, and by nothing with `--ambient-scale 0`.
+#[test]
+fn render_writes_it_readers_read_it_the_sensor_adds_it() {
+    use tprf_core::export::{self, ambient::load_ambient, sensor::SensorCube};
+    for format in ["npy", "zarr"] {
+        let dir = out_dir(&format!("canopy_{format}"));
+        let d = dir.to_str().unwrap();
+        let o = tprf(&[
+            "render",
+            "builtin:canopy",
+            "--out",
+            d,
+            "--width",
+            "12",
+            "--height",
+            "10",
+            "--spp",
+            "2",
+            "--bins",
+            "64",
+            "--format",
+            format,
+            "--ambient-spp",
+            "4",
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let (meta, _snap) = export::load_snapshot(&dir).unwrap();
+        let am = meta
+            .ambient
+            .clone()
+            .expect("tprf.json records the ambient image");
+        assert_eq!(am.spp, 4);
+        assert!(am.lights.iter().any(|l| l.contains("sun")));
+        let img = load_ambient(&dir, &meta).unwrap().expect("ambient image");
+        assert_eq!(img.len(), 12 * 10);
+        assert!(img.iter().all(|v| v.is_finite() && *v >= 0.0));
+        assert!(img.iter().any(|&v| v > 1.0));
+        let cube = SensorCube::open(&dir).unwrap();
+        assert_eq!(cube.ambient.as_deref(), Some(&img[..]));
+        if format == "npy" {
+            assert!(dir.join("ambient.npy").exists() && dir.join("ambient.png").exists());
+            // Box gates of 2 ns: with and without the ambient image.
+            let sensor = |scale: &str, out: &str| {
+                let out = out_dir(out);
+                let o = tprf(&[
+                    "sensor",
+                    d,
+                    "--exposure",
+                    "box:origin=window,start=0ns,width=2ns,count=4",
+                    "--ambient-scale",
+                    scale,
+                    "--out",
+                    out.to_str().unwrap(),
+                ]);
+                assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+                let (shape, m) = export::read_npy_f32(&out.join("sensor.npy")).unwrap();
+                assert_eq!(shape, vec![4, 10, 12]);
+                m
+            };
+            let (with, without) = (sensor("1", "lit"), sensor("0", "dark"));
+            for (i, (a, b)) in with.iter().zip(&without).enumerate() {
+                let want = f64::from(*b) + f64::from(img[i % 120]) * 2e-9;
+                assert!(
+                    (f64::from(*a) - want).abs() <= 1e-5 * want,
+                    "{i}: {a} vs {want}"
+                );
+            }
+            // An old folder: no "ambient" in tprf.json, no ambient.npy.
+            let json = dir.join("tprf.json");
+            let mut j: serde_json::Value =
+                serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+            j.as_object_mut().unwrap().remove("ambient");
+            std::fs::write(&json, serde_json::to_vec(&j).unwrap()).unwrap();
+            std::fs::remove_file(dir.join("ambient.npy")).unwrap();
+            let (meta, _) = export::load_snapshot(&dir).unwrap();
+            assert!(load_ambient(&dir, &meta).unwrap().is_none());
+            assert!(SensorCube::open(&dir).unwrap().ambient.is_none());
+        } else {
+            assert!(dir.join("tprf.zarr").join("ambient").is_dir());
+        }
+    }
+    // A scene without ambient light writes none; --sky adds one; a bad sky is refused.
+    let dir = out_dir("cornell");
+    let o = tprf(&[
+        "render",
+        "builtin:cornell",
+        "--out",
+        dir.to_str().unwrap(),
+        "--width",
+        "4",
+        "--height",
+        "4",
+        "--spp",
+        "1",
+        "--bins",
+        "16",
+    ]);
+    assert!(o.status.success());
+    assert!(!dir.join("ambient.npy").exists());
+    let o = tprf(&[
+        "render",
+        "builtin:cornell",
+        "--out",
+        dir.to_str().unwrap(),
+        "--width",
+        "4",
+        "--height",
+        "4",
+        "--spp",
+        "1",
+        "--bins",
+        "16",
+        "--sky",
+        "0.5",
+    ]);
+    assert!(o.status.success());
+    assert!(dir.join("ambient.npy").exists());
+    for bad in ["-1", "NaN", "inf"] {
+        let sky = format!("--sky={bad}");
+        let o = tprf(&[
+            "render",
+            "builtin:cornell",
+            "--out",
+            dir.to_str().unwrap(),
+            &sky,
+        ]);
+        assert!(!o.status.success());
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert!(e.contains("--sky"), "{e}");
+    }
+}

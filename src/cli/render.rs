@@ -71,6 +71,14 @@ pub struct RenderArgs {
     /// The spectral band the one-channel cube records: red, green, blue or gray.
     #[arg(long, default_value_t = Channel::Gray, value_parser = parse_channel)]
     pub channel: Channel,
+    /// A constant sky of this radiance (W m^-2 sr^-1) in the ambient light group: not
+    /// pulsed, rendered once into ambient.npy beside the cube.
+    #[arg(long)]
+    pub sky: Option<f64>,
+    /// Samples per pixel of the ambient image, when the scene has ambient light (a sun,
+    /// a sky, lamps tagged ambient). Default: --spp, or 64.
+    #[arg(long)]
+    pub ambient_spp: Option<u32>,
 }
 
 fn parse_channel(s: &str) -> Result<Channel, String> {
@@ -100,6 +108,9 @@ fn check_render_args(a: &RenderArgs) -> Result<()> {
     if a.threads == Some(0) {
         bail!("--threads must be at least 1");
     }
+    if a.ambient_spp == Some(0) {
+        bail!("--ambient-spp must be at least 1");
+    }
     Ok(())
 }
 
@@ -114,7 +125,8 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
     let start = Instant::now();
     let t0_s = a.t0.as_deref().map(|t| time_s(t, "--t0")).transpose()?;
     let dt_s = a.dt.as_deref().map(|t| time_s(t, "--dt")).transpose()?;
-    let scene = scene::load(&a.scene)?;
+    let mut scene = scene::load(&a.scene)?;
+    super::ambient::apply_sky(&mut scene, a.sky)?;
     for note in &scene.notes {
         eprintln!("note: {note}");
     }
@@ -201,6 +213,11 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
         );
     }
 
+    let ambient_spp = a
+        .ambient_spp
+        .unwrap_or_else(|| a.spp.map_or(64, |n| n.min(u32::MAX as u64) as u32));
+    let ambient = super::ambient::render(&renderer, a.width, a.height, ambient_spp)?;
+
     // Ctrl-C from here on drops what was written (the staging folder) and leaves the
     // old output as it was; checked between files.
     super::interrupt::catch();
@@ -258,6 +275,12 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
         store: film.store_stats(),
         render_seconds: last.map_or(0.0, |r| r.render_s),
         notes: scene.notes.clone(),
+        ambient: ambient
+            .as_ref()
+            .map(|(_, m)| export::ambient::AmbientMetadata {
+                file: super::ambient::file_name(format),
+                ..m.clone()
+            }),
     };
     if format == CubeFormat::Zarr {
         export::zarr::write_snapshot_zarr(&dir.join(export::zarr::ZARR_NAME), &snap, &meta)?;
@@ -266,6 +289,9 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
         if layout.bounce_layers() > 0 {
             export::write_snapshot_npy(&dir.join("tprf_bounces.npy"), &snap, true)?;
         }
+    }
+    if let Some((image, _)) = &ambient {
+        super::ambient::write(dir, format, image)?;
     }
     super::interrupt::check()?;
     export::write_json(&dir.join("tprf.json"), &meta)?;

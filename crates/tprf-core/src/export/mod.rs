@@ -10,6 +10,7 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
+pub mod ambient;
 pub mod sensor;
 pub mod sparse_file;
 pub mod staging;
@@ -159,6 +160,10 @@ pub struct CubeMetadata {
     /// Render passes made.
     #[serde(default, deserialize_with = "pass_count")]
     pub passes: u64,
+    /// The ambient image beside the cube (`ambient.npy` or `tprf.zarr/ambient`), when the
+    /// scene has an ambient light group.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ambient: Option<ambient::AmbientMetadata>,
     pub notes: Vec<String>,
 }
 
