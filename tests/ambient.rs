@@ -339,3 +339,49 @@ fn render_writes_it_readers_read_it_the_sensor_adds_it() {
         assert!(e.contains("--sky"), "{e}");
     }
 }
+
+/// The viewer's worker renders the ambient image once, after the first pass, at
+/// `AMBIENT_SPP`: the same image `render_ambient` gives (deterministic), and no image
+/// for a scene without ambient light.
+#[test]
+fn the_worker_renders_the_ambient_image_once() {
+    use std::time::{Duration, Instant};
+    use tprf_core::transport::WindowRequest;
+    use tprf_core::transport::worker::{AMBIENT_SPP, RenderJob, RenderWorker, WorkerState};
+    let job = |scene: &str| RenderJob {
+        scene: scene.into(),
+        width: 16,
+        height: 12,
+        window: WindowRequest {
+            t0_s: None,
+            dt_s: None,
+            bins: 32,
+            aspect: 16.0 / 12.0,
+        },
+        bounces_separate: 0,
+        settings: RenderSettings::default(),
+        spp_target: Some(2),
+        error_target: None,
+    };
+    let wait = |w: &RenderWorker| {
+        let start = Instant::now();
+        while !w.is_finished() && start.elapsed() < Duration::from_secs(120) {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        assert_eq!(w.status().unwrap().state, WorkerState::Done);
+    };
+    let w = RenderWorker::spawn(job("builtin:canopy"), || {});
+    wait(&w);
+    let got = w
+        .ambient()
+        .expect("the canopy's sun gives an ambient image");
+    assert!(!w.status().unwrap().ambient_pending);
+    let r = Renderer::new(
+        Arc::new(scene::load("builtin:canopy").unwrap()),
+        RenderSettings::default(),
+    );
+    assert_eq!(*got, render_ambient(&r, 16, 12, AMBIENT_SPP));
+    let w = RenderWorker::spawn(job("builtin:cornell"), || {});
+    wait(&w);
+    assert!(w.ambient().is_none());
+}
