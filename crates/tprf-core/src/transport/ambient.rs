@@ -64,6 +64,15 @@ impl Sink for SteadySink {
     }
 }
 
+/// One row's tally: NaN/infinite contributions, and the two-half error terms
+/// `sum (a - b)^2` and `sum m^2` over its pixels.
+#[derive(Clone, Copy, Default)]
+struct RowTally {
+    non_finite: u64,
+    diff2: f64,
+    norm2: f64,
+}
+
 /// Whether `renderer`'s scene has anything in its ambient group.
 pub fn has_ambient(renderer: &Renderer) -> bool {
     !renderer.scene().ambient.is_empty()
@@ -100,20 +109,25 @@ fn render(
     let lights = Lights::ambient(renderer.scene(), settings.channel);
     let seed = settings.seed;
     // Per pixel: the two halves' sums, and non-finite contributions.
-    let mut halves = vec![[0.0f64; 2]; width * height];
-    let mut non_finite = vec![0u64; height];
+    // Per pixel the image (4 bytes); per row the non-finite count and the two-half error
+    // terms (summed in row order afterwards: the same for any thread count).
+    let mut radiance = vec![0.0f32; width * height];
+    let mut rows = vec![RowTally::default(); height];
     let counts = [spp.div_ceil(2), spp / 2];
-    halves
+    let (na, nb) = (f64::from(counts[0]), f64::from(counts[1]));
+    let n = f64::from(spp.max(1));
+    radiance
         .par_chunks_mut(width.max(1))
-        .zip(non_finite.par_iter_mut())
+        .zip(rows.par_iter_mut())
         .enumerate()
-        .for_each(|(y, (row, bad))| {
+        .for_each(|(y, (row, tally))| {
             if cancel.load(Ordering::Relaxed) {
                 return;
             }
             for (x, px) in row.iter_mut().enumerate() {
                 let pixel = (y * width + x) as u64;
-                for (h, sum) in px.iter_mut().enumerate() {
+                let mut sums = [0.0f64; 2];
+                for (h, sum) in sums.iter_mut().enumerate() {
                     let mut rng = Sampler::new(seed, STREAMS[h], pixel);
                     let mut sink = SteadySink::default();
                     for _ in 0..counts[h] {
@@ -124,33 +138,35 @@ fn render(
                         renderer.trace::<true>(&lights, o, d, &mut rng, &mut sink);
                     }
                     *sum = sink.sum;
-                    *bad += sink.non_finite;
+                    tally.non_finite += sink.non_finite;
+                }
+                let m = (sums[0] + sums[1]) / n;
+                *px = m as f32;
+                if counts[1] > 0 {
+                    let (a, b) = (sums[0] / na, sums[1] / nb);
+                    tally.diff2 += (a - b) * (a - b);
+                    tally.norm2 += m * m;
                 }
             }
         });
-    let n = f64::from(spp.max(1));
-    let radiance = halves.iter().map(|h| ((h[0] + h[1]) / n) as f32).collect();
+    let (diff2, norm2) = rows
+        .iter()
+        .fold((0.0, 0.0), |acc, r| (acc.0 + r.diff2, acc.1 + r.norm2));
+    // As the film's `half_error_estimate`: relative RMS of the full image.
     let error_estimate = (counts[1] > 0).then(|| {
-        let (na, nb) = (f64::from(counts[0]), f64::from(counts[1]));
-        let (mut diff2, mut norm2) = (0.0, 0.0);
-        for h in &halves {
-            let (a, b) = (h[0] / na, h[1] / nb);
-            diff2 += (a - b) * (a - b);
-            let m = (h[0] + h[1]) / n;
-            norm2 += m * m;
-        }
         if norm2 == 0.0 {
             0.0
         } else {
             diff2.sqrt() * (na * nb).sqrt() / n / norm2.sqrt()
         }
     });
+    let non_finite = rows.iter().map(|r| r.non_finite).sum();
     AmbientImage {
         width,
         height,
         spp,
         radiance,
         error_estimate,
-        non_finite: non_finite.iter().sum(),
+        non_finite,
     }
 }
