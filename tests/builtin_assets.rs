@@ -337,8 +337,8 @@ fn asset(name: &str) {
     assert_eq!(doc.materials().count(), s.materials.len());
     assert_eq!(
         doc.nodes().count(),
-        used.len() + 1 + s.lights.len(),
-        "mesh nodes, the camera, the lights"
+        used.len() + 1 + s.lights.len() + s.ambient.lights.len() + s.ambient.directional.len(),
+        "mesh nodes, the camera, the lights (pulsed and ambient)"
     );
     assert!(
         doc.extensions_used().any(|e| e == "KHR_lights_punctual"),
@@ -357,8 +357,12 @@ fn asset(name: &str) {
     }
 
     // Lights: intensity x color = the radiant intensity, W/sr.
+    // The pulsed lights come first, then the ambient group's.
     let lights: Vec<gltf::Node> = doc.nodes().filter(|n| n.light().is_some()).collect();
-    assert_eq!(lights.len(), s.lights.len());
+    assert_eq!(
+        lights.len(),
+        s.lights.len() + s.ambient.lights.len() + s.ambient.directional.len()
+    );
     for (n, l) in lights.iter().zip(&s.lights) {
         let g = n.light().unwrap();
         assert!(matches!(g.kind(), gltf::khr_lights_punctual::Kind::Point));
@@ -462,6 +466,27 @@ fn round_trip(name: &str) {
     for (a, b) in loaded.lights.iter().zip(&built.lights) {
         assert!((a.position - b.position).length() <= 1e-6 * scale);
         for (x, y) in a.intensity_w_per_sr.iter().zip(&b.intensity_w_per_sr) {
+            assert!((x - y).abs() <= 1e-6 * y.abs().max(1.0));
+        }
+    }
+    assert_eq!(loaded.ambient.lights.len(), built.ambient.lights.len());
+    assert_eq!(loaded.ambient.sky_radiance, built.ambient.sky_radiance);
+    assert_eq!(
+        loaded.ambient.directional.len(),
+        built.ambient.directional.len()
+    );
+    for (a, b) in loaded
+        .ambient
+        .directional
+        .iter()
+        .zip(&built.ambient.directional)
+    {
+        assert_eq!(a.name, b.name);
+        assert!(
+            (a.direction - b.direction).length() < 1e-6,
+            "{name}: sun direction"
+        );
+        for (x, y) in a.irradiance_w_per_m2.iter().zip(&b.irradiance_w_per_m2) {
             assert!((x - y).abs() <= 1e-6 * y.abs().max(1.0));
         }
     }

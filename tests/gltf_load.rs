@@ -423,12 +423,102 @@ fn point_and_spot_lights_in_w_per_sr() {
     let spot = cone.spot.unwrap();
     assert!(close(spot.direction, Vec3::NEG_Y), "{}", spot.direction);
     assert_eq!((spot.inner_cone_rad, spot.outer_cone_rad), (0.2, 0.5));
-    assert!(
-        has_note(&scene, "directional light 'sun' skipped"),
-        "{:?}",
-        scene.notes
-    );
+    // The directional light is the ambient group's sun (node 4: no rotation, along -Z).
+    assert_eq!(scene.ambient.directional.len(), 1);
+    let sun = &scene.ambient.directional[0];
+    assert_eq!(sun.name, "sun");
+    assert_eq!(sun.irradiance_w_per_m2, [100.0; 3]);
+    assert!(close(sun.direction, Vec3::NEG_Z), "{}", sun.direction);
     assert!(!has_note(&scene, "no light"));
+}
+
+/// A point light tagged `{"tprf": {"ambient": true}}` and a sun go to the ambient group,
+/// the scene's sky is read from its extras, and all of it survives a glTF export.
+#[test]
+fn ambient_group_from_extras_and_back() {
+    let mut bin = Bin::default();
+    let mesh = triangle_mesh(&mut bin, TRI, [0.0, 0.0, 1.0], None);
+    let s = std::f32::consts::FRAC_PI_4.sin();
+    let light = |i: usize| json!({"KHR_lights_punctual": {"light": i}});
+    let nodes = json!([
+        {"children": [1, 2, 3, 4]},
+        {"mesh": 0},
+        {"extensions": light(0), "translation": [0.0, 0.0, 2.0]},
+        {"extensions": light(1), "translation": [1.0, 1.0, 2.0], "extras": {"tprf": {"ambient": true}}},
+        // -90 degrees about +X: the sun's -Z turns to -Y (straight down).
+        {"extensions": light(2), "rotation": [-s, 0.0, 0.0, s]},
+    ]);
+    let mut doc = doc_with_nodes(bin, json!([mesh]), nodes);
+    doc["scenes"][0]["extras"] = json!({"tprf": {"sky_radiance": [0.5, 0.25, 1.0]}});
+    doc["extensionsUsed"] = json!(["KHR_lights_punctual"]);
+    doc["extensions"] = json!({"KHR_lights_punctual": {"lights": [
+        {"name": "laser", "type": "point", "intensity": 10.0},
+        {"name": "lamp", "type": "point", "intensity": 2.0},
+        {"name": "sun", "type": "directional", "intensity": 800.0, "color": [1.0, 0.5, 0.5]},
+    ]}});
+    let scene = load_doc("ambient_group", &doc);
+    assert_eq!(scene.lights.len(), 1);
+    assert_eq!(scene.lights[0].name, "laser");
+    assert_eq!(scene.ambient.lights.len(), 1);
+    assert_eq!(scene.ambient.lights[0].name, "lamp");
+    assert!(close(
+        scene.ambient.lights[0].position,
+        Vec3::new(1.0, 1.0, 2.0)
+    ));
+    let sun = &scene.ambient.directional[0];
+    assert_eq!(sun.irradiance_w_per_m2, [800.0, 400.0, 400.0]);
+    assert!(close(sun.direction, Vec3::NEG_Y), "{}", sun.direction);
+    assert_eq!(scene.ambient.sky_radiance, [0.5, 0.25, 1.0]);
+
+    let path = write_file("ambient_group_saved.gltf", b"");
+    tprf_core::scene::gltf_save::save_gltf(&scene, &path).unwrap();
+    let back = load_gltf(&path).unwrap();
+    assert_eq!(back.lights.len(), 1);
+    assert_eq!(back.ambient.lights.len(), 1);
+    assert_eq!(back.ambient.lights[0].intensity_w_per_sr, [2.0; 3]);
+    assert_eq!(back.ambient.sky_radiance, scene.ambient.sky_radiance);
+    let b = &back.ambient.directional[0];
+    assert_eq!(b.irradiance_w_per_m2, [800.0, 400.0, 400.0]);
+    assert!(close(b.direction, Vec3::NEG_Y), "{}", b.direction);
+}
+
+/// Bad ambient input is refused with a message naming the field, never a panic.
+#[test]
+fn bad_ambient_input_is_refused_by_name() {
+    let base = || {
+        let mut bin = Bin::default();
+        let mesh = triangle_mesh(&mut bin, TRI, [0.0, 0.0, 1.0], None);
+        let nodes = json!([
+            {"children": [1, 2]},
+            {"mesh": 0},
+            {"extensions": {"KHR_lights_punctual": {"light": 0}}},
+        ]);
+        let mut doc = doc_with_nodes(bin, json!([mesh]), nodes);
+        doc["extensionsUsed"] = json!(["KHR_lights_punctual"]);
+        doc["extensions"] = json!({"KHR_lights_punctual": {"lights": [
+            {"name": "sun", "type": "directional", "intensity": 1.0},
+        ]}});
+        doc
+    };
+    let mut doc = base();
+    doc["scenes"][0]["extras"] = json!({"tprf": {"sky_radiance": -1.0}});
+    let e = load_err("negative_sky", &doc);
+    assert!(e.contains("sky_radiance"), "{e}");
+    let mut doc = base();
+    doc["scenes"][0]["extras"] = json!({"tprf": {"sky_radiance": "bright"}});
+    assert!(load_err("string_sky", &doc).contains("sky_radiance"));
+    let mut doc = base();
+    doc["nodes"][2]["scale"] = json!([0.0, 0.0, 0.0]);
+    let e = load_err("zero_direction", &doc);
+    assert!(e.contains("directional light 'sun'"), "{e}");
+    let mut doc = base();
+    doc["nodes"][2]["extras"] = json!({"tprf": {"ambient": "yes"}});
+    let e = load_err("ambient_not_bool", &doc);
+    assert!(e.contains("tprf.ambient"), "{e}");
+    let mut doc = base();
+    doc["extensions"]["KHR_lights_punctual"]["lights"][0]["color"] = json!([-1.0, 1.0, 1.0]);
+    let e = load_err("negative_sun", &doc);
+    assert!(e.contains("irradiance_w_per_m2"), "{e}");
 }
 
 #[test]

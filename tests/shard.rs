@@ -174,6 +174,45 @@ fn merged_npy_shards_are_the_one_process_render_bit_for_bit() {
 }
 
 #[test]
+fn merged_shards_of_a_scene_with_a_sun_carry_its_ambient_image() {
+    // builtin:canopy has a sun: every shard renders the whole ambient image (the same
+    // for the same seed) and the merge keeps one copy, as one process writes it.
+    let dir = tempdir("ambient");
+    let args = [
+        "--width",
+        "24",
+        "--height",
+        "20",
+        "--bins",
+        "32",
+        "--spp",
+        "2",
+        "--band-rows",
+        "4",
+    ];
+    let one = dir.join("one");
+    render("builtin:canopy", &one, &unsharded(&args));
+    for format in ["npy", "zarr"] {
+        let mut a = args.to_vec();
+        a.extend(["--format", format]);
+        let parts = shards(&dir.join(format), "builtin:canopy", &a, 2);
+        let merged = dir.join(format!("merged-{format}"));
+        let o = merge(&merged, &parts);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let meta = tprf_core::export::load_snapshot(&merged).unwrap().0;
+        let got = tprf_core::export::ambient::load_ambient(&merged, &meta).unwrap();
+        let want = tprf_core::export::ambient::load_ambient(
+            &one,
+            &tprf_core::export::load_snapshot(&one).unwrap().0,
+        )
+        .unwrap();
+        assert!(want.is_some(), "the canopy has a sun");
+        assert_eq!(got, want, "{format}: the merged ambient image");
+        assert!(merged.join("ambient.png").is_file());
+    }
+}
+
+#[test]
 fn merged_zarr_shards_are_the_one_process_store_chunk_for_chunk() {
     let dir = tempdir("zarr");
     // 3 bands of 32 rows (the chunk height), an edge tile in x, two time chunks.

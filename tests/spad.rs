@@ -18,10 +18,12 @@ use tprf_core::film::TimeAxis;
 use tprf_core::sensor::FirstReturn;
 use tprf_core::sensor::light::FWHM_PER_SIGMA;
 use tprf_core::sensor::spad::sample::{pixel_stream, sample_pixel};
-use tprf_core::sensor::spad::{Detector, Sampler, coates, return_depth_m, spad_pixel};
+use tprf_core::sensor::spad::{
+    Detector, Sampler, coates, return_depth_m, spad_pixel, spad_pixel_ambient,
+};
 use tprf_core::sensor::{
     Acquisition, Exposure, LightPulse, Sensor, SensorError, SensorModel, Spad, TimeOrigin,
-    spad_image,
+    spad_image, spad_image_ambient,
 };
 use tprf_core::units::C_M_PER_S;
 
@@ -479,6 +481,71 @@ fn dark_counts_are_uniform() {
                 "chi2 {chi2} for {dof} bins"
             );
         }
+    }
+}
+
+/// The cube's ambient image as a SPAD sees it: a pixel with only ambient radiance `A`
+/// (no signal) counts `ambient_scale photons_per_unit A` photons per second in every
+/// TDC bin, exactly as a uniform `ambient_rate_hz` of that value: same expected
+/// histogram, same realisation (same seed), and the closed form of a flat rate
+/// without dead time, `N (1 - exp(-PDE rate w))`.
+#[test]
+fn ambient_image_is_the_uniform_rate_closed_form() {
+    let ax = axis(0.0, 0.1 * NS, 64);
+    let (w, h) = (3, 2);
+    let cube = vec![0.0f32; w * h * 64];
+    let steady = vec![0.0f32; w * h];
+    let (ppu, scale) = (2.0, 3.0);
+    let a_radiance = [0.0f32, 1e7, 2e7, 5e7, 1e8, 4e8]; // W m^-2 sr^-1
+    let base = Spad {
+        photons_per_unit: ppu,
+        pde: 0.5,
+        ..spad(3000)
+    };
+    let mut sensor = spad_sensor(base.clone(), 64, 0.1 * NS, LightPulse::default());
+    sensor.ambient_scale = scale;
+    let m = model(sensor, ax);
+    let Ok(meas) = m.measure_clean(&cube, w, h) else {
+        panic!("measure");
+    };
+    let img = match spad_image_ambient(&m, &meas, &steady, Some(&a_radiance)) {
+        Ok(i) => i,
+        Err(e) => panic!("{e}"),
+    };
+    for (p, &a) in a_radiance.iter().enumerate() {
+        let rate_hz = scale * ppu * f64::from(a);
+        // The same pixel as a uniform ambient rate.
+        let uniform = Spad {
+            ambient_rate_hz: rate_hz,
+            ..base.clone()
+        };
+        let mu = model(
+            spad_sensor(uniform, 64, 0.1 * NS, LightPulse::default()),
+            ax,
+        );
+        let one = vec![0.0f32; 64];
+        let Ok(px) = spad_pixel(&mu, &one, 0.0) else {
+            panic!("pixel");
+        };
+        let (y, x) = (p / w, p % w);
+        let got = img.pixel(&img.histogram, y, x);
+        let r = 0.5 * rate_hz * 0.1 * NS;
+        let closed = 3000.0 * (1.0 - (-r).exp());
+        for (k, (g, e)) in got.iter().zip(&px.expected).enumerate() {
+            let g = f64::from(*g);
+            assert!(
+                (g - e).abs() <= 1e-5 * e.max(1e-9),
+                "pixel {p} bin {k}: {g} vs {e}"
+            );
+            assert!(
+                (g - closed).abs() <= 1e-5 * closed.max(1e-9),
+                "pixel {p} bin {k}: {g} vs {closed}"
+            );
+        }
+        let Ok(pa) = spad_pixel_ambient(&m, &one, 0.0, f64::from(a)) else {
+            panic!("pixel");
+        };
+        assert_eq!(pa.expected, px.expected, "pixel {p}");
     }
 }
 

@@ -1291,3 +1291,43 @@ proptest::proptest! {
         proptest::prop_assert!(s.width >= 1 && s.height >= 1 && s.bins >= 1, "{doc}");
     }
 }
+
+/// A scene with a sun: the worker's ambient image reaches the sensor tab, whose
+/// measurements are the film's plus `ambient_scale A integral Exposure_i dt` per gate
+/// (and the film's alone at scale 0).
+#[test]
+fn the_sensor_tab_adds_the_scenes_ambient_image() {
+    use tprf_core::sensor::SensorModel;
+    let (side, bins) = (10, 32);
+    let mut h = harness(ViewerSettings {
+        mode: Mode::Sensor,
+        ..small_settings("builtin:canopy", side, bins, 2)
+    });
+    wait_done(&mut h, Duration::from_secs(120));
+    let snap = h.state().snapshot().unwrap();
+    let ambient = h
+        .state()
+        .ambient()
+        .expect("the canopy's sun: an ambient image");
+    assert_eq!((ambient.width, ambient.height), (side, side));
+    for scale in [1.0, 0.0] {
+        let mut sensor = Sensor::new(
+            LightPulse::default(),
+            Exposure::from_spec("box:origin=window,start=0ns,width=3ns,count=4").unwrap(),
+        );
+        sensor.ambient_scale = scale;
+        h.state_mut().settings.sensor = sensor.clone();
+        h.step();
+        wait_sensor(&mut h);
+        let got = h.state().sensor.measurements().unwrap().clone();
+        let model = SensorModel::new(sensor, *snap.axis()).unwrap();
+        let mut want = model.measure_clean_film(&snap);
+        model.add_ambient(&mut want, &ambient.radiance).unwrap();
+        for (g, w) in got.values.iter().zip(&want.values) {
+            assert!((g - w).abs() <= 1e-6 * w.abs().max(1e-12), "{g} vs {w}");
+        }
+        let clean = model.measure_clean_film(&snap);
+        let lit = got.values.iter().zip(&clean.values).any(|(g, c)| g > c);
+        assert_eq!(lit, scale > 0.0, "scale {scale}");
+    }
+}

@@ -52,6 +52,7 @@ fn edge_lights() -> Scene {
             world_from_camera: Affine3A::IDENTITY,
             yfov_rad: YFOV_DEG.to_radians(),
         },
+        ambient: Default::default(),
         notes: Vec::new(),
     }
 }

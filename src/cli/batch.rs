@@ -375,6 +375,8 @@ pub fn run_job(job: &Job, threads: Option<usize>, force: bool) -> Result<JobOutc
             photons_per_energy: None,
             seed: None,
             cycles: None,
+            ambient_scale: None,
+            ambient_exposure: None,
             pixels: Vec::new(),
             out,
         };

@@ -83,6 +83,14 @@ pub struct RenderArgs {
     /// decodes and encodes again.
     #[arg(long, default_value_t = shard::DEFAULT_BAND_ROWS, requires = "shard")]
     pub band_rows: usize,
+    /// A constant sky of this radiance (W m^-2 sr^-1) in the ambient light group: not
+    /// pulsed, rendered once into ambient.npy beside the cube.
+    #[arg(long)]
+    pub sky: Option<f64>,
+    /// Samples per pixel of the ambient image, when the scene has ambient light (a sun,
+    /// a sky, lamps tagged ambient). Default: --spp, or 64.
+    #[arg(long)]
+    pub ambient_spp: Option<u32>,
 }
 
 fn parse_channel(s: &str) -> Result<Channel, String> {
@@ -115,6 +123,9 @@ fn check_render_args(a: &RenderArgs) -> Result<()> {
     if a.shard.is_some() && a.seconds.is_some() {
         bail!("--shard needs a fixed --spp: a --seconds budget gives each shard other passes");
     }
+    if a.ambient_spp == Some(0) {
+        bail!("--ambient-spp must be at least 1");
+    }
     Ok(())
 }
 
@@ -138,7 +149,8 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
     }
     let t0_s = a.t0.as_deref().map(|t| time_s(t, "--t0")).transpose()?;
     let dt_s = a.dt.as_deref().map(|t| time_s(t, "--dt")).transpose()?;
-    let scene = scene::load(&a.scene)?;
+    let mut scene = scene::load(&a.scene)?;
+    super::ambient::apply_sky(&mut scene, a.sky)?;
     for note in &scene.notes {
         eprintln!("note: {note}");
     }
@@ -232,6 +244,11 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
         );
     }
 
+    let ambient_spp = a
+        .ambient_spp
+        .unwrap_or_else(|| a.spp.map_or(64, |n| n.min(u32::MAX as u64) as u32));
+    let ambient = super::ambient::render(&renderer, a.width, a.height, ambient_spp)?;
+
     // Ctrl-C from here on drops what was written (the staging folder) and leaves the
     // old output as it was; checked between files.
     super::interrupt::catch();
@@ -314,6 +331,12 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
             }
             _ => None,
         },
+        ambient: ambient
+            .as_ref()
+            .map(|(_, m)| export::ambient::AmbientMetadata {
+                file: super::ambient::file_name(format),
+                ..m.clone()
+            }),
     };
     if spec.is_some() {
         shard::write_steady(dir, a.width, a.height, &steady)?;
@@ -325,6 +348,9 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
         if layout.bounce_layers() > 0 {
             export::write_snapshot_npy(&dir.join("tprf_bounces.npy"), &snap, true)?;
         }
+    }
+    if let Some((image, _)) = &ambient {
+        super::ambient::write(dir, format, image)?;
     }
     super::interrupt::check()?;
     export::write_json(&dir.join("tprf.json"), &meta)?;

@@ -4,12 +4,13 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
+use super::args::time_s;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use tprf_core::export::sensor::{
     DEFAULT_TILE_BYTES, SensorCube, SensorRun, measure_cube, write_sensor_outputs,
 };
-use tprf_core::sensor::{Derived, Exposure, LightPulse, Sensor, SensorModel, spad_image};
+use tprf_core::sensor::{Derived, Exposure, LightPulse, Sensor, SensorModel, spad_image_ambient};
 use tprf_core::units::format_time;
 
 #[derive(Args, Debug)]
@@ -44,6 +45,14 @@ pub struct SensorArgs {
     /// Laser cycles of the SPAD histogram (sensors with a [spad] section).
     #[arg(long)]
     pub cycles: Option<u64>,
+    /// Scale of the cube's ambient image (ambient.npy), dimensionless: 1 = the ambient
+    /// light group at the scene's power, 0 = off (the sensor's ambient_scale).
+    #[arg(long)]
+    pub ambient_scale: Option<f64>,
+    /// AMCW only: seconds of ambient light per unit of emitted energy (1 / the source's
+    /// mean power in W), with a unit, e.g. 1ms (the sensor's ambient_exposure_s).
+    #[arg(long)]
+    pub ambient_exposure: Option<String>,
     /// Also write pixel_Y_X.csv and pixel_Y_X_gates.csv for pixel Y,X (row from the
     /// top, column from the left). Repeatable.
     #[arg(long = "pixel", value_name = "Y,X", value_parser = parse_pixel)]
@@ -103,6 +112,12 @@ fn sensor_from_args(a: &SensorArgs) -> Result<Sensor> {
     if let Some(x) = a.seed {
         sensor.noise.seed = x;
     }
+    if let Some(x) = a.ambient_scale {
+        sensor.ambient_scale = x;
+    }
+    if let Some(t) = &a.ambient_exposure {
+        sensor.ambient_exposure_s = Some(time_s(t, "--ambient-exposure")?);
+    }
     if let Some(n) = a.cycles {
         match &mut sensor.spad {
             Some(spad) => spad.cycles = n,
@@ -135,12 +150,39 @@ pub fn run(a: &SensorArgs) -> Result<()> {
     let t_spad = Instant::now();
     // The SPAD reads the clean measurement and the steady image, both whole by now
     // (measure_cube gathers them tile by tile), never the cube itself.
+    // With the cube's ambient image A when it has one (ambient_scale photons_per_unit A
+    // photons/s more per pixel, in every TDC bin).
     let spad = match &measured.steady {
-        Some(steady) => Some(spad_image(&model, &m, steady)?),
+        Some(steady) => Some(spad_image_ambient(
+            &model,
+            &m,
+            steady,
+            cube.ambient.as_deref(),
+        )?),
         None => None,
     };
     let spad_s = t_spad.elapsed().as_secs_f64();
     let t_noise = Instant::now();
+    // The ambient image as a constant rate in every gate, before the noise (photon noise
+    // grows with it): M_i += ambient_scale A integral Exposure_i dt.
+    let ambient_json = match &cube.ambient {
+        Some(image) => {
+            let added = match model.ambient_weights_s() {
+                Ok(_) => {
+                    model.add_ambient(&mut m, image)?;
+                    Ok(())
+                }
+                Err(why) => {
+                    eprintln!("note: the cube's ambient image is not added: {why}");
+                    Err(why)
+                }
+            };
+            Some(tprf_core::export::ambient::sensor_json(
+                &model, image, added,
+            ))
+        }
+        None => None,
+    };
     model.apply_noise(&mut m);
     let noise_s = t_noise.elapsed().as_secs_f64();
     let n = model.gate_count();
@@ -183,6 +225,7 @@ pub fn run(a: &SensorArgs) -> Result<()> {
             noise_s,
             started: start,
             spad: spad.as_ref().map(|s| (s, spad_s)),
+            ambient: ambient_json,
         },
     )?;
     if let Some(s) = &spad {

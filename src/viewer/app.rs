@@ -227,6 +227,7 @@ impl eframe::App for TprfApp {
         if sensor_mode && let Some(s) = &snap {
             self.sensor.auto_start = matches!(self.source, super::source::Source::Live(_))
                 && self.settings.t0.trim().is_empty();
+            self.sensor.set_ambient(self.ambient());
             self.sensor.update(&self.settings.sensor, s);
         }
         let window_w = ui.available_width();

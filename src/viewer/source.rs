@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use tprf_core::export::{self, CubeMetadata};
 use tprf_core::film::FilmSnapshot;
+use tprf_core::transport::ambient::AmbientImage;
 use tprf_core::transport::worker::{RenderWorker, WorkerStatus};
 
 /// Where the film comes from.
@@ -18,6 +19,8 @@ pub(super) enum Source {
         dir: PathBuf,
         snapshot: Arc<FilmSnapshot>,
         meta: Box<CubeMetadata>,
+        /// `ambient.npy` (or `tprf.zarr/ambient`) when the folder has one.
+        ambient: Option<Arc<AmbientImage>>,
     },
     /// Nothing yet (the settings could not start a render).
     None,
@@ -29,6 +32,15 @@ impl TprfApp {
         match &self.source {
             Source::Live(w) => w.latest(),
             Source::Cube { snapshot, .. } => Some(snapshot.clone()),
+            Source::None => None,
+        }
+    }
+
+    /// The scene's ambient image: the worker's once rendered, or the cube's.
+    pub fn ambient(&self) -> Option<Arc<AmbientImage>> {
+        match &self.source {
+            Source::Live(w) => w.ambient(),
+            Source::Cube { ambient, .. } => ambient.clone(),
             Source::None => None,
         }
     }
@@ -68,13 +80,27 @@ impl TprfApp {
 
     /// Show the cube in `dir` instead of rendering; an unreadable one is a message.
     pub(super) fn open_cube(&mut self, dir: &Path) {
-        match export::load_snapshot(dir) {
-            Ok((meta, snapshot)) => {
+        let loaded = export::load_snapshot(dir).and_then(|(meta, snapshot)| {
+            let ambient = export::ambient::load_ambient(dir, &meta)?.map(|radiance| {
+                Arc::new(AmbientImage {
+                    width: meta.width,
+                    height: meta.height,
+                    spp: meta.ambient.as_ref().map_or(0, |a| a.spp),
+                    radiance,
+                    error_estimate: meta.ambient.as_ref().and_then(|a| a.error_estimate),
+                    non_finite: 0,
+                })
+            });
+            Ok((meta, snapshot, ambient))
+        });
+        match loaded {
+            Ok((meta, snapshot, ambient)) => {
                 self.bin = self.bin.min(snapshot.axis().bins.saturating_sub(1));
                 self.source = Source::Cube {
                     dir: dir.to_path_buf(),
                     snapshot: Arc::new(snapshot),
                     meta: Box::new(meta),
+                    ambient,
                 };
                 self.selection = None;
                 self.selection_film = None;

@@ -21,6 +21,7 @@ pub fn empty_scene(camera: Camera) -> Scene {
         textures: vec![],
         lights: vec![],
         camera,
+        ambient: Default::default(),
         notes: vec![],
     }
 }

@@ -41,6 +41,7 @@ impl TprfApp {
             dir,
             meta,
             snapshot,
+            ..
         } = &self.source
         {
             ui.heading("Cube");

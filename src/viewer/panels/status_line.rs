@@ -144,6 +144,11 @@ impl TprfApp {
                     human_bytes(s.store.dense_bytes)
                 ));
             }
+            if s.ambient_pending {
+                parts.push("ambient image: rendering after the first pass".into());
+            } else if let Some(a) = self.ambient() {
+                parts.push(format!("ambient image {} spp", a.spp));
+            }
             let skipped = s.left_out.shadow_rays_late + s.left_out.shadow_rays_early;
             if skipped + s.left_out.paths_past_window > 0 {
                 parts.push(format!(
@@ -159,6 +164,9 @@ impl TprfApp {
                 meta.spp,
                 meta.wall_seconds
             ));
+            if let Some(a) = &meta.ambient {
+                parts.push(format!("ambient image {} ({} spp)", a.file, a.spp));
+            }
         }
         if let Some(e) = snap.and_then(|s| s.error_estimate) {
             parts.push(format!("error ≈ {:.2} %", 100.0 * e));

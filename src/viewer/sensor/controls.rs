@@ -386,6 +386,42 @@ pub(crate) fn controls_ui(
         spad_ui(ui, spad);
     }
 
+    ui.label(RichText::new("Ambient").strong());
+    egui::Grid::new("ambient-grid")
+        .num_columns(2)
+        .show(ui, |ui| {
+            let l = ui.label("ambient scale");
+            let speed = (sensor.ambient_scale * 0.01).max(1e-3);
+            ui.add(
+                egui::DragValue::new(&mut sensor.ambient_scale)
+                    .range(0.0..=1e15)
+                    .speed(speed),
+            )
+            .labelled_by(l.id)
+            .on_hover_text(
+                "scale of the scene's ambient image A (sun, sky, lamps tagged ambient; \
+             dimensionless, 1 = the scene's power, 0 = off): gate i measures \
+             scale x A x integral Exposure_i dt more; a SPAD counts scale x photons/unit \
+             x A photons/s more",
+            );
+            ui.end_row();
+            if matches!(sensor.exposure, tprf_core::sensor::Exposure::Amcw { .. }) {
+                let l = ui.label("ambient exposure");
+                let mut on = sensor.ambient_exposure_s.is_some();
+                ui.checkbox(&mut on, "").labelled_by(l.id).on_hover_text(
+                    "AMCW gates never close: seconds of ambient light per unit of emitted \
+                     energy (1 / the source's mean power in W); off: no ambient",
+                );
+                if on != sensor.ambient_exposure_s.is_some() {
+                    sensor.ambient_exposure_s = on.then_some(1.0);
+                }
+                ui.end_row();
+                if let Some(t) = &mut sensor.ambient_exposure_s {
+                    number(ui, "  seconds / J", t, 1e-15..=1e15, (*t * 0.01).max(1e-12));
+                }
+            }
+        });
+
     ui.label(RichText::new("Noise").strong());
     egui::Grid::new("noise-grid").num_columns(2).show(ui, |ui| {
         let l = ui.label("σ (additive)");

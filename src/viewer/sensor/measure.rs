@@ -1,11 +1,14 @@
 //! All gates of a film through the sensor, with noise and the derived depth images, on
 //! a pool of half the cores so the gate measured for the frame does not queue behind.
 
+use std::sync::Arc;
 use std::time::Instant;
 use tprf_core::film::FilmSnapshot;
 use tprf_core::sensor::{
-    AmcwImage, Measurements, NoiseField, Sensor, SensorModel, SpadImage, derived, spad_image,
+    AmcwImage, Measurements, NoiseField, Sensor, SensorModel, SpadImage, derived,
+    spad_image_ambient,
 };
+use tprf_core::transport::ambient::AmbientImage;
 
 /// Which of the SPAD's histograms the images show.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -93,6 +96,8 @@ pub(super) struct Measured {
     /// The film's [`FilmSnapshot::generation`].
     pub(super) snapshot: u64,
     pub(super) sensor: Sensor,
+    /// The ambient image it was measured with (compared by identity).
+    pub(super) ambient: Option<Arc<AmbientImage>>,
     pub(super) m: Measurements,
     pub(super) depth_m: Option<Vec<f32>>,
     pub(super) amcw: Option<AmcwImage>,
@@ -188,18 +193,28 @@ pub(super) fn background_pool() -> Option<&'static rayon::ThreadPool> {
 pub(super) fn measure_all(
     model: &SensorModel,
     snap: &FilmSnapshot,
+    ambient_image: Option<Arc<AmbientImage>>,
     mut noise_field: NoiseField,
 ) -> Result<Measured, String> {
     let started = Instant::now();
     let mut m = model.measure_clean_film(snap);
-    // The SPAD counts photons of the clean (TPRF * Light); the additive noise is the
-    // gates' own.
+    // The scene's ambient image, when it has one of the film's size.
+    let ambient = ambient_image
+        .as_deref()
+        .filter(|a| a.width == snap.width() && a.height == snap.height())
+        .map(|a| a.radiance.as_slice());
+    // The SPAD counts photons of the clean (TPRF * Light) and of the ambient image; the
+    // additive noise is the gates' own.
     let spad = match model.sensor().spad {
         Some(_) => Some(SpadMeasured::new(
-            spad_image(model, &m, snap.steady()).map_err(|e| e.to_string())?,
+            spad_image_ambient(model, &m, snap.steady(), ambient).map_err(|e| e.to_string())?,
         )),
         None => None,
     };
+    // The ambient light in every gate, before the noise (shot noise grows with it).
+    if let Some(a) = ambient {
+        model.add_ambient(&mut m, a).map_err(|e| e.to_string())?;
+    }
     model.apply_noise_cached(&mut m, &mut noise_field);
     let robust_max = shared_white(model, snap);
     let depth_m = model.first_return_depth(&m);
@@ -216,6 +231,7 @@ pub(super) fn measure_all(
     let mut measured = Measured {
         snapshot: snap.generation(),
         sensor: model.sensor().clone(),
+        ambient: ambient_image.clone(),
         m,
         depth_m,
         amcw,

@@ -10,7 +10,7 @@ use crate::viewer::plotting;
 use eframe::egui::{self, Color32, RichText};
 use egui_plot::{Line, Plot, PlotPoints, Points, Span, VLine};
 use tprf_core::film::FilmSnapshot;
-use tprf_core::sensor::spad::spad_pixel;
+use tprf_core::sensor::spad::spad_pixel_ambient;
 
 const COATES_COLOR: Color32 = Color32::from_rgb(0x7d, 0xe0, 0x7d);
 const TRUTH_COLOR: Color32 = Color32::from_rgb(0xff, 0x6b, 0x9a);
@@ -150,7 +150,8 @@ fn spad_plot_ui(
     let img = &sp.image;
     let signal: Vec<f32> = signal.iter().map(|&v| v as f32).collect();
     let steady: f64 = tprf.iter().map(|&v| f64::from(v)).sum();
-    let Ok(px) = spad_pixel(model, &signal, steady) else {
+    let ambient = state.ambient_at(y, x);
+    let Ok(px) = spad_pixel_ambient(model, &signal, steady, ambient) else {
         return false;
     };
     let centres = &img.centres_s;

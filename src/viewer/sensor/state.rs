@@ -13,6 +13,7 @@ use std::sync::mpsc::{Receiver, TryRecvError, channel};
 use std::time::Instant;
 use tprf_core::film::FilmSnapshot;
 use tprf_core::sensor::{Measurements, NoiseField, PixelTrace, Sensor, SensorModel};
+use tprf_core::transport::ambient::AmbientImage;
 
 /// The shown gate's image, measured on the UI thread right after an edit.
 pub(super) struct Plane {
@@ -55,9 +56,33 @@ pub struct SensorState {
     /// then no gate misses light before the window's start.
     pub auto_start: bool,
     pub(super) textures: TextureCache<u64>,
+    /// The scene's ambient image (from the render worker, or `ambient.npy` beside a
+    /// cube), added to every gate; set by [`SensorState::set_ambient`].
+    pub(super) ambient: Option<Arc<AmbientImage>>,
 }
 
 impl SensorState {
+    /// The ambient image the measurements use (`None`: the scene has none, or it is not
+    /// rendered yet). A new one is measured with on the next update.
+    pub fn set_ambient(&mut self, ambient: Option<Arc<AmbientImage>>) {
+        let same = match (&self.ambient, &ambient) {
+            (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+            (None, None) => true,
+            _ => false,
+        };
+        if !same {
+            self.ambient = ambient;
+        }
+    }
+
+    /// The ambient radiance of pixel `(y, x)`, W m^-2 sr^-1 (0 without an image).
+    pub(super) fn ambient_at(&self, y: usize, x: usize) -> f64 {
+        self.ambient
+            .as_ref()
+            .filter(|a| y < a.height && x < a.width)
+            .map_or(0.0, |a| f64::from(a.radiance[y * a.width + x]))
+    }
+
     /// Bring the model and the measurements up to date with `sensor` and `snap`; an
     /// invalid sensor leaves the last good ones and says why. Never waits.
     pub fn update(&mut self, sensor: &Sensor, snap: &Arc<FilmSnapshot>) {
@@ -128,7 +153,16 @@ impl SensorState {
                 let packed =
                     tprf_core::sensor::PackedKernels::new(std::slice::from_ref(k), axis.bins);
                 {
-                    let m = tprf_core::sensor::measure::measure_clean_film(&packed, snap);
+                    let mut m = tprf_core::sensor::measure::measure_clean_film(&packed, snap);
+                    // The ambient light in this gate too (as the full measurement adds it).
+                    if let (Some(a), Ok(w)) = (&self.ambient, model.ambient_weights_s())
+                        && let Some(&w) = w.get(gate)
+                        && a.radiance.len() == m.values.len()
+                    {
+                        for (v, &r) in m.values.iter_mut().zip(&a.radiance) {
+                            *v += (w * f64::from(r.max(0.0))) as f32;
+                        }
+                    }
                     self.plane = Some(Plane {
                         snapshot: key,
                         sensor: model.sensor().clone(),
@@ -147,6 +181,7 @@ impl SensorState {
     fn spawn_measurement(&mut self, model: &SensorModel, snap: &Arc<FilmSnapshot>) {
         let (tx, rx) = channel();
         let (job_model, job_snap) = (model.clone(), snap.clone());
+        let job_ambient = self.ambient.clone();
         let field = self.noise_field.take().unwrap_or_default();
         let spawned = std::thread::Builder::new()
             .name("tprf-sensor".into())
@@ -154,8 +189,10 @@ impl SensorState {
                 // On its own threads, so the gate measured for the frame does not queue
                 // behind it on the global pool.
                 let result = match background_pool() {
-                    Some(pool) => pool.install(|| measure_all(&job_model, &job_snap, field)),
-                    None => measure_all(&job_model, &job_snap, field),
+                    Some(pool) => {
+                        pool.install(|| measure_all(&job_model, &job_snap, job_ambient, field))
+                    }
+                    None => measure_all(&job_model, &job_snap, job_ambient, field),
                 };
                 if let Ok(m) = result {
                     let _ = tx.send(m);
@@ -169,9 +206,15 @@ impl SensorState {
 
     /// Whether the measurement of all gates is that of film `generation` and `sensor`.
     fn is_current_for(&self, generation: u64, sensor: &Sensor) -> bool {
-        self.measured
-            .as_ref()
-            .is_some_and(|m| m.snapshot == generation && m.sensor == *sensor)
+        self.measured.as_ref().is_some_and(|m| {
+            m.snapshot == generation
+                && m.sensor == *sensor
+                && match (&m.ambient, &self.ambient) {
+                    (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+                    (None, None) => true,
+                    _ => false,
+                }
+        })
     }
 
     /// Whether the measurements of all gates are those of the current sensor and film.

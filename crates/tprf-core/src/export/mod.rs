@@ -13,6 +13,7 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
+pub mod ambient;
 mod npy_read;
 pub mod sensor;
 pub mod shard;
@@ -164,6 +165,10 @@ pub struct CubeMetadata {
     /// Render passes made.
     #[serde(default, deserialize_with = "pass_count")]
     pub passes: u64,
+    /// The ambient image beside the cube (`ambient.npy` or `tprf.zarr/ambient`), when the
+    /// scene has an ambient light group.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ambient: Option<ambient::AmbientMetadata>,
     pub notes: Vec<String>,
     /// Only in a shard's folder (`tprf render --shard K/N`): which part of the render it
     /// holds, and what `tprf merge` needs to check and merge it.

@@ -64,6 +64,9 @@ struct CubeWindow {
     width: Option<usize>,
     #[serde(default)]
     height: Option<usize>,
+    /// Whether the folder holds an ambient image (its metadata).
+    #[serde(default)]
+    ambient: Option<super::ambient::AmbientMetadata>,
 }
 
 /// A cube `tprf sensor` measures: `tprf.npy` (numpy's form) read a band of rows at a
@@ -75,6 +78,9 @@ pub struct SensorCube {
     pub width: usize,
     pub height: usize,
     pub axis: TimeAxis,
+    /// The ambient image `[H, W]` (W m^-2 sr^-1) beside the cube, when `tprf.json`
+    /// records one ([`super::ambient`]).
+    pub ambient: Option<Vec<f32>>,
     form: CubeForm,
 }
 
@@ -129,11 +135,16 @@ impl SensorCube {
                     axis.bins
                 );
             }
+            let ambient = match meta.ambient {
+                Some(_) => super::ambient::load_ambient_image(dir, z.width, z.height)?,
+                None => None,
+            };
             return Ok(SensorCube {
                 dir: dir.to_path_buf(),
                 width: z.width,
                 height: z.height,
                 axis,
+                ambient,
                 form: CubeForm::Zarr(Box::new(z)),
             });
         }
@@ -168,11 +179,16 @@ impl SensorCube {
         } else {
             None
         };
+        let ambient = match meta.ambient {
+            Some(_) => super::ambient::load_ambient_image(dir, w, h)?,
+            None => None,
+        };
         Ok(SensorCube {
             dir: dir.to_path_buf(),
             width: w,
             height: h,
             axis,
+            ambient,
             form: CubeForm::Npy { cube, bounces },
         })
     }
@@ -448,6 +464,9 @@ pub struct SensorRun<'a> {
     /// The SPAD's histograms and depths, when the sensor has a `[spad]` section, and
     /// the seconds they took.
     pub spad: Option<(&'a SpadImage, f64)>,
+    /// The `ambient` entry of `sensor.json` when the cube has an ambient image
+    /// ([`super::ambient::sensor_json`]).
+    pub ambient: Option<serde_json::Value>,
 }
 
 /// The AMCW multipath error `|amcw_depth - true_depth|`, metres (wrapped into half the
@@ -637,6 +656,7 @@ pub fn write_sensor_outputs(out: &Path, run: &SensorRun) -> Result<SensorOutputs
         "gates": gates,
         "bins_read_per_pixel": model.packed().reads_per_pixel(),
         "derived": derived_json,
+        "ambient": run.ambient,
         "files": files,
         "seconds": {
             "kernels": run.kernels_s,

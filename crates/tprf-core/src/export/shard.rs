@@ -519,6 +519,36 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeReport> {
             report.bytes_read += merge_npy(&shards, &spec, "tprf_bounces.npy", dir, Some(layers))?;
         }
     }
+    // The ambient image: every shard renders the whole of it (it is cheap and needs no
+    // rows of the film), the same for the same seed; the shards' copies must agree.
+    if meta.ambient.is_some() {
+        let mut image: Option<Vec<f32>> = None;
+        for s in &shards {
+            let Some(this) = super::ambient::load_ambient(&s.dir, &s.meta)? else {
+                return Err(broken(
+                    s,
+                    "it has no ambient image; its tprf.json says the render has one",
+                ));
+            };
+            match &image {
+                None => image = Some(this),
+                Some(first)
+                    if first
+                        .iter()
+                        .map(|v| v.to_bits())
+                        .eq(this.iter().map(|v| v.to_bits())) => {}
+                Some(_) => {
+                    return Err(broken(
+                        s,
+                        "its ambient image differs from the first shard's",
+                    ));
+                }
+            }
+        }
+        if let Some(image) = image {
+            super::ambient::write_ambient(dir, first.info.format == "zarr", w, h, &image)?;
+        }
+    }
     let exposure = 0.8 * super::exposure_for(steady.iter().copied(), 0.99);
     super::write_png_gray(&dir.join("steady.png"), w, h, &steady, exposure)?;
     super::write_json(&dir.join("tprf.json"), &meta)?;

@@ -186,6 +186,7 @@ impl OnedScene {
             textures: Vec::new(),
             lights: Vec::new(),
             camera: Camera::look_at(Vec3::ZERO, Vec3::NEG_Z, self.fov_deg.to_radians() as f32),
+            ambient: Default::default(),
             notes: Vec::new(),
         };
         let quad = |s: &mut Scene, z: f64, m: Material| {

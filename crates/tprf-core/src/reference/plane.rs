@@ -235,6 +235,7 @@ impl Plane {
                 world_from_camera: Affine3A::from_translation(Vec3::new(0.0, 0.0, h)),
                 yfov_rad: self.fov_deg.to_radians() as f32,
             },
+            ambient: Default::default(),
             notes: Vec::new(),
         }
     }

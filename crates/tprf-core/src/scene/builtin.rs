@@ -5,13 +5,18 @@
 //!   filling a room.
 //! - `canopy`: the paper's airborne LiDAR example (its Figure 4 read as LiDAR, section 6):
 //!   a partly transparent foliage layer (A) over opaque ground (B), in 3-D, seen from
-//!   100 m above by a camera with a co-located point light (the laser).
+//!   100 m above by a camera with a co-located point light (the laser), under a sun
+//!   (an ambient directional light, [`CANOPY_SUN_W_PER_M2`], 60 degrees high: never in
+//!   the TPRF, rendered as the cube's ambient image).
 //!
 //! World space is glTF's: metres, +Y up; the scenes are deterministic (a fixed-seed
 //! PRNG), so a render of them is reproducible. Triangles are stored grouped by material,
 //! in material order, so a glTF export (one mesh per material) keeps their order.
 
-use super::{Camera, Material, PunctualLight, Scene, SceneError, Triangle, TriangleAttrs};
+use super::{
+    AmbientLights, Camera, DirectionalLight, Material, PunctualLight, Scene, SceneError, Triangle,
+    TriangleAttrs,
+};
 use glam::{Affine3A, Vec2, Vec3, Vec3A};
 
 /// Names accepted after `builtin:`.
@@ -178,6 +183,7 @@ fn cornell() -> Scene {
             spot: None,
         }],
         camera: Camera::look_at(eye, v(0.0, h, 0.0), 2.0 * (12.5f32 / 35.0).atan()),
+        ambient: Default::default(),
         notes: Vec::new(),
     }
 }
@@ -204,6 +210,10 @@ impl SplitMix64 {
         lo + (hi - lo) * self.unit()
     }
 }
+
+/// Irradiance of the canopy scene's sun on a surface facing it, W/m^2 (clear-sky
+/// noon order of magnitude, all wavelengths in the one band).
+pub const CANOPY_SUN_W_PER_M2: f32 = 1000.0;
 
 /// Half the side of the canopy scene's ground patch, metres (the patch is 40 m x 40 m).
 pub const CANOPY_HALF_SIZE_M: f32 = 20.0;
@@ -416,6 +426,15 @@ fn canopy() -> Scene {
             spot: None,
         }],
         camera,
+        ambient: AmbientLights {
+            directional: vec![DirectionalLight {
+                name: "sun".into(),
+                // 60 degrees above the horizon, from +X: travelling down and toward -X.
+                direction: Vec3::new(-0.5, -0.75f32.sqrt(), 0.0),
+                irradiance_w_per_m2: [CANOPY_SUN_W_PER_M2; 3],
+            }],
+            ..Default::default()
+        },
         notes: Vec::new(),
     }
 }

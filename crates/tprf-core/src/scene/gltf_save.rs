@@ -18,7 +18,10 @@
 //!   (no aspect ratio: the image decides).
 //! - lights: `KHR_lights_punctual` point / spot lights, `intensity` = the largest channel
 //!   of the radiant intensity (W/sr, tprf's convention: no 683 lm/W), `color` = RGB
-//!   divided by it.
+//!   divided by it. The ambient group: point / spot lights tagged with node extras
+//!   `{"tprf": {"ambient": true}}`, directional lights (`intensity` = the largest channel
+//!   of the irradiance, W/m^2; the node rotated so its -Z is the light's direction), and
+//!   the sky as the scene's extras `{"tprf": {"sky_radiance": [r, g, b]}}`.
 
 use super::{AlphaMode, Material, Scene, SceneError, Texture, TextureRef, TriangleAttrs};
 use glam::{Mat4, Quat, Vec3};
@@ -119,15 +122,16 @@ pub fn to_gltf_json(scene: &Scene) -> Result<json::Root, SceneError> {
         ..Default::default()
     }));
 
-    // Lights.
+    // Lights: the pulsed ones, then the ambient group's.
     use json::extensions::scene::khr_lights_punctual as klp;
-    for l in &scene.lights {
-        let max = l.intensity_w_per_sr.iter().copied().fold(0.0f32, f32::max);
-        let color = if max > 0.0 {
-            l.intensity_w_per_sr.map(|c| c / max)
-        } else {
-            [1.0; 3]
-        };
+    let tagged = extras(&serde_json::json!({"tprf": {"ambient": true}}))?;
+    let punctual = scene
+        .lights
+        .iter()
+        .map(|l| (l, None))
+        .chain(scene.ambient.lights.iter().map(|l| (l, tagged.clone())));
+    for (l, node_extras) in punctual {
+        let (color, intensity) = color_and_intensity(l.intensity_w_per_sr);
         let (type_, spot, rotation) = match &l.spot {
             None => (klp::Type::Point, None, None),
             Some(s) => (
@@ -145,7 +149,7 @@ pub fn to_gltf_json(scene: &Scene) -> Result<json::Root, SceneError> {
             color,
             extensions: None,
             extras: Default::default(),
-            intensity: max,
+            intensity,
             name: Some(l.name.clone()),
             range: None,
             spot,
@@ -160,13 +164,43 @@ pub fn to_gltf_json(scene: &Scene) -> Result<json::Root, SceneError> {
                 khr_lights_punctual: Some(klp::KhrLightsPunctual { light }),
                 ..Default::default()
             }),
+            extras: node_extras,
             ..Default::default()
         }));
     }
+    for d in &scene.ambient.directional {
+        let (color, intensity) = color_and_intensity(d.irradiance_w_per_m2);
+        let light = w.root.push(klp::Light {
+            color,
+            extensions: None,
+            extras: Default::default(),
+            intensity,
+            name: Some(d.name.clone()),
+            range: None,
+            spot: None,
+            type_: Valid(klp::Type::Directional),
+        });
+        w.used.insert("KHR_lights_punctual");
+        let rotation = Quat::from_rotation_arc(Vec3::NEG_Z, d.direction.normalize());
+        nodes.push(w.root.push(json::Node {
+            name: Some(d.name.clone()),
+            rotation: Some(json::scene::UnitQuaternion(rotation.to_array())),
+            extensions: Some(json::extensions::scene::Node {
+                khr_lights_punctual: Some(klp::KhrLightsPunctual { light }),
+                ..Default::default()
+            }),
+            ..Default::default()
+        }));
+    }
+    let scene_extras = if scene.ambient.sky_radiance.iter().any(|&v| v != 0.0) {
+        extras(&serde_json::json!({"tprf": {"sky_radiance": scene.ambient.sky_radiance}}))?
+    } else {
+        None
+    };
 
     let scene_index = w.root.push(json::Scene {
         extensions: None,
-        extras: Default::default(),
+        extras: scene_extras,
         name: Some(scene.name.clone()),
         nodes,
     });
@@ -190,6 +224,24 @@ pub fn to_gltf_json(scene: &Scene) -> Result<json::Root, SceneError> {
     }
     w.root.extensions_used = w.used.iter().map(|s| s.to_string()).collect();
     Ok(w.root)
+}
+
+/// A light's `color` (RGB over its largest channel) and `intensity` (that channel) for an
+/// RGB power (W/sr or W/m^2).
+fn color_and_intensity(rgb: [f32; 3]) -> ([f32; 3], f32) {
+    let max = rgb.iter().copied().fold(0.0f32, f32::max);
+    if max > 0.0 {
+        (rgb.map(|c| c / max), max)
+    } else {
+        ([1.0; 3], max)
+    }
+}
+
+/// `value` as glTF extras.
+fn extras(value: &serde_json::Value) -> Result<json::Extras, SceneError> {
+    serde_json::value::to_raw_value(value)
+        .map(Some)
+        .map_err(|e| SceneError::Invalid(format!("glTF extras {value}: {e}")))
 }
 
 /// Document under construction and its binary buffer.
@@ -601,6 +653,7 @@ mod tests {
                 }),
             }],
             camera: Camera::look_at(Vec3::new(0.5, 0.5, 5.0), Vec3::new(0.5, 0.5, 0.0), 0.7),
+            ambient: Default::default(),
             notes: Vec::new(),
         }
     }

@@ -164,6 +164,109 @@ pub struct PunctualLight {
     pub spot: Option<Spot>,
 }
 
+/// A directional light (KHR_lights_punctual `directional`, the sun): parallel light
+/// from infinitely far away, arriving at every time. Part of the ambient group
+/// ([`AmbientLights`]), never pulsed.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DirectionalLight {
+    pub name: String,
+    /// Unit direction the light travels in (world space; the light node's -Z).
+    pub direction: Vec3,
+    /// Irradiance per channel on a surface facing the light, W/m^2: `color x intensity`
+    /// (no 683 lm/W factor, as the punctual lights).
+    pub irradiance_w_per_m2: [f32; 3],
+}
+
+/// The ambient light group: steady light (the sun, a sky, a room lamp) that arrives at
+/// every time. The transient render never sees it; it is rendered once as a steady
+/// radiance image (`transport::ambient`) and added by the sensor as a constant rate.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct AmbientLights {
+    /// Point and spot lights tagged ambient (glTF node extras `{"tprf": {"ambient":
+    /// true}}`): steady lamps, W/sr as [`PunctualLight`].
+    pub lights: Vec<PunctualLight>,
+    /// Directional lights (the sun).
+    pub directional: Vec<DirectionalLight>,
+    /// A constant sky: radiance per channel arriving from every direction that escapes
+    /// the scene, W m^-2 sr^-1 (glTF scene extras `{"tprf": {"sky_radiance": L}}`,
+    /// `tprf render --sky L`).
+    pub sky_radiance: [f32; 3],
+}
+
+impl AmbientLights {
+    /// Whether the group lights nothing (no light, no sky).
+    pub fn is_empty(&self) -> bool {
+        self.lights.is_empty()
+            && self.directional.is_empty()
+            && self.sky_radiance.iter().all(|&v| v == 0.0)
+    }
+
+    /// The group's members in words, for metadata: `point 'lamp'`, `directional 'sun'`,
+    /// `sky 0.5 W m^-2 sr^-1`.
+    pub fn describe(&self) -> Vec<String> {
+        let mut out: Vec<String> = self
+            .lights
+            .iter()
+            .map(|l| {
+                let kind = if l.spot.is_some() { "spot" } else { "point" };
+                format!("{kind} '{}' ({:?} W/sr)", l.name, l.intensity_w_per_sr)
+            })
+            .collect();
+        out.extend(self.directional.iter().map(|d| {
+            format!(
+                "directional '{}' ({:?} W/m^2 along {:?})",
+                d.name,
+                d.irradiance_w_per_m2,
+                d.direction.to_array()
+            )
+        }));
+        if self.sky_radiance.iter().any(|&v| v != 0.0) {
+            out.push(format!("sky ({:?} W m^-2 sr^-1)", self.sky_radiance));
+        }
+        out
+    }
+
+    /// Check the group: finite positions, non-negative finite intensities, irradiances
+    /// and sky radiance, non-zero directions. The message names the field.
+    pub fn validate(&self) -> Result<(), SceneError> {
+        let bad = |v: &[f32]| v.iter().any(|x| !x.is_finite() || *x < 0.0);
+        for l in &self.lights {
+            if !l.position.is_finite() || bad(&l.intensity_w_per_sr) {
+                return Err(SceneError::Invalid(format!(
+                    "ambient light '{}' has a non-finite position or a negative/non-finite \
+                     intensity_w_per_sr {:?}",
+                    l.name, l.intensity_w_per_sr
+                )));
+            }
+        }
+        for d in &self.directional {
+            if bad(&d.irradiance_w_per_m2) {
+                return Err(SceneError::Invalid(format!(
+                    "directional light '{}': irradiance_w_per_m2 {:?} (color x intensity) is \
+                     negative or not finite",
+                    d.name, d.irradiance_w_per_m2
+                )));
+            }
+            let len = d.direction.length();
+            if !(len.is_finite() && (len - 1.0).abs() < 1e-3) {
+                return Err(SceneError::Invalid(format!(
+                    "directional light '{}': direction {:?} is not a finite unit vector (a \
+                     zero or degenerate node rotation/scale?)",
+                    d.name,
+                    d.direction.to_array()
+                )));
+            }
+        }
+        if bad(&self.sky_radiance) {
+            return Err(SceneError::Invalid(format!(
+                "sky_radiance {:?} W m^-2 sr^-1 is negative or not finite",
+                self.sky_radiance
+            )));
+        }
+        Ok(())
+    }
+}
+
 /// A pinhole camera. `world_from_camera` maps camera space (-Z forward, +Y up, glTF) to
 /// world space; it has no scale.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -211,7 +314,10 @@ pub struct Scene {
     pub attrs: Vec<TriangleAttrs>,
     pub materials: Vec<Material>,
     pub textures: Vec<Texture>,
+    /// The pulsed lights: the pulse leaves each at t = 0.
     pub lights: Vec<PunctualLight>,
+    /// The ambient group: steady light, not pulsed (empty for most scenes).
+    pub ambient: AmbientLights,
     pub camera: Camera,
     /// What the loader decided on its own (a framed camera, a co-located light, dropped
     /// degenerate triangles...). Front ends print these.
@@ -244,6 +350,7 @@ impl Scene {
             .iter()
             .flat_map(|t| t.p)
             .chain(self.lights.iter().map(|l| l.position))
+            .chain(self.ambient.lights.iter().map(|l| l.position))
             .chain(std::iter::once(self.camera.position()));
         for p in points {
             min = min.min(p);
@@ -287,18 +394,23 @@ impl Scene {
                 *p *= s;
             }
         }
-        for l in &mut self.lights {
+        for l in self.lights.iter_mut().chain(&mut self.ambient.lights) {
             l.position *= s;
         }
         self.camera.world_from_camera.translation *= s;
         self
     }
 
-    /// Multiply every light's intensity and every emitter's radiance by `k`.
+    /// Multiply every light's intensity (the ambient group's too) and every emitter's
+    /// radiance by `k`.
     pub fn with_intensity_scale(mut self, k: f32) -> Scene {
-        for l in &mut self.lights {
+        for l in self.lights.iter_mut().chain(&mut self.ambient.lights) {
             l.intensity_w_per_sr = l.intensity_w_per_sr.map(|v| v * k);
         }
+        for d in &mut self.ambient.directional {
+            d.irradiance_w_per_m2 = d.irradiance_w_per_m2.map(|v| v * k);
+        }
+        self.ambient.sky_radiance = self.ambient.sky_radiance.map(|v| v * k);
         for m in &mut self.materials {
             m.emissive = m.emissive.map(|v| v * k);
         }
@@ -358,6 +470,7 @@ impl Scene {
                 )));
             }
         }
+        self.ambient.validate()?;
         let fov_ok = self.camera.yfov_rad > 0.0 && self.camera.yfov_rad < std::f32::consts::PI;
         if !(self.camera.world_from_camera.is_finite() && fov_ok) {
             return Err(SceneError::Invalid(

@@ -666,6 +666,35 @@ impl Gate {
         }
     }
 
+    /// `integral Exposure(t) dt` over all time, seconds: what a constant signal of 1
+    /// (ambient light) contributes to the gate. `gain (end - start)` for a box, `peak
+    /// sigma sqrt(2 pi)` for a Gaussian, the area under the knots, `end - start` for a
+    /// jittered TDC bin (the jitter moves photons, it does not lose them). `None` for an
+    /// AMCW gate, which never closes: its mean over a period is
+    /// [`Gate::mean_value`].
+    pub fn integral_s(&self) -> Option<f64> {
+        match self {
+            Gate::Box {
+                start_s,
+                end_s,
+                gain,
+            } => Some(gain * (end_s - start_s)),
+            Gate::Gaussian { sigma_s, peak, .. } => Some(peak * sigma_s * (2.0 * PI).sqrt()),
+            Gate::PiecewiseLinear { shape, .. } => shape.cum.last().copied(),
+            Gate::Jittered { start_s, end_s, .. } => Some(end_s - start_s),
+            Gate::Cosine { .. } => None,
+        }
+    }
+
+    /// The gate's mean sensitivity over one period, for a periodic (AMCW) gate: 1/2;
+    /// `None` for the others.
+    pub fn mean_value(&self) -> Option<f64> {
+        match self {
+            Gate::Cosine { .. } => Some(0.5),
+            _ => None,
+        }
+    }
+
     /// The range of `u` where [`Gate::bin_average`]`(u, dt_s)` can be non-zero.
     pub fn bin_average_support(&self, dt_s: f64) -> (f64, f64) {
         match self {

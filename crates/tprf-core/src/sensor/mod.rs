@@ -24,6 +24,7 @@
 //! - [`exposure`]: `Exposure_i(t)` gate sequences ([`Exposure`]) and single gates ([`Gate`]);
 //! - [`kernel`]: the bin-averaged kernels `K_i[b]` ([`SparseKernel`]);
 //! - [`measure`]: the `[pixels x T] x [T x N]` product ([`Measurements`]);
+//! - [`ambient`]: the cube's ambient image added to every gate as a constant rate;
 //! - [`noise`]: Gaussian white noise, optional Poisson photon noise, `max(0, .)`;
 //! - [`derived`]: first-return depth, AMCW phase and depth;
 //! - [`spad`]: a SPAD behind a TDC (a `tdc` exposure): pile-up, dead time,
@@ -35,6 +36,7 @@
 // `!(x > 0.0)` is how this module rejects NaN along with the out-of-range values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod ambient;
 pub mod derived;
 pub mod exposure;
 pub mod kernel;
@@ -55,7 +57,7 @@ pub use measure::{Measurements, PackedKernels};
 pub use model::{PixelTrace, SensorModel, Update};
 pub use noise::{Noise, NoiseField};
 pub use preset::{BUILTIN_PRESETS, Sensor};
-pub use spad::{Acquisition, Spad, SpadImage, spad_image};
+pub use spad::{Acquisition, Spad, SpadImage, spad_image, spad_image_ambient};
 pub use values::Point;
 
 pub use crate::film::TimeAxis;

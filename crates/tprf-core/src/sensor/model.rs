@@ -72,6 +72,7 @@ impl SensorModel {
         let light = sensor.light.compile()?;
         let gates = sensor.exposure.gates(axis.t0_s)?;
         sensor.noise.validate()?;
+        sensor.validate_ambient()?;
         sensor.derived.validate(&sensor.exposure, &gates)?;
         if let Some(spad) = &sensor.spad {
             spad.validate(&sensor.exposure)?;
@@ -122,6 +123,7 @@ impl SensorModel {
         if sensor.light == self.sensor.light && sensor.exposure == self.sensor.exposure {
             sensor.noise.validate()?;
             sensor.derived.validate(&sensor.exposure, &self.gates)?;
+            sensor.validate_ambient()?;
             if let Some(spad) = &sensor.spad {
                 spad.validate(&sensor.exposure)?;
             }

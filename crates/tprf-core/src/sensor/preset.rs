@@ -55,6 +55,24 @@ pub struct Sensor {
     pub name: String,
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub description: String,
+    /// Scale of the cube's ambient image `A` (dimensionless, >= 0; 1 = the ambient
+    /// light group at the power the scene states, 0 = off), when the cube has one
+    /// (`ambient.npy`): gate `i` measures `ambient_scale A[p] integral Exposure_i dt`
+    /// more, and a SPAD counts `ambient_scale photons_per_unit A[p]` more photons per
+    /// second (see [`super::ambient`]).
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub ambient_scale: f64,
+    /// AMCW gates only (they never close): the seconds of ambient light one measurement
+    /// collects per unit of emitted energy, i.e. 1 / the source's mean power in W. Gate
+    /// `i` then measures `ambient_scale A[p] mean(Exposure_i) ambient_exposure_s` more.
+    /// Without it an AMCW sensor leaves the ambient image out (and says so).
+    #[serde(
+        default,
+        alias = "ambient_exposure",
+        with = "super::values::option_seconds",
+        skip_serializing_if = "Option::is_none"
+    )]
+    pub ambient_exposure_s: Option<f64>,
     /// `Light(t)`; default a unit delta at `t = 0`.
     #[serde(default)]
     pub light: LightPulse,
@@ -69,6 +87,14 @@ pub struct Sensor {
     pub spad: Option<Spad>,
 }
 
+fn one() -> f64 {
+    1.0
+}
+
+fn is_one(x: &f64) -> bool {
+    *x == 1.0
+}
+
 impl Sensor {
     /// A sensor with `light` and `exposure`, no noise, no derived outputs.
     pub fn new(light: LightPulse, exposure: Exposure) -> Sensor {
@@ -80,6 +106,8 @@ impl Sensor {
             noise: Noise::default(),
             derived: Derived::default(),
             spad: None,
+            ambient_scale: 1.0,
+            ambient_exposure_s: None,
         }
     }
 
@@ -90,10 +118,20 @@ impl Sensor {
         let gates = self.exposure.gates(window_t0_s)?;
         self.noise.validate()?;
         self.derived.validate(&self.exposure, &gates)?;
+        self.validate_ambient()?;
         match &self.spad {
             Some(spad) => spad.validate(&self.exposure),
             None => Ok(()),
         }
+    }
+
+    /// Checks `ambient_scale` (finite, >= 0) and `ambient_exposure_s` (finite, > 0).
+    pub fn validate_ambient(&self) -> Result<(), SensorError> {
+        super::non_negative("ambient_scale", self.ambient_scale)?;
+        if let Some(t) = self.ambient_exposure_s {
+            super::positive("ambient_exposure_s", t)?;
+        }
+        Ok(())
     }
 
     /// Checks every value ([`Sensor::validate_for`] a window starting at 0).

@@ -258,6 +258,23 @@ impl Renderer {
     /// Returns the rays traced.
     pub fn trace_path(
         &self,
+        origin: Vec3,
+        dir: Vec3,
+        rng: &mut Sampler,
+        sink: &mut impl Sink,
+    ) -> u64 {
+        self.trace::<false>(&self.lights, origin, dir, rng, sink)
+    }
+
+    /// A path lit by `lights` (with their emissive surfaces when not `AMBIENT`). The
+    /// pulsed render is `AMBIENT = false`: the ambient code below compiles away and the
+    /// loop is the one it always was. `AMBIENT = true` is the steady ambient image
+    /// ([`super::ambient`]): `lights` is the ambient group (point, spot and directional
+    /// lights, the sky), emissive surfaces are dark, and an escaping path picks up the
+    /// sky radiance.
+    pub(super) fn trace<const AMBIENT: bool>(
+        &self,
+        lights: &Lights,
         mut origin: Vec3,
         mut dir: Vec3,
         rng: &mut Sampler,
@@ -280,7 +297,13 @@ impl Renderer {
             rays += 1;
             sink.ray(origin, dir, f32::INFINITY, RayKind::Path);
             let Some(hit) = self.accel.closest_hit(origin, dir, f32::INFINITY) else {
-                break; // escaped: no environment light
+                // Escaped: the pulsed render has no environment light; the ambient image
+                // sees the sky's radiance L (found only by BSDF sampling: no MIS weight).
+                if AMBIENT && lights.sky_radiance > 0.0 {
+                    let value = throughput * lights.sky_radiance;
+                    sink.add(opl_m / C_M_PER_S, value as f64, scatterings);
+                }
+                break;
             };
             opl_m += hit.t_m as f64 * ior_here as f64;
             if opl_m > window_end_opl_m {
@@ -302,13 +325,13 @@ impl Renderer {
                 continue;
             }
             // Emission seen along the path (R0 at t = 0 at the emitter).
-            if sp.emission > 0.0 {
+            if !AMBIENT && sp.emission > 0.0 {
                 let weight = match last_pdf {
                     None => 1.0,
                     Some(pdf_bsdf) => {
                         let d2 = (sp.position - last_position).length_squared();
                         let cos_l = sp.n_face.dot(-dir).abs();
-                        let pdf_light = self.lights.pdf_area(hit.triangle) * d2 / cos_l.max(1e-12);
+                        let pdf_light = lights.pdf_area(hit.triangle) * d2 / cos_l.max(1e-12);
                         if s.nee {
                             power_heuristic(pdf_bsdf, pdf_light)
                         } else {
@@ -332,7 +355,8 @@ impl Renderer {
             let wo = frame.to_local(wo_world);
             let p_out = sp.position + sp.n_face * self.offset_m(sp.position);
             if s.nee && bsdf.has_smooth_lobe() {
-                rays += self.next_event(
+                rays += self.next_event::<AMBIENT>(
+                    lights,
                     &bsdf,
                     &frame,
                     wo,
@@ -397,9 +421,14 @@ impl Renderer {
     /// only the shadow ray starts from the offset point `p_out`. (Taken from `p_out`, a
     /// light closer to the surface than the ray offset would lie behind the origin and
     /// light nothing.)
+    ///
+    /// With `AMBIENT`, `lights` is the ambient group: its directional lights are
+    /// sampled too (delta in direction: a shadow ray to infinity, `f cos E`, no MIS) and
+    /// there are no emitters.
     #[allow(clippy::too_many_arguments)]
-    fn next_event(
+    fn next_event<const AMBIENT: bool>(
         &self,
+        lights: &Lights,
         bsdf: &Bsdf,
         frame: &Frame,
         wo: Vec3,
@@ -415,7 +444,7 @@ impl Renderer {
     ) -> u64 {
         let scatterings = vertex + 1;
         let mut rays = 0;
-        for light in &self.lights.punctual {
+        for light in &lights.punctual {
             let to = light.position - p;
             let d2 = to.length_squared();
             if !(d2 > 0.0) {
@@ -446,10 +475,31 @@ impl Renderer {
                 sink.add(arrival_s, value as f64, scatterings);
             }
         }
-        if self.lights.has_emitters() {
+        if AMBIENT {
+            for light in &lights.directional {
+                let wi_world = light.toward_light;
+                if wi_world.dot(n_face) <= 0.0 {
+                    continue;
+                }
+                let wi = frame.to_local(wi_world);
+                let (f, _) = bsdf.eval(wo, wi);
+                if f <= 0.0 {
+                    continue;
+                }
+                rays += 1;
+                sink.ray(p_out, wi_world, f32::INFINITY, RayKind::Shadow);
+                let tr = self.transmittance(p_out, wi_world, f32::INFINITY);
+                if tr > 0.0 {
+                    // Radiance f E cos(theta_i): E the irradiance facing the light, W/m^2.
+                    let value = throughput * f * wi.z * light.irradiance_w_per_m2 * tr;
+                    sink.add(opl_m / C_M_PER_S, value as f64, scatterings);
+                }
+            }
+        }
+        if !AMBIENT && lights.has_emitters() {
             let u = rng.get1(dim::vertex(vertex, dim::EMITTER_SELECT));
             let (u1, u2) = rng.get2(dim::vertex(vertex, dim::EMITTER_POINT));
-            if let Some(es) = self.lights.sample_emitter(u, u1, u2) {
+            if let Some(es) = lights.sample_emitter(u, u1, u2) {
                 let to = es.position - p;
                 let d2 = to.length_squared();
                 if d2 > 0.0 {

@@ -1,7 +1,10 @@
 //! Light sources for next-event estimation: punctual lights (delta in position) and
-//! emissive triangles (area lights, sampled by emitted power).
+//! emissive triangles (area lights, sampled by emitted power) for the pulsed render
+//! ([`Lights::new`]); for the steady ambient image ([`Lights::ambient`]) the scene's
+//! ambient group instead: its point and spot lights, directional lights (delta in
+//! direction) and a constant sky.
 
-use crate::scene::{Channel, PunctualLight, Scene};
+use crate::scene::{Channel, DirectionalLight, PunctualLight, Scene};
 use glam::Vec3;
 
 /// A point or spot light reduced to one band.
@@ -41,6 +44,24 @@ impl Punctual {
     }
 }
 
+/// A directional light (the sun) reduced to one band: delta in direction.
+#[derive(Clone, Copy, Debug)]
+pub struct Directional {
+    /// Unit direction toward the light (minus the direction it travels).
+    pub toward_light: Vec3,
+    /// Irradiance in this band on a surface facing the light, W/m^2.
+    pub irradiance_w_per_m2: f32,
+}
+
+impl Directional {
+    fn new(d: &DirectionalLight, channel: Channel) -> Directional {
+        Directional {
+            toward_light: -d.direction.normalize_or_zero(),
+            irradiance_w_per_m2: channel.pick(d.irradiance_w_per_m2).max(0.0),
+        }
+    }
+}
+
 /// An emissive triangle.
 #[derive(Clone, Copy, Debug)]
 pub struct Emitter {
@@ -65,6 +86,11 @@ pub struct EmitterSample {
 /// All lights of a scene in one band.
 pub struct Lights {
     pub punctual: Vec<Punctual>,
+    /// Directional lights: only in the ambient group ([`Lights::ambient`]).
+    pub directional: Vec<Directional>,
+    /// Radiance of a constant sky in this band, W m^-2 sr^-1, seen by paths that escape
+    /// the scene: only in the ambient group.
+    pub sky_radiance: f32,
     emitters: Vec<Emitter>,
     /// Cumulative selection probabilities of `emitters`.
     cdf: Vec<f32>,
@@ -73,6 +99,27 @@ pub struct Lights {
 }
 
 impl Lights {
+    /// The ambient group of `scene` in one band: its point and spot lights, directional
+    /// lights and sky; no emitters (emissive surfaces are pulsed lights).
+    pub fn ambient(scene: &Scene, channel: Channel) -> Lights {
+        let a = &scene.ambient;
+        Lights {
+            punctual: a.lights.iter().map(|l| Punctual::new(l, channel)).collect(),
+            directional: a
+                .directional
+                .iter()
+                .map(|d| Directional::new(d, channel))
+                .filter(|d| d.irradiance_w_per_m2 > 0.0 && d.toward_light != Vec3::ZERO)
+                .collect(),
+            sky_radiance: channel.pick(a.sky_radiance).max(0.0),
+            emitters: Vec::new(),
+            cdf: Vec::new(),
+            emitter_of: vec![u32::MAX; scene.triangles.len()],
+        }
+    }
+
+    /// The pulsed lights of `scene` in one band: its punctual lights and emissive
+    /// triangles (the ambient group is left out).
     pub fn new(scene: &Scene, channel: Channel) -> Lights {
         let punctual = scene
             .lights
@@ -114,6 +161,8 @@ impl Lights {
             .collect();
         Lights {
             punctual,
+            directional: Vec::new(),
+            sky_radiance: 0.0,
             emitters,
             cdf,
             emitter_of,

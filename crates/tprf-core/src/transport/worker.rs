@@ -3,6 +3,7 @@
 //! Readers (the viewer) take the latest snapshot and status without ever waiting for a
 //! pass: the worker holds its locks only to swap a pointer.
 
+use super::ambient::{AmbientImage, has_ambient, render_ambient_cancellable};
 use super::integrator::{RenderSettings, Renderer};
 use super::progressive::{self, Schedule};
 use super::window::{WindowError, WindowRequest, auto_window};
@@ -98,10 +99,14 @@ pub struct WorkerStatus {
     pub store: StoreStats,
     /// Work left out so far: light that could not arrive inside the window.
     pub left_out: LeftOutCounts,
+    /// Whether the scene's ambient image is still to come (the scene has ambient
+    /// light and [`RenderWorker::ambient`] has none yet).
+    pub ambient_pending: bool,
 }
 
 struct Shared {
     snapshot: Mutex<Option<Arc<FilmSnapshot>>>,
+    ambient: Mutex<Option<Arc<AmbientImage>>>,
     status: Mutex<WorkerStatus>,
     paused: AtomicBool,
     stop: AtomicBool,
@@ -118,12 +123,17 @@ pub struct RenderWorker {
 /// Seconds a pass should take: short enough to keep the view fresh.
 const PASS_TARGET_S: f64 = 0.25;
 
+/// Samples per pixel of the ambient image the worker renders once, after the film's
+/// first pass, when the scene has ambient light.
+pub const AMBIENT_SPP: u32 = 16;
+
 impl RenderWorker {
     /// Start rendering `job`; `on_update` is called after each published change (the
     /// viewer passes its repaint request).
     pub fn spawn(job: RenderJob, on_update: impl Fn() + Send + Sync + 'static) -> RenderWorker {
         let shared = Arc::new(Shared {
             snapshot: Mutex::new(None),
+            ambient: Mutex::new(None),
             status: Mutex::new(WorkerStatus {
                 state: WorkerState::Loading,
                 spp: 0,
@@ -139,6 +149,7 @@ impl RenderWorker {
                 notes: Vec::new(),
                 store: StoreStats::default(),
                 left_out: LeftOutCounts::default(),
+                ambient_pending: false,
             }),
             paused: AtomicBool::new(false),
             stop: AtomicBool::new(false),
@@ -176,6 +187,12 @@ impl RenderWorker {
     /// The latest published film, if any pass has finished.
     pub fn latest(&self) -> Option<Arc<FilmSnapshot>> {
         self.shared.snapshot.lock().ok().and_then(|s| s.clone())
+    }
+
+    /// The scene's ambient image ([`AMBIENT_SPP`] samples per pixel), once rendered;
+    /// `None` before, and for a scene without ambient light.
+    pub fn ambient(&self) -> Option<Arc<AmbientImage>> {
+        self.shared.ambient.lock().ok().and_then(|a| a.clone())
     }
 
     pub fn status(&self) -> Option<WorkerStatus> {
@@ -220,6 +237,7 @@ fn run(job: &RenderJob, shared: &Shared, on_update: &(dyn Fn() + Sync)) -> Resul
     let notes = scene.notes.clone();
     let triangles = scene.triangles.len();
     let renderer = Renderer::new(Arc::new(scene), job.settings);
+    let mut ambient_pending = has_ambient(&renderer);
     let axis = auto_window(&renderer, job.window)?;
     let layout = FilmLayout {
         width: job.width,
@@ -235,6 +253,7 @@ fn run(job: &RenderJob, shared: &Shared, on_update: &(dyn Fn() + Sync)) -> Resul
         s.axis = Some(axis);
         s.triangles = triangles;
         s.notes = notes;
+        s.ambient_pending = ambient_pending;
     });
     on_update();
     // One core stays with the caller (the viewer's UI thread) so frames keep their pace.
@@ -282,6 +301,23 @@ fn run(job: &RenderJob, shared: &Shared, on_update: &(dyn Fn() + Sync)) -> Resul
                     }
                 });
                 on_update();
+                // The ambient image, once, after the first pass has been shown (the
+                // window has a picture meanwhile; a stop cancels it).
+                if ambient_pending {
+                    ambient_pending = false;
+                    let image = render_ambient_cancellable(
+                        &renderer,
+                        job.width,
+                        job.height,
+                        AMBIENT_SPP,
+                        &shared.stop,
+                    );
+                    if let (Some(image), Ok(mut slot)) = (image, shared.ambient.lock()) {
+                        *slot = Some(Arc::new(image));
+                    }
+                    set_status(shared, |s| s.ambient_pending = false);
+                    on_update();
+                }
                 let pause_start = Instant::now();
                 let mut was_paused = false;
                 while shared.paused.load(Ordering::Relaxed) && !shared.stop.load(Ordering::Relaxed)

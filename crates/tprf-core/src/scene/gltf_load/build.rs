@@ -6,8 +6,8 @@
 use super::validate::{SUPPORTED_EXTENSIONS, check_accessor, check_count, invalid, read_all};
 use crate::budget::{self, format_count};
 use crate::scene::{
-    BYTES_PER_TRIANGLE, Camera, Material, PunctualLight, Scene, SceneError, Spot, Texture,
-    Triangle, TriangleAttrs,
+    AmbientLights, BYTES_PER_TRIANGLE, Camera, DirectionalLight, Material, PunctualLight, Scene,
+    SceneError, Spot, Texture, Triangle, TriangleAttrs,
 };
 use glam::{Affine3A, Mat3, Mat4, Vec2, Vec3};
 use gltf::accessor::{DataType, Dimensions};
@@ -162,6 +162,30 @@ fn scene_roots<'a>(doc: &'a Document) -> Option<Vec<gltf::Node<'a>>> {
     Some(scene.nodes().collect())
 }
 
+/// The `"tprf"` object of an element's glTF extras, if any (`None` without extras or
+/// without the key); extras that are not JSON objects are ignored, a `"tprf"` that is not
+/// an object is refused, naming `what`.
+fn tprf_extras(
+    extras: &gltf::json::Extras,
+    file: &str,
+    what: &str,
+) -> Result<Option<serde_json::Map<String, serde_json::Value>>, SceneError> {
+    let Some(raw) = extras.as_ref() else {
+        return Ok(None);
+    };
+    let Ok(serde_json::Value::Object(mut map)) = serde_json::from_str(raw.get()) else {
+        return Ok(None);
+    };
+    match map.remove("tprf") {
+        None => Ok(None),
+        Some(serde_json::Value::Object(t)) => Ok(Some(t)),
+        Some(v) => Err(invalid(
+            file,
+            format!("{what} extras \"tprf\" = {v}: expected an object"),
+        )),
+    }
+}
+
 /// Every node that is no other node's child.
 fn parentless_nodes(doc: &Document) -> Vec<gltf::Node<'_>> {
     let mut is_child = vec![false; doc.nodes().len()];
@@ -190,6 +214,8 @@ pub(super) struct Builder<'a> {
     /// Scene texture of each glTF image decoded so far.
     pub(super) texture_of_image: HashMap<usize, u32>,
     pub(super) lights: Vec<PunctualLight>,
+    /// Directional lights, point/spot lights tagged ambient, the sky.
+    pub(super) ambient: AmbientLights,
     /// The first camera node met, with its world transform.
     pub(super) camera: Option<(gltf::Camera<'a>, Mat4)>,
     pub(super) notes: Vec<String>,
@@ -216,6 +242,7 @@ impl<'a> Builder<'a> {
             textures: Vec::new(),
             texture_of_image: HashMap::new(),
             lights: Vec::new(),
+            ambient: AmbientLights::default(),
             camera: None,
             notes: Vec::new(),
             degenerate: 0,
@@ -362,7 +389,24 @@ impl<'a> Builder<'a> {
             self.camera.get_or_insert((camera, *world));
         }
         if let Some(light) = node.light() {
-            self.add_light(&light, world)?;
+            let ambient = tprf_extras(
+                node.extras(),
+                self.file,
+                &format!("nodes[{}]", node.index()),
+            )?
+            .and_then(|t| t.get("ambient").cloned());
+            let ambient = match ambient {
+                None => false,
+                Some(serde_json::Value::Bool(b)) => b,
+                Some(v) => {
+                    let m = format!(
+                        "nodes[{}] extras tprf.ambient = {v}: expected true or false",
+                        node.index()
+                    );
+                    return Err(invalid(self.file, m));
+                }
+            };
+            self.add_light(&light, world, ambient)?;
         }
         Ok(())
     }
@@ -507,18 +551,33 @@ impl<'a> Builder<'a> {
     }
 
     /// Add a KHR_lights_punctual light at its node (world transform `world`); intensity in
-    /// W/sr is `color x intensity` (no 683 lm/W factor, DESIGN.md).
+    /// W/sr is `color x intensity` (no 683 lm/W factor, DESIGN.md). A directional light
+    /// (irradiance `color x intensity` W/m^2 along the node's -Z) and a point or spot
+    /// light whose node is tagged `ambient` go to the ambient group.
     fn add_light(
         &mut self,
         light: &gltf::khr_lights_punctual::Light,
         world: &Mat4,
+        ambient: bool,
     ) -> Result<(), SceneError> {
         let name = name_or_index(light.name(), "lights", light.index());
         let spot = match light.kind() {
             Kind::Directional => {
-                self.notes.push(format!(
-                    "directional light '{name}' skipped: a pulsed directional light has no position for the pulse to leave at t = 0"
-                ));
+                let direction = world.transform_vector3(Vec3::NEG_Z).try_normalize();
+                let direction = direction.ok_or_else(|| {
+                    invalid(
+                        self.file,
+                        format!(
+                            "directional light '{name}': its node's transform has no -Z direction (zero scale?)"
+                        ),
+                    )
+                })?;
+                let intensity = light.intensity();
+                self.ambient.directional.push(DirectionalLight {
+                    name,
+                    direction,
+                    irradiance_w_per_m2: light.color().map(|c| c * intensity),
+                });
                 return Ok(());
             }
             Kind::Point => None,
@@ -541,12 +600,53 @@ impl<'a> Builder<'a> {
             }
         };
         let intensity = light.intensity();
-        self.lights.push(PunctualLight {
+        let light = PunctualLight {
             name,
             position: world.transform_point3(Vec3::ZERO),
             intensity_w_per_sr: light.color().map(|c| c * intensity),
             spot,
-        });
+        };
+        if ambient {
+            self.ambient.lights.push(light);
+        } else {
+            self.lights.push(light);
+        }
+        Ok(())
+    }
+
+    /// The sky radiance of the scene's extras `{"tprf": {"sky_radiance": L}}` (a number
+    /// or `[r, g, b]`, W m^-2 sr^-1), when given.
+    pub(super) fn read_scene_extras(&mut self) -> Result<(), SceneError> {
+        let Some(scene) = self
+            .doc
+            .default_scene()
+            .or_else(|| self.doc.scenes().next())
+        else {
+            return Ok(());
+        };
+        let what = format!("scenes[{}]", scene.index());
+        let Some(tprf) = tprf_extras(scene.extras(), self.file, &what)? else {
+            return Ok(());
+        };
+        if let Some(v) = tprf.get("sky_radiance") {
+            let rgb = match v {
+                serde_json::Value::Number(n) => n.as_f64().map(|x| [x; 3]),
+                serde_json::Value::Array(a) if a.len() == 3 => {
+                    let c: Option<Vec<f64>> = a.iter().map(|x| x.as_f64()).collect();
+                    c.map(|c| [c[0], c[1], c[2]])
+                }
+                _ => None,
+            };
+            let rgb = rgb.filter(|c| c.iter().all(|x| x.is_finite() && *x >= 0.0));
+            let rgb = rgb.ok_or_else(|| {
+                let m = format!(
+                    "{what} extras tprf.sky_radiance = {v}: expected a number or [r, g, b], \
+                     finite and >= 0 (W m^-2 sr^-1)"
+                );
+                invalid(self.file, m)
+            })?;
+            self.ambient.sky_radiance = rgb.map(|x| x as f32);
+        }
         Ok(())
     }
 
@@ -563,6 +663,7 @@ impl<'a> Builder<'a> {
             textures: self.textures,
             lights: self.lights,
             camera: Camera::look_at(Vec3::Z, Vec3::ZERO, FRAMED_YFOV_RAD),
+            ambient: self.ambient,
             notes: self.notes,
         };
         if scene.triangles.is_empty() {

@@ -10,10 +10,16 @@
 //! accessors too) with POSITION, NORMAL and TEXCOORD_0; node transforms down the hierarchy;
 //! metallic-roughness materials with base colour, metallic-roughness and emissive textures,
 //! alpha modes and KHR_materials_{specular, transmission, ior, emissive_strength} factors;
-//! the first perspective camera; KHR_lights_punctual point and spot lights.
+//! the first perspective camera; KHR_lights_punctual point and spot lights (pulsed).
+//!
+//! The ambient group ([`super::AmbientLights`], steady light the transient render never
+//! sees): KHR_lights_punctual directional lights (irradiance `color x intensity` W/m^2);
+//! point and spot lights whose node has extras `{"tprf": {"ambient": true}}`; a constant
+//! sky from the scene's extras `{"tprf": {"sky_radiance": L}}` (W m^-2 sr^-1, a number
+//! or `[r, g, b]`).
 //!
 //! Not read (each noted in [`Scene::notes`] when a file has it, except samplers and
-//! occlusion): points and lines, directional lights, orthographic cameras, normal maps,
+//! occlusion): points and lines, orthographic cameras, normal maps,
 //! the specular and transmission extensions' textures, TEXCOORD sets other than 0, skins and
 //! morph targets, samplers (wrap and filter modes), occlusion textures (a path tracer
 //! computes occlusion itself).
@@ -56,5 +62,6 @@ pub fn load_gltf(path: &Path) -> Result<Scene, SceneError> {
     let mut builder = Builder::new(&file, &doc, &buffers, base);
     builder.note_ignored_extensions();
     builder.add_scene()?;
+    builder.read_scene_extras()?;
     builder.finish()
 }

@@ -86,15 +86,28 @@ fn detector(model: &SensorModel) -> Result<(&Spad, Detector, f64), SensorError> 
 }
 
 /// The curves of one pixel whose folded `(TPRF * Light)` per TDC bin is `signal` (`B`
-/// values, the unit of a cube bin) and whose steady image is `steady`.
+/// values, the unit of a cube bin) and whose steady image is `steady`, without ambient
+/// image.
 pub fn spad_pixel(
     model: &SensorModel,
     signal: &[f32],
     steady: f64,
 ) -> Result<SpadPixel, SensorError> {
+    spad_pixel_ambient(model, signal, steady, 0.0)
+}
+
+/// [`spad_pixel`] of a pixel whose ambient image is `ambient` (W m^-2 sr^-1, before
+/// the sensor's `ambient_scale`).
+pub fn spad_pixel_ambient(
+    model: &SensorModel,
+    signal: &[f32],
+    steady: f64,
+    ambient: f64,
+) -> Result<SpadPixel, SensorError> {
     let (spad, det, width_s) = detector(model)?;
     let mut rates = Vec::new();
-    spad.rates(signal, steady, width_s, &mut rates);
+    let scale = model.sensor().ambient_scale;
+    spad.rates(signal, steady, scale * ambient, width_s, &mut rates);
     let mut expected = vec![0.0; rates.len()];
     det.expected(&rates, &mut expected);
     let n = det.cycles as f64;
@@ -125,23 +138,44 @@ pub fn smoothing_bins(model: &SensorModel, bin_width_s: f64) -> usize {
 
 /// The SPAD over an image: `signal` the sensor's clean measurement `[B, H, W]` of
 /// `model` (a `tdc` exposure), `steady` the steady image `[H, W]` (the sum of each
-/// pixel's TPRF). The realisation's seed is the sensor's `noise.seed`.
+/// pixel's TPRF). The realisation's seed is the sensor's `noise.seed`. No ambient
+/// image: see [`spad_image_ambient`].
 pub fn spad_image(
     model: &SensorModel,
     signal: &Measurements,
     steady: &[f32],
 ) -> Result<SpadImage, SensorError> {
+    spad_image_ambient(model, signal, steady, None)
+}
+
+/// [`spad_image`] under the cube's ambient image `ambient` (`[H, W]`, W m^-2 sr^-1,
+/// before the sensor's `ambient_scale`), when it has one: each pixel's ambient photon
+/// rate grows by `ambient_scale photons_per_unit A[p]`, in every TDC bin alike.
+pub fn spad_image_ambient(
+    model: &SensorModel,
+    signal: &Measurements,
+    steady: &[f32],
+    ambient: Option<&[f32]>,
+) -> Result<SpadImage, SensorError> {
     let (spad, det, width_s) = detector(model)?;
     let (w, h, b) = (signal.width, signal.height, signal.gates);
     let pixels = w * h;
-    if b != det.bins || signal.values.len() != b * pixels || steady.len() != pixels {
+    if b != det.bins
+        || signal.values.len() != b * pixels
+        || steady.len() != pixels
+        || ambient.is_some_and(|a| a.len() != pixels)
+    {
         return Err(SensorError::Invalid(format!(
-            "SPAD input: {} values for {b} bins x {h} x {w}, steady image of {} for {} pixels",
+            "SPAD input: {} values for {b} bins x {h} x {w}, steady image of {} and ambient \
+             image of {} for {} pixels",
             signal.values.len(),
             steady.len(),
+            ambient.map_or(pixels, <[f32]>::len),
             pixels
         )));
     }
+    let scale = model.sensor().ambient_scale;
+    let ambient_at = |p: usize| ambient.map_or(0.0, |a| scale * f64::from(a[p]));
     // Held at once: the expected histogram, the realisation and its Coates estimate in
     // f64 pixel-major, the three f32 [B, H, W] copies of them, and the depths.
     let need_bytes = (pixels as u64)
@@ -170,7 +204,7 @@ pub fn spad_image(
         || (Vec::new(), Vec::new()),
         |(sig, rates), (p, out)| {
             gather(p, sig);
-            spad.rates(sig, f64::from(steady[p]), width_s, rates);
+            spad.rates(sig, f64::from(steady[p]), ambient_at(p), width_s, rates);
             det.expected(rates, out);
         },
     );
@@ -195,7 +229,7 @@ pub fn spad_image(
             || (Vec::new(), Vec::new(), Vec::new()),
             |(sig, rates, scratch), (p, ((cnt, est), exp))| {
                 gather(p, sig);
-                spad.rates(sig, f64::from(steady[p]), width_s, rates);
+                spad.rates(sig, f64::from(steady[p]), ambient_at(p), width_s, rates);
                 let mut rng = pixel_stream(seed, p);
                 sample_pixel(&det, sampler, rates, exp, &mut rng, cnt);
                 coates(&det, cnt, est);

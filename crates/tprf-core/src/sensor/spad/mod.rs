@@ -9,10 +9,12 @@
 //!
 //! ```text
 //! r_k = PDE (photons_per_unit S_k + (ambient_rate_hz + ambient_lamp_hz photons_per_unit
-//!       steady) w) + dark_count_rate_hz w
+//!       steady + ambient_scale photons_per_unit A) w) + dark_count_rate_hz w
 //! ```
 //!
-//! (`steady` the pixel's steady image, the sum of its TPRF: see [`Spad`]). Photons in
+//! (`steady` the pixel's steady image, the sum of its TPRF: see [`Spad`]; `A` the
+//! pixel's ambient image, W m^-2 sr^-1, when the cube has one: see
+//! [`crate::sensor::ambient`]). Photons in
 //! different bins and cycles are independent Poisson counts. The detector
 //! ([`detector`]) fires on the first event of a bin while it is armed, is then dead for
 //! the rest of that bin and the next `d = round(dead_time_s / w)` bins, and may
@@ -31,7 +33,9 @@ pub mod sample;
 
 pub use coates::{coates, return_depth_m};
 pub use detector::{Detector, Sampler};
-pub use image::{SpadImage, SpadPixel, spad_image, spad_pixel};
+pub use image::{
+    SpadImage, SpadPixel, spad_image, spad_image_ambient, spad_pixel, spad_pixel_ambient,
+};
 
 use serde::{Deserialize, Serialize};
 
@@ -185,13 +189,25 @@ impl Spad {
 
     /// The mean detectable events per cycle in each TDC bin of width `bin_width_s`
     /// (into `out`) for a pixel whose folded `(TPRF * Light)` per bin is `signal` and
-    /// whose steady image is `steady` (both in the unit of a cube bin):
-    /// `r_k = PDE (photons_per_unit S_k + ambient photons/s x w) + DCR w`. Negative or
-    /// NaN inputs count as 0.
-    pub fn rates(&self, signal: &[f32], steady: f64, bin_width_s: f64, out: &mut Vec<f64>) {
+    /// whose steady image is `steady` (both in the unit of a cube bin), under an ambient
+    /// radiance `ambient` (W m^-2 sr^-1: the cube's ambient image times
+    /// `ambient_scale`; 0 without one):
+    /// `r_k = PDE (photons_per_unit S_k + ambient photons/s x w) + DCR w`, the ambient
+    /// photons/s being `ambient_rate_hz + photons_per_unit (ambient_lamp_hz steady +
+    /// ambient)`: a radiance times `photons_per_unit` (photons per radiance x second)
+    /// is photons per second. Negative or NaN inputs count as 0.
+    pub fn rates(
+        &self,
+        signal: &[f32],
+        steady: f64,
+        ambient: f64,
+        bin_width_s: f64,
+        out: &mut Vec<f64>,
+    ) {
         let steady = if steady > 0.0 { steady } else { 0.0 };
-        let ambient_hz =
-            self.ambient_rate_hz + self.ambient_lamp_hz * self.photons_per_unit * steady;
+        let ambient = if ambient > 0.0 { ambient } else { 0.0 };
+        let ambient_hz = self.ambient_rate_hz
+            + self.photons_per_unit * (self.ambient_lamp_hz * steady + ambient);
         let floor = self.pde * ambient_hz * bin_width_s + self.dark_count_rate_hz * bin_width_s;
         out.clear();
         out.extend(signal.iter().map(|&s| {
