@@ -80,12 +80,43 @@ pub fn diverging(t: f64) -> [u8; 3] {
 
 /// RGBA8 pixels of a scalar image.
 pub fn colorize(values: &[f32], tone: &Tone, map: ColorMap) -> Vec<u8> {
+    let lut = lut(map);
+    let last = (LUT_SIZE - 1) as f64;
     let mut out = Vec::with_capacity(values.len() * 4);
     for &v in values {
-        let [r, g, b] = color_of(map, tone.map(v as f64));
+        let t = tone.map(v as f64);
+        // NaN maps to 0, as `color_of` clamps it.
+        let i = if t > 0.0 {
+            (t.min(1.0) * last).round() as usize
+        } else {
+            0
+        };
+        let [r, g, b] = lut[i];
         out.extend_from_slice(&[r, g, b, 255]);
     }
     out
+}
+
+/// Entries of a colour map's table: adjacent entries differ by less than one 8-bit
+/// level, so a looked-up colour is within one level of [`color_of`].
+const LUT_SIZE: usize = 4096;
+
+/// [`color_of`] of `map` at `i / (LUT_SIZE - 1)`, made once: `colorize` runs per pixel
+/// per frame, and the gradient's spline (or the sRGB curve) per pixel was a tenth of the
+/// UI thread's time at 512 x 512.
+fn lut(map: ColorMap) -> &'static [[u8; 3]] {
+    use std::sync::OnceLock;
+    static GRAY: OnceLock<Vec<[u8; 3]>> = OnceLock::new();
+    static INFERNO: OnceLock<Vec<[u8; 3]>> = OnceLock::new();
+    let cell = match map {
+        ColorMap::Gray => &GRAY,
+        ColorMap::Inferno => &INFERNO,
+    };
+    cell.get_or_init(|| {
+        (0..LUT_SIZE)
+            .map(|i| color_of(map, i as f64 / (LUT_SIZE - 1) as f64))
+            .collect()
+    })
 }
 
 /// The "rainbow" view: hue = arrival time of the TPRF's peak (bin / bins, turbo colour
@@ -110,6 +141,32 @@ pub fn rainbow(peak_bins: &[Option<u32>], energy: &[f32], bins: usize, tone: &To
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn colorize_is_within_one_level_of_the_exact_colour() {
+        let tone = Tone {
+            scale: 1.0,
+            log: false,
+            decades: 3.0,
+        };
+        let values: Vec<f32> = (0..=20_000)
+            .map(|i| i as f32 / 20_000.0)
+            .chain([f32::NAN, -1.0, 7.0])
+            .collect();
+        for map in [ColorMap::Gray, ColorMap::Inferno] {
+            let got = colorize(&values, &tone, map);
+            for (v, px) in values.iter().zip(got.chunks_exact(4)) {
+                let want = color_of(map, tone.map(*v as f64));
+                for c in 0..3 {
+                    assert!(
+                        (px[c] as i32 - want[c] as i32).abs() <= 1,
+                        "{map:?} at {v}: {px:?} vs {want:?}"
+                    );
+                }
+                assert_eq!(px[3], 255);
+            }
+        }
+    }
 
     #[test]
     fn tone_maps_linear_and_log() {
