@@ -31,7 +31,6 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser};
 use serde::Deserialize;
-use tprf_core::export::CubeMetadata;
 
 use super::{Cli, Command};
 
@@ -304,13 +303,9 @@ pub fn cube_incomplete(job: &Job) -> Option<String> {
     if !json.exists() {
         return Some(format!("{} is missing", json.display()));
     }
-    let bytes = match tprf_core::budget::read_file(&json, "tprf.json") {
-        Ok(b) => b,
-        Err(e) => return Some(format!("{} cannot be read: {e}", json.display())),
-    };
-    let meta: CubeMetadata = match serde_json::from_slice(&bytes) {
+    let meta = match tprf_core::export::read_metadata(&json) {
         Ok(m) => m,
-        Err(e) => return Some(format!("{} is not tprf.json: {e}", json.display())),
+        Err(e) => return Some(crate::cli::message_chain(&anyhow::Error::from(e))),
     };
     if meta.shard.is_some() {
         return Some(format!("{} holds a shard", job.out.display()));

@@ -570,7 +570,9 @@ fn measurement_images(
     if let Some(m) = measured.filter(|_| current) {
         let tone = white.map_or(1.0, |v| 1.0 / v);
         let planes = |i: usize| m.m.plane(i);
-        let key = |i: usize| hash(&(snap.generation(), model.sensor(), i, white));
+        // The sensor is formatted once a frame, not once a thumbnail.
+        let base = hash(&(snap.generation(), model.sensor(), white));
+        let key = |i: usize| hash(&(base, i));
         if let Some(i) = gate_strip(
             ui,
             textures,

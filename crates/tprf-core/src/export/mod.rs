@@ -422,22 +422,26 @@ pub fn read_cube(npy: &Path) -> Result<(CubeMetadata, Vec<f32>), ExportError> {
     Ok((meta, cube.read_all()?))
 }
 
-/// [`read_cube`] without reading the values: the metadata and the open array, its
-/// shape checked.
-pub fn open_cube(npy: &Path) -> Result<(CubeMetadata, NpyF32), ExportError> {
-    let meta_path = npy.with_file_name("tprf.json");
-    let bytes = crate::budget::read_file(&meta_path, "tprf.json").map_err(|e| match e {
+/// A cube's `tprf.json` at `path` (a regular file, read under the memory budget).
+pub fn read_metadata(path: &Path) -> Result<CubeMetadata, ExportError> {
+    let bytes = crate::budget::read_file(path, "tprf.json").map_err(|e| match e {
         crate::budget::BudgetError::Io { source, .. } => ExportError::NoMetadata {
-            path: meta_path.clone(),
+            path: path.to_path_buf(),
             source,
         },
         e => e.into(),
     })?;
-    let meta: CubeMetadata =
-        serde_json::from_slice(&bytes).map_err(|source| ExportError::Metadata {
-            path: meta_path.clone(),
-            source,
-        })?;
+    serde_json::from_slice(&bytes).map_err(|source| ExportError::Metadata {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// [`read_cube`] without reading the values: the metadata and the open array, its
+/// shape checked.
+pub fn open_cube(npy: &Path) -> Result<(CubeMetadata, NpyF32), ExportError> {
+    let meta_path = npy.with_file_name("tprf.json");
+    let meta = read_metadata(&meta_path)?;
     meta.check_not_empty(&meta_path)?;
     let cube = NpyF32::open(npy)?;
     let expected = vec![meta.height as u64, meta.width as u64, meta.bins as u64];

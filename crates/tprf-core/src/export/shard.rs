@@ -254,19 +254,7 @@ pub struct Shard {
 
 /// Read a shard folder's `tprf.json`; refuse one without a shard section.
 pub fn read_shard(dir: &Path) -> Result<Shard> {
-    let path = dir.join("tprf.json");
-    let bytes = crate::budget::read_file(&path, "tprf.json").map_err(|e| match e {
-        crate::budget::BudgetError::Io { source, .. } => ExportError::NoMetadata {
-            path: path.clone(),
-            source,
-        },
-        e => e.into(),
-    })?;
-    let meta: CubeMetadata =
-        serde_json::from_slice(&bytes).map_err(|source| ExportError::Metadata {
-            path: path.clone(),
-            source,
-        })?;
+    let meta = super::read_metadata(&dir.join("tprf.json"))?;
     let info = meta.shard.clone().ok_or_else(|| ShardError::NotAShard {
         dir: dir.to_path_buf(),
     })?;

@@ -113,18 +113,23 @@ pub(crate) fn finite(what: &str, value: f64) -> Result<f64, SensorError> {
     }
 }
 
-/// `value` if finite and `>= 0`.
-pub(crate) fn non_negative(what: &str, value: f64) -> Result<f64, SensorError> {
-    finite(what, value)?;
-    if value >= 0.0 {
+/// `value` if `ok`, else out of range by `rule`.
+fn in_range(what: &str, value: f64, ok: bool, rule: &'static str) -> Result<f64, SensorError> {
+    if ok {
         Ok(value)
     } else {
         Err(SensorError::OutOfRange {
             what: what.to_string(),
             value,
-            rule: ">= 0",
+            rule,
         })
     }
+}
+
+/// `value` if finite and `>= 0`.
+pub(crate) fn non_negative(what: &str, value: f64) -> Result<f64, SensorError> {
+    finite(what, value)?;
+    in_range(what, value, value >= 0.0, ">= 0")
 }
 
 /// The largest factor a setting may scale a measurement by: measurements are float32
@@ -134,15 +139,12 @@ pub(crate) const MAX_SCALE: f64 = 1e30;
 /// `value` if `>= 0` and at most [`MAX_SCALE`] (a gain, an energy, a noise level).
 pub(crate) fn scale(what: &str, value: f64) -> Result<f64, SensorError> {
     non_negative(what, value)?;
-    if value <= MAX_SCALE {
-        Ok(value)
-    } else {
-        Err(SensorError::OutOfRange {
-            what: what.to_string(),
-            value,
-            rule: "<= 1e30 (measurements are float32)",
-        })
-    }
+    in_range(
+        what,
+        value,
+        value <= MAX_SCALE,
+        "<= 1e30 (measurements are float32)",
+    )
 }
 
 /// The largest time or duration a sensor setting may hold: one second (3e8 m of light
@@ -152,15 +154,12 @@ pub const MAX_TIME_S: f64 = 1.0;
 /// A time in seconds: finite and within `+-MAX_TIME_S`.
 pub(crate) fn time_s(what: &str, value: f64) -> Result<f64, SensorError> {
     finite(what, value)?;
-    if value.abs() <= MAX_TIME_S {
-        Ok(value)
-    } else {
-        Err(SensorError::OutOfRange {
-            what: what.to_string(),
-            value,
-            rule: "within +-1 s (a time of flight)",
-        })
-    }
+    in_range(
+        what,
+        value,
+        value.abs() <= MAX_TIME_S,
+        "within +-1 s (a time of flight)",
+    )
 }
 
 /// A duration in seconds: `>= 0` (`> 0` when `strict`) and at most `MAX_TIME_S`.
@@ -170,27 +169,11 @@ pub(crate) fn duration_s(what: &str, value: f64, strict: bool) -> Result<f64, Se
     } else {
         non_negative(what, value)?;
     }
-    if value <= MAX_TIME_S {
-        Ok(value)
-    } else {
-        Err(SensorError::OutOfRange {
-            what: what.to_string(),
-            value,
-            rule: "<= 1 s",
-        })
-    }
+    in_range(what, value, value <= MAX_TIME_S, "<= 1 s")
 }
 
 /// `value` if finite and `> 0`.
 pub(crate) fn positive(what: &str, value: f64) -> Result<f64, SensorError> {
     finite(what, value)?;
-    if value > 0.0 {
-        Ok(value)
-    } else {
-        Err(SensorError::OutOfRange {
-            what: what.to_string(),
-            value,
-            rule: "> 0",
-        })
-    }
+    in_range(what, value, value > 0.0, "> 0")
 }
