@@ -14,6 +14,23 @@ use std::time::{Duration, Instant};
 use tprf::viewer::{Mode, Start, TprfApp, ViewerSettings};
 use tprf_core::sensor::{LightPulse, Sensor};
 
+/// CPU time the calling thread has used, ms (Linux; elsewhere `None`): what a frame
+/// cost the UI thread itself, apart from the time it waited for a core.
+fn thread_cpu_ms() -> Option<f64> {
+    #[cfg(target_os = "linux")]
+    {
+        let mut ts = libc::timespec {
+            tv_sec: 0,
+            tv_nsec: 0,
+        };
+        // SAFETY: clock_gettime writes one timespec.
+        if unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) } == 0 {
+            return Some(ts.tv_sec as f64 * 1e3 + ts.tv_nsec as f64 * 1e-6);
+        }
+    }
+    None
+}
+
 fn quantile(sorted: &[f64], q: f64) -> f64 {
     sorted[((sorted.len() - 1) as f64 * q).round() as usize]
 }
@@ -35,15 +52,20 @@ fn run(label: &str, settings: ViewerSettings, frames: usize) {
     let rect = h.get_by_label("time slice").rect();
     h.hover_at(Pos2::new(rect.center().x, rect.center().y));
     let mut times_ms = Vec::with_capacity(frames);
+    let mut cpu_ms = Vec::with_capacity(frames);
     let mut snapshots = 0;
     let mut last = None;
     for _ in 0..frames {
         let t = Instant::now();
+        let cpu = thread_cpu_ms();
         h.step();
         let shapes = h.output().shapes.clone();
         let _ = h.ctx.tessellate(shapes, 1.0);
         let spent = t.elapsed();
         times_ms.push(spent.as_secs_f64() * 1e3);
+        if let (Some(a), Some(b)) = (cpu, thread_cpu_ms()) {
+            cpu_ms.push(b - a);
+        }
         let snap = h.state().snapshot().map(|s| s.generation());
         if snap != last {
             snapshots += 1;
@@ -53,12 +75,22 @@ fn run(label: &str, settings: ViewerSettings, frames: usize) {
     }
     let status = h.state().status().unwrap();
     times_ms.sort_by(f64::total_cmp);
+    cpu_ms.sort_by(f64::total_cmp);
+    let cpu = |q| {
+        if cpu_ms.is_empty() {
+            "-".to_string()
+        } else {
+            format!("{:.2}", quantile(&cpu_ms, q))
+        }
+    };
     println!(
-        "| {label} | {frames} | {:.2} | {:.2} | {:.2} | {:.2} | {snapshots} | {} |",
+        "| {label} | {frames} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {} | {snapshots} | {} |",
         quantile(&times_ms, 0.5),
         quantile(&times_ms, 0.95),
         quantile(&times_ms, 0.99),
         times_ms.last().unwrap(),
+        cpu(0.5),
+        cpu(0.99),
         status.spp
     );
 }
@@ -126,14 +158,20 @@ fn sensor_edits(label: &str, preset: &str, side: usize, bins: usize, edits: usiz
 }
 
 fn main() {
-    // `cargo bench --bench viewer -- sensor` (or `-- frames`) runs one part.
-    let only: Vec<String> = std::env::args()
+    // `cargo bench --bench viewer -- sensor` (or `-- frames`) runs one part; a number
+    // (`-- frames 512`) keeps only the films of that side.
+    let args: Vec<String> = std::env::args()
         .skip(1)
         .filter(|a| !a.starts_with('-'))
         .collect();
-    let part = |name: &str| only.is_empty() || only.iter().any(|a| a == name);
+    let sides: Vec<usize> = args.iter().filter_map(|a| a.parse().ok()).collect();
+    let only: Vec<&String> = args
+        .iter()
+        .filter(|a| a.parse::<usize>().is_err())
+        .collect();
+    let part = |name: &str| only.is_empty() || only.iter().any(|a| *a == name);
     if part("frames") {
-        frames();
+        frames(&sides);
     }
     if part("sensor") {
         sensor();
@@ -228,38 +266,34 @@ fn throughput() {
     }
 }
 
-fn frames() {
+fn frames(sides: &[usize]) {
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     println!(
         "UI thread time per frame while rendering ({threads} hardware threads; the renderer uses {})\n",
         threads.saturating_sub(1).max(1)
     );
     println!(
-        "| film (cornell) | frames | p50 ms | p95 ms | p99 ms | max ms | new snapshots seen | spp at end |"
+        "| film (cornell) | frames | p50 ms | p95 ms | p99 ms | max ms | UI CPU p50 ms | UI CPU p99 ms | new snapshots seen | spp at end |"
     );
-    println!("|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     let base = ViewerSettings::default();
-    run("128 x 128 x 256 (default)", base.clone(), 600);
-    run(
-        "256 x 256 x 512",
-        ViewerSettings {
-            width: 256,
-            height: 256,
-            bins: 512,
+    for (side, bins, frames) in [(128, 256, 600), (256, 512, 600), (512, 1024, 300)] {
+        if !sides.is_empty() && !sides.contains(&side) {
+            continue;
+        }
+        let settings = ViewerSettings {
+            width: side,
+            height: side,
+            bins,
             ..base.clone()
-        },
-        600,
-    );
-    run(
-        "512 x 512 x 1024",
-        ViewerSettings {
-            width: 512,
-            height: 512,
-            bins: 1024,
-            ..base
-        },
-        300,
-    );
+        };
+        let default = if settings == base { " (default)" } else { "" };
+        run(
+            &format!("{side} x {side} x {bins}{default}"),
+            settings,
+            frames,
+        );
+    }
 }
 
 fn sensor() {

@@ -10,7 +10,7 @@ use super::sensor::{self, SensorState};
 use super::settings::{Mode, ViewerSettings};
 use super::source::Source;
 use super::textures::{ImageKey, TextureCache};
-use super::tone::{Exposure, View};
+use super::tone::{Exposure, Scratch, View};
 use eframe::egui::{self, RichText};
 use std::time::Instant;
 use tprf_core::film::FilmSnapshot;
@@ -40,6 +40,8 @@ pub struct TprfApp {
     pub(super) textures: TextureCache<ImageKey>,
     /// How each image's texture was exposed (for its colour bar).
     pub(super) exposures: Vec<(View, Exposure)>,
+    /// Buffers the images are made in, kept between frames.
+    pub(super) scratch: Scratch,
     pub(super) messages: Vec<String>,
     /// Files being written in the background.
     pub(super) exports: Exports,
@@ -92,6 +94,7 @@ impl TprfApp {
             drag_start: None,
             textures: TextureCache::default(),
             exposures: Vec::new(),
+            scratch: Scratch::default(),
             messages: Vec::new(),
             exports: Exports::default(),
             timing: FrameTiming::default(),

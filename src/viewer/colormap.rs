@@ -82,17 +82,30 @@ pub fn diverging(t: f64) -> [u8; 3] {
 pub fn colorize(values: &[f32], tone: &Tone, map: ColorMap) -> Vec<u8> {
     let lut = lut(map);
     let last = (LUT_SIZE - 1) as f64;
-    let mut out = Vec::with_capacity(values.len() * 4);
-    for &v in values {
-        let t = tone.map(v as f64);
-        // NaN maps to 0, as `color_of` clamps it.
-        let i = if t > 0.0 {
-            (t.min(1.0) * last).round() as usize
+    let mut out = vec![255u8; values.len() * 4];
+    // The table's entry of tone `t` is `round(t last)`; NaN, zero and negatives are 0,
+    // as `color_of` clamps them. The linear case, what playback shows every frame, is
+    // one multiply and a compare a pixel.
+    let index = |t: f64| {
+        if t > 0.0 {
+            (t.min(1.0) * last + 0.5) as usize
         } else {
             0
+        }
+    };
+    let k = tone.scale * last;
+    for (px, &v) in out.chunks_exact_mut(4).zip(values) {
+        let i = if tone.log {
+            index(tone.map(v as f64))
+        } else {
+            let x = v as f64 * k;
+            if x > 0.0 {
+                (x.min(last) + 0.5) as usize
+            } else {
+                0
+            }
         };
-        let [r, g, b] = lut[i];
-        out.extend_from_slice(&[r, g, b, 255]);
+        px[..3].copy_from_slice(&lut[i]);
     }
     out
 }
@@ -122,17 +135,26 @@ fn lut(map: ColorMap) -> &'static [[u8; 3]] {
 /// The "rainbow" view: hue = arrival time of the TPRF's peak (bin / bins, turbo colour
 /// map), brightness = the pixel's energy through `tone`.
 pub fn rainbow(peak_bins: &[Option<u32>], energy: &[f32], bins: usize, tone: &Tone) -> Vec<u8> {
-    let mut out = Vec::with_capacity(peak_bins.len() * 4);
-    for (&bin, &energy) in peak_bins.iter().zip(energy) {
+    static TURBO: std::sync::OnceLock<Vec<[u8; 3]>> = std::sync::OnceLock::new();
+    let table = TURBO.get_or_init(|| {
+        (0..LUT_SIZE)
+            .map(|i| turbo(i as f64 / (LUT_SIZE - 1) as f64))
+            .collect()
+    });
+    let last = (LUT_SIZE - 1) as f64;
+    let span = bins.saturating_sub(1).max(1) as f64;
+    let mut out = vec![255u8; peak_bins.len() * 4];
+    for ((px, &bin), &energy) in out.chunks_exact_mut(4).zip(peak_bins).zip(energy) {
         match bin {
             Some(b) => {
-                let hue = b as f64 / bins.saturating_sub(1).max(1) as f64;
-                let [r, g, b] = turbo(hue);
+                let hue = (b as f64 / span).min(1.0);
+                let rgb = table[(hue * last + 0.5) as usize];
                 let k = tone.map(energy as f64).sqrt();
-                let f = |x: u8| (x as f64 * k).round().clamp(0.0, 255.0) as u8;
-                out.extend_from_slice(&[f(r), f(g), f(b), 255]);
+                for (o, c) in px.iter_mut().zip(rgb) {
+                    *o = (c as f64 * k + 0.5).min(255.0) as u8;
+                }
             }
-            None => out.extend_from_slice(&[0, 0, 0, 255]),
+            None => px[..3].fill(0),
         }
     }
     out

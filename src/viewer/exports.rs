@@ -130,7 +130,7 @@ fn write_video(
 impl TprfApp {
     /// Save `view` of `snap` at `path` as shown (encoded in the background).
     pub(super) fn save_view_png(&mut self, view: View, snap: &Arc<FilmSnapshot>, path: PathBuf) {
-        let (rgba, _) = tone::view_pixels(view, snap, self.bin, &self.settings);
+        let (rgba, _) = tone::view_pixels(view, snap, self.bin, &self.settings, &mut self.scratch);
         let (w, h) = (snap.width(), snap.height());
         let what = path.display().to_string();
         let write = move || write_png_rgba(&path, w, h, rgba);

@@ -164,7 +164,14 @@ mod tests {
         let image = |snap: &FilmSnapshot| {
             egui::ColorImage::from_rgba_unmultiplied(
                 [snap.width(), snap.height()],
-                &super::super::tone::view_pixels(View::Slice, snap, 2, &settings).0,
+                &super::super::tone::view_pixels(
+                    View::Slice,
+                    snap,
+                    2,
+                    &settings,
+                    &mut Default::default(),
+                )
+                .0,
             )
         };
         let a = Arc::new(snapshot(1.0));

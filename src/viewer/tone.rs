@@ -5,7 +5,7 @@
 use super::axes::BarScale;
 use super::colormap::{self, ColorMap, ExposureMode, Tone};
 use super::settings::ViewerSettings;
-use tprf_core::film::{FilmSnapshot, quantile};
+use tprf_core::film::{FilmSnapshot, quantile_f32};
 
 /// Which image of the film a texture shows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -90,12 +90,12 @@ pub(super) fn slice_exposure(
     settings: &ViewerSettings,
     snap: &FilmSnapshot,
     values: &[f32],
+    keys: &mut Vec<u32>,
 ) -> Exposure {
     let cube_white = snap.robust_max();
     match settings.exposure {
         ExposureMode::PerFrame => {
-            let pct =
-                quantile(values.iter().map(|&v| f64::from(v)), SLICE_PERCENTILE).unwrap_or(0.0);
+            let pct = quantile_f32(values, SLICE_PERCENTILE, keys).unwrap_or(0.0);
             let floor = cube_white.map_or(0.0, |w| w * SLICE_FLOOR);
             let (white, note) = if pct > 0.0 && pct >= floor {
                 (
@@ -148,6 +148,14 @@ pub(super) fn steady_exposure(settings: &ViewerSettings, snap: &FilmSnapshot) ->
     }
 }
 
+/// Buffers a frame's image is made in, kept between frames: playback makes a new time
+/// slice every frame, and fresh megabytes a frame cost page faults.
+#[derive(Default)]
+pub(super) struct Scratch {
+    values: Vec<f32>,
+    keys: Vec<u32>,
+}
+
 /// RGBA8 pixels (`[H, W]`, row 0 = top) of `view` of `snap`, and the exposure they were
 /// made with; `bin` is the time slice's.
 pub(super) fn view_pixels(
@@ -155,12 +163,16 @@ pub(super) fn view_pixels(
     snap: &FilmSnapshot,
     bin: usize,
     settings: &ViewerSettings,
+    scratch: &mut Scratch,
 ) -> (Vec<u8>, Exposure) {
     match view {
         View::Slice => {
-            let values = snap.slice(bin);
-            let e = slice_exposure(settings, snap, &values);
-            (colormap::colorize(&values, &e.tone, settings.colormap), e)
+            snap.slice_into(bin, &mut scratch.values);
+            let e = slice_exposure(settings, snap, &scratch.values, &mut scratch.keys);
+            (
+                colormap::colorize(&scratch.values, &e.tone, settings.colormap),
+                e,
+            )
         }
         View::Steady => {
             let e = steady_exposure(settings, snap);
@@ -217,7 +229,7 @@ mod tests {
         let snap = film();
         let settings = ViewerSettings::default();
         // Bin 0: the one 50.0 pixel is above the 99.5th percentile; white = 1.0.
-        let e = slice_exposure(&settings, &snap, &snap.slice(0));
+        let e = slice_exposure(&settings, &snap, &snap.slice(0), &mut Vec::new());
         assert!(
             (1.0 / e.tone.scale - 1.0).abs() < 1e-12,
             "{}",
@@ -228,7 +240,7 @@ mod tests {
         // Bin 1: one lit pixel in 400 is below the percentile; white falls back to 1 %
         // of the cube's white (its 99.9th percentile of lit bins: the top one of 401,
         // 50.0), so the lone noisy pixel is not made white.
-        let e = slice_exposure(&settings, &snap, &snap.slice(1));
+        let e = slice_exposure(&settings, &snap, &snap.slice(1), &mut Vec::new());
         assert_eq!(snap.robust_max(), Some(50.0));
         assert!((1.0 / e.tone.scale - 0.5).abs() < 1e-12);
         assert!((e.tone.map(0.2) - 0.4).abs() < 1e-9);
@@ -239,7 +251,7 @@ mod tests {
             log_image: true,
             ..ViewerSettings::default()
         };
-        let e = slice_exposure(&settings, &snap, &snap.slice(0));
+        let e = slice_exposure(&settings, &snap, &snap.slice(0), &mut Vec::new());
         assert_eq!(
             e.bar_scale(),
             BarScale::Log {

@@ -30,12 +30,14 @@ impl TprfApp {
     fn texture(&mut self, view: View, snap: &FilmSnapshot) -> TextureHandle {
         let key = ImageKey::new(view, snap, self.bin, &self.settings);
         let (bin, settings) = (self.bin, &self.settings);
-        let exposures = &mut self.exposures;
+        let (exposures, scratch) = (&mut self.exposures, &mut self.scratch);
         self.textures.get(&self.ctx, view.name(), key, || {
-            let (px, exposure) = view_pixels(view, snap, bin, settings);
+            let (px, exposure) = view_pixels(view, snap, bin, settings, scratch);
             exposures.retain(|(v, _)| *v != view);
             exposures.push((view, exposure));
-            egui::ColorImage::from_rgba_unmultiplied([snap.width(), snap.height()], &px)
+            // Opaque pixels: premultiplied is unmultiplied, and the bytes are taken as
+            // they are.
+            egui::ColorImage::from_rgba_premultiplied([snap.width(), snap.height()], &px)
         })
     }
 
