@@ -169,12 +169,19 @@ fn main() {
         .iter()
         .filter(|a| a.parse::<usize>().is_err())
         .collect();
-    let part = |name: &str| only.is_empty() || only.iter().any(|a| *a == name);
+    let part = |name: &str| {
+        only.iter().all(|a| *a == "gated" || *a == "lidar") || only.iter().any(|a| *a == name)
+    };
     if part("frames") {
         frames(&sides);
     }
     if part("sensor") {
-        sensor();
+        // `-- sensor lidar` keeps only that preset's rows.
+        let presets: Vec<&str> = ["gated", "lidar"]
+            .into_iter()
+            .filter(|p| only.iter().any(|a| a == p))
+            .collect();
+        sensor(&presets);
     }
     if part("throughput") {
         throughput();
@@ -296,7 +303,7 @@ fn frames(sides: &[usize]) {
     }
 }
 
-fn sensor() {
+fn sensor(presets: &[&str]) {
     println!(
         "\nSensor mode: UI thread time of the frame after an edit of Light(t) (the gate on screen measured in it), and the time until all gates are\n"
     );
@@ -304,13 +311,14 @@ fn sensor() {
         "| film (cornell) | gates | edits | frame p50 ms | frame p95 ms | frame max ms | all gates + depth, p50 ms |"
     );
     println!("|---|---|---|---|---|---|---|");
-    sensor_edits("128 x 128 x 256, gated camera", "gated", 128, 256, 60);
-    sensor_edits("256 x 256 x 1024, gated camera", "gated", 256, 1024, 40);
-    sensor_edits(
-        "256 x 256 x 1024, full-waveform LiDAR",
-        "lidar",
-        256,
-        1024,
-        20,
-    );
+    let rows = [
+        ("128 x 128 x 256, gated camera", "gated", 128, 256, 60),
+        ("256 x 256 x 1024, gated camera", "gated", 256, 1024, 40),
+        ("256 x 256 x 1024, full-waveform LiDAR", "lidar", 256, 1024, 20),
+    ];
+    for (label, preset, side, bins, edits) in rows {
+        if presets.is_empty() || presets.contains(&preset) {
+            sensor_edits(label, preset, side, bins, edits);
+        }
+    }
 }
