@@ -710,6 +710,7 @@ fn write_spad_outputs(
     let (cycle_s, sigma_s) = sensor.exposure.tdc_cycle_s().unwrap_or((0.0, 0.0));
     let bin_width_s = cycle_s / spad.bins.max(1) as f64;
     let never_armed = spad.coates.iter().filter(|v| v.is_nan()).count();
+    let dead = crate::sensor::spad::Detector::new(&p, spad.bins, bin_width_s).ok();
     derived_json.insert(
         "spad".into(),
         serde_json::json!({
@@ -717,7 +718,8 @@ fn write_spad_outputs(
                       S_k + ambient photons/s x bin width) + dark_count_rate x bin width, S_k the \
                       pixel's (TPRF * Light) in bin k after the jitter, folded into the cycle; \
                       the SPAD fires on the first event of a bin while armed, is then dead \
-                      through dead_bins more bins, and may afterpulse (docs/sensor.md)",
+                      for the rest of that bin and dead_time_s more (dead_bins whole bins and \
+                      the first dead_fraction of the next), and may afterpulse (docs/sensor.md)",
             "parameters": {
                 "cycles": {"value": p.cycles, "unit": "laser cycles"},
                 "pde": {"value": p.pde, "unit": "probability"},
@@ -726,7 +728,8 @@ fn write_spad_outputs(
                 "ambient_lamp_hz": {"value": p.ambient_lamp_hz, "unit": "1/s: a steady lamp where the light is, in pulse energies per second"},
                 "dark_count_rate_hz": {"value": p.dark_count_rate_hz, "unit": "counts/s"},
                 "dead_time_s": {"value": p.dead_time_s, "unit": "s"},
-                "dead_bins": {"value": (p.dead_time_s / bin_width_s.max(f64::MIN_POSITIVE)).round(), "unit": "TDC bins after the bin of a detection"},
+                "dead_bins": {"value": dead.as_ref().map_or(0, |d| d.dead_bins), "unit": "whole TDC bins dead after the bin of a detection"},
+                "dead_fraction": {"value": dead.as_ref().map_or(0.0, |d| d.dead_fraction), "unit": "fraction of the next bin still dead (dead_time_s / bin width = dead_bins + dead_fraction)"},
                 "mode": {"value": p.mode, "unit": "synchronous: armed afresh each cycle; free_running: never reset"},
                 "afterpulse_probability": {"value": p.afterpulse_probability, "unit": "probability per detection"},
                 "afterpulse_delay_s": {"value": p.afterpulse_delay_s, "unit": "s (mean of an exponential)"},

@@ -6,7 +6,9 @@
 //! - otherwise detection after detection: from an armed bin `s`, the next detection is
 //!   the first bin where the cumulative event mean `sum_{j=s}^{k} (r_j + mu [trap])`
 //!   passes an Exp(1) draw (the chance of no event in those bins is the exponential of
-//!   minus that sum), whole cycles without one skipped at once
+//!   minus that sum; after a fractional dead time `d + f` bins the first bin `s` counts
+//!   for its armed part, `(1 - f) (r_s + mu [trap])`), whole cycles without one skipped
+//!   at once
 //!   ([`Sampler::Events`]); the work grows with the detections, not the cycles.
 //!
 //! Beyond [`MAX_EVENTS`] detections for an image, each bin is drawn from its marginal
@@ -52,15 +54,17 @@ fn prefix(rates: &[f64]) -> Vec<f64> {
     c
 }
 
-/// The first bin `k` in `s..B` where the event mean from `s` through `k`,
-/// `C[k+1] - C[s] + mu (k + 1 - s)`, reaches `e`; or the total over `s..B` when it
-/// does not.
-fn first_event(c: &[f64], s: usize, mu: f64, e: f64) -> Result<usize, f64> {
+/// The first bin `k` in `s..B` where the event mean from the fraction `f` of bin `s`
+/// through bin `k`, `C[k+1] - C[s] - f (C[s+1] - C[s]) + mu (k + 1 - s - f)`, reaches
+/// `e`; or the total over `s..B` when it does not. `f = 0`: from the start of bin `s`.
+fn first_event(c: &[f64], s: usize, f: f64, mu: f64, e: f64) -> Result<usize, f64> {
     let b = c.len() - 1;
-    let hazard = |k: usize| c[k + 1] - c[s] + mu * (k + 1 - s) as f64;
     if s >= b {
         return Err(0.0);
     }
+    // The part of bin s already dead (0.0 - exact - for a whole number of dead bins).
+    let dead_part = f * (c[s + 1] - c[s]);
+    let hazard = |k: usize| c[k + 1] - c[s] - dead_part + mu * ((k + 1 - s) as f64 - f);
     let total = hazard(b - 1);
     if total < e {
         return Err(total);
@@ -125,6 +129,7 @@ fn events(det: &Detector, rates: &[f64], rng: &mut Pcg64Mcg, out: &mut [f64]) {
     let c = prefix(&rates[..b]);
     let total = c[b];
     let d = det.dead_bins;
+    let f = det.dead_fraction;
     let mu = det.trap_rate;
     let exp1 = |rng: &mut Pcg64Mcg| -> f64 { Exp1.sample(rng) };
     match det.mode {
@@ -136,7 +141,7 @@ fn events(det: &Detector, rates: &[f64], rng: &mut Pcg64Mcg, out: &mut [f64]) {
                 // Exp(1) conditioned below `total`.
                 let u: f64 = rng.random();
                 let e = -(-u * p_cycle).ln_1p();
-                let mut k = match first_event(&c, 0, 0.0, e.min(total)) {
+                let mut k = match first_event(&c, 0, 0.0, 0.0, e.min(total)) {
                     Ok(k) => k,
                     Err(_) => continue,
                 };
@@ -147,7 +152,7 @@ fn events(det: &Detector, rates: &[f64], rng: &mut Pcg64Mcg, out: &mut [f64]) {
                     if s >= b {
                         break;
                     }
-                    match first_event(&c, s, if trap { mu } else { 0.0 }, exp1(rng)) {
+                    match first_event(&c, s, f, if trap { mu } else { 0.0 }, exp1(rng)) {
                         Ok(next) => k = next,
                         Err(_) => break,
                     }
@@ -157,13 +162,14 @@ fn events(det: &Detector, rates: &[f64], rng: &mut Pcg64Mcg, out: &mut [f64]) {
         Acquisition::FreeRunning => {
             let end = det.cycles.saturating_mul(b as u64);
             let mut g: u64 = 0; // the global bin where the detector is armed
+            let mut partly = false; // armed from the fraction f of bin g, not its start
             let mut trap = false;
             while g < end {
                 let m = if trap { mu } else { 0.0 };
                 let mut e = exp1(rng);
                 let mut cycle = g / b as u64;
                 let s = (g % b as u64) as usize;
-                let k = match first_event(&c, s, m, e) {
+                let k = match first_event(&c, s, if partly { f } else { 0.0 }, m, e) {
                     Ok(k) => k,
                     Err(rest) => {
                         e -= rest;
@@ -176,7 +182,7 @@ fn events(det: &Detector, rates: &[f64], rng: &mut Pcg64Mcg, out: &mut [f64]) {
                         cycle = cycle
                             .saturating_add(1)
                             .saturating_add(skip.min(u64::MAX as f64) as u64);
-                        match first_event(&c, 0, m, e.max(0.0)) {
+                        match first_event(&c, 0, 0.0, m, e.max(0.0)) {
                             Ok(k) => k,
                             Err(_) => b - 1,
                         }
@@ -188,6 +194,7 @@ fn events(det: &Detector, rates: &[f64], rng: &mut Pcg64Mcg, out: &mut [f64]) {
                 out[k] += 1.0;
                 trap = rng.random::<f64>() < det.trap_at_rearm;
                 g = (cycle * b as u64 + k as u64).saturating_add(d as u64 + 1);
+                partly = f > 0.0;
             }
         }
     }
@@ -200,11 +207,17 @@ mod tests {
     #[test]
     fn first_event_finds_the_crossing() {
         let c = prefix(&[1.0, 0.0, 2.0, 1.0]);
-        assert_eq!(first_event(&c, 0, 0.0, 0.5), Ok(0));
-        assert_eq!(first_event(&c, 0, 0.0, 1.5), Ok(2));
-        assert_eq!(first_event(&c, 1, 0.0, 2.5), Ok(3));
-        assert_eq!(first_event(&c, 1, 0.0, 3.5), Err(3.0));
-        assert_eq!(first_event(&c, 1, 1.0, 3.5), Ok(2));
-        assert_eq!(first_event(&c, 4, 0.0, 0.1), Err(0.0));
+        assert_eq!(first_event(&c, 0, 0.0, 0.0, 0.5), Ok(0));
+        assert_eq!(first_event(&c, 0, 0.0, 0.0, 1.5), Ok(2));
+        assert_eq!(first_event(&c, 1, 0.0, 0.0, 2.5), Ok(3));
+        assert_eq!(first_event(&c, 1, 0.0, 0.0, 3.5), Err(3.0));
+        assert_eq!(first_event(&c, 1, 0.0, 1.0, 3.5), Ok(2));
+        assert_eq!(first_event(&c, 4, 0.0, 0.0, 0.1), Err(0.0));
+        // From 3/4 of bin 2 (mean 2): 0.5 there, then 1 in bin 3.
+        assert_eq!(first_event(&c, 2, 0.75, 0.0, 0.4), Ok(2));
+        assert_eq!(first_event(&c, 2, 0.75, 0.0, 0.6), Ok(3));
+        assert_eq!(first_event(&c, 2, 0.75, 0.0, 2.0), Err(1.5));
+        // With a trap of 1 per bin: 0.25 more in bin 2.
+        assert_eq!(first_event(&c, 2, 0.75, 1.0, 0.7), Ok(2));
     }
 }
