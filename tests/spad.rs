@@ -971,3 +971,123 @@ fn extreme_values_stay_finite() {
         }
     }
 }
+
+/// A fresh folder under the test target's temporary folder.
+fn tempdir(name: &str) -> std::path::PathBuf {
+    let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("spad-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    if let Err(e) = std::fs::create_dir_all(&d) {
+        panic!("{}: {e}", d.display());
+    }
+    d
+}
+
+/// The SPAD's files written a row at a time (a budget of 1 byte a band) are byte for
+/// byte those written in one band, which hold the arrays `spad_image_ambient` gives in
+/// memory; and the two-stage form (expected first, realisation later) gives them too.
+#[test]
+fn spad_files_in_bands_are_the_whole_image() {
+    let bins = 48;
+    let ax = axis(0.0, 0.1 * NS, bins);
+    let (w, h) = (7, 5);
+    // A return per pixel at a bin that moves with the pixel, over a background.
+    let mut cube = vec![0.0f32; w * h * bins];
+    for p in 0..w * h {
+        cube[p * bins + 5 + (p * 7) % 30] = 0.5 + 0.1 * (p % 4) as f32;
+    }
+    let steady: Vec<f32> = (0..w * h).map(|p| 0.5 + 0.1 * (p % 4) as f32).collect();
+    let ambient: Vec<f32> = (0..w * h).map(|p| 1e6 * (p % 3) as f32).collect();
+    for (dead_s, mode) in [
+        (0.25 * NS, Acquisition::FreeRunning),
+        (bins as f64 * 0.1 * NS, Acquisition::Synchronous),
+    ] {
+        let s = Spad {
+            dead_time_s: dead_s,
+            mode,
+            ambient_rate_hz: 1e8,
+            ..spad(700)
+        };
+        let light = LightPulse::Gaussian {
+            centre_s: 0.5 * NS,
+            fwhm_s: 0.3 * NS,
+            energy: 1.0,
+        };
+        let mut sensor = spad_sensor(s, bins as u64, 0.1 * NS, light);
+        sensor.ambient_scale = 1.0;
+        let m = model(sensor, ax);
+        let Ok(meas) = m.measure_clean(&cube, w, h) else {
+            panic!("measure");
+        };
+        let whole = tempdir(&format!("whole-{mode:?}"));
+        let rows = tempdir(&format!("rows-{mode:?}"));
+        let write = |dir: &std::path::Path, tile_bytes: u64| {
+            match tprf_core::export::sensor::write_spad_files(
+                dir,
+                &m,
+                &meas,
+                &steady,
+                Some(&ambient),
+                tile_bytes,
+            ) {
+                Ok(f) => f,
+                Err(e) => panic!("{e}"),
+            }
+        };
+        let a = write(&whole, u64::MAX);
+        let b = write(&rows, 1);
+        assert_eq!((a.bands, b.bands), (1, h), "{mode:?}");
+        let img = match spad_image_ambient(&m, &meas, &steady, Some(&ambient)) {
+            Ok(i) => i,
+            Err(e) => panic!("{e}"),
+        };
+        for (name, values) in [
+            ("spad_histogram.npy", &img.histogram),
+            ("spad_counts.npy", &img.counts),
+            ("spad_coates.npy", &img.coates),
+            ("spad_depth_histogram.npy", &img.depth_histogram_m),
+            ("spad_depth_counts.npy", &img.depth_counts_m),
+            ("spad_depth_coates.npy", &img.depth_coates_m),
+        ] {
+            let (x, y) = (
+                std::fs::read(whole.join(name)).unwrap_or_default(),
+                std::fs::read(rows.join(name)).unwrap_or_default(),
+            );
+            assert!(!x.is_empty() && x == y, "{mode:?}: {name} differs");
+            let (_, read) = match tprf_core::export::read_npy_f32(&whole.join(name)) {
+                Ok(r) => r,
+                Err(e) => panic!("{e}"),
+            };
+            let same = read
+                .iter()
+                .zip(values.iter())
+                .all(|(p, q)| p.to_bits() == q.to_bits());
+            assert!(
+                same && read.len() == values.len(),
+                "{mode:?}: {name} vs in memory"
+            );
+        }
+        assert!(img.counts.iter().any(|&c| c > 0.0));
+        // Expected first, then the realisation: the same image.
+        let mut staged =
+            match tprf_core::sensor::spad::spad_expected(&m, &meas, &steady, Some(&ambient)) {
+                Ok(i) => i,
+                Err(e) => panic!("{e}"),
+            };
+        assert!(!staged.is_sampled() && staged.histogram == img.histogram);
+        assert_eq!(staged.depth_histogram_m.len(), img.depth_histogram_m.len());
+        if let Err(e) =
+            tprf_core::sensor::spad::spad_sample(&m, &meas, &steady, Some(&ambient), &mut staged)
+        {
+            panic!("{e}");
+        }
+        assert!(staged.is_sampled());
+        assert_eq!(staged.counts, img.counts);
+        assert_eq!(staged.sampler, img.sampler);
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&staged.coates), bits(&img.coates));
+        assert_eq!(bits(&staged.depth_counts_m), bits(&img.depth_counts_m));
+        let _ = std::fs::remove_dir_all(&whole);
+        let _ = std::fs::remove_dir_all(&rows);
+    }
+}

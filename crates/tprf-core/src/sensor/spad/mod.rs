@@ -34,7 +34,8 @@ pub mod sample;
 pub use coates::{coates, return_depth_m};
 pub use detector::{Detector, Sampler};
 pub use image::{
-    SpadImage, SpadPixel, spad_image, spad_image_ambient, spad_pixel, spad_pixel_ambient,
+    SpadImage, SpadPixel, spad_bytes_per_pixel, spad_expected, spad_image, spad_image_ambient,
+    spad_pixel, spad_pixel_ambient, spad_rows, spad_sample, spad_sampler,
 };
 
 use serde::{Deserialize, Serialize};
