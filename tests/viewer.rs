@@ -649,7 +649,10 @@ fn screenshots() {
     h.run_steps(2);
     let snap = h.state().snapshot().unwrap();
     let start = std::time::Instant::now();
-    while !h.state().sensor.is_current(&snap) && start.elapsed() < Duration::from_secs(120) {
+    // The expected histogram, then the realisation.
+    while (!h.state().sensor.is_current(&snap) || h.state().sensor.spad_sampling())
+        && start.elapsed() < Duration::from_secs(120)
+    {
         h.step();
         std::thread::sleep(Duration::from_millis(20));
     }
@@ -1094,6 +1097,49 @@ fn spad_preset_shows_the_first_photon_histogram_of_the_cached_film() {
         }
     }
     assert!(checked > 10, "too little light to check: {checked} bins");
+    // The realisation follows the expected histogram from the same job, drawn as
+    // tprf_core's one-shot image draws it (same seed, same film and sensor).
+    let start = Instant::now();
+    while h.state().sensor.spad_sampling() {
+        h.step();
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "the realisation never came"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let sampled = h.state().sensor.spad_image(&snap).expect("current").clone();
+    assert!(sampled.is_sampled() && sampled.histogram == img.histogram);
+    let model = h.state().sensor.model().expect("a model").clone();
+    let clean = model.measure_clean_film(&snap);
+    let whole = tprf_core::sensor::spad_image(&model, &clean, snap.steady()).expect("spad");
+    assert_eq!(sampled.counts, whole.counts);
+    assert!(sampled.counts.iter().sum::<f32>() > 0.0);
+    // An edit while a realisation is drawn cancels it; the next one is of the edit.
+    for cycles in [7000, 9000] {
+        if let Some(s) = h.state_mut().settings.sensor.spad.as_mut() {
+            s.cycles = cycles;
+        }
+        h.step();
+    }
+    wait_sensor(&mut h);
+    let start = Instant::now();
+    while h.state().sensor.spad_sampling() {
+        h.step();
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "the realisation never came"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let last = h.state().sensor.spad_image(&snap).expect("current").clone();
+    assert!(last.is_sampled());
+    let n: f32 = last.counts.iter().sum();
+    let e: f32 = last.histogram.iter().sum();
+    assert!(
+        (n - e).abs() < 0.05 * e,
+        "realisation {n} vs expected {e} over 9000 cycles"
+    );
     // The tab draws the SPAD's images and the pixel's histogram.
     h.step();
     h.get_by_label("SPAD bin image");

@@ -302,6 +302,17 @@ struct BinFactors {
 impl BinFactors {
     fn new(r: f64, mu: f64) -> BinFactors {
         let r = if r > 0.0 { r.min(RATE_CAP) } else { 0.0 };
+        if mu == 0.0 {
+            // No afterpulsing: the filled trap's factors are the empty one's (r + 0 is
+            // r), two transcendental calls fewer.
+            let (keep, fire) = ((-r).exp(), -(-r).exp_m1());
+            return BinFactors {
+                keep_e: keep,
+                keep_f: keep,
+                fire_e: fire,
+                fire_f: fire,
+            };
+        }
         BinFactors {
             keep_e: (-r).exp(),
             keep_f: (-(r + mu)).exp(),
