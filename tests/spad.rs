@@ -230,7 +230,7 @@ fn check_against(
     let (smean, serror) = mean_and_error(48, |run| {
         let mut out = vec![0.0; bins];
         sample_pixel(
-            &det,
+            det,
             sampler,
             rates,
             &expected,

@@ -27,6 +27,10 @@ pub struct ViewerSettings {
     pub max_bounces: u32,
     pub channel: Channel,
     pub seed: u64,
+    /// A constant sky (W m^-2 sr^-1) in the scene's ambient light group, replacing the
+    /// scene's own; `None`: the scene's (the worker renders its ambient image, which
+    /// the sensor tab adds to every gate and the SPAD).
+    pub sky_radiance_w_m2_sr: Option<f64>,
     /// Playback speed, bins per second.
     pub play_bins_per_s: f32,
     pub looping: bool,
@@ -67,6 +71,7 @@ impl Default for ViewerSettings {
             max_bounces: 1024,
             channel: Channel::Gray,
             seed: 0,
+            sky_radiance_w_m2_sr: None,
             play_bins_per_s: 30.0,
             looping: true,
             exposure: ExposureMode::PerFrame,
@@ -96,6 +101,12 @@ impl ViewerSettings {
         if !(self.play_bins_per_s.is_finite() && self.play_bins_per_s > 0.0) {
             self.play_bins_per_s = 30.0;
         }
+        if self
+            .sky_radiance_w_m2_sr
+            .is_some_and(|l| !(l.is_finite() && l >= 0.0))
+        {
+            self.sky_radiance_w_m2_sr = None;
+        }
         if !self.ev.is_finite() {
             self.ev = 0.0;
         }
@@ -121,6 +132,7 @@ impl ViewerSettings {
             max_bounces: other.max_bounces,
             channel: other.channel,
             seed: other.seed,
+            sky_radiance_w_m2_sr: other.sky_radiance_w_m2_sr,
             ..self.clone()
         }
     }
@@ -162,6 +174,7 @@ impl ViewerSettings {
             },
             spp_target: (self.spp_target > 0).then_some(self.spp_target),
             error_target: (self.error_target_pct > 0.0).then(|| self.error_target_pct / 100.0),
+            sky_radiance_w_m2_sr: self.sky_radiance_w_m2_sr,
         })
     }
 }

@@ -234,19 +234,21 @@ pub fn spad_sampler(
     ambient: Option<&[f32]>,
 ) -> Result<(Sampler, f64), SensorError> {
     let plan = Plan::new(model, signal, steady, ambient)?;
-    let totals: Vec<f64> = (0..plan.pixels())
-        .into_par_iter()
-        .map_init(
-            || (Vec::new(), Vec::new(), Vec::new()),
-            |(sig, rates, out), p| {
-                plan.rates(p, sig, rates);
-                out.clear();
-                out.resize(plan.det.bins, 0.0);
+    let b = plan.det.bins.max(1);
+    let mut totals = vec![0.0f64; plan.pixels()];
+    totals.par_chunks_mut(BLOCK).enumerate().for_each_init(
+        || (Vec::new(), Vec::new(), Vec::new()),
+        |(sig, rates, out), (j, totals)| {
+            let p0 = j * BLOCK;
+            plan.gather_block(p0, totals.len(), sig);
+            out.resize(b, 0.0);
+            for (i, total) in totals.iter_mut().enumerate() {
+                plan.rates_of(p0 + i, &sig[i * b..(i + 1) * b], rates);
                 plan.det.expected(rates, out);
-                out.iter().sum::<f64>()
-            },
-        )
-        .collect();
+                *total = out.iter().sum::<f64>();
+            }
+        },
+    );
     let total: f64 = totals.iter().sum();
     Ok((plan.sampler(total), total))
 }
@@ -285,6 +287,9 @@ pub fn spad_rows(
 pub fn spad_bytes_per_pixel(bins: usize) -> u64 {
     (bins as u64).saturating_mul(3 * 8 + 3 * 4) + 4 * 8
 }
+
+/// Pixels whose signals are gathered together ([`Plan::gather_block`]).
+const BLOCK: usize = 64;
 
 /// What every pixel's computation shares: the checked inputs and the detector.
 struct Plan<'a> {
@@ -390,11 +395,31 @@ impl<'a> Plan<'a> {
         let (b, pixels) = (self.det.bins, self.pixels());
         sig.clear();
         sig.extend((0..b).map(|k| self.signal.values[k * pixels + p]));
+        self.rates_of(p, sig, rates);
+    }
+
+    /// Pixel `p`'s event rates from its signal `sig` (`B` values).
+    fn rates_of(&self, p: usize, sig: &[f32], rates: &mut Vec<f64>) {
         let ambient = self
             .ambient
             .map_or(0.0, |a| self.ambient_scale * f64::from(a[p]));
         self.spad
             .rates(sig, f64::from(self.steady[p]), ambient, self.width_s, rates);
+    }
+
+    /// The signals of pixels `p0 .. p0 + n` into `out`, pixel-major (`[n, B]`): per TDC
+    /// bin one contiguous run of the `[B, H, W]` measurement, where a pixel at a time
+    /// would load one value every `H W` (a cache miss a bin).
+    fn gather_block(&self, p0: usize, n: usize, out: &mut Vec<f32>) {
+        let (b, pixels) = (self.det.bins, self.pixels());
+        out.clear();
+        out.resize(n * b, 0.0);
+        for k in 0..b {
+            let run = &self.signal.values[k * pixels + p0..k * pixels + p0 + n];
+            for (i, &v) in run.iter().enumerate() {
+                out[i * b + k] = v;
+            }
+        }
     }
 
     fn sampler(&self, expected_detections: f64) -> Sampler {
@@ -434,17 +459,26 @@ impl<'a> Plan<'a> {
             band.totals = vec![0.0; n];
             band.depth_expected = vec![f32::NAN; n];
             band.expected
-                .par_chunks_mut(b)
-                .zip(band.totals.par_iter_mut())
-                .zip(band.depth_expected.par_iter_mut())
+                .par_chunks_mut(b * BLOCK)
+                .zip(band.totals.par_chunks_mut(BLOCK))
+                .zip(band.depth_expected.par_chunks_mut(BLOCK))
                 .enumerate()
                 .for_each_init(
                     || (Vec::new(), Vec::new(), Vec::new()),
-                    |(sig, rates, scratch), (i, ((out, total), depth))| {
-                        self.rates(range.start + i, sig, rates);
-                        self.det.expected(rates, out);
-                        *total = out.iter().sum();
-                        *depth = self.depth(out, scratch);
+                    |(sig, rates, scratch), (j, ((outs, totals), depths))| {
+                        let p0 = range.start + j * BLOCK;
+                        self.gather_block(p0, totals.len(), sig);
+                        for (i, ((out, total), depth)) in outs
+                            .chunks_exact_mut(b)
+                            .zip(totals.iter_mut())
+                            .zip(depths.iter_mut())
+                            .enumerate()
+                        {
+                            self.rates_of(p0 + i, &sig[i * b..(i + 1) * b], rates);
+                            self.det.expected(rates, out);
+                            *total = out.iter().sum();
+                            *depth = self.depth(out, scratch);
+                        }
                     },
                 );
             band.expected_detections = band.totals.iter().sum();
