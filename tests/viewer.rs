@@ -1377,3 +1377,45 @@ fn the_sensor_tab_adds_the_scenes_ambient_image() {
         assert_eq!(lit, scale > 0.0, "scale {scale}");
     }
 }
+
+/// The window's sky: a scene with none rendered under a sky from the render settings
+/// has an ambient image, and the steady block shows it (its own image, colour bar in
+/// W m^-2 sr^-1) when chosen, the steady image otherwise.
+#[test]
+fn the_steady_block_shows_the_ambient_image_of_the_sky_set_in_the_window() {
+    let mut h = harness(ViewerSettings {
+        sky_radiance_w_m2_sr: Some(3.0),
+        ..small_settings("builtin:cornell", 16, 32, 4)
+    });
+    wait_done(&mut h, Duration::from_secs(120));
+    let start = Instant::now();
+    while h.state().ambient().is_none() {
+        h.step();
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "no ambient image"
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let a = h.state().ambient().expect("ambient");
+    assert!(
+        a.radiance.iter().any(|&v| v > 0.0),
+        "the sky lights the box"
+    );
+    h.run_steps(2);
+    h.get_by_label("steady image");
+    assert!(h.query_by_label("ambient image").is_none());
+    h.state_mut().settings.steady_ambient = true;
+    h.run_steps(2);
+    h.get_by_label("ambient image");
+    assert!(h.query_by_label("steady image").is_none());
+    let bar = label_with(&h, "colour bar: ambient image");
+    assert!(bar.ends_with("W m⁻² sr⁻¹, linear"), "{bar}");
+    // Without a sky (the scene's own: none) there is no choice to make.
+    let mut h = harness(small_settings("builtin:cornell", 16, 32, 4));
+    wait_done(&mut h, Duration::from_secs(120));
+    h.state_mut().settings.steady_ambient = true;
+    h.run_steps(2);
+    assert!(h.state().ambient().is_none());
+    h.get_by_label("steady image");
+}

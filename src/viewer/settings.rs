@@ -42,6 +42,9 @@ pub struct ViewerSettings {
     pub plot_log: bool,
     /// Per-bounce curves shown: 1, 2, 3, >3 scattering events.
     pub show_bounces: [bool; 4],
+    /// The steady block shows the scene's ambient image (W m^-2 sr^-1) instead of the
+    /// steady image, when the scene has one.
+    pub steady_ambient: bool,
     /// What the window shows: light in flight, or the sensor's measurements.
     pub mode: Mode,
     /// The sensor being edited (Light, gates, noise).
@@ -80,6 +83,7 @@ impl Default for ViewerSettings {
             colormap: ColorMap::Inferno,
             plot_log: false,
             show_bounces: [true, true, true, true],
+            steady_ambient: false,
             mode: Mode::Transient,
             sensor: Sensor::builtin("lidar").expect("the built-in LiDAR preset parses"),
         }
