@@ -5,6 +5,12 @@
 //!
 //! The target: every edit updates the measurement image within one frame (16 ms) at
 //! 256 x 256 x 1024.
+//!
+//! With `TPRF_BENCH_SPAD_CUBE=DIR` (a `tprf render` folder with `tprf.npy`), only the
+//! SPAD's stages on that cube with `builtin:spad`: the clean measurement, the expected
+//! histogram with its depth (what the window shows first after an edit), the
+//! realisation with Coates and depths, and all of it at once, on one thread (the
+//! viewer's background pool on a 2-core machine) and on all.
 
 use std::time::Instant;
 
@@ -41,7 +47,78 @@ fn boxes(start_bins: f64, width_bins: f64, count: u64) -> Exposure {
     }
 }
 
+/// The SPAD's stages on the cube of `dir` (see the module's doc).
+fn spad_stages(dir: &std::path::Path) {
+    use tprf_core::sensor::spad::{spad_expected, spad_image_ambient, spad_sample};
+    let (meta, cube) = match tprf_core::export::read_cube(&dir.join("tprf.npy")) {
+        Ok(c) => c,
+        Err(e) => panic!("{}: {e}", dir.display()),
+    };
+    let axis = match meta.axis() {
+        Ok(a) => a,
+        Err(e) => panic!("{e}"),
+    };
+    let (w, h) = (meta.width, meta.height);
+    let sensor = match Sensor::builtin("spad") {
+        Ok(s) => s,
+        Err(e) => panic!("{e}"),
+    };
+    let model = match SensorModel::new(sensor, axis) {
+        Ok(m) => m,
+        Err(e) => panic!("{e}"),
+    };
+    let steady: Vec<f32> = cube
+        .chunks_exact(axis.bins)
+        .map(|p| p.iter().map(|&v| f64::from(v)).sum::<f64>() as f32)
+        .collect();
+    println!(
+        "SPAD stages, builtin:spad on {} ({w} x {h} x {} bins), best of 3, ms\n",
+        dir.display(),
+        axis.bins
+    );
+    println!(
+        "| threads | clean measurement | expected + depth | realisation + Coates + depths | \
+         all at once (spad_image_ambient) |"
+    );
+    println!("| ---: | ---: | ---: | ---: | ---: |");
+    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build();
+    let all = rayon::ThreadPoolBuilder::new().build();
+    for pool in [one, all].into_iter().flatten() {
+        pool.install(|| {
+            let mut clean = None;
+            let clean_ms = best_ms(3, || clean = model.measure_clean(&cube, w, h).ok());
+            let Some(clean) = clean else {
+                panic!("measurement failed");
+            };
+            let mut first = None;
+            let expected_ms = best_ms(3, || {
+                first = spad_expected(&model, &clean, &steady, None).ok();
+            });
+            let Some(first) = first else {
+                panic!("spad_expected failed");
+            };
+            let sample_ms = best_ms(3, || {
+                let mut img = first.clone();
+                if let Err(e) = spad_sample(&model, &clean, &steady, None, &mut img) {
+                    panic!("{e}");
+                }
+            });
+            let all_ms = best_ms(3, || {
+                std::hint::black_box(spad_image_ambient(&model, &clean, &steady, None).ok());
+            });
+            println!(
+                "| {} | {clean_ms:.0} | {expected_ms:.0} | {sample_ms:.0} | {all_ms:.0} |",
+                rayon::current_num_threads()
+            );
+        });
+    }
+}
+
 fn main() {
+    if let Some(dir) = std::env::var_os("TPRF_BENCH_SPAD_CUBE") {
+        spad_stages(std::path::Path::new(&dir));
+        return;
+    }
     let axis = match TimeAxis::new(0.0, DT_S, BINS) {
         Ok(a) => a,
         Err(e) => panic!("{e}"),

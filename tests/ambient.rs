@@ -362,6 +362,7 @@ fn the_worker_renders_the_ambient_image_once() {
         settings: RenderSettings::default(),
         spp_target: Some(2),
         error_target: None,
+        sky_radiance_w_m2_sr: None,
     };
     let wait = |w: &RenderWorker| {
         let start = Instant::now();
@@ -384,4 +385,37 @@ fn the_worker_renders_the_ambient_image_once() {
     let w = RenderWorker::spawn(job("builtin:cornell"), || {});
     wait(&w);
     assert!(w.ambient().is_none());
+    // The window's sky setting: the same scene under a sky of 2 W m^-2 sr^-1 gives the
+    // ambient image of the scene with that sky (as `tprf render --sky 2` does), and a
+    // negative one fails the job, naming the sky.
+    let w = RenderWorker::spawn(
+        RenderJob {
+            sky_radiance_w_m2_sr: Some(2.0),
+            ..job("builtin:cornell")
+        },
+        || {},
+    );
+    wait(&w);
+    let got = w.ambient().expect("a sky gives an ambient image");
+    let mut sky_scene = scene::load("builtin:cornell").unwrap();
+    sky_scene.ambient.sky_radiance = [2.0; 3];
+    let r = Renderer::new(Arc::new(sky_scene), RenderSettings::default());
+    let want = render_ambient(&r, 16, 12, AMBIENT_SPP);
+    assert_eq!(*got, want);
+    assert!(want.radiance.iter().any(|&v| v > 0.0), "the sky is seen");
+    let w = RenderWorker::spawn(
+        RenderJob {
+            sky_radiance_w_m2_sr: Some(-1.0),
+            ..job("builtin:cornell")
+        },
+        || {},
+    );
+    let start = Instant::now();
+    while !w.is_finished() && start.elapsed() < Duration::from_secs(60) {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    match w.status().unwrap().state {
+        WorkerState::Failed(e) => assert!(e.contains("sky radiance"), "{e}"),
+        s => panic!("a negative sky rendered: {s:?}"),
+    }
 }

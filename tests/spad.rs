@@ -129,18 +129,54 @@ fn assert_within_noise(what: &str, got: &[f64], mean: &[f64], error: &[f64]) {
     }
 }
 
+/// The independent simulation in continuous time, for a dead time of any length: one
+/// run of `cycles` cycles, time in units of a bin. Bin `k` of each cycle receives a
+/// Poisson(`r_k`) number of photons at uniform times within it (the rate is constant
+/// in a bin); the SPAD, armed, detects the first photon at or after the time it
+/// re-armed; the detection is stamped with its bin, and the SPAD is dead for exactly
+/// `dead_bins` (a real number) from that bin's end. No afterpulsing.
+fn monte_carlo_continuous(
+    rates: &[f64],
+    cycles: u64,
+    dead_bins: f64,
+    free_running: bool,
+    rng: &mut Pcg64Mcg,
+) -> Vec<f64> {
+    let b = rates.len();
+    let poisson: Vec<Option<Poisson<f64>>> = rates.iter().map(|&r| Poisson::new(r).ok()).collect();
+    let mut counts = vec![0.0; b];
+    let mut armed_at = 0.0f64;
+    let mut times = Vec::new();
+    for c in 0..cycles {
+        let cycle_start = (c * b as u64) as f64;
+        if !free_running {
+            armed_at = cycle_start;
+        }
+        for k in 0..b {
+            let start = cycle_start + k as f64;
+            let photons = poisson[k].as_ref().map_or(0.0, |p| p.sample(rng)) as usize;
+            times.clear();
+            times.extend((0..photons).map(|_| start + rng.random::<f64>()));
+            times.sort_by(f64::total_cmp);
+            if let Some(_t) = times.iter().find(|&&t| t >= armed_at) {
+                counts[k] += 1.0;
+                armed_at = start + 1.0 + dead_bins;
+            }
+        }
+    }
+    counts
+}
+
 /// Closed form against the Monte Carlo for one detector setting.
 fn check_against_mc(what: &str, s: &Spad, bins: usize, rates: &[f64]) {
     let width_s = 1e-10;
     let det = detector(s, bins, width_s);
-    let mut expected = vec![0.0; bins];
-    det.expected(rates, &mut expected);
     let mu = if s.afterpulse_probability > 0.0 {
         width_s / s.afterpulse_delay_s
     } else {
         0.0
     };
-    let (mean, error) = mean_and_error(48, |run| {
+    check_against(what, &det, rates, |run| {
         let mut rng = Pcg64Mcg::seed_from_u64(0xC0FFEE + run);
         monte_carlo(
             rates,
@@ -152,6 +188,38 @@ fn check_against_mc(what: &str, s: &Spad, bins: usize, rates: &[f64]) {
             &mut rng,
         )
     });
+}
+
+/// Closed form against the continuous-time Monte Carlo (no afterpulsing); returns the
+/// closed form.
+fn check_against_continuous_mc(what: &str, s: &Spad, bins: usize, rates: &[f64]) -> Vec<f64> {
+    let width_s = 1e-10;
+    let det = detector(s, bins, width_s);
+    let tau_bins = s.dead_time_s / width_s;
+    check_against(what, &det, rates, |run| {
+        let mut rng = Pcg64Mcg::seed_from_u64(0xBEEF + run);
+        monte_carlo_continuous(
+            rates,
+            s.cycles,
+            tau_bins,
+            s.mode == Acquisition::FreeRunning,
+            &mut rng,
+        )
+    })
+}
+
+/// The closed form of `det` and its sampler against a Monte Carlo `mc` (one run per
+/// seed); returns the closed form.
+fn check_against(
+    what: &str,
+    det: &Detector,
+    rates: &[f64],
+    mc: impl FnMut(u64) -> Vec<f64>,
+) -> Vec<f64> {
+    let bins = det.bins;
+    let mut expected = vec![0.0; bins];
+    det.expected(rates, &mut expected);
+    let (mean, error) = mean_and_error(48, mc);
     assert_within_noise(what, &expected, &mean, &error);
     // The sampler draws the same distribution.
     let sampler = if det.first_photon_only() {
@@ -162,7 +230,7 @@ fn check_against_mc(what: &str, s: &Spad, bins: usize, rates: &[f64]) {
     let (smean, serror) = mean_and_error(48, |run| {
         let mut out = vec![0.0; bins];
         sample_pixel(
-            &det,
+            det,
             sampler,
             rates,
             &expected,
@@ -186,6 +254,116 @@ fn check_against_mc(what: &str, s: &Spad, bins: usize, rates: &[f64]) {
         vs > 0.6 * vm && vs < 1.6 * vm,
         "{what}: sampler variance {vs} vs Monte Carlo {vm}"
     );
+    expected
+}
+
+/// A dead time of a fraction of a bin more than a whole number: the closed form and
+/// the sampler against the continuous-time simulation, synchronous and free-running,
+/// at 2.5 and 0.3 bins; and the fraction matters (the histogram lies between those of
+/// the whole numbers around it, apart from both by more than the noise).
+#[test]
+fn fractional_dead_time_matches_continuous_monte_carlo() {
+    let bins = 24;
+    for mode in [Acquisition::Synchronous, Acquisition::FreeRunning] {
+        for tau in [2.5, 0.3] {
+            let s = Spad {
+                dead_time_s: tau * 1e-10,
+                mode,
+                ..spad(1500)
+            };
+            let r = rates(bins, 0.15, 2.5, 9);
+            let got =
+                check_against_continuous_mc(&format!("{mode:?}, tau = {tau} bins"), &s, bins, &r);
+            // Detections over the cycle: fewer than with the whole bin below, more than
+            // with the one above (a longer dead time loses more).
+            let total = |dead: f64| {
+                let s = Spad {
+                    dead_time_s: dead * 1e-10,
+                    ..s.clone()
+                };
+                let mut e = vec![0.0; bins];
+                detector(&s, bins, 1e-10).expected(&r, &mut e);
+                e.iter().sum::<f64>()
+            };
+            let (lo, mid, hi) = (
+                total(tau.ceil()),
+                got.iter().sum::<f64>(),
+                total(tau.floor()),
+            );
+            assert!(
+                lo + 50.0 < mid && mid + 50.0 < hi,
+                "{mode:?}, tau = {tau}: {lo} < {mid} < {hi}"
+            );
+            // The continuous simulation at the whole numbers gives the whole-bin model
+            // (the bin-by-bin simulation's).
+            let s_whole = Spad {
+                dead_time_s: tau.floor() * 1e-10,
+                ..s.clone()
+            };
+            check_against_continuous_mc(
+                &format!("{mode:?}, tau = {}", tau.floor()),
+                &s_whole,
+                bins,
+                &r,
+            );
+        }
+    }
+}
+
+/// A ratio a hair from a whole number is that number (the whole-bin recursion, bit for
+/// bit), and the fraction is kept otherwise.
+#[test]
+fn dead_time_resolution() {
+    for (dead_s, d, f) in [
+        (7e-10, 7, 0.0),
+        (3e-10, 3, 0.0),
+        (2.5e-10, 2, 0.5),
+        (0.3e-10, 0, 0.3),
+        (32e-10, 32, 0.0),
+    ] {
+        let det = detector(
+            &Spad {
+                dead_time_s: dead_s,
+                ..spad(10)
+            },
+            32,
+            1e-10,
+        );
+        assert_eq!(det.dead_bins, d, "{dead_s}");
+        assert!(
+            (det.dead_fraction - f).abs() < 1e-9,
+            "{dead_s}: {}",
+            det.dead_fraction
+        );
+    }
+}
+
+/// Coates of the expected histogram after a fractional dead time gives `N r_k` back
+/// (synchronous: exact; the estimate's model is the closed form's).
+#[test]
+fn coates_undoes_a_fractional_dead_time() {
+    let bins = 40;
+    let r = rates(bins, 0.03, 2.0, 15);
+    let n = 5000.0;
+    for dead in [0.3, 2.5, 7.75] {
+        let s = Spad {
+            dead_time_s: dead * 1e-10,
+            ..spad(n as u64)
+        };
+        let det = detector(&s, bins, 1e-10);
+        let mut e = vec![0.0; bins];
+        det.expected(&r, &mut e);
+        let mut est = vec![0.0; bins];
+        coates(&det, &e, &mut est);
+        for k in 0..bins {
+            let want = n * r[k];
+            assert!(
+                (est[k] - want).abs() <= 1e-8 * want,
+                "dead {dead}: bin {k}: {} vs {want}",
+                est[k]
+            );
+        }
+    }
 }
 
 #[test]
@@ -791,5 +969,125 @@ fn extreme_values_stay_finite() {
                 "{what}: {per_px}"
             );
         }
+    }
+}
+
+/// A fresh folder under the test target's temporary folder.
+fn tempdir(name: &str) -> std::path::PathBuf {
+    let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("spad-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    if let Err(e) = std::fs::create_dir_all(&d) {
+        panic!("{}: {e}", d.display());
+    }
+    d
+}
+
+/// The SPAD's files written a row at a time (a budget of 1 byte a band) are byte for
+/// byte those written in one band, which hold the arrays `spad_image_ambient` gives in
+/// memory; and the two-stage form (expected first, realisation later) gives them too.
+#[test]
+fn spad_files_in_bands_are_the_whole_image() {
+    let bins = 48;
+    let ax = axis(0.0, 0.1 * NS, bins);
+    let (w, h) = (7, 5);
+    // A return per pixel at a bin that moves with the pixel, over a background.
+    let mut cube = vec![0.0f32; w * h * bins];
+    for p in 0..w * h {
+        cube[p * bins + 5 + (p * 7) % 30] = 0.5 + 0.1 * (p % 4) as f32;
+    }
+    let steady: Vec<f32> = (0..w * h).map(|p| 0.5 + 0.1 * (p % 4) as f32).collect();
+    let ambient: Vec<f32> = (0..w * h).map(|p| 1e6 * (p % 3) as f32).collect();
+    for (dead_s, mode) in [
+        (0.25 * NS, Acquisition::FreeRunning),
+        (bins as f64 * 0.1 * NS, Acquisition::Synchronous),
+    ] {
+        let s = Spad {
+            dead_time_s: dead_s,
+            mode,
+            ambient_rate_hz: 1e8,
+            ..spad(700)
+        };
+        let light = LightPulse::Gaussian {
+            centre_s: 0.5 * NS,
+            fwhm_s: 0.3 * NS,
+            energy: 1.0,
+        };
+        let mut sensor = spad_sensor(s, bins as u64, 0.1 * NS, light);
+        sensor.ambient_scale = 1.0;
+        let m = model(sensor, ax);
+        let Ok(meas) = m.measure_clean(&cube, w, h) else {
+            panic!("measure");
+        };
+        let whole = tempdir(&format!("whole-{mode:?}"));
+        let rows = tempdir(&format!("rows-{mode:?}"));
+        let write = |dir: &std::path::Path, tile_bytes: u64| {
+            match tprf_core::export::sensor::write_spad_files(
+                dir,
+                &m,
+                &meas,
+                &steady,
+                Some(&ambient),
+                tile_bytes,
+            ) {
+                Ok(f) => f,
+                Err(e) => panic!("{e}"),
+            }
+        };
+        let a = write(&whole, u64::MAX);
+        let b = write(&rows, 1);
+        assert_eq!((a.bands, b.bands), (1, h), "{mode:?}");
+        let img = match spad_image_ambient(&m, &meas, &steady, Some(&ambient)) {
+            Ok(i) => i,
+            Err(e) => panic!("{e}"),
+        };
+        for (name, values) in [
+            ("spad_histogram.npy", &img.histogram),
+            ("spad_counts.npy", &img.counts),
+            ("spad_coates.npy", &img.coates),
+            ("spad_depth_histogram.npy", &img.depth_histogram_m),
+            ("spad_depth_counts.npy", &img.depth_counts_m),
+            ("spad_depth_coates.npy", &img.depth_coates_m),
+        ] {
+            let (x, y) = (
+                std::fs::read(whole.join(name)).unwrap_or_default(),
+                std::fs::read(rows.join(name)).unwrap_or_default(),
+            );
+            assert!(!x.is_empty() && x == y, "{mode:?}: {name} differs");
+            let (_, read) = match tprf_core::export::read_npy_f32(&whole.join(name)) {
+                Ok(r) => r,
+                Err(e) => panic!("{e}"),
+            };
+            let same = read
+                .iter()
+                .zip(values.iter())
+                .all(|(p, q)| p.to_bits() == q.to_bits());
+            assert!(
+                same && read.len() == values.len(),
+                "{mode:?}: {name} vs in memory"
+            );
+        }
+        assert!(img.counts.iter().any(|&c| c > 0.0));
+        // Expected first, then the realisation: the same image.
+        let mut staged =
+            match tprf_core::sensor::spad::spad_expected(&m, &meas, &steady, Some(&ambient)) {
+                Ok(i) => i,
+                Err(e) => panic!("{e}"),
+            };
+        assert!(!staged.is_sampled() && staged.histogram == img.histogram);
+        assert_eq!(staged.depth_histogram_m.len(), img.depth_histogram_m.len());
+        if let Err(e) =
+            tprf_core::sensor::spad::spad_sample(&m, &meas, &steady, Some(&ambient), &mut staged)
+        {
+            panic!("{e}");
+        }
+        assert!(staged.is_sampled());
+        assert_eq!(staged.counts, img.counts);
+        assert_eq!(staged.sampler, img.sampler);
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&staged.coates), bits(&img.coates));
+        assert_eq!(bits(&staged.depth_counts_m), bits(&img.depth_counts_m));
+        let _ = std::fs::remove_dir_all(&whole);
+        let _ = std::fs::remove_dir_all(&rows);
     }
 }

@@ -649,7 +649,10 @@ fn screenshots() {
     h.run_steps(2);
     let snap = h.state().snapshot().unwrap();
     let start = std::time::Instant::now();
-    while !h.state().sensor.is_current(&snap) && start.elapsed() < Duration::from_secs(120) {
+    // The expected histogram, then the realisation.
+    while (!h.state().sensor.is_current(&snap) || h.state().sensor.spad_sampling())
+        && start.elapsed() < Duration::from_secs(120)
+    {
         h.step();
         std::thread::sleep(Duration::from_millis(20));
     }
@@ -1094,6 +1097,49 @@ fn spad_preset_shows_the_first_photon_histogram_of_the_cached_film() {
         }
     }
     assert!(checked > 10, "too little light to check: {checked} bins");
+    // The realisation follows the expected histogram from the same job, drawn as
+    // tprf_core's one-shot image draws it (same seed, same film and sensor).
+    let start = Instant::now();
+    while h.state().sensor.spad_sampling() {
+        h.step();
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "the realisation never came"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let sampled = h.state().sensor.spad_image(&snap).expect("current").clone();
+    assert!(sampled.is_sampled() && sampled.histogram == img.histogram);
+    let model = h.state().sensor.model().expect("a model").clone();
+    let clean = model.measure_clean_film(&snap);
+    let whole = tprf_core::sensor::spad_image(&model, &clean, snap.steady()).expect("spad");
+    assert_eq!(sampled.counts, whole.counts);
+    assert!(sampled.counts.iter().sum::<f32>() > 0.0);
+    // An edit while a realisation is drawn cancels it; the next one is of the edit.
+    for cycles in [7000, 9000] {
+        if let Some(s) = h.state_mut().settings.sensor.spad.as_mut() {
+            s.cycles = cycles;
+        }
+        h.step();
+    }
+    wait_sensor(&mut h);
+    let start = Instant::now();
+    while h.state().sensor.spad_sampling() {
+        h.step();
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "the realisation never came"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let last = h.state().sensor.spad_image(&snap).expect("current").clone();
+    assert!(last.is_sampled());
+    let n: f32 = last.counts.iter().sum();
+    let e: f32 = last.histogram.iter().sum();
+    assert!(
+        (n - e).abs() < 0.05 * e,
+        "realisation {n} vs expected {e} over 9000 cycles"
+    );
     // The tab draws the SPAD's images and the pixel's histogram.
     h.step();
     h.get_by_label("SPAD bin image");
@@ -1330,4 +1376,46 @@ fn the_sensor_tab_adds_the_scenes_ambient_image() {
         let lit = got.values.iter().zip(&clean.values).any(|(g, c)| g > c);
         assert_eq!(lit, scale > 0.0, "scale {scale}");
     }
+}
+
+/// The window's sky: a scene with none rendered under a sky from the render settings
+/// has an ambient image, and the steady block shows it (its own image, colour bar in
+/// W m^-2 sr^-1) when chosen, the steady image otherwise.
+#[test]
+fn the_steady_block_shows_the_ambient_image_of_the_sky_set_in_the_window() {
+    let mut h = harness(ViewerSettings {
+        sky_radiance_w_m2_sr: Some(3.0),
+        ..small_settings("builtin:cornell", 16, 32, 4)
+    });
+    wait_done(&mut h, Duration::from_secs(120));
+    let start = Instant::now();
+    while h.state().ambient().is_none() {
+        h.step();
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "no ambient image"
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let a = h.state().ambient().expect("ambient");
+    assert!(
+        a.radiance.iter().any(|&v| v > 0.0),
+        "the sky lights the box"
+    );
+    h.run_steps(2);
+    h.get_by_label("steady image");
+    assert!(h.query_by_label("ambient image").is_none());
+    h.state_mut().settings.steady_ambient = true;
+    h.run_steps(2);
+    h.get_by_label("ambient image");
+    assert!(h.query_by_label("steady image").is_none());
+    let bar = label_with(&h, "colour bar: ambient image");
+    assert!(bar.ends_with("W m⁻² sr⁻¹, linear"), "{bar}");
+    // Without a sky (the scene's own: none) there is no choice to make.
+    let mut h = harness(small_settings("builtin:cornell", 16, 32, 4));
+    wait_done(&mut h, Duration::from_secs(120));
+    h.state_mut().settings.steady_ambient = true;
+    h.run_steps(2);
+    assert!(h.state().ambient().is_none());
+    h.get_by_label("steady image");
 }

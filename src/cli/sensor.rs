@@ -8,9 +8,9 @@ use super::args::time_s;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use tprf_core::export::sensor::{
-    DEFAULT_TILE_BYTES, SensorCube, SensorRun, measure_cube, write_sensor_outputs,
+    DEFAULT_TILE_BYTES, SensorCube, SensorRun, measure_cube, write_sensor_outputs, write_spad_files,
 };
-use tprf_core::sensor::{Derived, Exposure, LightPulse, Sensor, SensorModel, spad_image_ambient};
+use tprf_core::sensor::{Derived, Exposure, LightPulse, Sensor, SensorModel};
 use tprf_core::units::format_time;
 
 #[derive(Args, Debug)]
@@ -147,21 +147,22 @@ pub fn run(a: &SensorArgs) -> Result<()> {
     let measured = measure_cube(&cube, &model, &a.pixels, DEFAULT_TILE_BYTES)?;
     let mut m = measured.measurements;
     let measure_s = t_measure.elapsed().as_secs_f64();
-    let t_spad = Instant::now();
     // The SPAD reads the clean measurement and the steady image, both whole by now
-    // (measure_cube gathers them tile by tile), never the cube itself.
-    // With the cube's ambient image A when it has one (ambient_scale photons_per_unit A
-    // photons/s more per pixel, in every TDC bin).
+    // (measure_cube gathers them tile by tile), never the cube itself; with the cube's
+    // ambient image A when it has one (ambient_scale photons_per_unit A photons/s more
+    // per pixel, in every TDC bin). Its [B, H, W] arrays are computed and written a
+    // band of rows at a time.
     let spad = match &measured.steady {
-        Some(steady) => Some(spad_image_ambient(
+        Some(steady) => Some(write_spad_files(
+            &a.out,
             &model,
             &m,
             steady,
             cube.ambient.as_deref(),
+            DEFAULT_TILE_BYTES,
         )?),
         None => None,
     };
-    let spad_s = t_spad.elapsed().as_secs_f64();
     let t_noise = Instant::now();
     // The ambient image as a constant rate in every gate, before the noise (photon noise
     // grows with it): M_i += ambient_scale A integral Exposure_i dt.
@@ -224,17 +225,22 @@ pub fn run(a: &SensorArgs) -> Result<()> {
             measurement_s: measure_s,
             noise_s,
             started: start,
-            spad: spad.as_ref().map(|s| (s, spad_s)),
+            spad: spad.as_ref(),
             ambient: ambient_json,
         },
     )?;
     if let Some(s) = &spad {
         eprintln!(
-            "SPAD: {} TDC bins, {:.3e} expected detections; realisation {}; {:.1} ms",
+            "SPAD: {} TDC bins, {:.3e} expected detections; realisation {}; {:.1} ms{}",
             s.bins,
             s.expected_detections,
             s.sampler.name(),
-            spad_s * 1e3
+            s.seconds * 1e3,
+            if s.bands > 1 {
+                format!(" in {} bands of rows", s.bands)
+            } else {
+                String::new()
+            }
         );
     }
     if let Some(e) = written.multipath {

@@ -38,6 +38,10 @@ pub struct TprfApp {
     pub(super) drag_start: Option<(usize, usize)>,
     /// The slice, steady and rainbow images.
     pub(super) textures: TextureCache<ImageKey>,
+    /// The ambient image's texture (steady block, [`ViewerSettings::steady_ambient`]),
+    /// keyed by the image's address and the colour settings, with its white point.
+    pub(super) ambient_texture: TextureCache<(usize, bool)>,
+    pub(super) ambient_white: Option<f64>,
     /// How each image's texture was exposed (for its colour bar).
     pub(super) exposures: Vec<(View, Exposure)>,
     /// Buffers the images are made in, kept between frames.
@@ -93,6 +97,8 @@ impl TprfApp {
             selection_film: None,
             drag_start: None,
             textures: TextureCache::default(),
+            ambient_texture: TextureCache::default(),
+            ambient_white: None,
             exposures: Vec::new(),
             scratch: Scratch::default(),
             messages: Vec::new(),

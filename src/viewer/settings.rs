@@ -27,6 +27,10 @@ pub struct ViewerSettings {
     pub max_bounces: u32,
     pub channel: Channel,
     pub seed: u64,
+    /// A constant sky (W m^-2 sr^-1) in the scene's ambient light group, replacing the
+    /// scene's own; `None`: the scene's (the worker renders its ambient image, which
+    /// the sensor tab adds to every gate and the SPAD).
+    pub sky_radiance_w_m2_sr: Option<f64>,
     /// Playback speed, bins per second.
     pub play_bins_per_s: f32,
     pub looping: bool,
@@ -38,6 +42,9 @@ pub struct ViewerSettings {
     pub plot_log: bool,
     /// Per-bounce curves shown: 1, 2, 3, >3 scattering events.
     pub show_bounces: [bool; 4],
+    /// The steady block shows the scene's ambient image (W m^-2 sr^-1) instead of the
+    /// steady image, when the scene has one.
+    pub steady_ambient: bool,
     /// What the window shows: light in flight, or the sensor's measurements.
     pub mode: Mode,
     /// The sensor being edited (Light, gates, noise).
@@ -67,6 +74,7 @@ impl Default for ViewerSettings {
             max_bounces: 1024,
             channel: Channel::Gray,
             seed: 0,
+            sky_radiance_w_m2_sr: None,
             play_bins_per_s: 30.0,
             looping: true,
             exposure: ExposureMode::PerFrame,
@@ -75,6 +83,7 @@ impl Default for ViewerSettings {
             colormap: ColorMap::Inferno,
             plot_log: false,
             show_bounces: [true, true, true, true],
+            steady_ambient: false,
             mode: Mode::Transient,
             sensor: Sensor::builtin("lidar").expect("the built-in LiDAR preset parses"),
         }
@@ -95,6 +104,12 @@ impl ViewerSettings {
         self.max_bounces = self.max_bounces.clamp(1, 100_000);
         if !(self.play_bins_per_s.is_finite() && self.play_bins_per_s > 0.0) {
             self.play_bins_per_s = 30.0;
+        }
+        if self
+            .sky_radiance_w_m2_sr
+            .is_some_and(|l| !(l.is_finite() && l >= 0.0))
+        {
+            self.sky_radiance_w_m2_sr = None;
         }
         if !self.ev.is_finite() {
             self.ev = 0.0;
@@ -121,6 +136,7 @@ impl ViewerSettings {
             max_bounces: other.max_bounces,
             channel: other.channel,
             seed: other.seed,
+            sky_radiance_w_m2_sr: other.sky_radiance_w_m2_sr,
             ..self.clone()
         }
     }
@@ -162,6 +178,7 @@ impl ViewerSettings {
             },
             spp_target: (self.spp_target > 0).then_some(self.spp_target),
             error_target: (self.error_target_pct > 0.0).then(|| self.error_target_pct / 100.0),
+            sky_radiance_w_m2_sr: self.sky_radiance_w_m2_sr,
         })
     }
 }

@@ -196,6 +196,27 @@ impl TprfApp {
                 let l = ui.label("Seed");
                 ui.add(egui::DragValue::new(&mut p.seed)).labelled_by(l.id);
                 ui.end_row();
+                let l = ui.label("Sky").on_hover_text(
+                    "a constant sky in the ambient light group (steady light: the sensor adds \
+                     its ambient image to every gate and the SPAD); off: the scene's own",
+                );
+                ui.horizontal(|ui| {
+                    let mut on = p.sky_radiance_w_m2_sr.is_some();
+                    if ui.checkbox(&mut on, "").labelled_by(l.id).changed() {
+                        p.sky_radiance_w_m2_sr =
+                            on.then_some(p.sky_radiance_w_m2_sr.unwrap_or(1.0));
+                    }
+                    if let Some(sky) = p.sky_radiance_w_m2_sr.as_mut() {
+                        ui.add(
+                            egui::DragValue::new(sky)
+                                .range(0.0..=f64::MAX)
+                                .speed(0.1)
+                                .suffix(" W m⁻² sr⁻¹"),
+                        )
+                        .labelled_by(l.id);
+                    }
+                });
+                ui.end_row();
             });
         let changed = self.settings.with_render_of(&self.pending) != self.settings;
         ui.horizontal(|ui| {

@@ -46,12 +46,11 @@ impl TprfApp {
     fn image_ui(
         &mut self,
         ui: &mut egui::Ui,
-        view: View,
+        tex: TextureHandle,
         snap: &FilmSnapshot,
         size: Vec2,
         label: &str,
     ) -> Option<(usize, usize)> {
-        let tex = self.texture(view, snap);
         let scale = size.x / snap.width().max(1) as f32;
         let response = ui.add(egui::Image::new((tex.id(), size)).sense(Sense::click_and_drag()));
         response.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Image, true, label));
@@ -216,6 +215,50 @@ impl TprfApp {
         snap: &FilmSnapshot,
         size: Vec2,
     ) -> Option<(usize, usize)> {
+        // The scene's ambient image, in the steady block, when it has one of the film's
+        // size and it is chosen.
+        let ambient = self
+            .ambient()
+            .filter(|a| a.width == snap.width() && a.height == snap.height());
+        if view == View::Steady
+            && let Some(a) = ambient
+        {
+            ui.horizontal(|ui| {
+                ui.set_height(TITLE_H - 4.0);
+                let s = &mut self.settings.steady_ambient;
+                ui.selectable_value(s, false, RichText::new("Steady").strong())
+                    .on_hover_text("steady state: the sum over time of the TPRF");
+                ui.selectable_value(s, true, RichText::new("Ambient").strong())
+                    .on_hover_text("the ambient light group (sun, sky, lamps tagged ambient): steady light, W m⁻² sr⁻¹");
+            });
+            self.pending.steady_ambient = self.settings.steady_ambient;
+            if self.settings.steady_ambient {
+                let tex = self.ambient_texture_of(&a);
+                let hovered = self.image_ui(ui, tex, snap, size, "ambient image");
+                let ramp = |t: f64| colormap::color_of(colormap::ColorMap::Gray, t);
+                ColorBar {
+                    of: "ambient image",
+                    ramp: &ramp,
+                    scale: BarScale::Linear {
+                        lo: 0.0,
+                        hi: self.ambient_white.unwrap_or(1.0),
+                    },
+                    unit: STEADY_UNIT,
+                    second: None,
+                    note: &format!(
+                        "radiance of the scene's ambient light group (sun, sky, lamps tagged \
+                         ambient), steady, {} spp; white = the 99.9th percentile",
+                        a.spp
+                    ),
+                }
+                .ui(ui, size.x);
+                return hovered;
+            }
+            let tex = self.texture(view, snap);
+            let hovered = self.image_ui(ui, tex, snap, size, "steady image");
+            self.view_bar_ui(ui, view, snap, size.x);
+            return hovered;
+        }
         let (title, label) = match view {
             View::Slice => (
                 format!("Time slice · {}", bin_label(snap.axis(), self.bin)),
@@ -228,9 +271,38 @@ impl TprfApp {
             Vec2::new(size.x, TITLE_H - 4.0),
             egui::Label::new(RichText::new(title).strong()).truncate(),
         );
-        let hovered = self.image_ui(ui, view, snap, size, label);
+        let tex = self.texture(view, snap);
+        let hovered = self.image_ui(ui, tex, snap, size, label);
         self.view_bar_ui(ui, view, snap, size.x);
         hovered
+    }
+
+    /// The ambient image's texture: grey, linear from 0 to its 99.9th percentile (in
+    /// W m^-2 sr^-1, kept in `ambient_white` for the colour bar), made (and the
+    /// percentile taken) again only for a new image.
+    fn ambient_texture_of(
+        &mut self,
+        a: &std::sync::Arc<tprf_core::transport::ambient::AmbientImage>,
+    ) -> TextureHandle {
+        let key = (std::sync::Arc::as_ptr(a) as usize, self.settings.log_image);
+        let (cache, ctx, white_slot) = (
+            &mut self.ambient_texture,
+            &self.ctx,
+            &mut self.ambient_white,
+        );
+        cache.get(ctx, "ambient", key, || {
+            let white = tprf_core::film::quantile_positive(a.radiance.iter().copied(), 0.999);
+            *white_slot = white;
+            let tone = colormap::Tone {
+                scale: white.map_or(1.0, |m| 1.0 / m),
+                log: false,
+                decades: 3.0,
+            };
+            egui::ColorImage::from_rgba_unmultiplied(
+                [a.width, a.height],
+                &colormap::colorize(&a.radiance, &tone, colormap::ColorMap::Gray),
+            )
+        })
     }
 
     /// The time slice large, the steady and rainbow images beside or under it (whichever

@@ -89,22 +89,29 @@ fn spad_images(
             ui.selectable_value(view, v, v.label());
         }
     });
+    let sampled = match state.measured.as_ref().and_then(|m| m.sample_millis) {
+        Some(ms) if sp.is_sampled() => format!("drawn in {ms:.0} ms"),
+        _ => "sampling…".to_string(),
+    };
     ui.label(
         RichText::new(format!(
-            "{:.3e} detections expected; realisation: {}; measured in {:.0} ms",
+            "{:.3e} detections expected; realisation: {} ({sampled}); expected histogram and \
+             depth measured in {:.0} ms",
             img.expected_detections,
             img.sampler.name(),
             state.measured.as_ref().map_or(0.0, |m| m.millis)
         ))
         .weak(),
     );
+    // The realisation's views show the expected histogram until it is drawn.
+    let waiting = sp.shown(*view) != *view;
     let hash = |x: &dyn std::fmt::Debug| {
         use std::hash::{Hash, Hasher};
         let mut hasher = std::collections::hash_map::DefaultHasher::new();
         format!("{x:?}").hash(&mut hasher);
         hasher.finish()
     };
-    let key = hash(&(snap.generation(), model.sensor(), *view));
+    let key = hash(&(snap.generation(), model.sensor(), sp.shown(*view)));
     let avail = ui.available_size();
     let avail = Vec2::new(avail.x, avail.y - strip_height(avail.y, bins));
     let title_h = 22.0;
@@ -127,10 +134,17 @@ fn spad_images(
             ui.set_width(size.x);
             ui.add(
                 egui::Label::new(
-                    RichText::new(format!(
-                        "{} counts in bin {bin} (one exposure over all bins)",
-                        view.label()
-                    ))
+                    RichText::new(if waiting {
+                        format!(
+                            "sampling {}… expected counts in bin {bin} meanwhile",
+                            view.label()
+                        )
+                    } else {
+                        format!(
+                            "{} counts in bin {bin} (one exposure over all bins)",
+                            view.label()
+                        )
+                    })
                     .strong(),
                 )
                 .truncate(),
@@ -171,7 +185,7 @@ fn spad_images(
                 egui::Label::new(
                     RichText::new(format!(
                         "first-return depth of the {} histogram",
-                        view.label()
+                        sp.shown(*view).label()
                     ))
                     .strong(),
                 )

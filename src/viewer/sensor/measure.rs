@@ -1,12 +1,16 @@
 //! All gates of a film through the sensor, with noise and the derived depth images, on
 //! a pool of half the cores so the gate measured for the frame does not queue behind.
+//! A SPAD's realisation and Coates estimate come in a second stage ([`sample_spad`]),
+//! after its expected histogram and depth have been handed to the window, in bands of
+//! rows so that an edit cancels it between two bands.
 
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 use tprf_core::film::FilmSnapshot;
+use tprf_core::sensor::spad::{spad_expected, spad_rows};
 use tprf_core::sensor::{
     AmcwImage, Measurements, NoiseField, Sensor, SensorModel, SpadImage, derived,
-    spad_image_ambient,
 };
 use tprf_core::transport::ambient::AmbientImage;
 
@@ -46,6 +50,21 @@ pub(super) struct SpadMeasured {
 }
 
 impl SpadMeasured {
+    /// Whether the realisation and its Coates estimate are drawn (until then the views
+    /// that show them show the expected histogram, with a note).
+    pub(super) fn is_sampled(&self) -> bool {
+        self.image.is_sampled()
+    }
+
+    /// The view shown for `view`: the expected histogram while the realisation is drawn.
+    pub(super) fn shown(&self, view: SpadView) -> SpadView {
+        if self.is_sampled() {
+            view
+        } else {
+            SpadView::Expected
+        }
+    }
+
     fn new(image: SpadImage) -> SpadMeasured {
         let views = SpadView::ALL;
         let robust_max = views.map(|v| tprf_core::film::robust_max(spad_values(&image, v)));
@@ -57,21 +76,21 @@ impl SpadMeasured {
         }
     }
 
-    /// The `[B, H, W]` array of `view`.
+    /// The `[B, H, W]` array of `view` ([`Self::shown`]).
     pub(super) fn values(&self, view: SpadView) -> &[f32] {
-        spad_values(&self.image, view)
+        spad_values(&self.image, self.shown(view))
     }
 
     pub(super) fn depth(&self, view: SpadView) -> &[f32] {
-        spad_depth(&self.image, view)
+        spad_depth(&self.image, self.shown(view))
     }
 
     pub(super) fn robust_max(&self, view: SpadView) -> Option<f64> {
-        self.robust_max[view.index()]
+        self.robust_max[self.shown(view).index()]
     }
 
     pub(super) fn depth_range(&self, view: SpadView) -> (f32, f32) {
-        self.depth_range[view.index()]
+        self.depth_range[self.shown(view).index()]
     }
 }
 
@@ -106,6 +125,12 @@ pub(super) struct Measured {
     /// AMCW depth minus the depth of the TPRF's own first return (multipath error), m.
     pub(super) amcw_error_m: Option<Vec<f32>>,
     pub(super) millis: f64,
+    /// Milliseconds the SPAD's realisation took, once drawn.
+    pub(super) sample_millis: Option<f64>,
+    /// The clean measurement (no ambient, no noise) of the film and the sensor's light
+    /// and gates, shared with the next measurement when only the rest of the sensor
+    /// changes (a SPAD's own settings, the noise).
+    pub(super) clean: Arc<CleanKey>,
     /// One exposure for all gates: [`shared_white`] of the film and sensor.
     pub(super) robust_max: Option<f64>,
     /// Finite range of the depth image (m), and the largest |multipath error| (m).
@@ -122,6 +147,38 @@ impl Measured {
             .as_deref()
             .or(self.amcw.as_ref().map(|a| a.depth_m.as_slice()))
     }
+}
+
+/// A clean measurement `sum_b TPRF[b] K_i[b]` and what it depends on.
+pub(super) struct CleanKey {
+    pub(super) snapshot: u64,
+    pub(super) light: tprf_core::sensor::LightPulse,
+    pub(super) exposure: tprf_core::sensor::Exposure,
+    pub(super) m: Measurements,
+}
+
+impl CleanKey {
+    /// Whether this is the clean measurement of film `generation` through `sensor`.
+    pub(super) fn is_for(&self, generation: u64, sensor: &Sensor) -> bool {
+        self.snapshot == generation
+            && self.light == sensor.light
+            && self.exposure == sensor.exposure
+    }
+}
+
+/// What a measurement job sends back: all gates with the SPAD's expected histogram
+/// first, then (SPAD only) the realisation.
+pub(super) enum Stage {
+    Measured(Box<Measured>),
+    Sampled(Box<Sampled>),
+}
+
+/// A SPAD's realisation, Coates estimate and their depths for (snapshot, sensor).
+pub(super) struct Sampled {
+    pub(super) snapshot: u64,
+    pub(super) sensor: Sensor,
+    pub(super) image: SpadImage,
+    pub(super) millis: f64,
 }
 
 /// Pixels the shared exposure reads: a grid of about [`WHITE_PIXELS`] pixels.
@@ -189,15 +246,28 @@ pub(super) fn background_pool() -> Option<&'static rayon::ThreadPool> {
 }
 
 /// All gates of `snap` through `model`, with noise (drawn into `noise_field`, reused)
-/// and derived outputs.
+/// and derived outputs; a SPAD's expected histogram and its depth, not yet its
+/// realisation ([`sample_spad`]). `clean` is the clean measurement of a previous job,
+/// reused when it is that of this film, light and gates.
 pub(super) fn measure_all(
     model: &SensorModel,
     snap: &FilmSnapshot,
     ambient_image: Option<Arc<AmbientImage>>,
     mut noise_field: NoiseField,
+    clean: Option<Arc<CleanKey>>,
 ) -> Result<Measured, String> {
     let started = Instant::now();
-    let mut m = model.measure_clean_film(snap);
+    let sensor = model.sensor();
+    let clean = match clean.filter(|c| c.is_for(snap.generation(), sensor)) {
+        Some(c) => c,
+        None => Arc::new(CleanKey {
+            snapshot: snap.generation(),
+            light: sensor.light.clone(),
+            exposure: sensor.exposure.clone(),
+            m: model.measure_clean_film(snap),
+        }),
+    };
+    let mut m = clean.m.clone();
     // The scene's ambient image, when it has one of the film's size.
     let ambient = ambient_image
         .as_deref()
@@ -207,7 +277,7 @@ pub(super) fn measure_all(
     // additive noise is the gates' own.
     let spad = match model.sensor().spad {
         Some(_) => Some(SpadMeasured::new(
-            spad_image_ambient(model, &m, snap.steady(), ambient).map_err(|e| e.to_string())?,
+            spad_expected(model, &m, snap.steady(), ambient).map_err(|e| e.to_string())?,
         )),
         None => None,
     };
@@ -238,6 +308,8 @@ pub(super) fn measure_all(
         spad,
         amcw_error_m,
         millis: started.elapsed().as_secs_f64() * 1e3,
+        sample_millis: None,
+        clean,
         robust_max,
         depth_range: (0.0, 0.0),
         error_abs_max,
@@ -245,6 +317,81 @@ pub(super) fn measure_all(
     };
     measured.depth_range = measured.depth().map_or((0.0, 0.0), finite_range);
     Ok(measured)
+}
+
+/// What [`sample_spad`] draws from: the first stage's SPAD image and its inputs.
+pub(super) struct SampleInput {
+    pub(super) snapshot: u64,
+    pub(super) sensor: Sensor,
+    pub(super) clean: Arc<CleanKey>,
+    pub(super) ambient: Option<Arc<AmbientImage>>,
+    pub(super) image: SpadImage,
+}
+
+/// Rows a band of [`sample_spad`] holds: about 16 bands an image, at least 4 rows.
+fn sample_band_rows(height: usize) -> usize {
+    height.div_ceil(16).max(4)
+}
+
+/// The realisation of `measured`'s SPAD image (drawn with its sampler, from the clean
+/// measurement it was made from), its Coates estimate and their depths, a band of rows
+/// at a time; `None` when `cancel` is set between two bands (an edit made it stale) or
+/// there is nothing to draw.
+pub(super) fn sample_spad(
+    model: &SensorModel,
+    snap: &FilmSnapshot,
+    measured: &SampleInput,
+    cancel: &AtomicBool,
+) -> Option<Sampled> {
+    let started = Instant::now();
+    let clean = &measured.clean.m;
+    let ambient = measured
+        .ambient
+        .as_deref()
+        .filter(|a| a.width == snap.width() && a.height == snap.height())
+        .map(|a| a.radiance.as_slice());
+    let (w, h, b) = (clean.width, clean.height, clean.gates);
+    let mut image = SpadImage {
+        counts: vec![0.0; b * w * h],
+        coates: vec![0.0; b * w * h],
+        depth_counts_m: vec![f32::NAN; w * h],
+        depth_coates_m: vec![f32::NAN; w * h],
+        ..measured.image.clone()
+    };
+    let rows = sample_band_rows(h);
+    for y0 in (0..h).step_by(rows) {
+        if cancel.load(Ordering::Relaxed) {
+            return None;
+        }
+        let n = rows.min(h - y0);
+        let band = spad_rows(model, clean, snap.steady(), ambient, image.sampler, y0, n).ok()?;
+        for k in 0..b {
+            let (from, to) = (k * n * w..(k + 1) * n * w, k * h * w + y0 * w);
+            image.counts[to..to + n * w].copy_from_slice(&band.counts[from.clone()]);
+            image.coates[to..to + n * w].copy_from_slice(&band.coates[from]);
+        }
+        image.depth_counts_m[y0 * w..(y0 + n) * w].copy_from_slice(&band.depth_counts_m);
+        image.depth_coates_m[y0 * w..(y0 + n) * w].copy_from_slice(&band.depth_coates_m);
+    }
+    Some(Sampled {
+        snapshot: measured.snapshot,
+        sensor: measured.sensor.clone(),
+        image,
+        millis: started.elapsed().as_secs_f64() * 1e3,
+    })
+}
+
+impl Measured {
+    /// Takes in the realisation `s` when it is that of this measurement.
+    pub(super) fn take_sampled(&mut self, s: Sampled) {
+        if s.snapshot != self.snapshot || s.sensor != self.sensor {
+            return;
+        }
+        if let Some(sp) = self.spad.as_mut() {
+            *sp = SpadMeasured::new(s.image);
+            self.sample_millis = Some(s.millis);
+        }
+    }
 }
 
 /// The smallest and largest finite values, `(0, 0)` when there are none.

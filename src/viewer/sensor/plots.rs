@@ -188,8 +188,13 @@ fn spad_plot_ui(
                 .background_alpha(0.6),
         );
     let r = plotting::value_plot(plot, "TDC time (ns)", "counts per bin").show(ui, |p| {
+        let realisation = if sp.is_sampled() {
+            "realisation"
+        } else {
+            "realisation (sampling…)"
+        };
         p.line(
-            Line::new("realisation", PlotPoints::from(curve(&counts)))
+            Line::new(realisation, PlotPoints::from(curve(&counts)))
                 .color(Color32::from_gray(0x80)),
         );
         p.line(

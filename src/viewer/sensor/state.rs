@@ -4,11 +4,13 @@
 
 use super::handles::Handle;
 use super::measure::{
-    Measured, SpadMeasured, SpadView, background_pool, brightest_gate, measure_all, shared_white,
+    Measured, SpadMeasured, SpadView, Stage, background_pool, brightest_gate, measure_all,
+    sample_spad, shared_white,
 };
 use super::view::TimeView;
 use crate::viewer::textures::TextureCache;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, TryRecvError, channel};
 use std::time::Instant;
 use tprf_core::film::FilmSnapshot;
@@ -30,13 +32,19 @@ pub(super) struct Plane {
 ///
 /// An edit is shown within the frame: the image of the gate on screen is measured at
 /// once (one kernel over the film). All N gates, the noise and the derived depth are
-/// measured on a background thread and replace it when done; the UI never waits.
+/// measured on a background thread and replace it when done; the UI never waits. A
+/// SPAD's expected histogram and depth come with them; its realisation and Coates
+/// estimate follow from the same thread (the views that show them say "sampling"
+/// meanwhile), and the next edit cancels a realisation being drawn. An edit of the
+/// SPAD's own settings (or the noise) reuses the clean measurement of the last job.
 #[derive(Default)]
 pub struct SensorState {
     pub(super) model: Option<SensorModel>,
     pub(super) measured: Option<Measured>,
     pub(super) plane: Option<Plane>,
-    job: Option<Receiver<Measured>>,
+    job: Option<(Receiver<Stage>, Arc<AtomicBool>)>,
+    /// The job drawing the SPAD's realisation after its first stage came back.
+    sampling: Option<(Receiver<Stage>, Arc<AtomicBool>)>,
     noise_field: Option<NoiseField>,
     pub error: Option<String>,
     /// The gate shown, `i` (the TDC bin, for a SPAD).
@@ -116,15 +124,31 @@ impl SensorState {
             }
         }
         let key = snap.generation();
-        // A finished background measurement.
-        if let Some(rx) = &self.job {
+        // A finished background measurement; then, for a SPAD, its realisation.
+        if let Some((rx, _)) = &self.job {
             match rx.try_recv() {
-                Ok(mut done) => {
+                Ok(Stage::Measured(mut done)) => {
                     self.noise_field = Some(std::mem::take(&mut done.noise_field));
-                    self.measured = Some(done);
-                    self.job = None;
+                    let sampling = done.spad.as_ref().is_some_and(|s| !s.is_sampled());
+                    self.measured = Some(*done);
+                    let job = self.job.take();
+                    if sampling {
+                        self.sampling = job;
+                    }
                 }
-                Err(TryRecvError::Disconnected) => self.job = None,
+                Ok(Stage::Sampled(_)) | Err(TryRecvError::Disconnected) => self.job = None,
+                Err(TryRecvError::Empty) => {}
+            }
+        }
+        if let Some((rx, _)) = &self.sampling {
+            match rx.try_recv() {
+                Ok(Stage::Sampled(s)) => {
+                    if let Some(m) = self.measured.as_mut() {
+                        m.take_sampled(*s);
+                    }
+                    self.sampling = None;
+                }
+                Ok(Stage::Measured(_)) | Err(TryRecvError::Disconnected) => self.sampling = None,
                 Err(TryRecvError::Empty) => {}
             }
         }
@@ -179,27 +203,53 @@ impl SensorState {
     /// Measure all gates of `snap` through `model` on a thread named `tprf-sensor`
     /// (the work itself on [`background_pool`]); the result comes back through `job`.
     fn spawn_measurement(&mut self, model: &SensorModel, snap: &Arc<FilmSnapshot>) {
+        // A realisation still being drawn is for an older sensor or film.
+        if let Some((_, cancel)) = self.sampling.take() {
+            cancel.store(true, Ordering::Relaxed);
+        }
         let (tx, rx) = channel();
         let (job_model, job_snap) = (model.clone(), snap.clone());
         let job_ambient = self.ambient.clone();
         let field = self.noise_field.take().unwrap_or_default();
+        let clean = self.measured.as_ref().map(|m| m.clean.clone());
+        let cancel = Arc::new(AtomicBool::new(false));
+        let job_cancel = cancel.clone();
         let spawned = std::thread::Builder::new()
             .name("tprf-sensor".into())
             .spawn(move || {
+                let run = || {
+                    let measured =
+                        measure_all(&job_model, &job_snap, job_ambient, field, clean).ok()?;
+                    let sample = measured.spad.as_ref().is_some_and(|s| !s.is_sampled());
+                    // The realisation is drawn from a copy's inputs once the first stage
+                    // is on its way.
+                    let (m_model, m_clean) = (job_model.clone(), measured.clean.clone());
+                    let m_ambient = measured.ambient.clone();
+                    let (snapshot, sensor) = (measured.snapshot, measured.sensor.clone());
+                    let first = measured.spad.as_ref().map(|s| s.image.clone());
+                    tx.send(Stage::Measured(Box::new(measured))).ok()?;
+                    if sample {
+                        let stub = super::measure::SampleInput {
+                            snapshot,
+                            sensor,
+                            clean: m_clean,
+                            ambient: m_ambient,
+                            image: first?,
+                        };
+                        let s = sample_spad(&m_model, &job_snap, &stub, &job_cancel)?;
+                        tx.send(Stage::Sampled(Box::new(s))).ok()?;
+                    }
+                    Some(())
+                };
                 // On its own threads, so the gate measured for the frame does not queue
                 // behind it on the global pool.
-                let result = match background_pool() {
-                    Some(pool) => {
-                        pool.install(|| measure_all(&job_model, &job_snap, job_ambient, field))
-                    }
-                    None => measure_all(&job_model, &job_snap, job_ambient, field),
+                match background_pool() {
+                    Some(pool) => pool.install(run),
+                    None => run(),
                 };
-                if let Ok(m) = result {
-                    let _ = tx.send(m);
-                }
             });
         match spawned {
-            Ok(_) => self.job = Some(rx),
+            Ok(_) => self.job = Some((rx, cancel)),
             Err(e) => self.error = Some(format!("cannot start the measurement thread: {e}")),
         }
     }
@@ -268,6 +318,11 @@ impl SensorState {
     /// they are those of the current sensor and film.
     pub fn spad_image(&self, snap: &FilmSnapshot) -> Option<&tprf_core::sensor::SpadImage> {
         self.spad(snap).map(|s| &s.image)
+    }
+
+    /// Whether a SPAD's realisation is being drawn (its expected histogram is shown).
+    pub fn spad_sampling(&self) -> bool {
+        self.sampling.is_some()
     }
 
     /// The latest measurements `[N, H, W]`.

@@ -370,6 +370,113 @@ pub fn write_npy_f32(path: &Path, shape: &[u64], data: &[f32]) -> Result<(), Exp
     })
 }
 
+/// A float32 C-order `.npy` of shape `[P, H, W]` written a band of rows at a time (all
+/// `P` planes of rows `y0 .. y0 + rows` per call, in any order), into `NAME.tmp` beside
+/// it and renamed over it by [`NpyBands::finish`] (dropped unfinished, the temporary
+/// file is removed). The file is byte for byte what [`write_npy_f32`] writes of the
+/// whole array.
+pub struct NpyBands {
+    path: PathBuf,
+    tmp: PathBuf,
+    file: Option<File>,
+    data_at: u64,
+    shape: [u64; 3],
+    bytes: Vec<u8>,
+}
+
+impl NpyBands {
+    /// Creates the temporary file with its header and room for the data.
+    pub fn create(path: &Path, shape: [u64; 3]) -> Result<NpyBands, ExportError> {
+        let tmp = temp_path(path);
+        let mut header = Vec::new();
+        let write_err = |source: std::io::Error| ExportError::Write {
+            path: path.to_path_buf(),
+            source: source.into(),
+        };
+        npyz::WriteOptions::<f32>::new()
+            .default_dtype()
+            .shape(&shape)
+            .writer(&mut header)
+            .write_header_only()
+            .map_err(write_err)?;
+        let file = File::create(&tmp).map_err(|source| ExportError::Create {
+            path: tmp.clone(),
+            source,
+        })?;
+        let bands = NpyBands {
+            path: path.to_path_buf(),
+            tmp,
+            file: Some(file),
+            data_at: header.len() as u64,
+            shape,
+            bytes: Vec::new(),
+        };
+        let file = bands.file.as_ref().expect("just opened");
+        std::os::unix::fs::FileExt::write_all_at(file, &header, 0).map_err(write_err)?;
+        file.set_len(header.len() as u64 + npy_f32_bytes(&shape))
+            .map_err(write_err)?;
+        Ok(bands)
+    }
+
+    /// Writes rows `y0 .. y0 + rows` of every plane: `values` is `[P, rows, W]`.
+    pub fn write_rows(
+        &mut self,
+        y0: usize,
+        rows: usize,
+        values: &[f32],
+    ) -> Result<(), ExportError> {
+        let [p, h, w] = self.shape.map(|v| v as usize);
+        if y0 + rows > h || values.len() != p * rows * w {
+            return Err(ExportError::Write {
+                path: self.path.clone(),
+                source: format!(
+                    "rows {y0} .. {} of {h} with {} values for {p} planes of {w} columns",
+                    y0 + rows,
+                    values.len()
+                )
+                .into(),
+            });
+        }
+        let file = self.file.as_ref().expect("open until finished");
+        for (k, plane) in values.chunks_exact((rows * w).max(1)).enumerate() {
+            self.bytes.clear();
+            self.bytes
+                .extend(plane.iter().flat_map(|v| v.to_le_bytes()));
+            let at = self.data_at + 4 * ((k * h + y0) * w) as u64;
+            std::os::unix::fs::FileExt::write_all_at(file, &self.bytes, at).map_err(|source| {
+                ExportError::Write {
+                    path: self.path.clone(),
+                    source: source.into(),
+                }
+            })?;
+        }
+        Ok(())
+    }
+
+    /// Flushes the file to disk and renames it over its path.
+    pub fn finish(mut self) -> Result<(), ExportError> {
+        let file = self.file.take().expect("open until finished");
+        file.sync_all().map_err(|source| ExportError::Write {
+            path: self.path.clone(),
+            source: source.into(),
+        })?;
+        drop(file);
+        std::fs::rename(&self.tmp, &self.path).map_err(|source| ExportError::Rename {
+            from: self.tmp.clone(),
+            to: self.path.clone(),
+            source,
+        })
+    }
+}
+
+impl Drop for NpyBands {
+    fn drop(&mut self) {
+        if self.file.take().is_some() {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+    }
+}
+
 /// Write a snapshot's cube as a float32 C-order `.npy`: `[H, W, T]` for the total
 /// (`layer` `None`) or `[L, H, W, T]` for all per-bounce layers (`layer` `Some(_)` is
 /// ignored beyond choosing that form). Rows are made dense one at a time, so the only

@@ -49,9 +49,10 @@ macro_rules! bail {
     };
 }
 
-use super::{NpyF32, write_csv, write_json, write_npy_f32, write_png_rgb};
+use super::{NpyBands, NpyF32, write_csv, write_json, write_npy_f32, write_png_rgb};
 use crate::film::{TimeAxis, quantile};
-use crate::sensor::{FirstReturn, Measurements, SensorModel, SpadImage, derived};
+use crate::sensor::spad::{Sampler, spad_bytes_per_pixel, spad_rows, spad_sampler};
+use crate::sensor::{FirstReturn, Measurements, SensorModel, derived};
 
 /// The time window of a cube as `tprf.json` records it; other keys are ignored, so a
 /// cube written by another tool needs only these.
@@ -461,9 +462,9 @@ pub struct SensorRun<'a> {
     pub noise_s: f64,
     /// When the run started: `sensor.json`'s total time runs from here to its writing.
     pub started: Instant,
-    /// The SPAD's histograms and depths, when the sensor has a `[spad]` section, and
-    /// the seconds they took.
-    pub spad: Option<(&'a SpadImage, f64)>,
+    /// The SPAD's files, when the sensor has a `[spad]` section ([`write_spad_files`],
+    /// into the same folder).
+    pub spad: Option<&'a SpadFiles>,
     /// The `ambient` entry of `sensor.json` when the cube has an ambient image
     /// ([`super::ambient::sensor_json`]).
     pub ambient: Option<serde_json::Value>,
@@ -597,9 +598,9 @@ pub fn write_sensor_outputs(out: &Path, run: &SensorRun) -> Result<SensorOutputs
         );
     }
 
-    if let Some((spad, seconds)) = run.spad {
-        let written = write_spad_outputs(out, model, spad, seconds, &mut derived_json)?;
-        files.extend(written);
+    if let Some(spad) = run.spad {
+        files.extend(spad.files.iter().cloned());
+        derived_json.insert("spad".into(), spad_json(model, spad));
     }
 
     if traces.len() != pixels.len() {
@@ -669,86 +670,174 @@ pub fn write_sensor_outputs(out: &Path, run: &SensorRun) -> Result<SensorOutputs
     Ok(SensorOutputs { files, multipath })
 }
 
-/// The SPAD's files (`spad_histogram.npy`, `spad_counts.npy`, `spad_coates.npy`
-/// `[B, H, W]`; `spad_depth_{histogram,counts,coates}.{npy,png}` `[H, W]`) and its entry
-/// in `sensor.json` (every parameter with its unit); returns the file names.
-fn write_spad_outputs(
+/// What [`write_spad_files`] wrote and found.
+#[derive(Clone, Debug)]
+pub struct SpadFiles {
+    pub bins: usize,
+    pub width: usize,
+    pub height: usize,
+    /// How the realisation was drawn.
+    pub sampler: Sampler,
+    /// Expected detections summed over the image.
+    pub expected_detections: f64,
+    /// TDC bin centres in the first cycle, s.
+    pub centres_s: Vec<f64>,
+    /// Values of `spad_coates.npy` that are NaN (bin never armed).
+    pub never_armed: usize,
+    /// Pixels with a first return in the expected histogram, the realisation and the
+    /// Coates estimate.
+    pub pixels_with_return: [usize; 3],
+    /// Bands of rows the image was computed and written in.
+    pub bands: usize,
+    /// The files written.
+    pub files: Vec<String>,
+    /// Seconds it took.
+    pub seconds: f64,
+}
+
+/// The SPAD's files from the sensor's clean measurement `signal` (`[B, H, W]`, before
+/// ambient and noise), the steady image and the cube's ambient image (as
+/// [`crate::sensor::spad_image_ambient`]): `spad_histogram.npy`, `spad_counts.npy`,
+/// `spad_coates.npy` (`[B, H, W]`) and `spad_depth_{histogram,counts,coates}.{npy,png}`
+/// (`[H, W]`) into `out`. The image is computed and written a band of rows at a time
+/// ([`spad_rows`]), each band's arrays at most `tile_bytes` (and a quarter of the memory
+/// free; one row at least): a histogram larger than memory is measured, and the files
+/// are byte for byte the same for any band size.
+pub fn write_spad_files(
     out: &Path,
     model: &SensorModel,
-    spad: &SpadImage,
-    seconds: f64,
-    derived_json: &mut serde_json::Map<String, serde_json::Value>,
-) -> Result<Vec<String>> {
-    let (b, h, w) = (spad.bins as u64, spad.height as u64, spad.width as u64);
-    let mut files = Vec::new();
-    for (name, values) in [
-        ("spad_histogram.npy", &spad.histogram),
-        ("spad_counts.npy", &spad.counts),
-        ("spad_coates.npy", &spad.coates),
-    ] {
-        write_npy_f32(&out.join(name), &[b, h, w], values)?;
-        files.push(name.to_string());
+    signal: &Measurements,
+    steady: &[f32],
+    ambient: Option<&[f32]>,
+    tile_bytes: u64,
+) -> Result<SpadFiles> {
+    let started = Instant::now();
+    let (w, h) = (signal.width, signal.height);
+    let (sampler, expected_detections) = spad_sampler(model, signal, steady, ambient)?;
+    let bins = signal.gates;
+    let budget =
+        crate::budget::available().map_or(tile_bytes, |free| tile_bytes.min(free.bytes / 4));
+    let row_bytes = spad_bytes_per_pixel(bins).saturating_mul(w.max(1) as u64);
+    let rows = usize::try_from(budget / row_bytes.max(1))
+        .unwrap_or(usize::MAX)
+        .clamp(1, h.max(1));
+    super::create_dir(out)?;
+    let shape = [bins as u64, h as u64, w as u64];
+    let names = ["spad_histogram.npy", "spad_counts.npy", "spad_coates.npy"];
+    let mut arrays = [
+        NpyBands::create(&out.join(names[0]), shape)?,
+        NpyBands::create(&out.join(names[1]), shape)?,
+        NpyBands::create(&out.join(names[2]), shape)?,
+    ];
+    let mut depths = [
+        vec![f32::NAN; w * h],
+        vec![f32::NAN; w * h],
+        vec![f32::NAN; w * h],
+    ];
+    let (mut never_armed, mut bands, mut centres_s) = (0, 0, Vec::new());
+    for y0 in (0..h).step_by(rows) {
+        let n = rows.min(h - y0);
+        let band = spad_rows(model, signal, steady, ambient, sampler, y0, n)?;
+        for (file, values) in arrays
+            .iter_mut()
+            .zip([&band.histogram, &band.counts, &band.coates])
+        {
+            file.write_rows(y0, n, values)?;
+        }
+        for (all, part) in depths.iter_mut().zip([
+            &band.depth_histogram_m,
+            &band.depth_counts_m,
+            &band.depth_coates_m,
+        ]) {
+            all[y0 * w..(y0 + n) * w].copy_from_slice(part);
+        }
+        never_armed += band.coates.iter().filter(|v| v.is_nan()).count();
+        bands += 1;
+        centres_s = band.centres_s;
     }
-    let mut found = serde_json::Map::new();
-    for (name, depth) in [
-        ("histogram", &spad.depth_histogram_m),
-        ("counts", &spad.depth_counts_m),
-        ("coates", &spad.depth_coates_m),
-    ] {
+    for file in arrays {
+        file.finish()?;
+    }
+    let mut files: Vec<String> = names.map(String::from).to_vec();
+    let mut pixels_with_return = [0; 3];
+    for ((name, depth), found) in ["histogram", "counts", "coates"]
+        .iter()
+        .zip(&depths)
+        .zip(&mut pixels_with_return)
+    {
         let npy = format!("spad_depth_{name}.npy");
         let png = format!("spad_depth_{name}.png");
-        write_npy_f32(&out.join(&npy), &[h, w], depth)?;
-        write_depth_png(&out.join(&png), spad.width, spad.height, depth)?;
-        found.insert(
-            name.into(),
-            depth.iter().filter(|d| d.is_finite()).count().into(),
-        );
+        write_npy_f32(&out.join(&npy), &[h as u64, w as u64], depth)?;
+        write_depth_png(&out.join(&png), w, h, depth)?;
+        *found = depth.iter().filter(|d| d.is_finite()).count();
         files.extend([npy, png]);
     }
+    Ok(SpadFiles {
+        bins,
+        width: w,
+        height: h,
+        sampler,
+        expected_detections,
+        centres_s,
+        never_armed,
+        pixels_with_return,
+        bands,
+        files,
+        seconds: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// The SPAD's entry in `sensor.json`: every parameter with its unit, what the files
+/// hold, how the realisation was drawn.
+fn spad_json(model: &SensorModel, spad: &SpadFiles) -> serde_json::Value {
     let sensor = model.sensor();
     let p = sensor.spad.clone().unwrap_or_default();
     let (cycle_s, sigma_s) = sensor.exposure.tdc_cycle_s().unwrap_or((0.0, 0.0));
     let bin_width_s = cycle_s / spad.bins.max(1) as f64;
-    let never_armed = spad.coates.iter().filter(|v| v.is_nan()).count();
-    derived_json.insert(
-        "spad".into(),
-        serde_json::json!({
-            "model": "per cycle, events in TDC bin k ~ Poisson(r_k), r_k = pde (photons_per_unit \
-                      S_k + ambient photons/s x bin width) + dark_count_rate x bin width, S_k the \
-                      pixel's (TPRF * Light) in bin k after the jitter, folded into the cycle; \
-                      the SPAD fires on the first event of a bin while armed, is then dead \
-                      through dead_bins more bins, and may afterpulse (docs/sensor.md)",
-            "parameters": {
-                "cycles": {"value": p.cycles, "unit": "laser cycles"},
-                "pde": {"value": p.pde, "unit": "probability"},
-                "photons_per_unit": {"value": p.photons_per_unit, "unit": "photons per unit of (TPRF * Light) (a cube bin's unit times the light's energy) per pulse"},
-                "ambient_rate_hz": {"value": p.ambient_rate_hz, "unit": "photons/s per pixel (before the PDE)"},
-                "ambient_lamp_hz": {"value": p.ambient_lamp_hz, "unit": "1/s: a steady lamp where the light is, in pulse energies per second"},
-                "dark_count_rate_hz": {"value": p.dark_count_rate_hz, "unit": "counts/s"},
-                "dead_time_s": {"value": p.dead_time_s, "unit": "s"},
-                "dead_bins": {"value": (p.dead_time_s / bin_width_s.max(f64::MIN_POSITIVE)).round(), "unit": "TDC bins after the bin of a detection"},
-                "mode": {"value": p.mode, "unit": "synchronous: armed afresh each cycle; free_running: never reset"},
-                "afterpulse_probability": {"value": p.afterpulse_probability, "unit": "probability per detection"},
-                "afterpulse_delay_s": {"value": p.afterpulse_delay_s, "unit": "s (mean of an exponential)"},
-                "tdc_bins": {"value": spad.bins, "unit": "bins"},
-                "tdc_bin_width_s": {"value": bin_width_s, "unit": "s"},
-                "cycle_s": {"value": cycle_s, "unit": "s (bins x bin width; the laser period)"},
-                "jitter_sigma_s": {"value": sigma_s, "unit": "s (Gaussian standard deviation)"},
-                "seed": {"value": sensor.noise.seed, "unit": "seed of the realisation (noise.seed)"},
-            },
-            "tdc_bin_centres_s": [spad.centres_s.first(), spad.centres_s.last()],
-            "spad_histogram": "expected counts over all cycles, float32 [B, H, W]",
-            "spad_counts": "one seeded realisation, float32 [B, H, W]",
-            "spad_coates": "Coates estimate N r_k of spad_counts (counts without pile-up); NaN: bin never armed",
-            "sampler": spad.sampler.name(),
-            "expected_detections": spad.expected_detections,
-            "coates_bins_never_armed": never_armed,
-            "depth": "first return after removing the median bin (the background), c (t - light mean time) / 2, metres; NaN: none",
-            "pixels_with_return": found,
-            "seconds": seconds,
-        }),
-    );
-    Ok(files)
+    let never_armed = spad.never_armed;
+    let dead = crate::sensor::spad::Detector::new(&p, spad.bins, bin_width_s).ok();
+    serde_json::json!({
+        "model": "per cycle, events in TDC bin k ~ Poisson(r_k), r_k = pde (photons_per_unit \
+                  S_k + ambient photons/s x bin width) + dark_count_rate x bin width, S_k the \
+                  pixel's (TPRF * Light) in bin k after the jitter, folded into the cycle; \
+                  the SPAD fires on the first event of a bin while armed, is then dead \
+                  for the rest of that bin and dead_time_s more (dead_bins whole bins and \
+                  the first dead_fraction of the next), and may afterpulse (docs/sensor.md)",
+        "parameters": {
+            "cycles": {"value": p.cycles, "unit": "laser cycles"},
+            "pde": {"value": p.pde, "unit": "probability"},
+            "photons_per_unit": {"value": p.photons_per_unit, "unit": "photons per unit of (TPRF * Light) (a cube bin's unit times the light's energy) per pulse"},
+            "ambient_rate_hz": {"value": p.ambient_rate_hz, "unit": "photons/s per pixel (before the PDE)"},
+            "ambient_lamp_hz": {"value": p.ambient_lamp_hz, "unit": "1/s: a steady lamp where the light is, in pulse energies per second"},
+            "dark_count_rate_hz": {"value": p.dark_count_rate_hz, "unit": "counts/s"},
+            "dead_time_s": {"value": p.dead_time_s, "unit": "s"},
+            "dead_bins": {"value": dead.as_ref().map_or(0, |d| d.dead_bins), "unit": "whole TDC bins dead after the bin of a detection"},
+            "dead_fraction": {"value": dead.as_ref().map_or(0.0, |d| d.dead_fraction), "unit": "fraction of the next bin still dead (dead_time_s / bin width = dead_bins + dead_fraction)"},
+            "mode": {"value": p.mode, "unit": "synchronous: armed afresh each cycle; free_running: never reset"},
+            "afterpulse_probability": {"value": p.afterpulse_probability, "unit": "probability per detection"},
+            "afterpulse_delay_s": {"value": p.afterpulse_delay_s, "unit": "s (mean of an exponential)"},
+            "tdc_bins": {"value": spad.bins, "unit": "bins"},
+            "tdc_bin_width_s": {"value": bin_width_s, "unit": "s"},
+            "cycle_s": {"value": cycle_s, "unit": "s (bins x bin width; the laser period)"},
+            "jitter_sigma_s": {"value": sigma_s, "unit": "s (Gaussian standard deviation)"},
+            "seed": {"value": sensor.noise.seed, "unit": "seed of the realisation (noise.seed)"},
+        },
+        "tdc_bin_centres_s": [spad.centres_s.first(), spad.centres_s.last()],
+        "spad_histogram": "expected counts over all cycles, float32 [B, H, W]",
+        "spad_counts": "one seeded realisation, float32 [B, H, W]",
+        "spad_coates": "Coates estimate N r_k of spad_counts (counts without pile-up); NaN: bin never armed",
+        "sampler": spad.sampler.name(),
+        "expected_detections": spad.expected_detections,
+        "coates_bins_never_armed": never_armed,
+        "depth": "first return after removing the median bin (the background), c (t - light mean time) / 2, metres; NaN: none",
+        "pixels_with_return": {
+            "histogram": spad.pixels_with_return[0],
+            "counts": spad.pixels_with_return[1],
+            "coates": spad.pixels_with_return[2],
+        },
+        "bands": {"value": spad.bands, "unit": "bands of rows computed and written one at a time"},
+        "seconds": spad.seconds,
+    })
 }
 
 /// A depth image as grey PNG, linear in depth from the 1 % to the 99 % quantile:

@@ -32,6 +32,10 @@ pub struct RenderJob {
     /// Stop once the film's relative error estimate is at or below this (`None`: not on
     /// the error).
     pub error_target: Option<f64>,
+    /// A constant sky of this radiance (W m^-2 sr^-1, every band) in the scene's ambient
+    /// light group, replacing the scene's own (`None`: the scene's; `tprf render --sky`).
+    /// It never enters the transient render, only the ambient image.
+    pub sky_radiance_w_m2_sr: Option<f64>,
 }
 
 /// Where the worker is.
@@ -251,7 +255,16 @@ fn set_status(shared: &Shared, f: impl FnOnce(&mut WorkerStatus)) {
 
 fn run(job: &RenderJob, shared: &Shared, on_update: &(dyn Fn() + Sync)) -> Result<(), RenderError> {
     let setup_start = Instant::now();
-    let scene: Scene = scene::load(&job.scene)?;
+    let mut scene: Scene = scene::load(&job.scene)?;
+    if let Some(l) = job.sky_radiance_w_m2_sr {
+        if !(l.is_finite() && l >= 0.0) {
+            return Err(SceneError::Invalid(format!(
+                "sky radiance {l} W m^-2 sr^-1 must be finite and >= 0"
+            ))
+            .into());
+        }
+        scene.ambient.sky_radiance = [l as f32; 3];
+    }
     let notes = scene.notes.clone();
     let triangles = scene.triangles.len();
     let renderer = Renderer::new(Arc::new(scene), job.settings);

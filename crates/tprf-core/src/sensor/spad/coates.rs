@@ -12,6 +12,18 @@
 //! the previous one). With a dead time of a whole cycle this is Coates' own
 //! `A_k = N - sum_{j<k} h_j`. Afterpulses are taken for photons (the estimate is too
 //! high after strong returns when afterpulsing is on).
+//!
+//! After a fractional dead time `d + f` bins, the cycles that fired in bin `k - d - 1`
+//! are armed for only the last `1 - f` of bin `k` ([`super::detector`]): with
+//! `A_k = N - sum_{j=1}^{d+1} h_{k-j}` cycles armed for the whole bin and
+//! `P_k = h_{k-d-1}` for part of it, `r_k` solves
+//!
+//! ```text
+//! h_k = A_k (1 - e^-r_k) + P_k (1 - e^-((1 - f) r_k))
+//! ```
+//!
+//! (increasing and concave in `r_k`: Newton's method from
+//! `-ln(1 - h_k / (A_k + P_k))`, below the root, climbs to it monotonically).
 
 use super::Acquisition;
 use super::detector::Detector;
@@ -23,6 +35,9 @@ use crate::sensor::derived::{FirstReturn, depth_m};
 /// (`A_k <= 0`) is NaN: nothing is known of it.
 pub fn coates(det: &Detector, counts: &[f64], out: &mut [f64]) {
     let b = counts.len().min(out.len());
+    if det.dead_fraction > 0.0 && det.dead_bins < b {
+        return coates_fractional(det, &counts[..b], &mut out[..b]);
+    }
     let n = det.cycles as f64;
     let d = det.dead_bins.min(b);
     // Prefix sums over the histogram repeated twice: position B + k is bin k, and the d
@@ -49,6 +64,69 @@ pub fn coates(det: &Detector, counts: &[f64], out: &mut [f64]) {
             -n * (-h / armed).ln_1p()
         };
     }
+}
+
+/// [`coates`] after a fractional dead time (`0 < f < 1`, `d < B`): cycles armed for
+/// the whole bin `k` and for its last `1 - f` (those that fired `d + 1` bins before).
+fn coates_fractional(det: &Detector, counts: &[f64], out: &mut [f64]) {
+    let b = counts.len();
+    let n = det.cycles as f64;
+    let d = det.dead_bins;
+    let a = det.rearmed_part();
+    let mut prefix = Vec::with_capacity(2 * b + 1);
+    prefix.push(0.0);
+    let mut sum = 0.0;
+    for i in 0..2 * b {
+        sum += counts[i % b];
+        prefix.push(sum);
+    }
+    for k in 0..b {
+        // Cycles dead at bin k or re-armed inside it: fired in bins k-d-1 ..= k-1.
+        let (not_full, part) = match det.mode {
+            Acquisition::FreeRunning => (
+                prefix[b + k] - prefix[b + k - (d + 1).min(b)],
+                prefix[b + k - d] - prefix[b + k - d - 1],
+            ),
+            Acquisition::Synchronous => (
+                prefix[k] - prefix[k.saturating_sub(d + 1)],
+                if k > d { counts[k - d - 1] } else { 0.0 },
+            ),
+        };
+        let full = n - not_full;
+        let armed = full + part;
+        let h = counts[k];
+        out[k] = if !(armed > 0.0) || full < -1e-9 * n {
+            f64::NAN
+        } else if h >= armed {
+            n * (2.0 * armed + 1.0).ln()
+        } else {
+            n * partly_armed_rate(full.max(0.0), part, a, h)
+        };
+    }
+}
+
+/// The `r >= 0` with `full (1 - e^-r) + part (1 - e^-(a r)) = h`, for
+/// `0 <= h < full + part`, `0 < a < 1`.
+fn partly_armed_rate(full: f64, part: f64, a: f64, h: f64) -> f64 {
+    if !(h > 0.0) {
+        return 0.0;
+    }
+    // A lower bound: the left side is at most (full + part)(1 - e^-r).
+    let mut r = -(-h / (full + part)).ln_1p();
+    for _ in 0..200 {
+        let (ea, eb) = ((-r).exp(), (-a * r).exp());
+        let g = full * -(-r).exp_m1() + part * -(-a * r).exp_m1() - h;
+        let slope = full * ea + part * a * eb;
+        if !(slope > 0.0) {
+            break;
+        }
+        let step = -g / slope;
+        r += step;
+        if !(step.abs() > 1e-15 * r) {
+            break;
+        }
+    }
+    r
 }
 
 /// The first-return depth (m, NaN: none) of a histogram `values` over TDC bins whose
@@ -127,6 +205,7 @@ mod tests {
             cycles: 100,
             mode,
             dead_bins,
+            dead_fraction: 0.0,
             trap_rate: 0.0,
             trap_at_rearm: 0.0,
         }
@@ -146,6 +225,22 @@ mod tests {
         for (o, w) in out.iter().zip(want) {
             assert!((o - w).abs() < 1e-9, "{o} {w}");
         }
+    }
+
+    /// By hand: d = 1, f = 0.5, synchronous. Bin 2 is fully armed in 100 - 10 - 30 =
+    /// 60 cycles and half armed in the 10 that fired in bin 0.
+    #[test]
+    fn fractional_dead_time_by_hand() {
+        let mut d = det(Acquisition::Synchronous, 1, 4);
+        d.dead_fraction = 0.5;
+        let r = 0.7f64;
+        let h2 = 60.0 * (1.0 - (-r).exp()) + 10.0 * (1.0 - (-0.5 * r).exp());
+        let h = [10.0, 30.0, h2, 5.0];
+        let mut out = [0.0; 4];
+        coates(&d, &h, &mut out);
+        assert!((out[2] - 100.0 * r).abs() < 1e-9, "{}", out[2]);
+        // Bin 0: armed in every cycle.
+        assert!((out[0] + 100.0 * (1.0f64 - 0.1).ln()).abs() < 1e-9);
     }
 
     #[test]

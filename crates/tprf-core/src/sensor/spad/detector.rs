@@ -1,22 +1,41 @@
 //! The SPAD's expected histogram, exact for the detector model of [`super`]:
 //!
 //! - bins `n = 0, 1, ...` run through the cycles (`n mod B` is the TDC bin); the events
-//!   of bin `n` are Poisson with mean `r_{n mod B}`, independent between bins;
+//!   of bin `n` are Poisson with mean `r_{n mod B}`, spread uniformly in time over the
+//!   bin (the rate is constant within a bin), independent between bins;
 //! - an armed SPAD detects in bin `n` when at least one event falls in it:
 //!   probability `1 - exp(-r)`, or `1 - exp(-r - mu)` while a trap is filled (its
 //!   release is one more event, of rate `mu = w / afterpulse_delay_s` per bin);
-//! - after a detection in bin `n` it is dead through bin `n + d` and armed again at
-//!   `n + d + 1`; the detection fills the trap with probability `p`, which survives the
-//!   `d` dead bins with probability `exp(-mu d)`.
+//! - a detection is time-stamped by its TDC bin: the dead time `tau` runs from the end
+//!   of the bin of the detection (the SPAD is dead for the rest of that bin, as the
+//!   TDC takes one stamp a bin). With `tau / w = d + f` (`d` whole bins, `0 <= f < 1`)
+//!   it is dead through bin `n + d` and re-arms at the fraction `f` of bin
+//!   `n + d + 1`, armed for the last `1 - f` of it: there the chance of an event is
+//!   `1 - exp(-(1 - f) r)`. The detection fills the trap with probability `p`, which
+//!   survives the dead time with probability `exp(-mu (d + f))`.
 //!
-//! With `E_n`, `F_n` the probabilities of being armed at bin `n` with the trap empty,
-//! filled, the detection probability and the next state are
+//! With `E_n`, `F_n` the probabilities of being armed from the start of bin `n` with the
+//! trap empty, filled, and `G_n`, `H_n` of re-arming at the fraction `f` of bin `n` with
+//! the trap empty, filled (`a = 1 - f`, `q = p e^-(mu (d + f))`), the detection
+//! probability and the next state are
 //!
 //! ```text
 //! D_n     = E_n (1 - e^-r_n) + F_n (1 - e^-(r_n + mu))
-//! E_{n+1} = E_n e^-r_n        + D_{n-d} (1 - p e^-(mu d))
-//! F_{n+1} = F_n e^-(r_n + mu) + D_{n-d} p e^-(mu d)
+//!         + G_n (1 - e^-(a r_n)) + H_n (1 - e^-(a (r_n + mu)))
+//! E_{n+1} = E_n e^-r_n + G_n e^-(a r_n)
+//! F_{n+1} = F_n e^-(r_n + mu) + H_n e^-(a (r_n + mu))
+//! G_{n+1} = D_{n-d} (1 - q),   H_{n+1} = D_{n-d} q
 //! ```
+//!
+//! For a whole number of bins (`f = 0`) the re-armed states are armed from the start,
+//! `G, H` fold into `E, F` and this is the recursion of whole bins, computed as before
+//! (bit for bit). This treats the fraction exactly, at the cost of the whole-bin
+//! recursion (two more products a bin), with no finer grid: the fraction enters only
+//! through the partly armed bin. Its one approximation of a real SPAD is the time
+//! stamp: the avalanche is somewhere in its bin, the model starts the dead time at the
+//! bin's end, so a real SPAD of dead time `tau` behaves as this model with up to one bin
+//! less (half a bin at low rates: set `dead_time_s` to the real one minus `w / 2` to
+//! match it there).
 //!
 //! Synchronous acquisition starts every cycle from `E_0 = 1` (and drops re-armings past
 //! its end): the histogram is `N D_k`. With `d >= B - 1` and no trap it is the
@@ -44,8 +63,12 @@ pub struct Detector {
     pub bin_width_s: f64,
     pub cycles: u64,
     pub mode: Acquisition,
-    /// Whole bins dead after the bin of a detection, `d`.
+    /// Whole bins dead after the bin of a detection, `d = floor(dead_time_s / w)`.
     pub dead_bins: usize,
+    /// The fraction of bin `d + 1` after a detection the SPAD is still dead for, `f` in
+    /// `[0, 1)`: `dead_time_s / w = d + f` (a ratio within 1e-9 of a whole number is
+    /// taken as that number).
+    pub dead_fraction: f64,
     /// Trap release events per bin while filled, `mu` (0: no afterpulsing).
     pub trap_rate: f64,
     /// Probability that the trap is filled when the detector re-arms, `p e^-(mu d)`.
@@ -94,21 +117,35 @@ impl Detector {
                 spad.dead_time_s
             )));
         }
-        let dead_bins = dead.round() as usize;
+        // A ratio within round-off of a whole number of bins is that number (7e-10 s /
+        // 1e-10 s is 6.999999999999999).
+        let dead = if (dead - dead.round()).abs() <= 1e-9 * dead.max(1.0) {
+            dead.round()
+        } else {
+            dead
+        };
+        let dead_bins = dead.floor() as usize;
+        let dead_fraction = if dead_bins >= bins {
+            0.0
+        } else {
+            dead - dead_bins as f64
+        };
         let trap_rate = if spad.afterpulse_probability > 0.0 {
             bin_width_s / spad.afterpulse_delay_s
         } else {
             0.0
         };
-        // Filled at the detection, the trap must survive the d dead bins (a release
+        // Filled at the detection, the trap must survive the d + f dead bins (a release
         // while dead is lost).
-        let trap_at_rearm = spad.afterpulse_probability * (-trap_rate * dead_bins as f64).exp();
+        let trap_at_rearm =
+            spad.afterpulse_probability * (-trap_rate * (dead_bins as f64 + dead_fraction)).exp();
         Ok(Detector {
             bins,
             bin_width_s,
             cycles: spad.cycles,
             mode: spad.mode,
             dead_bins,
+            dead_fraction,
             trap_rate,
             trap_at_rearm,
         })
@@ -119,7 +156,19 @@ impl Detector {
         self.bins as f64 * self.bin_width_s
     }
 
-    /// At most one detection fits in a cycle: synchronous with `d >= B - 1`.
+    /// The dead time in TDC bins, `d + f`.
+    pub fn dead_bins_f64(&self) -> f64 {
+        self.dead_bins as f64 + self.dead_fraction
+    }
+
+    /// The part of a bin the SPAD is armed for when it re-arms inside it, `1 - f` (1 for
+    /// a whole number of dead bins: it re-arms at the bin's start).
+    pub fn rearmed_part(&self) -> f64 {
+        1.0 - self.dead_fraction
+    }
+
+    /// At most one detection fits in a cycle: synchronous with `d >= B - 1` (the
+    /// re-arming bin `k + d + 1` is past the cycle's end for every `k`).
     pub fn first_photon_only(&self) -> bool {
         self.mode == Acquisition::Synchronous && self.dead_bins + 1 >= self.bins
     }
@@ -134,9 +183,23 @@ impl Detector {
             .iter()
             .map(|&r| BinFactors::new(r, self.trap_rate))
             .collect();
+        // The partly armed bin after a fractional dead time: the same with the means
+        // times `1 - f` (none for whole bins).
+        let a = self.rearmed_part();
+        let partial: Vec<BinFactors> = if self.dead_fraction > 0.0 {
+            rates[..b]
+                .iter()
+                .map(|&r| {
+                    let r = if r > 0.0 { r.min(RATE_CAP) } else { 0.0 };
+                    BinFactors::new(a * r, a * self.trap_rate)
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         match self.mode {
             Acquisition::Synchronous => {
-                self.run_cycle(&factors, &mut state, &mut cycle);
+                self.run_cycle(&factors, &partial, &mut state, &mut cycle);
                 let n = self.cycles as f64;
                 for (o, d) in out.iter_mut().zip(&cycle) {
                     *o = n * d;
@@ -149,7 +212,7 @@ impl Detector {
                 let half = MAX_ITERATED_CYCLES / 2;
                 let mut done = 0u64;
                 while done < self.cycles {
-                    self.run_cycle(&factors, &mut state, &mut cycle);
+                    self.run_cycle(&factors, &partial, &mut state, &mut cycle);
                     done += 1;
                     for (o, d) in out.iter_mut().zip(&cycle) {
                         *o += d;
@@ -186,12 +249,35 @@ impl Detector {
 
     /// The detection probabilities of one cycle (`D_k` into `cycle`), from `state`
     /// (reset first in synchronous mode), leaving the state at the cycle's end.
-    /// `bins` holds each bin's factors, computed once per pixel ([`BinFactors`]).
-    fn run_cycle(&self, bins: &[BinFactors], state: &mut State, cycle: &mut [f64]) {
+    /// `bins` holds each bin's factors, computed once per pixel ([`BinFactors`]), and
+    /// `partial` those of the partly armed bin after a fractional dead time (empty for
+    /// a whole number of bins).
+    fn run_cycle(
+        &self,
+        bins: &[BinFactors],
+        partial: &[BinFactors],
+        state: &mut State,
+        cycle: &mut [f64],
+    ) {
         if self.mode == Acquisition::Synchronous {
             state.reset();
         }
         let p = self.trap_at_rearm;
+        if !partial.is_empty() {
+            for ((d_out, f), g) in cycle.iter_mut().zip(bins).zip(partial) {
+                let det = state.armed_empty * f.fire_e
+                    + state.armed_trap * f.fire_f
+                    + state.rearm_empty * g.fire_e
+                    + state.rearm_trap * g.fire_f;
+                *d_out = det;
+                let rearm = state.push(det);
+                state.armed_empty = state.armed_empty * f.keep_e + state.rearm_empty * g.keep_e;
+                state.armed_trap = state.armed_trap * f.keep_f + state.rearm_trap * g.keep_f;
+                state.rearm_empty = rearm * (1.0 - p);
+                state.rearm_trap = rearm * p;
+            }
+            return;
+        }
         for (d_out, f) in cycle.iter_mut().zip(bins) {
             let det = state.armed_empty * f.fire_e + state.armed_trap * f.fire_f;
             *d_out = det;
@@ -216,6 +302,17 @@ struct BinFactors {
 impl BinFactors {
     fn new(r: f64, mu: f64) -> BinFactors {
         let r = if r > 0.0 { r.min(RATE_CAP) } else { 0.0 };
+        if mu == 0.0 {
+            // No afterpulsing: the filled trap's factors are the empty one's (r + 0 is
+            // r), two transcendental calls fewer.
+            let (keep, fire) = ((-r).exp(), -(-r).exp_m1());
+            return BinFactors {
+                keep_e: keep,
+                keep_f: keep,
+                fire_e: fire,
+                fire_f: fire,
+            };
+        }
         BinFactors {
             keep_e: (-r).exp(),
             keep_f: (-(r + mu)).exp(),
@@ -225,11 +322,15 @@ impl BinFactors {
     }
 }
 
-/// The detector's state between bins: armed with the trap empty or filled, and the
-/// detection probabilities of the last `d + 1` bins (each re-arms `d + 1` bins later).
+/// The detector's state between bins: armed from the bin's start with the trap empty or
+/// filled (`E`, `F`), re-arming at the fraction `f` of the bin (`G`, `H`; 0 for whole
+/// bins), and the detection probabilities of the last `d + 1` bins (each re-arms
+/// `d + 1` bins later).
 struct State {
     armed_empty: f64,
     armed_trap: f64,
+    rearm_empty: f64,
+    rearm_trap: f64,
     ring: Vec<f64>,
     at: usize,
 }
@@ -239,6 +340,8 @@ impl State {
         State {
             armed_empty: 1.0,
             armed_trap: 0.0,
+            rearm_empty: 0.0,
+            rearm_trap: 0.0,
             ring: vec![0.0; dead_bins + 1],
             at: 0,
         }
@@ -247,6 +350,8 @@ impl State {
     fn reset(&mut self) {
         self.armed_empty = 1.0;
         self.armed_trap = 0.0;
+        self.rearm_empty = 0.0;
+        self.rearm_trap = 0.0;
         self.ring.fill(0.0);
         self.at = 0;
     }
@@ -273,6 +378,7 @@ mod tests {
             cycles: 10,
             mode,
             dead_bins,
+            dead_fraction: 0.0,
             trap_rate: 0.0,
             trap_at_rearm: 0.0,
         }

@@ -4,6 +4,13 @@
 //! realisation, its Coates estimate, and the first-return depth of each. Pixels are
 //! independent and done in parallel; every array is `[B, H, W]` (row 0 = top) or
 //! `[H, W]`.
+//!
+//! Three ways to it, with the same numbers: [`spad_image_ambient`] (all at once);
+//! [`spad_expected`] then [`spad_sample`] (the expected histogram and its depth first, the
+//! realisation later: a viewer shows the first while the second is drawn); and
+//! [`spad_sampler`] then [`spad_rows`] for bands of rows (a histogram larger than memory,
+//! written a band at a time). A pixel's realisation is drawn from its own stream (seed,
+//! pixel index in the image), so it does not depend on the way taken.
 
 use rayon::prelude::*;
 
@@ -12,7 +19,7 @@ use super::coates::{coates, return_depth_m};
 use super::detector::{Detector, Sampler};
 use super::sample::{MAX_EVENTS, pixel_stream, sample_pixel};
 use crate::sensor::measure::Measurements;
-use crate::sensor::{SensorError, SensorModel};
+use crate::sensor::{FirstReturn, SensorError, SensorModel};
 
 /// A SPAD's histograms and depths over an image.
 #[derive(Clone, Debug, PartialEq)]
@@ -30,7 +37,7 @@ pub struct SpadImage {
     pub depth_histogram_m: Vec<f32>,
     pub depth_counts_m: Vec<f32>,
     pub depth_coates_m: Vec<f32>,
-    /// How `counts` was drawn.
+    /// How `counts` was drawn (or will be, before [`spad_sample`]).
     pub sampler: Sampler,
     /// Expected detections summed over the image.
     pub expected_detections: f64,
@@ -39,6 +46,12 @@ pub struct SpadImage {
 }
 
 impl SpadImage {
+    /// Whether the realisation and its Coates estimate are drawn ([`spad_expected`]
+    /// leaves `counts`, `coates` and their depths empty until [`spad_sample`]).
+    pub fn is_sampled(&self) -> bool {
+        !self.counts.is_empty() || self.histogram.is_empty()
+    }
+
     /// Bin `k` of a `[B, H, W]` array of this image (empty if there is none).
     pub fn plane<'a>(&self, values: &'a [f32], k: usize) -> &'a [f32] {
         let n = self.width * self.height;
@@ -157,117 +170,378 @@ pub fn spad_image_ambient(
     steady: &[f32],
     ambient: Option<&[f32]>,
 ) -> Result<SpadImage, SensorError> {
-    let (spad, det, width_s) = detector(model)?;
-    let (w, h, b) = (signal.width, signal.height, signal.gates);
-    let pixels = w * h;
-    if b != det.bins
-        || signal.values.len() != b * pixels
-        || steady.len() != pixels
-        || ambient.is_some_and(|a| a.len() != pixels)
-    {
+    let plan = Plan::new(model, signal, steady, ambient)?;
+    plan.check_budget(plan.pixels(), true)?;
+    let band = plan.band(0..plan.pixels(), None);
+    let sampler = plan.sampler(band.totals.iter().sum());
+    let band = plan.band(0..plan.pixels(), Some((sampler, band)));
+    Ok(plan.image(band, signal.height))
+}
+
+/// The expected histogram and its first-return depth over the image (as
+/// [`spad_image_ambient`]), with `counts`, `coates` and their depths left empty: the
+/// cheap part (no realisation), for a viewer to show first. [`spad_sample`] fills them.
+pub fn spad_expected(
+    model: &SensorModel,
+    signal: &Measurements,
+    steady: &[f32],
+    ambient: Option<&[f32]>,
+) -> Result<SpadImage, SensorError> {
+    let plan = Plan::new(model, signal, steady, ambient)?;
+    plan.check_budget(plan.pixels(), false)?;
+    let band = plan.band(0..plan.pixels(), None);
+    let total = band.totals.iter().sum();
+    let mut image = plan.image(band, signal.height);
+    image.sampler = plan.sampler(total);
+    Ok(image)
+}
+
+/// Draws the realisation of `image` (made by [`spad_expected`] from the same inputs),
+/// its Coates estimate and their depths: `image` becomes what [`spad_image_ambient`]
+/// gives. The expected histograms are computed again per pixel (in f64, as the first
+/// time), not read back from the f32 array.
+pub fn spad_sample(
+    model: &SensorModel,
+    signal: &Measurements,
+    steady: &[f32],
+    ambient: Option<&[f32]>,
+    image: &mut SpadImage,
+) -> Result<(), SensorError> {
+    let plan = Plan::new(model, signal, steady, ambient)?;
+    if image.bins != plan.det.bins || image.width != signal.width || image.height != signal.height {
         return Err(SensorError::Invalid(format!(
-            "SPAD input: {} values for {b} bins x {h} x {w}, steady image of {} and ambient \
-             image of {} for {} pixels",
-            signal.values.len(),
-            steady.len(),
-            ambient.map_or(pixels, <[f32]>::len),
-            pixels
+            "SPAD image of {} bins x {} x {} for a measurement of {} x {} x {}",
+            image.bins, image.height, image.width, plan.det.bins, signal.height, signal.width
         )));
     }
-    let scale = model.sensor().ambient_scale;
-    let ambient_at = |p: usize| ambient.map_or(0.0, |a| scale * f64::from(a[p]));
-    // Held at once: the expected histogram, the realisation and its Coates estimate in
-    // f64 pixel-major, the three f32 [B, H, W] copies of them, and the depths.
-    let need_bytes = (pixels as u64)
-        .saturating_mul(b as u64)
-        .saturating_mul(3 * 8 + 3 * 4)
-        .saturating_add((pixels as u64).saturating_mul(2 * 3 * 4));
-    crate::budget::check(
-        need_bytes,
-        &format!("the SPAD over {h} x {w} pixels x {b} TDC bins"),
-        "its histograms, realisation, Coates estimate and depths",
-    )
-    .map_err(|e| SensorError::Budget(e.to_string()))?;
-    let seed = model.sensor().noise.seed;
-    let centres_s = model.gate_centres_s().unwrap_or_default();
-    let light_mean_s = model.light().mean_s();
-    let first_return = model.sensor().derived.first_return.unwrap_or_default();
-    let half_width = smoothing_bins(model, width_s);
-    let gather = |p: usize, out: &mut Vec<f32>| {
-        out.clear();
-        out.extend((0..b).map(|k| signal.values[k * pixels + p]));
-    };
+    plan.check_budget(plan.pixels(), true)?;
+    let band = plan.band(0..plan.pixels(), Some((image.sampler, Band::default())));
+    let full = plan.image(band, signal.height);
+    image.counts = full.counts;
+    image.coates = full.coates;
+    image.depth_counts_m = full.depth_counts_m;
+    image.depth_coates_m = full.depth_coates_m;
+    Ok(())
+}
 
-    // Pass 1: rates and expected histogram, pixel-major.
-    let mut expected = vec![0.0f64; pixels * b];
-    expected.par_chunks_mut(b.max(1)).enumerate().for_each_init(
-        || (Vec::new(), Vec::new()),
-        |(sig, rates), (p, out)| {
-            gather(p, sig);
-            spad.rates(sig, f64::from(steady[p]), ambient_at(p), width_s, rates);
-            det.expected(rates, out);
+/// The sampler [`spad_image_ambient`] would use for this image, and the expected
+/// detections over it: one pass of the expected histograms, none kept (memory of a few
+/// values per pixel). For [`spad_rows`].
+pub fn spad_sampler(
+    model: &SensorModel,
+    signal: &Measurements,
+    steady: &[f32],
+    ambient: Option<&[f32]>,
+) -> Result<(Sampler, f64), SensorError> {
+    let plan = Plan::new(model, signal, steady, ambient)?;
+    let b = plan.det.bins.max(1);
+    let mut totals = vec![0.0f64; plan.pixels()];
+    totals.par_chunks_mut(BLOCK).enumerate().for_each_init(
+        || (Vec::new(), Vec::new(), Vec::new()),
+        |(sig, rates, out), (j, totals)| {
+            let p0 = j * BLOCK;
+            plan.gather_block(p0, totals.len(), sig);
+            out.resize(b, 0.0);
+            for (i, total) in totals.iter_mut().enumerate() {
+                plan.rates_of(p0 + i, &sig[i * b..(i + 1) * b], rates);
+                plan.det.expected(rates, out);
+                *total = out.iter().sum::<f64>();
+            }
         },
     );
-    let expected_detections: f64 = expected.par_iter().sum();
-    let sampler = if det.first_photon_only() {
-        Sampler::Multinomial
-    } else if expected_detections <= MAX_EVENTS {
-        Sampler::Events
-    } else {
-        Sampler::Marginals
-    };
+    let total: f64 = totals.iter().sum();
+    Ok((plan.sampler(total), total))
+}
 
-    // Pass 2: realisation, Coates, depths.
-    let mut counts = vec![0.0f64; pixels * b];
-    let mut estimate = vec![0.0f64; pixels * b];
-    let depths: Vec<[f32; 3]> = counts
-        .par_chunks_mut(b.max(1))
-        .zip(estimate.par_chunks_mut(b.max(1)))
-        .zip(expected.par_chunks(b.max(1)))
-        .enumerate()
-        .map_init(
-            || (Vec::new(), Vec::new(), Vec::new()),
-            |(sig, rates, scratch), (p, ((cnt, est), exp))| {
-                gather(p, sig);
-                spad.rates(sig, f64::from(steady[p]), ambient_at(p), width_s, rates);
-                let mut rng = pixel_stream(seed, p);
-                sample_pixel(&det, sampler, rates, exp, &mut rng, cnt);
-                coates(&det, cnt, est);
-                let depth = |v: &[f64], s: &mut Vec<f64>| {
-                    return_depth_m(v, &centres_s, light_mean_s, &first_return, half_width, s) as f32
-                };
-                [
-                    depth(exp, scratch),
-                    depth(cnt, scratch),
-                    depth(est, scratch),
-                ]
+/// Rows `y0 .. y0 + rows` of [`spad_image_ambient`]'s image, drawn with `sampler`
+/// (from [`spad_sampler`] over the whole image): a [`SpadImage`] of `rows` rows whose
+/// values are those rows of the whole image's, bit for bit. Its `expected_detections`
+/// is the band's.
+pub fn spad_rows(
+    model: &SensorModel,
+    signal: &Measurements,
+    steady: &[f32],
+    ambient: Option<&[f32]>,
+    sampler: Sampler,
+    y0: usize,
+    rows: usize,
+) -> Result<SpadImage, SensorError> {
+    let plan = Plan::new(model, signal, steady, ambient)?;
+    let w = signal.width;
+    if y0.checked_add(rows).is_none_or(|end| end > signal.height) {
+        return Err(SensorError::Invalid(format!(
+            "SPAD rows {y0} .. {} of an image of {} rows",
+            y0.saturating_add(rows),
+            signal.height
+        )));
+    }
+    plan.check_budget(rows * w, true)?;
+    let band = plan.band(y0 * w..(y0 + rows) * w, Some((sampler, Band::default())));
+    let mut image = plan.image(band, rows);
+    image.sampler = sampler;
+    Ok(image)
+}
+
+/// Bytes [`spad_rows`] holds per pixel of a band for `bins` TDC bins: the expected
+/// histogram, the realisation and its Coates estimate in f64 and in f32, and the depths.
+pub fn spad_bytes_per_pixel(bins: usize) -> u64 {
+    (bins as u64).saturating_mul(3 * 8 + 3 * 4) + 4 * 8
+}
+
+/// Pixels whose signals are gathered together ([`Plan::gather_block`]).
+const BLOCK: usize = 64;
+
+/// What every pixel's computation shares: the checked inputs and the detector.
+struct Plan<'a> {
+    spad: &'a Spad,
+    det: Detector,
+    width_s: f64,
+    ambient_scale: f64,
+    seed: u64,
+    centres_s: Vec<f64>,
+    light_mean_s: f64,
+    first_return: FirstReturn,
+    half_width: usize,
+    signal: &'a Measurements,
+    steady: &'a [f32],
+    ambient: Option<&'a [f32]>,
+}
+
+/// A range of pixels' results, pixel-major (`B` values a pixel).
+#[derive(Default)]
+struct Band {
+    expected: Vec<f64>,
+    /// Each pixel's expected detections.
+    totals: Vec<f64>,
+    depth_expected: Vec<f32>,
+    counts: Vec<f64>,
+    coates: Vec<f64>,
+    depth_counts: Vec<f32>,
+    depth_coates: Vec<f32>,
+    expected_detections: f64,
+}
+
+impl<'a> Plan<'a> {
+    fn new(
+        model: &'a SensorModel,
+        signal: &'a Measurements,
+        steady: &'a [f32],
+        ambient: Option<&'a [f32]>,
+    ) -> Result<Plan<'a>, SensorError> {
+        let (spad, det, width_s) = detector(model)?;
+        let (w, h, b) = (signal.width, signal.height, signal.gates);
+        let pixels = w * h;
+        if b != det.bins
+            || signal.values.len() != b * pixels
+            || steady.len() != pixels
+            || ambient.is_some_and(|a| a.len() != pixels)
+        {
+            return Err(SensorError::Invalid(format!(
+                "SPAD input: {} values for {b} bins x {h} x {w}, steady image of {} and \
+                 ambient image of {} for {} pixels",
+                signal.values.len(),
+                steady.len(),
+                ambient.map_or(pixels, <[f32]>::len),
+                pixels
+            )));
+        }
+        Ok(Plan {
+            spad,
+            det,
+            width_s,
+            ambient_scale: model.sensor().ambient_scale,
+            seed: model.sensor().noise.seed,
+            centres_s: model.gate_centres_s().unwrap_or_default(),
+            light_mean_s: model.light().mean_s(),
+            first_return: model.sensor().derived.first_return.unwrap_or_default(),
+            half_width: smoothing_bins(model, width_s),
+            signal,
+            steady,
+            ambient,
+        })
+    }
+
+    fn pixels(&self) -> usize {
+        self.signal.width * self.signal.height
+    }
+
+    /// Refuses `pixels` pixels' arrays when they do not fit (`sampled`: with the
+    /// realisation and its Coates estimate).
+    fn check_budget(&self, pixels: usize, sampled: bool) -> Result<(), SensorError> {
+        let b = self.det.bins as u64;
+        let per_pixel = if sampled {
+            spad_bytes_per_pixel(self.det.bins)
+        } else {
+            b * (8 + 4) + 3 * 8
+        };
+        let (w, h) = (self.signal.width, self.signal.height);
+        crate::budget::check(
+            (pixels as u64).saturating_mul(per_pixel),
+            &format!(
+                "the SPAD over {} of {h} x {w} pixels x {b} TDC bins",
+                pixels
+            ),
+            if sampled {
+                "its histograms, realisation, Coates estimate and depths"
+            } else {
+                "its expected histograms and depths"
             },
         )
-        .collect();
+        .map_err(|e| SensorError::Budget(e.to_string()))
+    }
 
-    let transpose = |pm: &[f64]| -> Vec<f32> {
-        let mut out = vec![0.0f32; pm.len()];
-        out.par_chunks_mut(pixels.max(1))
+    /// Pixel `p`'s event rates per TDC bin into `rates` (`sig` scratch).
+    fn rates(&self, p: usize, sig: &mut Vec<f32>, rates: &mut Vec<f64>) {
+        let (b, pixels) = (self.det.bins, self.pixels());
+        sig.clear();
+        sig.extend((0..b).map(|k| self.signal.values[k * pixels + p]));
+        self.rates_of(p, sig, rates);
+    }
+
+    /// Pixel `p`'s event rates from its signal `sig` (`B` values).
+    fn rates_of(&self, p: usize, sig: &[f32], rates: &mut Vec<f64>) {
+        let ambient = self
+            .ambient
+            .map_or(0.0, |a| self.ambient_scale * f64::from(a[p]));
+        self.spad
+            .rates(sig, f64::from(self.steady[p]), ambient, self.width_s, rates);
+    }
+
+    /// The signals of pixels `p0 .. p0 + n` into `out`, pixel-major (`[n, B]`): per TDC
+    /// bin one contiguous run of the `[B, H, W]` measurement, where a pixel at a time
+    /// would load one value every `H W` (a cache miss a bin).
+    fn gather_block(&self, p0: usize, n: usize, out: &mut Vec<f32>) {
+        let (b, pixels) = (self.det.bins, self.pixels());
+        out.clear();
+        out.resize(n * b, 0.0);
+        for k in 0..b {
+            let run = &self.signal.values[k * pixels + p0..k * pixels + p0 + n];
+            for (i, &v) in run.iter().enumerate() {
+                out[i * b + k] = v;
+            }
+        }
+    }
+
+    fn sampler(&self, expected_detections: f64) -> Sampler {
+        if self.det.first_photon_only() {
+            Sampler::Multinomial
+        } else if expected_detections <= MAX_EVENTS {
+            Sampler::Events
+        } else {
+            Sampler::Marginals
+        }
+    }
+
+    fn depth(&self, v: &[f64], scratch: &mut Vec<f64>) -> f32 {
+        return_depth_m(
+            v,
+            &self.centres_s,
+            self.light_mean_s,
+            &self.first_return,
+            self.half_width,
+            scratch,
+        ) as f32
+    }
+
+    /// Pixels `range`: without `sample`, the expected histograms, their totals and
+    /// depths; with `(sampler, band)`, also the realisation, its Coates estimate and
+    /// their depths, reusing `band`'s expected histograms when it holds this range's
+    /// (else computing them).
+    fn band(&self, range: std::ops::Range<usize>, sample: Option<(Sampler, Band)>) -> Band {
+        let b = self.det.bins.max(1);
+        let n = range.len();
+        let (sampler, mut band) = match sample {
+            Some((s, band)) => (Some(s), band),
+            None => (None, Band::default()),
+        };
+        if band.expected.len() != n * b {
+            band.expected = vec![0.0f64; n * b];
+            band.totals = vec![0.0; n];
+            band.depth_expected = vec![f32::NAN; n];
+            band.expected
+                .par_chunks_mut(b * BLOCK)
+                .zip(band.totals.par_chunks_mut(BLOCK))
+                .zip(band.depth_expected.par_chunks_mut(BLOCK))
+                .enumerate()
+                .for_each_init(
+                    || (Vec::new(), Vec::new(), Vec::new()),
+                    |(sig, rates, scratch), (j, ((outs, totals), depths))| {
+                        let p0 = range.start + j * BLOCK;
+                        self.gather_block(p0, totals.len(), sig);
+                        for (i, ((out, total), depth)) in outs
+                            .chunks_exact_mut(b)
+                            .zip(totals.iter_mut())
+                            .zip(depths.iter_mut())
+                            .enumerate()
+                        {
+                            self.rates_of(p0 + i, &sig[i * b..(i + 1) * b], rates);
+                            self.det.expected(rates, out);
+                            *total = out.iter().sum();
+                            *depth = self.depth(out, scratch);
+                        }
+                    },
+                );
+            band.expected_detections = band.totals.iter().sum();
+        }
+        let Some(sampler) = sampler else {
+            return band;
+        };
+        band.counts = vec![0.0f64; n * b];
+        band.coates = vec![0.0f64; n * b];
+        let depths: Vec<[f32; 2]> = band
+            .counts
+            .par_chunks_mut(b)
+            .zip(band.coates.par_chunks_mut(b))
+            .zip(band.expected.par_chunks(b))
             .enumerate()
-            .for_each(|(k, plane)| {
-                for (p, o) in plane.iter_mut().enumerate() {
-                    *o = pm[p * b + k] as f32;
-                }
-            });
-        out
-    };
-    Ok(SpadImage {
-        bins: b,
-        width: w,
-        height: h,
-        histogram: transpose(&expected),
-        counts: transpose(&counts),
-        coates: transpose(&estimate),
-        depth_histogram_m: depths.iter().map(|d| d[0]).collect(),
-        depth_counts_m: depths.iter().map(|d| d[1]).collect(),
-        depth_coates_m: depths.iter().map(|d| d[2]).collect(),
-        sampler,
-        expected_detections,
-        centres_s,
-    })
+            .map_init(
+                || (Vec::new(), Vec::new(), Vec::new()),
+                |(sig, rates, scratch), (i, ((cnt, est), exp))| {
+                    let p = range.start + i;
+                    self.rates(p, sig, rates);
+                    let mut rng = pixel_stream(self.seed, p);
+                    sample_pixel(&self.det, sampler, rates, exp, &mut rng, cnt);
+                    coates(&self.det, cnt, est);
+                    [self.depth(cnt, scratch), self.depth(est, scratch)]
+                },
+            )
+            .collect();
+        band.depth_counts = depths.iter().map(|d| d[0]).collect();
+        band.depth_coates = depths.iter().map(|d| d[1]).collect();
+        band
+    }
+
+    /// The band as an image of `rows` rows, `[B, rows, W]` arrays.
+    fn image(&self, band: Band, rows: usize) -> SpadImage {
+        let b = self.det.bins;
+        let plane = rows * self.signal.width;
+        let transpose = |pm: &[f64]| -> Vec<f32> {
+            if pm.is_empty() {
+                return Vec::new();
+            }
+            let mut out = vec![0.0f32; pm.len()];
+            out.par_chunks_mut(plane.max(1))
+                .enumerate()
+                .for_each(|(k, o)| {
+                    for (p, v) in o.iter_mut().enumerate() {
+                        *v = pm[p * b + k] as f32;
+                    }
+                });
+            out
+        };
+        SpadImage {
+            bins: b,
+            width: self.signal.width,
+            height: rows,
+            histogram: transpose(&band.expected),
+            counts: transpose(&band.counts),
+            coates: transpose(&band.coates),
+            depth_histogram_m: band.depth_expected,
+            depth_counts_m: band.depth_counts,
+            depth_coates_m: band.depth_coates,
+            sampler: self.sampler(band.expected_detections),
+            expected_detections: band.expected_detections,
+            centres_s: self.centres_s.clone(),
+        }
+    }
 }

@@ -17,8 +17,8 @@
 //! [`crate::sensor::ambient`]). Photons in
 //! different bins and cycles are independent Poisson counts. The detector
 //! ([`detector`]) fires on the first event of a bin while it is armed, is then dead for
-//! the rest of that bin and the next `d = round(dead_time_s / w)` bins, and may
-//! afterpulse. Its expected histogram over `N` cycles is computed exactly for this
+//! the rest of that bin and `dead_time_s` more (`d + f` bins: through `d` whole bins
+//! and the first fraction `f` of the next, exactly; no rounding), and may afterpulse. Its expected histogram over `N` cycles is computed exactly for this
 //! model ([`detector::Detector::expected`]); one seeded realisation is drawn from it
 //! ([`sample`]); the Coates estimate undoes the pile-up ([`coates`]); and
 //! [`image`] does it for every pixel with first-return depths.
@@ -34,7 +34,8 @@ pub mod sample;
 pub use coates::{coates, return_depth_m};
 pub use detector::{Detector, Sampler};
 pub use image::{
-    SpadImage, SpadPixel, spad_image, spad_image_ambient, spad_pixel, spad_pixel_ambient,
+    SpadImage, SpadPixel, spad_bytes_per_pixel, spad_expected, spad_image, spad_image_ambient,
+    spad_pixel, spad_pixel_ambient, spad_rows, spad_sample, spad_sampler,
 };
 
 use serde::{Deserialize, Serialize};
@@ -93,8 +94,9 @@ pub struct Spad {
     /// Dark counts per second (thermal avalanches; the PDE does not apply).
     #[serde(default, alias = "dark_count_rate", with = "hertz")]
     pub dark_count_rate_hz: f64,
-    /// Dead time after each detection, seconds, at most one laser cycle; resolved to
-    /// whole TDC bins.
+    /// Dead time after each detection, seconds, at most one laser cycle, counted from
+    /// the end of the TDC bin of the detection; any fraction of a bin is honoured
+    /// ([`detector`]).
     #[serde(default, alias = "dead_time", with = "seconds")]
     pub dead_time_s: f64,
     #[serde(default)]
