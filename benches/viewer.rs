@@ -314,7 +314,13 @@ fn sensor(presets: &[&str]) {
     let rows = [
         ("128 x 128 x 256, gated camera", "gated", 128, 256, 60),
         ("256 x 256 x 1024, gated camera", "gated", 256, 1024, 40),
-        ("256 x 256 x 1024, full-waveform LiDAR", "lidar", 256, 1024, 20),
+        (
+            "256 x 256 x 1024, full-waveform LiDAR",
+            "lidar",
+            256,
+            1024,
+            20,
+        ),
     ];
     for (label, preset, side, bins, edits) in rows {
         if presets.is_empty() || presets.contains(&preset) {

@@ -210,7 +210,7 @@ impl TprfApp {
 /// A binned curve as steps: each bin a flat segment over its time span (ns), because a
 /// bin holds the integral over its interval, not a point sample. With `log_floor`, the
 /// values are log10 and empty bins sit at the floor. Drawn with only the points that
-/// show ([`step_vertices`]) on a plot `width_px` points wide.
+/// show ([`plotting::steps`]) on a plot `width_px` points wide.
 fn step_points(
     axis: &TimeAxis,
     values: &[f64],
@@ -225,123 +225,6 @@ fn step_points(
         })
         .collect();
     let per_px = (values.len() as f64 / f64::from(width_px.max(1.0))).floor() as usize;
-    let pts = step_vertices(&ys, per_px.max(1))
-        .into_iter()
-        .map(|(edge, y)| [(axis.t0_s + edge * axis.dt_s) * 1e9, y])
-        .collect::<Vec<_>>();
+    let pts = plotting::steps(axis.t0_s * 1e9, axis.dt_s * 1e9, &ys, per_px);
     PlotPoints::from(pts)
-}
-
-/// The vertices of the step curve of `ys` (bin `b` flat over bin edges `b .. b + 1`), as
-/// (bin edge, value), with nothing a viewer could see left out: a run of equal values is
-/// one segment (empty bins are most of a TPRF), and where `per_px` >= 3 bins share a
-/// screen column each group of `per_px` bins is drawn as its first value, its largest,
-/// its smallest and its last (the column a step curve fills there). Tessellating 2
-/// vertices a bin of several 1024-bin curves was a tenth of the UI thread at 512^2.
-fn step_vertices(ys: &[f64], per_px: usize) -> Vec<(f64, f64)> {
-    let mut out: Vec<(f64, f64)> = Vec::new();
-    let mut push = |edge: f64, y: f64| {
-        // A vertex on the line through the previous two at the same height is dropped.
-        if let [.., (_, y0), (_, y1)] = out[..]
-            && y0 == y
-            && y1 == y
-        {
-            out.last_mut().unwrap().0 = edge;
-        } else {
-            out.push((edge, y));
-        }
-    };
-    if per_px >= 3 {
-        for (g, group) in ys.chunks(per_px).enumerate() {
-            let start = (g * per_px) as f64;
-            let (lo, hi) = group
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &y| {
-                    (lo.min(y), hi.max(y))
-                });
-            let first = group[0];
-            let last = group[group.len() - 1];
-            let end = start + group.len() as f64;
-            let mid = start + 0.5 * group.len() as f64;
-            push(start, first);
-            if lo != hi {
-                push(mid, hi);
-                push(mid, lo);
-            }
-            push(end, last);
-        }
-    } else {
-        for (b, &y) in ys.iter().enumerate() {
-            push(b as f64, y);
-            push((b + 1) as f64, y);
-        }
-    }
-    out
-}
-
-#[cfg(test)]
-mod tests {
-    use super::step_vertices;
-
-    /// The curve's height at `x` (a bin edge or inside a bin) along the vertices: the
-    /// value of the segment there (on a vertical edge, any value along it).
-    fn heights_at(v: &[(f64, f64)], x: f64) -> Vec<f64> {
-        v.windows(2)
-            .filter(|w| w[0].0 <= x && x <= w[1].0)
-            .flat_map(|w| [w[0].1, w[1].1])
-            .collect()
-    }
-
-    /// Runs of equal values become one segment; every bin's value is still drawn over
-    /// its whole span.
-    #[test]
-    fn steps_keep_every_bin() {
-        let ys = [0.0, 0.0, 0.0, 2.0, 3.0, 3.0, 0.0, 0.0];
-        let v = step_vertices(&ys, 1);
-        assert_eq!(
-            v,
-            vec![
-                (0.0, 0.0),
-                (3.0, 0.0),
-                (3.0, 2.0),
-                (4.0, 2.0),
-                (4.0, 3.0),
-                (6.0, 3.0),
-                (6.0, 0.0),
-                (8.0, 0.0)
-            ]
-        );
-        for (b, y) in ys.iter().enumerate() {
-            assert_eq!(heights_at(&v, b as f64 + 0.5), vec![*y, *y], "bin {b}");
-        }
-    }
-
-    /// Several bins a column: each group reaches its largest and smallest value, starts
-    /// at its first and ends at its last; flat groups stay one segment.
-    #[test]
-    fn columns_keep_their_extremes() {
-        let ys: Vec<f64> = (0..40)
-            .map(|b| if (10..17).contains(&b) { (b * 7 % 5) as f64 } else { 0.0 })
-            .collect();
-        let v = step_vertices(&ys, 4);
-        assert!(v.len() < 2 * ys.len() / 2, "{} vertices", v.len());
-        for (g, group) in ys.chunks(4).enumerate() {
-            let (x0, x1) = ((4 * g) as f64, (4 * g + 4) as f64);
-            // What the curve reaches over the group: its vertices there, and its height
-            // along a flat segment that crosses the whole group.
-            let inside: Vec<f64> = v
-                .iter()
-                .filter(|(x, _)| *x >= x0 && *x <= x1)
-                .map(|p| p.1)
-                .chain(heights_at(&v, 0.5 * (x0 + x1)))
-                .collect();
-            let max = group.iter().cloned().fold(f64::MIN, f64::max);
-            let min = group.iter().cloned().fold(f64::MAX, f64::min);
-            assert!(inside.contains(&max) && inside.contains(&min), "group {g}");
-            assert!(heights_at(&v, x0).contains(&group[0]), "group {g} start");
-            assert!(heights_at(&v, x1).contains(&group[3]), "group {g} end");
-        }
-        assert_eq!(v.first(), Some(&(0.0, 0.0)));
-        assert_eq!(v.last(), Some(&(40.0, 0.0)));
-    }
 }

@@ -88,17 +88,10 @@ pub(crate) fn editor_ui(
         .iter()
         .fold(0.0f32, |m, &x| m.max(x))
         .max(f32::MIN_POSITIVE) as f64;
-    let tprf_steps: Vec<[f64; 2]> = tprf
-        .iter()
-        .enumerate()
-        .flat_map(|(b, &v)| {
-            let y = v as f64 / tprf_max;
-            [
-                [axis.bin_start_s(b) * 1e9, y],
-                [(axis.bin_start_s(b) + axis.dt_s) * 1e9, y],
-            ]
-        })
-        .collect();
+    // Bins of the view sharing a screen column: the TPRF drawn with only what shows.
+    let per_px = ((hi - lo) / axis.dt_s / f64::from(ui.available_width().max(1.0))) as usize;
+    let ys: Vec<f64> = tprf.iter().map(|&v| v as f64 / tprf_max).collect();
+    let tprf_steps = plotting::steps(axis.t0_s * 1e9, axis.dt_s * 1e9, &ys, per_px);
     let hs = handles(sensor, axis);
     let gate_label = gate_time_label(model, state.gate);
     let sel_color = if sel_cov == Coverage::Inside {

@@ -38,14 +38,8 @@ pub(crate) fn pixel_plots_ui(
         "(TPRF * Light)(t) of the pixel: what reaches the sensor, pulse included",
     ));
     let dt_ns = axis.dt_s * 1e9;
-    let steps: Vec<[f64; 2]> = full
-        .iter()
-        .enumerate()
-        .flat_map(|(j, &v)| {
-            let t = axis.t0_s * 1e9 + (k0 + j as i64) as f64 * dt_ns;
-            [[t, v], [t + dt_ns, v]]
-        })
-        .collect();
+    let per_px = (full.len() as f64 / f64::from(ui.available_width().max(1.0))) as usize;
+    let steps = plotting::steps(axis.t0_s * 1e9 + k0 as f64 * dt_ns, dt_ns, &full, per_px);
     let plot = Plot::new("sensor-tprf-light")
         .height(height)
         .allow_drag(false)

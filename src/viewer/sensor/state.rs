@@ -130,7 +130,12 @@ impl SensorState {
                 Ok(Stage::Measured(mut done)) => {
                     self.noise_field = Some(std::mem::take(&mut done.noise_field));
                     let sampling = done.spad.as_ref().is_some_and(|s| !s.is_sampled());
-                    self.measured = Some(*done);
+                    // The measurement replaced (all gates of every pixel: 64 MiB for
+                    // 256 gates at 256^2) is freed off the UI thread: unmapping it took
+                    // a frame milliseconds.
+                    if let Some(old) = self.measured.replace(*done) {
+                        free_elsewhere(old);
+                    }
                     let job = self.job.take();
                     if sampling {
                         self.sampling = job;
@@ -349,4 +354,17 @@ fn layout_key(sensor: &Sensor, axis: &tprf_core::film::TimeAxis) -> String {
         axis.dt_s,
         axis.bins
     )
+}
+
+/// Drop `value` on the background pool (or a thread of its own), not on the caller's.
+fn free_elsewhere<T: Send + 'static>(value: T) {
+    match background_pool() {
+        Some(pool) => pool.spawn(move || drop(value)),
+        None => {
+            if let Err(e) = std::thread::Builder::new().spawn(move || drop(value)) {
+                // The thread was not made: the closure (and the value) dropped here.
+                eprintln!("tprf: freeing a measurement on the UI thread: {e}");
+            }
+        }
+    }
 }
