@@ -5,7 +5,7 @@
 use super::axes::BarScale;
 use super::colormap::{self, ColorMap, ExposureMode, Tone};
 use super::settings::ViewerSettings;
-use tprf_core::film::{FilmSnapshot, quantile_f32};
+use tprf_core::film::{FilmSnapshot, SliceCursor, quantile_f32};
 
 /// Which image of the film a texture shows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -154,6 +154,9 @@ pub(super) fn steady_exposure(settings: &ViewerSettings, snap: &FilmSnapshot) ->
 pub(super) struct Scratch {
     values: Vec<f32>,
     keys: Vec<u32>,
+    /// Where playback left each pixel's runs (a slice a frame walks only the runs it
+    /// passes).
+    cursor: SliceCursor,
 }
 
 /// RGBA8 pixels (`[H, W]`, row 0 = top) of `view` of `snap`, and the exposure they were
@@ -167,7 +170,7 @@ pub(super) fn view_pixels(
 ) -> (Vec<u8>, Exposure) {
     match view {
         View::Slice => {
-            snap.slice_into(bin, &mut scratch.values);
+            snap.slice_forward(bin, &mut scratch.cursor, &mut scratch.values);
             let e = slice_exposure(settings, snap, &scratch.values, &mut scratch.keys);
             (
                 colormap::colorize(&scratch.values, &e.tone, settings.colormap),

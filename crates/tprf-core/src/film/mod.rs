@@ -17,8 +17,8 @@ pub use filter::TimeFilter;
 pub use layout::FilmLayout;
 pub use sink::{LeftOut, LeftOutCounts, PixelSink};
 pub use snapshot::{
-    DENSE_BAND_VALUES, FilmSnapshot, SnapshotBuilder, quantile, quantile_f32, quantile_positive,
-    robust_max,
+    DENSE_BAND_VALUES, FilmSnapshot, SliceCursor, SnapshotBuilder, quantile, quantile_f32,
+    quantile_positive, robust_max,
 };
 pub use store::{BYTES_PER_PIXEL, PassTally, StoreStats, TprfFilm, half_error_from_terms};
 pub use time_axis::{MAX_BINS, TimeAxis};

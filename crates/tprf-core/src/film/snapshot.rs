@@ -7,7 +7,7 @@
 //! for files. Nothing outside the film knows how bins are stored.
 
 use super::row::{FilmRow, NO_PEAK};
-use super::sparse::RowBuilder;
+use super::sparse::{RowBuilder, RunCursor};
 use super::{FilmLayout, TimeAxis};
 use std::sync::Arc;
 
@@ -373,27 +373,41 @@ impl FilmSnapshot {
     /// work follows the stored runs, not the cube.
     pub fn slice(&self, b: usize) -> Vec<f32> {
         let mut out = Vec::new();
-        self.slice_into(b, &mut out);
+        self.slice_forward(b, &mut SliceCursor::default(), &mut out);
         out
     }
 
-    /// [`Self::slice`] into `out` (resized to `[H * W]`), rows in parallel: a viewer
-    /// playing back keeps one buffer instead of a new image a frame.
-    pub fn slice_into(&self, b: usize, out: &mut Vec<f32>) {
+    /// [`Self::slice`] into `out`, for a reader that plays the bins forward: `cursor` keeps
+    /// where each pixel's runs were left at the previous bin, so the next bin of the
+    /// same snapshot starts from there (a slice costs the pixels plus the runs passed,
+    /// not every run before `b`). A cursor of another snapshot, or a bin before the
+    /// last, starts again from bin 0.
+    pub fn slice_forward(&self, b: usize, cursor: &mut SliceCursor, out: &mut Vec<f32>) {
         use rayon::prelude::*;
         let w = self.layout.width;
+        let pixels = self.layout.pixels();
+        if cursor.generation != Some(self.generation)
+            || b < cursor.bin
+            || cursor.pixels.len() != pixels
+        {
+            cursor.generation = Some(self.generation);
+            cursor.pixels.clear();
+            cursor.pixels.resize(pixels, RunCursor::default());
+        }
+        cursor.bin = b;
         out.clear();
-        out.resize(self.layout.pixels(), 0.0);
+        out.resize(pixels, 0.0);
         if b >= self.layout.axis.bins || w == 0 {
             return;
         }
         let norm = self.norm;
         out.par_chunks_mut(w)
+            .zip(cursor.pixels.par_chunks_mut(w))
             .zip(self.rows.par_iter())
-            .for_each(|(line, row)| {
-                for (x, v) in line.iter_mut().enumerate() {
-                    if let Some([a, c]) = row.halves.get(x, b) {
-                        *v = ((a + c) / norm) as f32;
+            .for_each(|((line, cursors), row)| {
+                for (x, (v, c)) in line.iter_mut().zip(cursors).enumerate() {
+                    if let Some([a, h]) = row.halves.get_from(x, b, c) {
+                        *v = ((a + h) / norm) as f32;
                     }
                 }
             });
@@ -420,6 +434,14 @@ impl FilmSnapshot {
     pub fn stored_bins(&self) -> u64 {
         self.rows.iter().map(|r| r.stored_bins() as u64).sum()
     }
+}
+
+/// Where [`FilmSnapshot::slice_forward`] left each pixel's runs, for one snapshot.
+#[derive(Clone, Debug, Default)]
+pub struct SliceCursor {
+    generation: Option<u64>,
+    bin: usize,
+    pixels: Vec<RunCursor>,
 }
 
 /// Builds a snapshot of means pixel by pixel, in any order of rows but in increasing
@@ -621,6 +643,40 @@ mod tests {
         assert_eq!(quantile(w.into_iter(), 1.0), Some(5.0));
         assert_eq!(quantile(w.into_iter(), 7.0), Some(5.0));
         assert_eq!(quantile([f64::NAN].into_iter(), 0.5), None);
+    }
+
+    /// Slices played forward, backward, repeated and past the end, and on a new
+    /// snapshot with the same cursor, are the slices read from the dense cube.
+    #[test]
+    fn slices_played_forward_are_the_dense_slices() {
+        let (w, h, t) = (5, 3, 40);
+        let layout = FilmLayout {
+            width: w,
+            height: h,
+            axis: TimeAxis::new(0.0, 1e-9, t).unwrap(),
+            bounces_separate: 0,
+        };
+        let cube = |seed: usize| -> Vec<f32> {
+            (0..w * h * t)
+                .map(|i| {
+                    let k = (i * 7919 + seed * 104_729) % 97;
+                    if k < 60 { 0.0 } else { k as f32 * 0.25 }
+                })
+                .collect()
+        };
+        let mut cursor = SliceCursor::default();
+        let mut out = Vec::new();
+        for seed in 0..3 {
+            let dense = cube(seed);
+            let snap = FilmSnapshot::from_dense(layout, 1, 1, &dense, &[], None);
+            for b in [0, 1, 2, 2, 9, 10, 39, 5, 6, 30, 40, 41, 3, 0] {
+                snap.slice_forward(b, &mut cursor, &mut out);
+                let want: Vec<f32> = (0..w * h)
+                    .map(|p| if b < t { dense[p * t + b] } else { 0.0 })
+                    .collect();
+                assert_eq!(out, want, "seed {seed}, bin {b}");
+            }
+        }
     }
 
     /// The key selection gives what the `f64` selection gives (and a full sort, read

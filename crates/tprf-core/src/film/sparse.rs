@@ -112,6 +112,34 @@ impl<V: Copy> SparseRow<V> {
         None
     }
 
+    /// [`Self::get`] resumed from `cursor`, which it moves past the runs that end at or
+    /// before `b`: asking for increasing bins (a time slice played forward) walks each
+    /// run once in all, not once a bin. `b` must not be less than a bin asked before
+    /// with this cursor (start again from `RunCursor::default()`).
+    pub fn get_from(&self, x: usize, b: usize, cursor: &mut RunCursor) -> Option<V> {
+        let p = self.pixels.get(x)?;
+        let runs = self
+            .runs
+            .get(p.run_start as usize..(p.run_start + p.run_count) as usize)?;
+        let values = self
+            .values
+            .get(p.value_start as usize..(p.value_start + p.value_count) as usize)?;
+        while let Some(run) = runs.get(cursor.run as usize) {
+            let start = cursor.end_bin as usize + run.gap as usize;
+            if b < start {
+                return None;
+            }
+            let len = run.len as usize;
+            if b < start + len {
+                return values.get(cursor.value as usize + b - start).copied();
+            }
+            cursor.run += 1;
+            cursor.end_bin = (start + len) as u32;
+            cursor.value += len as u32;
+        }
+        None
+    }
+
     /// Pixel `x`'s first and last stored bins, `None` when nothing is stored.
     pub fn pixel_span(&self, x: usize) -> Option<(usize, usize)> {
         let mut span: Option<(usize, usize)> = None;
@@ -124,6 +152,15 @@ impl<V: Copy> SparseRow<V> {
         }
         span
     }
+}
+
+/// Where [`SparseRow::get_from`] got to in one pixel's runs: the runs passed, the bin
+/// after the last of them, and the values they hold.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RunCursor {
+    run: u32,
+    end_bin: u32,
+    value: u32,
 }
 
 /// Runs of one pixel, see [`SparseRow::pixel_runs`].
