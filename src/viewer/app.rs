@@ -46,6 +46,9 @@ pub struct TprfApp {
     pub(super) exposures: Vec<(View, Exposure)>,
     /// Buffers the images are made in, kept between frames.
     pub(super) scratch: Scratch,
+    /// Whether this frame already remade an image of the whole film (see
+    /// `TprfApp::texture`).
+    pub(super) remade_this_frame: bool,
     pub(super) messages: Vec<String>,
     /// Files being written in the background.
     pub(super) exports: Exports,
@@ -101,6 +104,7 @@ impl TprfApp {
             ambient_white: None,
             exposures: Vec::new(),
             scratch: Scratch::default(),
+            remade_this_frame: false,
             messages: Vec::new(),
             exports: Exports::default(),
             timing: FrameTiming::default(),
@@ -195,6 +199,7 @@ impl eframe::App for TprfApp {
             self.timing.interval_ms = FrameTiming::smooth(self.timing.interval_ms, gap);
         }
         self.timing.last_start = Some(started);
+        self.remade_this_frame = false;
         if let Some(cpu) = frame.info().cpu_usage {
             let old = self.timing.cpu_ms.unwrap_or(0.0);
             self.timing.cpu_ms = Some(FrameTiming::smooth(old, cpu * 1e3));

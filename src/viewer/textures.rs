@@ -76,6 +76,16 @@ pub(crate) fn shrunk_note_ui(ui: &mut egui::Ui, tex: &TextureHandle, w: usize, h
     }
 }
 
+impl<K: Clone> TextureCache<K> {
+    /// The texture `name` as cached, with the key it was made from.
+    pub(super) fn cached(&self, name: &str) -> Option<(K, TextureHandle)> {
+        self.entries
+            .iter()
+            .find(|(n, _, _)| *n == name)
+            .map(|(_, k, t)| (k.clone(), t.clone()))
+    }
+}
+
 impl<K: PartialEq> TextureCache<K> {
     /// The texture `name`: the cached one when it was made from `key`, else `make()`
     /// uploaded in its place (nearest-neighbour sampling: film pixels stay square),
@@ -121,6 +131,19 @@ pub(super) struct ImageKey {
 }
 
 impl ImageKey {
+    /// The snapshot the image was made from.
+    pub(super) fn generation(&self) -> u64 {
+        self.generation
+    }
+
+    /// This key with `other`'s snapshot generation.
+    pub(super) fn with_generation(&self, other: &ImageKey) -> ImageKey {
+        ImageKey {
+            generation: other.generation,
+            ..*self
+        }
+    }
+
     /// The key of `view` of `snap` at the scrubber's `bin` with `settings`.
     pub(super) fn new(
         view: View,

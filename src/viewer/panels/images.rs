@@ -26,9 +26,24 @@ const GAP: f32 = 10.0;
 
 impl TprfApp {
     /// The texture of `view` and how it was exposed, made again only when the snapshot,
-    /// bin or tone changed.
+    /// bin or tone changed. A new snapshot remakes the time slice at once and the
+    /// steady and rainbow images one a frame in the frames after it (each keeps its
+    /// last picture meanwhile, with its colour bar): the three together made the frame
+    /// a snapshot arrived in the slowest of all at 512^2.
     fn texture(&mut self, view: View, snap: &FilmSnapshot) -> TextureHandle {
         let key = ImageKey::new(view, snap, self.bin, &self.settings);
+        let cached = self.textures.cached(view.name());
+        if let Some((old, stale)) = cached
+            && old.generation() != key.generation()
+        {
+            // A new snapshot. Deferred: a whole-film image whose tone did not change,
+            // when this frame already remade one.
+            if view != View::Slice && self.remade_this_frame && old.with_generation(&key) == key {
+                self.ctx.request_repaint();
+                return stale;
+            }
+            self.remade_this_frame = true;
+        }
         let (bin, settings) = (self.bin, &self.settings);
         let (exposures, scratch) = (&mut self.exposures, &mut self.scratch);
         self.textures.get(&self.ctx, view.name(), key, || {
