@@ -543,7 +543,7 @@ fn an_npy_header_claiming_more_than_its_bytes_is_refused() {
 fn ctrl_c_during_a_render_to_a_new_folder_leaves_nothing() {
     let dir = tmp("sigint");
     let out = dir.join("new").join("sub").join("cube");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_tprf"))
+    let mut child = ctrl_c_as_a_terminal_sends_it(&mut Command::new(env!("CARGO_BIN_EXE_tprf")))
         .args([
             "render",
             "builtin:cornell",
@@ -572,6 +572,22 @@ fn ctrl_c_during_a_render_to_a_new_folder_leaves_nothing() {
         "Ctrl-C left {}",
         dir.join("new").display()
     );
+}
+
+/// `cmd` with SIGINT at its default action in the child, as a shell in a terminal
+/// starts a command. A test run from a background job (`cmd &` in a script, `nohup`)
+/// inherits SIGINT ignored, and the child would then never see the Ctrl-C these tests
+/// send it (a render of 10^8 spp ran on for minutes).
+#[cfg(unix)]
+fn ctrl_c_as_a_terminal_sends_it(cmd: &mut Command) -> &mut Command {
+    use std::os::unix::process::CommandExt;
+    // SAFETY: between fork and exec only `signal`, which is async-signal-safe.
+    unsafe {
+        cmd.pre_exec(|| {
+            libc::signal(libc::SIGINT, libc::SIG_DFL);
+            Ok(())
+        })
+    }
 }
 
 /// The staging folders (`.NAME.tmp-*`) beside `target`.
@@ -626,7 +642,7 @@ fn ctrl_c_while_the_output_is_written_keeps_the_old_folder_whole() {
         .map(|f| (out.join(f), std::fs::read(out.join(f)).unwrap()))
         .collect();
     // The new render writes 4096 frames: Ctrl-C lands while its folder is being written.
-    let mut child = Command::new(env!("CARGO_BIN_EXE_tprf"))
+    let mut child = ctrl_c_as_a_terminal_sends_it(&mut Command::new(env!("CARGO_BIN_EXE_tprf")))
         .args(render("4096", true))
         .stderr(Stdio::piped())
         .spawn()
