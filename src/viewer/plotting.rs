@@ -104,17 +104,27 @@ pub(crate) fn steps(t0_ns: f64, dt_ns: f64, ys: &[f64], per_px: usize) -> Vec<[f
 }
 
 /// The vertices of the step curve of `ys` (bin `b` flat over bin edges `b .. b + 1`), as
-/// (bin edge, value): two a bin, and where `per_px` >= 3 bins share a screen column,
-/// four a group of `per_px` bins (its first value, its largest, its smallest and its
-/// last: the column a step curve fills there), so nothing a viewer could see is left
-/// out. Tessellating 2 vertices a bin of several 1024-bin curves was a tenth of the UI
-/// thread at 512^2. (Merging runs of equal bins into one long segment was tried: egui's
-/// line tessellation then drew a filled wedge under the peak, seen in a screenshot.)
+/// (bin edge, value), with nothing a viewer could see left out: a run of equal values is
+/// one segment (empty bins are most of a TPRF), and where `per_px` >= 3 bins share a
+/// screen column each group of `per_px` bins is drawn as its first value, its largest,
+/// its smallest and its last (the column a step curve fills there). Tessellating 2
+/// vertices a bin of several 1024-bin curves was a tenth of the UI thread at 512^2.
+///
+/// Draw them with `Line::allow_band(false)`: egui_plot otherwise turns a line whose
+/// points share pixel columns into a filled band interpolated between columns, which
+/// across a long flat segment is a filled wedge (seen in a screenshot).
 fn step_vertices(ys: &[f64], per_px: usize) -> Vec<(f64, f64)> {
     let mut out: Vec<(f64, f64)> = Vec::new();
     let mut push = |edge: f64, y: f64| {
-        // A vertex where the last one is adds nothing.
-        if out.last() != Some(&(edge, y)) {
+        // A vertex on the line through the previous two at the same height is dropped.
+        if let [.., (_, y0), (_, y1)] = out[..]
+            && y0 == y
+            && y1 == y
+        {
+            if let Some(last) = out.last_mut() {
+                last.0 = edge;
+            }
+        } else if out.last() != Some(&(edge, y)) {
             out.push((edge, y));
         }
     };
@@ -159,7 +169,8 @@ mod tests {
             .collect()
     }
 
-    /// Every bin's value is drawn over its whole span, with no vertex twice.
+    /// Runs of equal values become one segment; every bin's value is still drawn over
+    /// its whole span.
     #[test]
     fn steps_keep_every_bin() {
         let ys = [0.0, 0.0, 0.0, 2.0, 3.0, 3.0, 0.0, 0.0];
@@ -168,16 +179,12 @@ mod tests {
             v,
             vec![
                 (0.0, 0.0),
-                (1.0, 0.0),
-                (2.0, 0.0),
                 (3.0, 0.0),
                 (3.0, 2.0),
                 (4.0, 2.0),
                 (4.0, 3.0),
-                (5.0, 3.0),
                 (6.0, 3.0),
                 (6.0, 0.0),
-                (7.0, 0.0),
                 (8.0, 0.0)
             ]
         );
@@ -187,7 +194,7 @@ mod tests {
     }
 
     /// Several bins a column: each group reaches its largest and smallest value, starts
-    /// at its first and ends at its last, with fewer vertices than two a bin.
+    /// at its first and ends at its last; flat groups stay one segment.
     #[test]
     fn columns_keep_their_extremes() {
         let ys: Vec<f64> = (0..40)

@@ -141,7 +141,7 @@ impl TprfApp {
             for (name, color, values) in &curves {
                 let bounce = BOUNCE_COLORS.contains(color);
                 let pts = step_points(&axis, values, log_floor, width_px);
-                let line = Line::new(name.clone(), pts).color(*color);
+                let line = Line::new(name.clone(), pts).color(*color).allow_band(false);
                 plot_ui.line(if bounce {
                     line.style(egui_plot::LineStyle::dashed_dense()).width(1.2)
                 } else {

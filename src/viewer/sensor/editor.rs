@@ -133,6 +133,7 @@ pub(crate) fn editor_ui(
         p.line(
             Line::new("TPRF (pixel)", PlotPoints::from(tprf_steps))
                 .color(TPRF_COLOR)
+                .allow_band(false)
                 .fill(0.0)
                 .fill_alpha(0.35),
         );

@@ -49,7 +49,11 @@ pub(crate) fn pixel_plots_ui(
             Span::new("rendered window", axis.t0_s * 1e9..=axis.end_s() * 1e9)
                 .fill(Color32::from_white_alpha(10)),
         );
-        p.line(Line::new("TPRF * Light", PlotPoints::from(steps)).color(LIGHT_COLOR))
+        p.line(
+            Line::new("TPRF * Light", PlotPoints::from(steps))
+                .color(LIGHT_COLOR)
+                .allow_band(false),
+        )
     });
     if spad_plot_ui(ui, state, &trace.m_clean, tprf, height, snap, pixel) {
         return;
