@@ -168,10 +168,9 @@ impl SensorState {
             self.white = Some((layout.clone(), shared_white(&model, snap)));
         }
         if !self.is_current_for(key, model.sensor()) {
-            if self.job.is_none() {
-                self.spawn_measurement(&model, snap);
-            }
-            // The gate on screen, now.
+            // The gate on screen, now; then all gates in the background (started after
+            // it, so the frame's gate has the cores to itself: the LiDAR's frame after
+            // an edit waited for it behind the background job).
             let gate = self.gate;
             let stale = self
                 .plane
@@ -200,6 +199,9 @@ impl SensorState {
                         millis: started.elapsed().as_secs_f64() * 1e3,
                     });
                 }
+            }
+            if self.job.is_none() {
+                self.spawn_measurement(&model, snap);
             }
         }
         self.model = Some(model);
