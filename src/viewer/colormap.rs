@@ -86,24 +86,16 @@ pub fn colorize(values: &[f32], tone: &Tone, map: ColorMap) -> Vec<u8> {
     // The table's entry of tone `t` is `round(t last)`; NaN, zero and negatives are 0,
     // as `color_of` clamps them. The linear case, what playback shows every frame, is
     // one multiply and a compare a pixel.
-    let index = |t: f64| {
-        if t > 0.0 {
+    for (px, &v) in out.chunks_exact_mut(4).zip(values) {
+        let t = if tone.log {
+            tone.map(v as f64)
+        } else {
+            v as f64 * tone.scale
+        };
+        let i = if t > 0.0 {
             (t.min(1.0) * last + 0.5) as usize
         } else {
             0
-        }
-    };
-    let k = tone.scale * last;
-    for (px, &v) in out.chunks_exact_mut(4).zip(values) {
-        let i = if tone.log {
-            index(tone.map(v as f64))
-        } else {
-            let x = v as f64 * k;
-            if x > 0.0 {
-                (x.min(last) + 0.5) as usize
-            } else {
-                0
-            }
         };
         px[..3].copy_from_slice(&lut[i]);
     }

@@ -101,15 +101,7 @@ impl<V: Copy> SparseRow<V> {
 
     /// Pixel `x`'s value in bin `b`, `None` when not stored.
     pub fn get(&self, x: usize, b: usize) -> Option<V> {
-        for (start, values) in self.pixel_runs(x) {
-            if b < start {
-                return None;
-            }
-            if let Some(v) = values.get(b - start) {
-                return Some(*v);
-            }
-        }
-        None
+        self.get_from(x, b, &mut RunCursor::default())
     }
 
     /// [`Self::get`] resumed from `cursor`, which it moves past the runs that end at or

@@ -40,15 +40,7 @@ pub fn coates(det: &Detector, counts: &[f64], out: &mut [f64]) {
     }
     let n = det.cycles as f64;
     let d = det.dead_bins.min(b);
-    // Prefix sums over the histogram repeated twice: position B + k is bin k, and the d
-    // positions before it are the d bins before k, wrapping into the previous cycle.
-    let mut prefix = Vec::with_capacity(2 * b + 1);
-    prefix.push(0.0);
-    let mut sum = 0.0;
-    for i in 0..2 * b {
-        sum += counts[i % b];
-        prefix.push(sum);
-    }
+    let prefix = wrapped_prefix(counts, b);
     for k in 0..b {
         let dead = match det.mode {
             Acquisition::FreeRunning => prefix[b + k] - prefix[b + k - d],
@@ -66,13 +58,10 @@ pub fn coates(det: &Detector, counts: &[f64], out: &mut [f64]) {
     }
 }
 
-/// [`coates`] after a fractional dead time (`0 < f < 1`, `d < B`): cycles armed for
-/// the whole bin `k` and for its last `1 - f` (those that fired `d + 1` bins before).
-fn coates_fractional(det: &Detector, counts: &[f64], out: &mut [f64]) {
-    let b = counts.len();
-    let n = det.cycles as f64;
-    let d = det.dead_bins;
-    let a = det.rearmed_part();
+/// Prefix sums over the first `b` counts repeated twice: position `b + k` is bin `k`, and
+/// the `d` positions before it are the `d` bins before `k`, wrapping into the previous
+/// cycle.
+fn wrapped_prefix(counts: &[f64], b: usize) -> Vec<f64> {
     let mut prefix = Vec::with_capacity(2 * b + 1);
     prefix.push(0.0);
     let mut sum = 0.0;
@@ -80,6 +69,17 @@ fn coates_fractional(det: &Detector, counts: &[f64], out: &mut [f64]) {
         sum += counts[i % b];
         prefix.push(sum);
     }
+    prefix
+}
+
+/// [`coates`] after a fractional dead time (`0 < f < 1`, `d < B`): cycles armed for
+/// the whole bin `k` and for its last `1 - f` (those that fired `d + 1` bins before).
+fn coates_fractional(det: &Detector, counts: &[f64], out: &mut [f64]) {
+    let b = counts.len();
+    let n = det.cycles as f64;
+    let d = det.dead_bins;
+    let a = det.rearmed_part();
+    let prefix = wrapped_prefix(counts, b);
     for k in 0..b {
         // Cycles dead at bin k or re-armed inside it: fired in bins k-d-1 ..= k-1.
         let (not_full, part) = match det.mode {
