@@ -248,6 +248,51 @@ fn russian_roulette_floor_and_no_roulette_are_unbiased() {
     }
 }
 
+/// Splitting a sample at its first vertex (each of k branches carrying 1/k) stays
+/// unbiased, in energy and in time: the furnace's TPRF against its semi-analytic
+/// reference for k = 1 ..= 4, and the pilot's own choice.
+#[test]
+fn first_bounce_splitting_is_unbiased_in_energy_and_time() {
+    use tprf_core::transport::RenderSettings;
+    let (r_m, rho, i) = (1.0f64, 0.5f64, 2.0f64);
+    let f = Furnace::point(r_m, rho, i);
+    let axis = TimeAxis::new(0.25 / C, 0.5 / C, 60).unwrap();
+    let reference = furnace_reference(r_m, rho, i, &axis);
+    let total_ref: f64 = reference.iter().sum();
+    let peak = reference.iter().cloned().fold(0.0, f64::max);
+    for splits in [1, 2, 3, 4, 0] {
+        let settings = RenderSettings {
+            seed: 11,
+            first_bounce_splits: splits,
+            ..RenderSettings::default()
+        };
+        let r = render_with(f.scene(), 8, 8, axis, 1024, settings, 0);
+        let mean = mean_tprf(&r.film);
+        let totals = r.film.steady();
+        let total = totals.iter().sum::<f64>() / 64.0;
+        let var = totals.iter().map(|t| (t - total).powi(2)).sum::<f64>() / 63.0;
+        let se = (var / 64.0).sqrt();
+        assert!(
+            (total - total_ref).abs() < 4.0 * se + 0.005 * total_ref,
+            "splits {splits}: energy in window {total} vs {total_ref} (standard error {se})"
+        );
+        for (b, (got, want)) in mean.iter().zip(&reference).enumerate() {
+            assert!(
+                (got - want).abs() < 0.03 * peak + 0.05 * want,
+                "splits {splits}: bin {b}: {got} vs {want} (peak {peak})"
+            );
+        }
+        let (t_ref, t_got) = (
+            mean_arrival_s(&reference, &axis),
+            mean_arrival_s(&mean, &axis),
+        );
+        assert!(
+            (t_got - t_ref).abs() < 0.01 * t_ref,
+            "splits {splits}: mean arrival {t_got} vs {t_ref}"
+        );
+    }
+}
+
 #[test]
 fn glass_slab_delays_by_n_d_over_c() {
     use glam::{Affine3A, Vec3};

@@ -300,6 +300,7 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
         wall_seconds: start.elapsed().as_secs_f64(),
         rays_traced: renderer.rays_traced(),
         paths_traced: last.map_or(0, |r| r.paths),
+        first_bounce_splits: renderer.splits(),
         error_estimate: film.half_error_estimate(),
         passes: reports.len() as u64,
         left_out: last.map_or_else(Default::default, |r| r.left_out),

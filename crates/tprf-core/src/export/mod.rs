@@ -152,7 +152,13 @@ pub struct CubeMetadata {
     #[serde(default)]
     pub render_seconds: f64,
     pub rays_traced: u64,
+    /// Camera samples traced.
     pub paths_traced: u64,
+    /// Branches of each camera sample at its first scattering vertex
+    /// (`RenderSettings::first_bounce_splits`, as the pilot chose it); 0 in files
+    /// written before it was recorded.
+    #[serde(default)]
+    pub first_bounce_splits: u32,
     /// Error of the cube estimated from two independent halves of the samples (relative
     /// RMS), when both halves have samples.
     pub error_estimate: Option<f64>,

@@ -31,6 +31,8 @@ pub struct EstimatorSetting {
     pub rr_start: Option<u32>,
     pub rr_min_survival: Option<f32>,
     pub max_bounces: Option<u32>,
+    /// Branches at the first vertex (`RenderSettings::first_bounce_splits`; 0 = auto).
+    pub splits: Option<u32>,
     /// Its own time budget, seconds (default: the run's).
     pub seconds: Option<f64>,
 }
@@ -45,13 +47,15 @@ impl EstimatorSetting {
             rr_start: None,
             rr_min_survival: None,
             max_bounces: None,
+            splits: None,
             seconds: None,
         }
     }
 
     /// Parse `default` or comma-separated `key=value` pairs: `nee=on|off`,
     /// `filter=box|tent`, `rr_start=N`, `rr_floor=P` (survival floor in [0, 1]),
-    /// `max_bounces=N`, `seconds=S`.
+    /// `max_bounces=N`, `splits=N` (first-bounce branches, 1 ..= 64, or `auto`),
+    /// `seconds=S`.
     pub fn parse(spec: &str) -> Result<EstimatorSetting, ReportError> {
         let mut s = EstimatorSetting::default_setting();
         s.label = spec.trim().to_string();
@@ -98,6 +102,15 @@ impl EstimatorSetting {
                 "max_bounces" => {
                     s.max_bounces = Some(v.parse().map_err(|_| bad("expected a whole number"))?)
                 }
+                "splits" => {
+                    s.splits = Some(match v {
+                        "auto" => 0,
+                        _ => match v.parse::<u32>() {
+                            Ok(k) if (1..=64).contains(&k) => k,
+                            _ => return Err(bad("expected auto or a whole number in 1 ..= 64")),
+                        },
+                    })
+                }
                 "seconds" => {
                     let t: f64 = v.parse().map_err(|_| bad("expected a number"))?;
                     if !(t.is_finite() && t > 0.0) {
@@ -108,7 +121,7 @@ impl EstimatorSetting {
                 _ => {
                     return Err(error(format!(
                         "unknown key '{k}' (known: nee, filter, rr_start, rr_floor, \
-                         max_bounces, seconds)"
+                         max_bounces, splits, seconds)"
                     )));
                 }
             }
@@ -123,6 +136,7 @@ impl EstimatorSetting {
             rr_start: self.rr_start.unwrap_or(base.rr_start),
             rr_min_survival: self.rr_min_survival.unwrap_or(base.rr_min_survival),
             max_bounces: self.max_bounces.unwrap_or(base.max_bounces),
+            first_bounce_splits: self.splits.unwrap_or(base.first_bounce_splits),
             ..base
         }
     }
@@ -654,6 +668,12 @@ mod tests {
     #[test]
     fn settings_parse() {
         let s = EstimatorSetting::parse("nee=off, filter=tent,rr_start=8,rr_floor=0.25").unwrap();
+        assert_eq!(EstimatorSetting::parse("splits=3").unwrap().splits, Some(3));
+        assert_eq!(
+            EstimatorSetting::parse("splits=auto").unwrap().splits,
+            Some(0)
+        );
+        assert!(EstimatorSetting::parse("splits=0").is_err());
         assert_eq!(s.nee, Some(false));
         assert_eq!(s.filter, TimeFilter::Tent);
         assert_eq!(s.rr_start, Some(8));

@@ -5,14 +5,14 @@
 use super::bsdf::{Bsdf, Frame, LobeKind};
 use super::lights::Lights;
 use super::sampler::{Sampler, dim};
-use super::surface::Surfaces;
+use super::surface::{SurfacePoint, Surfaces};
 use crate::accel::Accel;
-use crate::film::{LeftOut, LeftOutCounts, PixelSink, TprfFilm};
+use crate::film::{LeftOut, LeftOutCounts, PixelSink, TimeAxis, TprfFilm};
 use crate::scene::{Channel, Scene};
 use crate::units::C_M_PER_S;
 use glam::Vec3;
-use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, OnceLock};
 
 /// Where a path's contributions go.
 pub trait Sink {
@@ -82,6 +82,12 @@ pub struct RenderSettings {
     /// `max_bounces` or the window's end). A floor between trades time for less
     /// roulette noise; every value is unbiased.
     pub rr_min_survival: f32,
+    /// Branches of a camera sample at its first scattering vertex: the camera ray, the
+    /// first hit and its next-event estimate are shared, and `splits` independent
+    /// continuations (bounce direction and everything after) each carry `1 / splits`
+    /// of the sample. 1: no splitting; 0 (the default): chosen per render by a pilot
+    /// for the least work times variance ([`super::split`]). Unbiased for every value.
+    pub first_bounce_splits: u32,
 }
 
 impl Default for RenderSettings {
@@ -93,6 +99,7 @@ impl Default for RenderSettings {
             nee: true,
             rr_start: 3,
             rr_min_survival: 0.0,
+            first_bounce_splits: 0,
         }
     }
 }
@@ -122,6 +129,9 @@ pub struct Renderer {
     /// Tangent of half the camera's vertical field of view.
     tan_half_yfov: f32,
     rays: AtomicU64,
+    /// The first-bounce split in use: `settings.first_bounce_splits`, or the pilot's
+    /// choice for the first film rendered ([`Renderer::splits_for`]).
+    splits: OnceLock<u32>,
 }
 
 /// Whether a contribution arriving at `arrival_s` falls clearly outside `sink`'s window
@@ -134,6 +144,46 @@ fn outside(sink: &impl Sink, arrival_s: f64) -> Option<LeftOut> {
         Some(LeftOut::ShadowRayEarly)
     } else {
         None
+    }
+}
+
+/// The state of a path between two vertices.
+#[derive(Clone, Copy, Debug)]
+struct Path {
+    /// The ray about to be traced (unit `dir`).
+    origin: Vec3,
+    dir: Vec3,
+    /// Product of the BSDF sample weights and roulette factors so far.
+    throughput: f32,
+    /// Share of the camera sample this path carries: `1 / splits` after a split, else 1.
+    share: f32,
+    /// Eye-side optical path length, metres.
+    opl_m: f64,
+    scatterings: u32,
+    /// Refractive index of the medium the ray travels in.
+    ior_here: f32,
+    /// Solid-angle pdf of the last BSDF sample; `None` for the camera ray and delta lobes.
+    last_pdf: Option<f32>,
+    last_position: Vec3,
+    /// Straight pass-throughs (alpha coverage) since the last scattering.
+    pass_throughs: u32,
+}
+
+impl Path {
+    /// A path leaving the eye at `origin` along unit `dir`.
+    fn camera(origin: Vec3, dir: Vec3) -> Path {
+        Path {
+            origin,
+            dir,
+            throughput: 1.0,
+            share: 1.0,
+            opl_m: 0.0,
+            scatterings: 0,
+            ior_here: 1.0,
+            last_pdf: None,
+            last_position: origin,
+            pass_throughs: 0,
+        }
     }
 }
 
@@ -165,6 +215,7 @@ impl Renderer {
             settings,
             eps_m,
             rays: AtomicU64::new(0),
+            splits: OnceLock::new(),
         }
     }
 
@@ -178,6 +229,29 @@ impl Renderer {
 
     pub fn accel(&self) -> &Accel {
         &self.accel
+    }
+
+    /// The first-bounce split of this render: the settings' value, or when that is 0
+    /// the pilot's choice for a `width x height` film on `axis` ([`super::split`]),
+    /// made once (the first film rendered decides for the renderer's life, so every
+    /// pass and thread uses the same).
+    pub fn splits_for(&self, axis: &TimeAxis, width: usize, height: usize) -> u32 {
+        *self
+            .splits
+            .get_or_init(|| match self.settings.first_bounce_splits {
+                0 => super::split::choose(self, axis, width, height),
+                k => k,
+            })
+    }
+
+    /// The split in use: as chosen by [`Renderer::splits_for`], else the settings' value
+    /// (1 if automatic and not chosen yet).
+    pub fn splits(&self) -> u32 {
+        self.splits
+            .get()
+            .copied()
+            .unwrap_or(self.settings.first_bounce_splits)
+            .max(1)
     }
 
     /// Rays traced so far (camera, bounce and shadow rays).
@@ -217,6 +291,7 @@ impl Renderer {
         let (w, h) = (layout.width, layout.height);
         let half = film.passes() % 2;
         let first = film.half_spp()[half as usize];
+        self.splits_for(&layout.axis, w, h);
         let rays_before = self.rays_traced();
         let tally = film.run_pass(spp as u64, |x, y, sink| {
             let mut rng =
@@ -246,10 +321,25 @@ impl Renderer {
         rng: &mut Sampler,
         sink: &mut impl Sink,
     ) -> u64 {
+        self.trace_sample_split(x, y, w, h, self.splits(), rng, sink)
+    }
+
+    /// [`Renderer::trace_sample`] split into `splits` branches at the first vertex.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn trace_sample_split(
+        &self,
+        x: usize,
+        y: usize,
+        w: usize,
+        h: usize,
+        splits: u32,
+        rng: &mut Sampler,
+        sink: &mut impl Sink,
+    ) -> u64 {
         rng.start_sample();
         let (jx, jy) = rng.get2(dim::CAMERA);
         let (origin, dir) = self.camera_ray(x as f32 + jx, y as f32 + jy, w, h);
-        self.trace_path(origin, dir, rng, sink)
+        self.walk::<false>(&self.lights, Path::camera(origin, dir), splits, rng, sink)
     }
 
     /// Trace a path from the eye at `origin` along unit `dir`. The eye-side optical path
@@ -263,7 +353,8 @@ impl Renderer {
         rng: &mut Sampler,
         sink: &mut impl Sink,
     ) -> u64 {
-        self.trace::<false>(&self.lights, origin, dir, rng, sink)
+        let path = Path::camera(origin, dir);
+        self.walk::<false>(&self.lights, path, self.splits(), rng, sink)
     }
 
     /// A path lit by `lights` (with their emissive surfaces when not `AMBIENT`). The
@@ -271,65 +362,73 @@ impl Renderer {
     /// loop is the one it always was. `AMBIENT = true` is the steady ambient image
     /// ([`super::ambient`]): `lights` is the ambient group (point, spot and directional
     /// lights, the sky), emissive surfaces are dark, and an escaping path picks up the
-    /// sky radiance.
+    /// sky radiance; it is not split (its pilot would be another render's).
     pub(super) fn trace<const AMBIENT: bool>(
         &self,
         lights: &Lights,
-        mut origin: Vec3,
-        mut dir: Vec3,
+        origin: Vec3,
+        dir: Vec3,
+        rng: &mut Sampler,
+        sink: &mut impl Sink,
+    ) -> u64 {
+        let splits = if AMBIENT { 1 } else { self.splits() };
+        self.walk::<AMBIENT>(lights, Path::camera(origin, dir), splits, rng, sink)
+    }
+
+    /// Follow `path` until it ends; returns the rays traced. At its first scattering
+    /// vertex the path splits into `splits` branches (see
+    /// [`RenderSettings::first_bounce_splits`]), each followed with `1 / splits` of the
+    /// path's share and its own draws ([`Sampler::start_branch`]).
+    fn walk<const AMBIENT: bool>(
+        &self,
+        lights: &Lights,
+        mut path: Path,
+        splits: u32,
         rng: &mut Sampler,
         sink: &mut impl Sink,
     ) -> u64 {
         let s = &self.settings;
         let window_end_opl_m = sink.window_end_s() * C_M_PER_S;
         let mut rays = 0u64;
-        let mut throughput = 1.0f32;
-        let mut opl_m = 0.0f64;
-        let mut scatterings = 0u32;
-        // Refractive index of the medium the ray travels in.
-        let mut ior_here = 1.0f32;
-        // Solid-angle pdf of the last BSDF sample; `None` for the camera ray and delta lobes.
-        let mut last_pdf: Option<f32> = None;
-        let mut last_position = origin;
-        let mut pass_throughs = 0u32;
         loop {
-            let slot = |use_| dim::vertex(scatterings, use_);
+            let slot = |use_| dim::vertex(path.scatterings, use_);
+            let (origin, dir) = (path.origin, path.dir);
             rays += 1;
             sink.ray(origin, dir, f32::INFINITY, RayKind::Path);
             let Some(hit) = self.accel.closest_hit(origin, dir, f32::INFINITY) else {
                 // Escaped: the pulsed render has no environment light; the ambient image
                 // sees the sky's radiance L (found only by BSDF sampling: no MIS weight).
                 if AMBIENT && lights.sky_radiance > 0.0 {
-                    let value = throughput * lights.sky_radiance;
-                    sink.add(opl_m / C_M_PER_S, value as f64, scatterings);
+                    let value = path.throughput * path.share * lights.sky_radiance;
+                    sink.add(path.opl_m / C_M_PER_S, value as f64, path.scatterings);
                 }
                 break;
             };
-            opl_m += hit.t_m as f64 * ior_here as f64;
-            if opl_m > window_end_opl_m {
+            path.opl_m += hit.t_m as f64 * path.ior_here as f64;
+            if path.opl_m > window_end_opl_m {
                 sink.left_out(LeftOut::PathPastWindow);
                 break; // already too late to arrive inside the window
             }
             let sp = self.surfaces.at(&hit, origin, dir);
             // Virtual interface: the uncovered fraction passes straight through, undelayed.
-            let u_cover = || match pass_throughs {
+            let u_cover = || match path.pass_throughs {
                 0 => rng.get1(slot(dim::COVERAGE)),
-                p => rng.get1_hashed(((scatterings as u64) << 16) + p as u64),
+                p => rng.get1_hashed(((path.scatterings as u64) << 16) + p as u64),
             };
             if sp.coverage < 1.0 && u_cover() >= sp.coverage {
-                pass_throughs += 1;
-                if pass_throughs > MAX_PASS_THROUGH {
+                path.pass_throughs += 1;
+                if path.pass_throughs > MAX_PASS_THROUGH {
                     break;
                 }
-                origin = sp.position - sp.n_face * self.offset_m(sp.position);
+                path.origin = sp.position - sp.n_face * self.offset_m(sp.position);
                 continue;
             }
             // Emission seen along the path (R0 at t = 0 at the emitter).
             if !AMBIENT && sp.emission > 0.0 {
-                let weight = match last_pdf {
+                let weight = match path.last_pdf {
                     None => 1.0,
                     Some(pdf_bsdf) => {
-                        let d2 = (sp.position - last_position).length_squared();
+                        let d2 = (sp.position - path.last_position).length_squared();
                         let cos_l = sp.n_face.dot(-dir).abs();
                         let pdf_light = lights.pdf_area(hit.triangle) * d2 / cos_l.max(1e-12);
                         if s.nee {
@@ -340,21 +439,19 @@ impl Renderer {
                     }
                 };
                 sink.add(
-                    opl_m / C_M_PER_S,
-                    (throughput * sp.emission * weight) as f64,
-                    scatterings,
+                    path.opl_m / C_M_PER_S,
+                    (path.throughput * path.share * sp.emission * weight) as f64,
+                    path.scatterings,
                 );
             }
-            if scatterings >= s.max_bounces {
+            if path.scatterings >= s.max_bounces {
                 break;
             }
-            let entering = sp.front;
             let bsdf = sp.bsdf;
             let frame = Frame::new(sp.n_shading);
-            let wo_world = -dir;
-            let wo = frame.to_local(wo_world);
-            let p_out = sp.position + sp.n_face * self.offset_m(sp.position);
+            let wo = frame.to_local(-dir);
             if s.nee && bsdf.has_smooth_lobe() {
+                let p_out = sp.position + sp.n_face * self.offset_m(sp.position);
                 rays += self.next_event::<AMBIENT>(
                     lights,
                     &bsdf,
@@ -363,53 +460,83 @@ impl Renderer {
                     sp.position,
                     p_out,
                     sp.n_face,
-                    opl_m,
-                    ior_here,
-                    throughput,
-                    scatterings,
+                    path.opl_m,
+                    path.ior_here,
+                    path.throughput * path.share,
+                    path.scatterings,
                     rng,
                     sink,
                 );
             }
-            let u_lobe = if bsdf.single_lobe() {
-                0.0
-            } else {
-                rng.get1(slot(dim::LOBE))
-            };
-            let Some(bs) = bsdf.sample(wo, u_lobe, rng.get2(slot(dim::BSDF_DIRECTION))) else {
-                break;
-            };
-            let wi_world = frame.to_world(bs.wi);
-            let refracted = bs.kind == LobeKind::Refract;
-            // The geometric side must agree with the lobe (shading normals can disagree).
-            let geo = wi_world.dot(sp.n_face);
-            if (refracted && geo >= 0.0) || (!refracted && geo <= 0.0) {
-                break;
-            }
-            throughput *= bs.weight;
-            let u_roulette = slot(dim::ROULETTE);
-            scatterings += 1;
-            if refracted {
-                ior_here = if entering { sp.ior } else { 1.0 };
-            }
-            last_pdf = (!bs.is_delta()).then_some(bs.pdf);
-            last_position = sp.position;
-            pass_throughs = 0;
-            origin = sp.position + sp.n_face * self.offset_m(sp.position) * geo.signum();
-            dir = wi_world.normalize();
-            // Russian roulette: stop when the remaining flux is small (unbiased).
-            if scatterings >= s.rr_start {
-                let q = throughput.min(1.0).max(s.rr_min_survival.min(1.0));
-                if !(q > 0.0) || rng.get1(u_roulette) >= q {
-                    break;
+            if splits > 1 {
+                // Split: each branch draws its own lobe, direction and what follows.
+                let share = path.share / splits as f32;
+                for j in 0..splits {
+                    rng.start_branch(j, splits);
+                    let branch = Path { share, ..path };
+                    if let Some(next) = self.scatter(&sp, &frame, wo, branch, rng) {
+                        rays += self.walk::<AMBIENT>(lights, next, 1, rng, sink);
+                    }
                 }
-                throughput /= q;
-            }
-            if !(throughput.is_finite() && throughput > 0.0) {
                 break;
+            }
+            match self.scatter(&sp, &frame, wo, path, rng) {
+                Some(next) => path = next,
+                None => break,
             }
         }
         rays
+    }
+
+    /// Sample the next direction at surface point `sp` (outgoing `wo`, local to
+    /// `frame`) and step `path` onto it, Russian roulette included; `None` ends the path.
+    #[inline]
+    fn scatter(
+        &self,
+        sp: &SurfacePoint,
+        frame: &Frame,
+        wo: Vec3,
+        mut path: Path,
+        rng: &Sampler,
+    ) -> Option<Path> {
+        let s = &self.settings;
+        let slot = |use_| dim::vertex(path.scatterings, use_);
+        let bsdf = &sp.bsdf;
+        let u_lobe = if bsdf.single_lobe() {
+            0.0
+        } else {
+            rng.get1(slot(dim::LOBE))
+        };
+        let bs = bsdf.sample(wo, u_lobe, rng.get2(slot(dim::BSDF_DIRECTION)))?;
+        let wi_world = frame.to_world(bs.wi);
+        let refracted = bs.kind == LobeKind::Refract;
+        // The geometric side must agree with the lobe (shading normals can disagree).
+        let geo = wi_world.dot(sp.n_face);
+        if (refracted && geo >= 0.0) || (!refracted && geo <= 0.0) {
+            return None;
+        }
+        path.throughput *= bs.weight;
+        let u_roulette = slot(dim::ROULETTE);
+        path.scatterings += 1;
+        if refracted {
+            path.ior_here = if sp.front { sp.ior } else { 1.0 };
+        }
+        path.last_pdf = (!bs.is_delta()).then_some(bs.pdf);
+        path.last_position = sp.position;
+        path.pass_throughs = 0;
+        path.origin = sp.position + sp.n_face * self.offset_m(sp.position) * geo.signum();
+        path.dir = wi_world.normalize();
+        // Russian roulette: stop when the remaining flux is small (unbiased). It looks at
+        // the throughput, not at the share of a split path, so branches survive as an
+        // unsplit path would.
+        if path.scatterings >= s.rr_start {
+            let q = path.throughput.min(1.0).max(s.rr_min_survival.min(1.0));
+            if !(q > 0.0) || rng.get1(u_roulette) >= q {
+                return None;
+            }
+            path.throughput /= q;
+        }
+        (path.throughput.is_finite() && path.throughput > 0.0).then_some(path)
     }
 
     /// Next-event estimation at a vertex with outgoing `wo` (local): every punctual light

@@ -9,6 +9,7 @@ mod integrator;
 pub mod lights;
 pub mod progressive;
 pub mod sampler;
+pub mod split;
 pub mod surface;
 mod window;
 pub mod worker;

@@ -184,6 +184,20 @@ impl Sampler {
         self.sample_key = mix(self.key ^ (self.index as u64).wrapping_mul(0xD6E8_FEB8_6659_FD93));
     }
 
+    /// Begin branch `j` of `k` of the current sample: the draws from here on (the first
+    /// vertex's lobe, direction and roulette, and every deeper slot) come from index
+    /// `k i + j` of the stream instead of `i`, so over the samples `i < n` the `k n`
+    /// branches of a slot are one stratified set of `k n` points, and the branches of
+    /// one sample are as independent as any two samples. `start_branch(0, 1)` changes
+    /// nothing. (Indices wrap at 2^32: past 2^32 / k samples a pixel's branches repeat
+    /// earlier ones.)
+    #[inline]
+    pub fn start_branch(&mut self, j: u32, k: u32) {
+        let branch = self.index.wrapping_mul(k).wrapping_add(j);
+        self.index_reversed = branch.reverse_bits();
+        self.sample_key = mix(self.key ^ (branch as u64).wrapping_mul(0xD6E8_FEB8_6659_FD93));
+    }
+
     /// Hash of the sample and `slot`: 64 uniform bits.
     #[inline]
     fn hashed(&self, slot: u64) -> u64 {
@@ -245,6 +259,38 @@ mod tests {
             d ^= d >> 1;
         }
         x
+    }
+
+    /// The branches of `n` samples split `k` ways are `k n` stratified points of a
+    /// slot (one in each interval of width `1 / (k n)`), and branch 0 of 1 is the
+    /// sample itself.
+    #[test]
+    fn branches_are_one_stratified_set_and_one_branch_is_the_sample() {
+        let slot = dim::vertex(0, dim::BSDF_DIRECTION);
+        for (n, k) in [(8u32, 4u32), (16, 2), (4, 8)] {
+            let mut s = Sampler::new(3, 0, 77);
+            let mut seen = vec![0u32; (n * k) as usize];
+            for _ in 0..n {
+                s.start_sample();
+                for j in 0..k {
+                    s.start_branch(j, k);
+                    let (x, y) = s.get2(slot);
+                    seen[(x * (n * k) as f32) as usize] += 1;
+                    assert!((0.0..1.0).contains(&y));
+                }
+            }
+            assert!(seen.iter().all(|&c| c == 1), "n {n} k {k}: {seen:?}");
+        }
+        let (mut a, mut b) = (Sampler::new(9, 1, 5), Sampler::new(9, 1, 5));
+        for _ in 0..10 {
+            a.start_sample();
+            b.start_sample();
+            b.start_branch(0, 1);
+            for slot in [0, 4, 5, 6, 30] {
+                assert_eq!(a.get2(slot), b.get2(slot));
+            }
+            assert_eq!(a.get1_hashed(12), b.get1_hashed(12));
+        }
     }
 
     #[test]

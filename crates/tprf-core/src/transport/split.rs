@@ -1,0 +1,202 @@
+//! How many branches a camera sample splits into at its first scattering vertex
+//! ([`RenderSettings::first_bounce_splits`](super::RenderSettings)), chosen per render by
+//! a small pilot when it is 0 (automatic).
+//!
+//! A split sample shares its prefix (the camera ray, the first hit and its next-event
+//! estimate) between `k` continuations (the bounce and everything after), each
+//! carrying `1 / k` of it. Splitting theory (Arvo and Kirk 1990): per bin, the variance
+//! of the pixel's mean over `n` samples is `P + B / k` (`P` from the prefix, `B` from
+//! one continuation), and a sample costs `c1 + k c2` rays; work times variance is least
+//! near `k* = sqrt(c1 B / (c2 P))`. Splitting pays where the cube's noise comes from
+//! the bounces and the prefix is much of a sample's cost (an open corner lit by a
+//! lamp); it costs where the noise is the prefix's own (sunlight through leaves).
+//!
+//! The pilot renders a 16 x 16 grid of pixels spread over the film in 4 independent
+//! replicas of 8 samples, once unsplit and once split 4 ways, and takes per bin of
+//! the film's time axis the variance of the replicas' means, summed over bins and
+//! pixels, and the rays per sample. The two give `P`, `B`, `c1` and `c2`. One more
+//! step: the prefix is stratified over a pixel's samples (its jitter is an
+//! Owen-scrambled Sobol dimension), so its variance falls like `n^-3/2` where the
+//! continuations' falls like `n^-1`; `P` is scaled to a render of [`TARGET_SPP`]
+//! samples before `k*` is taken (at 8 samples the pilot would undersplit every
+//! longer render). Measured at equal error on the race's corner, room and
+//! `builtin:cornell`, this rule picks the best or a near-best of 1 ..= 4, and 1 on
+//! `builtin:canopy` (docs/benchmarks.md). The choice depends on the scene, the
+//! settings, the seed and the film's size and window, not on the samples asked for
+//! or the threads, so a longer render continues a shorter one.
+
+use super::integrator::{Renderer, Sink};
+use super::sampler::Sampler;
+use crate::film::TimeAxis;
+use glam::Vec3;
+
+/// Largest automatic split.
+pub const MAX_SPLITS: u32 = 4;
+
+/// The render length the choice is made for, in samples per pixel (see the module doc).
+const TARGET_SPP: f64 = 256.0;
+
+/// Pilot pixels per image side (a grid spread over the film's real aspect).
+const PILOT_SIDE: usize = 16;
+
+/// Camera samples per pilot pixel and replica.
+const PILOT_SAMPLES: u32 = 8;
+
+/// Independent replicas per pilot pixel (each its own sample stream).
+const REPLICAS: usize = 4;
+
+/// Sample streams of the pilot's replicas start here (the film's halves use 0 and 1).
+const PILOT_STREAM: u64 = 0x5_0117_0000;
+
+/// Sums one pilot pixel's replicas per bin and counts the rays.
+struct PilotSink {
+    axis: TimeAxis,
+    replica: usize,
+    /// `[REPLICAS][T]` sums of the contributions.
+    bins: Vec<f64>,
+    touched: Vec<usize>,
+    rays: u64,
+}
+
+impl Sink for PilotSink {
+    fn add(&mut self, arrival_s: f64, value: f64, _scatterings: u32) {
+        let (Some(b), true) = (self.axis.bin_of(arrival_s), value.is_finite()) else {
+            return;
+        };
+        if let Some(slot) = self.bins.get_mut(self.replica * self.axis.bins + b) {
+            *slot += value;
+            self.touched.push(b);
+        }
+    }
+    fn window_end_s(&self) -> f64 {
+        self.axis.end_s()
+    }
+    fn window_start_s(&self) -> f64 {
+        self.axis.t0_s
+    }
+    fn ray(&mut self, _origin: Vec3, _dir: Vec3, _t_max_m: f32, _kind: super::RayKind) {
+        self.rays += 1;
+    }
+}
+
+/// The automatic split for a `width x height` film on `axis`: see the module doc.
+pub(super) fn choose(renderer: &Renderer, axis: &TimeAxis, width: usize, height: usize) -> u32 {
+    let (var_1, rays_1) = pilot(renderer, axis, width, height, 1);
+    let (var_k, rays_k) = pilot(renderer, axis, width, height, MAX_SPLITS);
+    let k = MAX_SPLITS as f64;
+    // var(k) = P + B / k and rays(k) = c1 + k c2, from k = 1 and k = MAX_SPLITS.
+    let branches = (var_1 - var_k) * k / (k - 1.0);
+    let prefix = var_1 - branches;
+    let c2 = (rays_k - rays_1) / (k - 1.0);
+    let c1 = rays_1 - c2;
+    // The prefix's share at TARGET_SPP: its variance falls like n^-3/2 (stratified),
+    // the branches' like n^-1.
+    let prefix_at_target = prefix * (PILOT_SAMPLES as f64 / TARGET_SPP).sqrt();
+    splits_for(c1, c2, prefix_at_target, branches)
+}
+
+/// The pilot of split `k`: the variance of the mean of [`PILOT_SAMPLES`] samples,
+/// summed over the bins of the grid's pixels, and the rays traced per sample. Both 0
+/// for an empty film or window.
+pub(super) fn pilot(
+    renderer: &Renderer,
+    axis: &TimeAxis,
+    width: usize,
+    height: usize,
+    k: u32,
+) -> (f64, f64) {
+    let t = axis.bins;
+    if t == 0 || width == 0 || height == 0 {
+        return (0.0, 0.0);
+    }
+    let mut sink = PilotSink {
+        axis: *axis,
+        replica: 0,
+        bins: vec![0.0; REPLICAS * t],
+        touched: Vec::new(),
+        rays: 0,
+    };
+    let (nx, ny) = (width.min(PILOT_SIDE), height.min(PILOT_SIDE));
+    let seed = renderer.settings().seed;
+    let n = PILOT_SAMPLES as f64;
+    let r = REPLICAS as f64;
+    let mut variance = 0.0;
+    for gy in 0..ny {
+        for gx in 0..nx {
+            let (x, y) = (
+                (2 * gx + 1) * width / (2 * nx),
+                (2 * gy + 1) * height / (2 * ny),
+            );
+            let pixel = (y * width + x) as u64;
+            for replica in 0..REPLICAS {
+                sink.replica = replica;
+                let mut rng = Sampler::new(seed, PILOT_STREAM + replica as u64, pixel);
+                for _ in 0..PILOT_SAMPLES {
+                    renderer.trace_sample_split(x, y, width, height, k, &mut rng, &mut sink);
+                }
+            }
+            sink.touched.sort_unstable();
+            sink.touched.dedup();
+            for &b in &sink.touched {
+                let means = (0..REPLICAS).map(|i| sink.bins[i * t + b] / n);
+                let (sum, sum2) = means.fold((0.0, 0.0), |(s, s2), m| (s + m, s2 + m * m));
+                // Unbiased variance of one replica's mean.
+                variance += (sum2 - sum * sum / r).max(0.0) / (r - 1.0);
+                for i in 0..REPLICAS {
+                    sink.bins[i * t + b] = 0.0;
+                }
+            }
+            sink.touched.clear();
+        }
+    }
+    let samples = (nx * ny * REPLICAS) as f64 * n;
+    (variance, sink.rays as f64 / samples)
+}
+
+/// The whole `k` in `1 ..= MAX_SPLITS` of least work times variance
+/// `(c1 + k c2)(V1 + V2 / k)`: the least `k` with `k (k + 1) >= c1 V2 / (c2 V1)` (going
+/// from `k` to `k + 1` changes it by `c2 V1 - c1 V2 / (k (k + 1))`). 1 when the branches
+/// add no variance or cost nothing to compare; `MAX_SPLITS` when the prefix has none.
+fn splits_for(c1: f64, c2: f64, v1: f64, v2: f64) -> u32 {
+    if !(v2 > 0.0 && c2 > 0.0 && c1 > 0.0) {
+        return 1;
+    }
+    if !(v1 > 0.0) {
+        return MAX_SPLITS;
+    }
+    let k2 = (c1 * v2) / (c2 * v1);
+    (1..MAX_SPLITS)
+        .find(|&k| (k * (k + 1)) as f64 >= k2)
+        .unwrap_or(MAX_SPLITS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_optimum_of_work_times_variance() {
+        // (c1 + k c2)(V1 + V2 / k) by brute force over k, against the threshold rule.
+        for (c1, c2, v1, v2) in [
+            (2.0, 1.3, 1.0, 10.0),
+            (2.0, 4.4, 1.0, 9.0),
+            (2.0, 1.6, 5.0, 0.5),
+            (2.0, 1.0, 1.0, 1.0),
+            (2.0, 1.0, 1.0, 3.0),
+            (2.0, 1.0, 1.0, 3.1),
+            (1.0, 1.0, 1.0, 1e6),
+        ] {
+            let cost = |k: f64| (c1 + k * c2) * (v1 + v2 / k);
+            let best = (1..=MAX_SPLITS)
+                .min_by(|&a, &b| cost(a as f64).total_cmp(&cost(b as f64)))
+                .unwrap();
+            assert_eq!(splits_for(c1, c2, v1, v2), best, "{c1} {c2} {v1} {v2}");
+        }
+        // By hand: c1 V2 / (c2 V1) = 2 x 10 / 1.3 = 15.4, between 3 x 4 and 4 x 5.
+        assert_eq!(splits_for(2.0, 1.3, 1.0, 10.0), 4);
+        assert_eq!(splits_for(2.0, 1.0, 1.0, 0.0), 1);
+        assert_eq!(splits_for(2.0, 0.0, 1.0, 1.0), 1);
+        assert_eq!(splits_for(2.0, 1.0, -1.0, 1.0), MAX_SPLITS);
+        assert_eq!(splits_for(2.0, 1.0, f64::NAN, 1.0), MAX_SPLITS);
+    }
+}
