@@ -29,6 +29,7 @@ use super::integrator::{Renderer, Sink};
 use super::sampler::Sampler;
 use crate::film::TimeAxis;
 use glam::Vec3;
+use rayon::prelude::*;
 
 /// Largest automatic split.
 pub const MAX_SPLITS: u32 = 4;
@@ -109,48 +110,57 @@ pub(super) fn pilot(
     if t == 0 || width == 0 || height == 0 {
         return (0.0, 0.0);
     }
-    let mut sink = PilotSink {
-        axis: *axis,
-        replica: 0,
-        bins: vec![0.0; REPLICAS * t],
-        touched: Vec::new(),
-        rays: 0,
-    };
     let (nx, ny) = (width.min(PILOT_SIDE), height.min(PILOT_SIDE));
     let seed = renderer.settings().seed;
     let n = PILOT_SAMPLES as f64;
     let r = REPLICAS as f64;
-    let mut variance = 0.0;
-    for gy in 0..ny {
-        for gx in 0..nx {
-            let (x, y) = (
-                (2 * gx + 1) * width / (2 * nx),
-                (2 * gy + 1) * height / (2 * ny),
-            );
-            let pixel = (y * width + x) as u64;
-            for replica in 0..REPLICAS {
-                sink.replica = replica;
-                let mut rng = Sampler::new(seed, PILOT_STREAM + replica as u64, pixel);
-                for _ in 0..PILOT_SAMPLES {
-                    renderer.trace_sample_split(x, y, width, height, k, &mut rng, &mut sink);
+    // Per grid pixel (in parallel; summed in grid order, so the same on any pool).
+    let per_pixel: Vec<(f64, u64)> = (0..nx * ny)
+        .into_par_iter()
+        .map_init(
+            || PilotSink {
+                axis: *axis,
+                replica: 0,
+                bins: vec![0.0; REPLICAS * t],
+                touched: Vec::new(),
+                rays: 0,
+            },
+            |sink, g| {
+                let (gx, gy) = (g % nx, g / nx);
+                let (x, y) = (
+                    (2 * gx + 1) * width / (2 * nx),
+                    (2 * gy + 1) * height / (2 * ny),
+                );
+                let pixel = (y * width + x) as u64;
+                sink.rays = 0;
+                for replica in 0..REPLICAS {
+                    sink.replica = replica;
+                    let mut rng = Sampler::new(seed, PILOT_STREAM + replica as u64, pixel);
+                    for _ in 0..PILOT_SAMPLES {
+                        renderer.trace_sample_split(x, y, width, height, k, &mut rng, sink);
+                    }
                 }
-            }
-            sink.touched.sort_unstable();
-            sink.touched.dedup();
-            for &b in &sink.touched {
-                let means = (0..REPLICAS).map(|i| sink.bins[i * t + b] / n);
-                let (sum, sum2) = means.fold((0.0, 0.0), |(s, s2), m| (s + m, s2 + m * m));
-                // Unbiased variance of one replica's mean.
-                variance += (sum2 - sum * sum / r).max(0.0) / (r - 1.0);
-                for i in 0..REPLICAS {
-                    sink.bins[i * t + b] = 0.0;
+                sink.touched.sort_unstable();
+                sink.touched.dedup();
+                let mut variance = 0.0;
+                for &b in &sink.touched {
+                    let means = (0..REPLICAS).map(|i| sink.bins[i * t + b] / n);
+                    let (sum, sum2) = means.fold((0.0, 0.0), |(s, s2), m| (s + m, s2 + m * m));
+                    // Unbiased variance of one replica's mean.
+                    variance += (sum2 - sum * sum / r).max(0.0) / (r - 1.0);
+                    for i in 0..REPLICAS {
+                        sink.bins[i * t + b] = 0.0;
+                    }
                 }
-            }
-            sink.touched.clear();
-        }
-    }
+                sink.touched.clear();
+                (variance, sink.rays)
+            },
+        )
+        .collect();
+    let variance = per_pixel.iter().map(|p| p.0).sum();
+    let rays = per_pixel.iter().map(|p| p.1).sum::<u64>();
     let samples = (nx * ny * REPLICAS) as f64 * n;
-    (variance, sink.rays as f64 / samples)
+    (variance, rays as f64 / samples)
 }
 
 /// The whole `k` in `1 ..= MAX_SPLITS` of least work times variance
