@@ -12,8 +12,8 @@
 //! lamp); it costs where the noise is the prefix's own (sunlight through leaves).
 //!
 //! The pilot renders a 16 x 16 grid of pixels spread over the film in 4 independent
-//! replicas of 8 samples, once unsplit and once split 4 ways, and takes per bin of
-//! the film's time axis the variance of the replicas' means, summed over bins and
+//! replicas of 8 samples, once unsplit and once split 4 ways, and takes per bin (the
+//! film's window in 256 bins) the variance of the replicas' means, summed over bins and
 //! pixels, and the rays per sample. The two give `P`, `B`, `c1` and `c2`. One more
 //! step: the prefix is stratified over a pixel's samples (its jitter is an
 //! Owen-scrambled Sobol dimension), so its variance falls like `n^-3/2` where the
@@ -22,8 +22,9 @@
 //! longer render). Measured at equal error on the race's corner, room and
 //! `builtin:cornell`, this rule picks the best or a near-best of 1 ..= 4, and 1 on
 //! `builtin:canopy` (docs/benchmarks.md). The choice depends on the scene, the
-//! settings, the seed and the film's size and window, not on the samples asked for
-//! or the threads, so a longer render continues a shorter one.
+//! settings, the seed and the film's size and window, not on the samples asked for,
+//! the bin count or the threads: a longer render continues a shorter one, and a film
+//! binned finer over the same window traces the same paths.
 
 use super::integrator::{Renderer, Sink};
 use super::sampler::Sampler;
@@ -80,8 +81,16 @@ impl Sink for PilotSink {
     }
 }
 
-/// The automatic split for a `width x height` film on `axis`: see the module doc.
+/// Bins of the pilot's own time axis: the film's window cut into this many, whatever
+/// the film's bin count, so that a film of 1 bin and one of 100 000 over the same
+/// window trace the same paths.
+const PILOT_BINS: usize = 256;
+
+/// The automatic split for a `width x height` film on `axis` (its window: see
+/// [`PILOT_BINS`]); see the module doc.
 pub(super) fn choose(renderer: &Renderer, axis: &TimeAxis, width: usize, height: usize) -> u32 {
+    let span_s = axis.end_s() - axis.t0_s;
+    let axis = &TimeAxis::new(axis.t0_s, span_s / PILOT_BINS as f64, PILOT_BINS).unwrap_or(*axis);
     let (var_1, rays_1) = pilot(renderer, axis, width, height, 1);
     let (var_k, rays_k) = pilot(renderer, axis, width, height, MAX_SPLITS);
     let k = MAX_SPLITS as f64;
