@@ -64,10 +64,17 @@ fn spad_stages(dir: &std::path::Path) {
         Ok(s) => s,
         Err(e) => panic!("{e}"),
     };
-    let model = match SensorModel::new(sensor, axis) {
-        Ok(m) => m,
-        Err(e) => panic!("{e}"),
+    let mut model = None;
+    // The kernels (TDC bins folded over the cycle, through the jitter and the pulse):
+    // what a light or gate edit recomputes before anything is measured.
+    let kernels_ms = best_ms(3, || model = SensorModel::new(sensor.clone(), axis).ok());
+    let Some(model) = model else {
+        panic!("builtin:spad rejected");
     };
+    println!(
+        "kernels of the {} TDC bins: {kernels_ms:.1} ms\n",
+        model.gate_count()
+    );
     let steady: Vec<f32> = cube
         .chunks_exact(axis.bins)
         .map(|p| p.iter().map(|&v| f64::from(v)).sum::<f64>() as f32)
