@@ -212,9 +212,9 @@ impl CleanKey {
 }
 
 /// Pixel-bins a SPAD preview computes at most (the grid's pixels times the TDC bins):
-/// its grid step is the smallest that stays under it, 4 at 160 x 160 x 512. The
+/// its grid step is the smallest that stays under it, 6 at 160 x 160 x 512. The
 /// preview's cost is about this many steps of the recursion, whatever the film's size.
-pub(super) const PREVIEW_PIXEL_BINS: usize = 1 << 20;
+pub(super) const PREVIEW_PIXEL_BINS: usize = 1 << 19;
 
 /// The step of the preview grid for a film of `w x h` pixels and a TDC of `bins`:
 /// `ceil(sqrt(w h B / PREVIEW_PIXEL_BINS))`, 1 when the whole image fits.
