@@ -468,7 +468,7 @@ fn measurement_images(
             let tex = textures.get(&ctx, "measurement", plane_key, || {
                 egui::ColorImage::from_rgba_unmultiplied(
                     [w, h],
-                    &colormap::colorize(&plane, &tone, ColorMap::Inferno),
+                    &colormap::colorize(plane, &tone, ColorMap::Inferno),
                 )
             });
             let Picked {
