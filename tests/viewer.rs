@@ -1063,6 +1063,15 @@ fn spad_preview_follows_an_edit_and_matches_the_full_image_at_its_pixels() {
             );
             std::thread::sleep(Duration::from_millis(2));
         }
+        // TPRF_SPAD_PREVIEW_SHOT=FILE: a picture of the tab showing the preview, to look
+        // at (when the full image has not come yet).
+        if let Some(path) = std::env::var_os("TPRF_SPAD_PREVIEW_SHOT")
+            && edit == 0
+            && h.state().sensor.spad_previewing(&snap)
+            && let Some(shot) = render(&mut h)
+        {
+            shot.save(path).unwrap();
+        }
         let (preview, step) = {
             let (p, s) = h.state().sensor.spad_preview(&snap).expect("preview");
             (p.clone(), s)

@@ -99,7 +99,7 @@ fn spad_images(
     match preview {
         Some(step) => ui.label(
             RichText::new(format!(
-                "PREVIEW on every {step}th pixel in each direction ({} x {}, made in {:.0} \
+                "PREVIEW from one pixel per {step} x {step} block ({} x {}, made in {:.0} \
                  ms); the full image is being measured…",
                 img.width,
                 img.height,
@@ -150,7 +150,9 @@ fn spad_images(
             ui.add(
                 egui::Label::new(
                     RichText::new(if let Some(step) = preview {
-                        format!("expected counts in bin {bin} (preview, every {step}th pixel)")
+                        format!(
+                            "expected counts in bin {bin} (preview, 1 pixel per {step} x {step})"
+                        )
                     } else if waiting {
                         format!(
                             "sampling {}… expected counts in bin {bin} meanwhile",
