@@ -10,7 +10,8 @@
 //! SPAD's stages on that cube with `builtin:spad`: the clean measurement, the expected
 //! histogram with its depth (what the window shows first after an edit), the
 //! realisation with Coates and depths, and all of it at once, on one thread (the
-//! viewer's background pool on a 2-core machine) and on all.
+//! viewer's background pool on a 2-core machine) and on all. `TPRF_BENCH_SPAD_QUICK=1`
+//! times the first stage only (for a profiler: the realisation dwarfs it).
 
 use std::time::Instant;
 
@@ -63,10 +64,17 @@ fn spad_stages(dir: &std::path::Path) {
         Ok(s) => s,
         Err(e) => panic!("{e}"),
     };
-    let model = match SensorModel::new(sensor, axis) {
-        Ok(m) => m,
-        Err(e) => panic!("{e}"),
+    let mut model = None;
+    // The kernels (TDC bins folded over the cycle, through the jitter and the pulse):
+    // what a light or gate edit recomputes before anything is measured.
+    let kernels_ms = best_ms(3, || model = SensorModel::new(sensor.clone(), axis).ok());
+    let Some(model) = model else {
+        panic!("builtin:spad rejected");
     };
+    println!(
+        "kernels of the {} TDC bins: {kernels_ms:.1} ms\n",
+        model.gate_count()
+    );
     let steady: Vec<f32> = cube
         .chunks_exact(axis.bins)
         .map(|p| p.iter().map(|&v| f64::from(v)).sum::<f64>() as f32)
@@ -97,6 +105,17 @@ fn spad_stages(dir: &std::path::Path) {
             let Some(first) = first else {
                 panic!("spad_expected failed");
             };
+            if std::env::var_os("TPRF_BENCH_SPAD_QUICK").is_some() {
+                let again_ms = best_ms(10, || {
+                    std::hint::black_box(spad_expected(&model, &clean, &steady, None).ok());
+                });
+                println!(
+                    "| {} | {clean_ms:.0} | {:.0} | - | - |",
+                    rayon::current_num_threads(),
+                    expected_ms.min(again_ms)
+                );
+                return;
+            }
             let sample_ms = best_ms(3, || {
                 let mut img = first.clone();
                 if let Err(e) = spad_sample(&model, &clean, &steady, None, &mut img) {

@@ -172,6 +172,7 @@ fn main() {
     let part = |name: &str| {
         only.iter().all(|a| *a == "gated" || *a == "lidar") || only.iter().any(|a| *a == name)
     };
+    // `-- spad`: the SPAD preset's preview and first stage after an edit.
     if part("frames") {
         frames(&sides);
     }
@@ -183,9 +184,117 @@ fn main() {
             .collect();
         sensor(&presets);
     }
+    if part("spad") {
+        spad();
+    }
     if part("throughput") {
         throughput();
     }
+}
+
+/// The SPAD preset after an edit: the UI thread's frame, then the wall time until the
+/// preview of the expected histogram and depth (a coarse grid) is on screen, and until
+/// the full expected histogram is. Edits follow each other as a drag would, without
+/// waiting for the realisation (the next edit cancels it).
+fn spad() {
+    println!(
+        "\nSPAD preset (builtin:spad, 512 TDC bins): the frame after an edit, then the wall \
+         time until the preview and the full expected histogram are shown\n"
+    );
+    println!(
+        "| film (cornell) | edit | edits | frame p50 ms | frame p95 ms | preview p50 ms | \
+         preview max ms | preview made in, p50 ms | full expected p50 ms |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|");
+    for light in [false, true] {
+        spad_edits(160, 512, 12, light);
+    }
+}
+
+fn spad_edits(side: usize, bins: usize, edits: usize, light: bool) {
+    let settings = ViewerSettings {
+        width: side,
+        height: side,
+        bins,
+        spp_target: 1,
+        mode: Mode::Sensor,
+        sensor: Sensor::builtin("spad").unwrap(),
+        ..ViewerSettings::default()
+    };
+    let mut h = Harness::builder()
+        .with_size(Vec2::new(1280.0, 800.0))
+        .build_eframe(move |cc| TprfApp::with_settings(cc, settings, Start::Default));
+    let start = Instant::now();
+    loop {
+        h.step();
+        let ready = h.state().status().map(|s| s.spp) == Some(1)
+            && h.state()
+                .snapshot()
+                .is_some_and(|s| h.state().sensor.is_current(&s));
+        if ready && !h.state().sensor.spad_sampling() {
+            break;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(300),
+            "no SPAD after 300 s"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let (mut frame_ms, mut preview_ms, mut full_ms) = (vec![], vec![], vec![]);
+    let mut made_ms = vec![];
+    for k in 0..edits {
+        let sensor = &mut h.state_mut().settings.sensor;
+        if light {
+            if let LightPulse::Gaussian { centre_s, .. } = &mut sensor.light {
+                *centre_s += 1e-12 * (1 + k % 7) as f64;
+            }
+        } else if let Some(s) = sensor.spad.as_mut() {
+            s.pde = if k % 2 == 0 { 0.35 } else { 0.3 };
+        }
+        let t = Instant::now();
+        h.step();
+        let shapes = h.output().shapes.clone();
+        let _ = h.ctx.tessellate(shapes, 1.0);
+        frame_ms.push(t.elapsed().as_secs_f64() * 1e3);
+        let snap = h.state().snapshot().unwrap();
+        let mut previewed = false;
+        while !h.state().sensor.is_current(&snap) {
+            std::thread::sleep(Duration::from_millis(1));
+            h.step();
+            if !previewed && h.state().sensor.spad_previewing(&snap) {
+                previewed = true;
+                preview_ms.push(t.elapsed().as_secs_f64() * 1e3);
+                made_ms.extend(h.state().sensor.preview_millis(&snap));
+            }
+        }
+        full_ms.push(t.elapsed().as_secs_f64() * 1e3);
+    }
+    for v in [&mut frame_ms, &mut preview_ms, &mut full_ms, &mut made_ms] {
+        v.sort_by(f64::total_cmp);
+    }
+    let q = |v: &[f64], p: f64| {
+        if v.is_empty() {
+            f64::NAN
+        } else {
+            quantile(v, p)
+        }
+    };
+    println!(
+        "| {side} x {side} x {bins} | {} | {edits} ({} previewed) | {:.1} | {:.1} | {:.0} | \
+         {:.0} | {:.0} | {:.0} |",
+        if light {
+            "light pulse (clean measured again)"
+        } else {
+            "PDE (SPAD only)"
+        },
+        preview_ms.len(),
+        q(&frame_ms, 0.5),
+        q(&frame_ms, 0.95),
+        q(&preview_ms, 0.5),
+        preview_ms.last().copied().unwrap_or(f64::NAN),
+        q(&made_ms, 0.5),
+        q(&full_ms, 0.5),
+    );
 }
 
 /// Samples per pixel per wall second, window against `tprf render`: the real app

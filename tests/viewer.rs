@@ -1027,6 +1027,102 @@ fn a_new_snapshot_at_a_freed_ones_address_is_not_taken_for_it() {
     assert_shows(&state, &b, "second snapshot at the first one's address");
 }
 
+/// After an edit, the SPAD's preview (a coarse grid of pixels, measured beside the full
+/// image) comes for the edited sensor, and each of its pixels is the full image's at
+/// that pixel, as tprf_core's one-shot image computes it from the whole film.
+#[test]
+fn spad_preview_follows_an_edit_and_matches_the_full_image_at_its_pixels() {
+    let (side, bins) = (64, 32);
+    let mut h = harness(ViewerSettings {
+        mode: Mode::Sensor,
+        ..small_settings("builtin:cornell", side, bins, 4)
+    });
+    wait_done(&mut h, Duration::from_secs(120));
+    let snap = h.state().snapshot().unwrap();
+    h.state_mut().settings.sensor = Sensor::builtin("spad").unwrap();
+    h.step();
+    wait_sensor(&mut h);
+    // A SPAD-only edit (the clean measurement is reused by the full job) and then a
+    // light edit (measured again, on the grid too).
+    for edit in 0..2 {
+        let sensor = &mut h.state_mut().settings.sensor;
+        if edit == 0 {
+            sensor.spad.as_mut().expect("a SPAD").pde = 0.45;
+        } else if let LightPulse::Gaussian { centre_s, .. } = &mut sensor.light {
+            *centre_s += 50e-12;
+        }
+        let start = Instant::now();
+        loop {
+            h.step();
+            if h.state().sensor.spad_preview(&snap).is_some() {
+                break;
+            }
+            assert!(
+                start.elapsed() < Duration::from_secs(60),
+                "no preview after edit {edit}"
+            );
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        // TPRF_SPAD_PREVIEW_SHOT=FILE: a picture of the tab showing the preview, to look
+        // at (when the full image has not come yet).
+        if let Some(path) = std::env::var_os("TPRF_SPAD_PREVIEW_SHOT")
+            && edit == 0
+            && h.state().sensor.spad_previewing(&snap)
+            && let Some(shot) = render(&mut h)
+        {
+            shot.save(path).unwrap();
+        }
+        let (preview, step) = {
+            let (p, s) = h.state().sensor.spad_preview(&snap).expect("preview");
+            (p.clone(), s)
+        };
+        assert!(
+            step >= 2,
+            "a 64 x 64 x 512 film is previewed on a grid: step {step}"
+        );
+        assert_eq!(
+            (preview.width, preview.height),
+            (side.div_ceil(step), side.div_ceil(step))
+        );
+        let model = h.state().sensor.model().expect("a model").clone();
+        assert_eq!(Some(model.sensor()), Some(&h.state().settings.sensor));
+        let clean = model.measure_clean_film(&snap);
+        let whole = tprf_core::sensor::spad::spad_expected(&model, &clean, snap.steady(), None)
+            .expect("spad");
+        let mut lit = 0;
+        for j in 0..preview.height {
+            for i in 0..preview.width {
+                let (x, y) = (
+                    (i * step + step / 2).min(side - 1),
+                    (j * step + step / 2).min(side - 1),
+                );
+                let got = preview.pixel(&preview.histogram, j, i);
+                let want = whole.pixel(&whole.histogram, y, x);
+                for (k, (g, w)) in got.iter().zip(&want).enumerate() {
+                    assert!(
+                        (g - w).abs() <= 1e-5 * w.abs().max(1e-3),
+                        "edit {edit}, pixel ({y}, {x}), bin {k}: preview {g} vs full {w}"
+                    );
+                }
+                let (dg, dw) = (
+                    preview.depth_histogram_m[j * preview.width + i],
+                    whole.depth_histogram_m[y * side + x],
+                );
+                assert!(
+                    (dg.is_nan() && dw.is_nan()) || (dg - dw).abs() <= 1e-4,
+                    "edit {edit}, pixel ({y}, {x}): depth {dg} vs {dw}"
+                );
+                lit += usize::from(dw.is_finite());
+            }
+        }
+        assert!(
+            lit > preview.width * preview.height / 2,
+            "few returns: {lit}"
+        );
+        wait_sensor(&mut h);
+    }
+}
+
 #[test]
 fn spad_preset_shows_the_first_photon_histogram_of_the_cached_film() {
     use tprf_core::sensor::Spad;

@@ -47,7 +47,7 @@ pub(crate) fn images_ui(
     let mut textures = std::mem::take(&mut state.textures);
     let mut gate_sel = state.gate;
     let mut view = state.spad_view;
-    let out = if state.spad(snap).is_some() {
+    let out = if state.spad_shown(snap).is_some() {
         ImagesOutcome {
             clicked: spad_images(ui, state, snap, &mut textures, &mut gate_sel, &mut view),
             action: None,
@@ -62,7 +62,9 @@ pub(crate) fn images_ui(
 }
 
 /// The SPAD's images: TDC bin `k` of the histogram chosen (expected, one realisation,
-/// Coates), one exposure over all bins, and that histogram's first-return depth.
+/// Coates), one exposure over all bins, and that histogram's first-return depth; or,
+/// while they are measured after an edit, the preview of the expected histogram and
+/// its depth on a coarse grid (each grid pixel drawn over its block), marked as one.
 fn spad_images(
     ui: &mut egui::Ui,
     state: &SensorState,
@@ -71,10 +73,11 @@ fn spad_images(
     gate_sel: &mut usize,
     view: &mut SpadView,
 ) -> Option<(usize, usize)> {
-    let (Some(model), Some(sp)) = (state.model.as_ref(), state.spad(snap)) else {
+    let (Some(model), Some(sp)) = (state.model.as_ref(), state.spad_shown(snap)) else {
         return None;
     };
     let (w, h) = (snap.width(), snap.height());
+    let preview = sp.is_preview().then_some(sp.step);
     let img = &sp.image;
     let bins = img.bins;
     let bin = (*gate_sel).min(bins.saturating_sub(1));
@@ -93,16 +96,28 @@ fn spad_images(
         Some(ms) if sp.is_sampled() => format!("drawn in {ms:.0} ms"),
         _ => "sampling…".to_string(),
     };
-    ui.label(
-        RichText::new(format!(
-            "{:.3e} detections expected; realisation: {} ({sampled}); expected histogram and \
-             depth measured in {:.0} ms",
-            img.expected_detections,
-            img.sampler.name(),
-            state.measured.as_ref().map_or(0.0, |m| m.millis)
-        ))
-        .weak(),
-    );
+    match preview {
+        Some(step) => ui.label(
+            RichText::new(format!(
+                "PREVIEW from one pixel per {step} x {step} block ({} x {}, made in {:.0} \
+                 ms); the full image is being measured…",
+                img.width,
+                img.height,
+                state.preview_millis(snap).unwrap_or(0.0)
+            ))
+            .color(ui.visuals().warn_fg_color),
+        ),
+        None => ui.label(
+            RichText::new(format!(
+                "{:.3e} detections expected; realisation: {} ({sampled}); expected histogram \
+                 and depth measured in {:.0} ms",
+                img.expected_detections,
+                img.sampler.name(),
+                state.measured.as_ref().map_or(0.0, |m| m.millis)
+            ))
+            .weak(),
+        ),
+    };
     // The realisation's views show the expected histogram until it is drawn.
     let waiting = sp.shown(*view) != *view;
     let hash = |x: &dyn std::fmt::Debug| {
@@ -111,7 +126,7 @@ fn spad_images(
         format!("{x:?}").hash(&mut hasher);
         hasher.finish()
     };
-    let key = hash(&(snap.generation(), model.sensor(), sp.shown(*view)));
+    let key = hash(&(snap.generation(), model.sensor(), sp.shown(*view), sp.step));
     let avail = ui.available_size();
     let avail = Vec2::new(avail.x, avail.y - strip_height(avail.y, bins));
     let title_h = 22.0;
@@ -126,15 +141,19 @@ fn spad_images(
         Vec2::new(w as f32, h as f32) * scale
     };
     let white = sp.robust_max(*view);
-    let plane = img.plane(sp.values(*view), bin);
-    let depth = sp.depth(*view);
+    let plane = sp.film_plane(sp.values(*view), bin, (w, h));
+    let depth = sp.at_film(sp.depth(*view), (w, h));
     let mut hovered = None;
     ui.horizontal_top(|ui| {
         ui.vertical(|ui| {
             ui.set_width(size.x);
             ui.add(
                 egui::Label::new(
-                    RichText::new(if waiting {
+                    RichText::new(if let Some(step) = preview {
+                        format!(
+                            "expected counts in bin {bin} (preview, 1 pixel per {step} x {step})"
+                        )
+                    } else if waiting {
                         format!(
                             "sampling {}… expected counts in bin {bin} meanwhile",
                             view.label()
@@ -157,7 +176,7 @@ fn spad_images(
             let tex = textures.get(&ctx, "spad-bin", hash(&(key, bin)), || {
                 egui::ColorImage::from_rgba_unmultiplied(
                     [w, h],
-                    &colormap::colorize(plane, &tone, ColorMap::Inferno),
+                    &colormap::colorize(&plane, &tone, ColorMap::Inferno),
                 )
             });
             let p = pick(ui, &tex, w, h, size, "SPAD bin image");
@@ -183,15 +202,22 @@ fn spad_images(
             let (lo, hi) = sp.depth_range(*view);
             ui.add(
                 egui::Label::new(
-                    RichText::new(format!(
-                        "first-return depth of the {} histogram",
-                        sp.shown(*view).label()
-                    ))
+                    RichText::new(match preview {
+                        Some(_) => {
+                            "first-return depth of the expected histogram (preview)".to_string()
+                        }
+                        None => format!(
+                            "first-return depth of the {} histogram",
+                            sp.shown(*view).label()
+                        ),
+                    })
                     .strong(),
                 )
                 .truncate(),
             );
-            let tex = textures.get(&ctx, "spad-depth", key, || depth_image(depth, w, h, lo, hi));
+            let tex = textures.get(&ctx, "spad-depth", key, || {
+                depth_image(&depth, w, h, lo, hi)
+            });
             let p = pick(ui, &tex, w, h, size, "SPAD depth image");
             clicked = clicked.or(p.clicked);
             hovered = hovered.or(p.hover);
@@ -230,10 +256,11 @@ fn spad_images(
     let tone = white.map_or(1.0, |m| 1.0 / m);
     let planes = |k: usize| img.plane(values, k);
     let thumb_key = |k: usize| hash(&(key, k, "strip"));
+    // A preview's thumbnails at its own grid (the film's aspect, near enough).
     if let Some(k) = gate_strip(
         ui,
         textures,
-        (w, h),
+        (img.width, img.height),
         bins,
         bin,
         "TDC bin",

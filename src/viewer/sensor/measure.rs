@@ -2,7 +2,9 @@
 //! a pool of half the cores so the gate measured for the frame does not queue behind.
 //! A SPAD's realisation and Coates estimate come in a second stage ([`sample_spad`]),
 //! after its expected histogram and depth have been handed to the window, in bands of
-//! rows so that an edit cancels it between two bands.
+//! rows so that an edit cancels it between two bands. Before either, a SPAD's preview
+//! ([`preview_spad`]): the expected histogram and depth on a coarse grid of pixels,
+//! measured on a thread of its own within a frame or two of an edit.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -45,6 +47,10 @@ impl SpadView {
 /// A SPAD image with its exposures and depth ranges per view.
 pub(super) struct SpadMeasured {
     pub(super) image: SpadImage,
+    /// 1: the image holds every pixel of the film. `s > 1`: a preview, whose pixel
+    /// `(i, j)` is the film's `(i s + s / 2, j s + s / 2)` (clamped to the film) and
+    /// stands for the `s x s` block from `(i s, j s)` ([`preview_spad`]).
+    pub(super) step: usize,
     robust_max: [Option<f64>; 3],
     depth_range: [(f32, f32); 3],
 }
@@ -71,9 +77,48 @@ impl SpadMeasured {
         let depth_range = views.map(|v| finite_range(spad_depth(&image, v)));
         SpadMeasured {
             image,
+            step: 1,
             robust_max,
             depth_range,
         }
+    }
+
+    /// Whether this is a preview on a coarse grid (see [`Self::step`]).
+    pub(super) fn is_preview(&self) -> bool {
+        self.step > 1
+    }
+
+    /// Bin `k` of `values` (a `[B, h, w]` array of this image) at the film's `w x h`:
+    /// a preview's pixels repeated over their blocks.
+    pub(super) fn film_plane<'a>(
+        &self,
+        values: &'a [f32],
+        k: usize,
+        (w, h): (usize, usize),
+    ) -> std::borrow::Cow<'a, [f32]> {
+        let plane = self.image.plane(values, k);
+        self.at_film(plane, (w, h))
+    }
+
+    /// An `[h, w]` array of this image at the film's `w x h` (see [`Self::film_plane`]).
+    pub(super) fn at_film<'a>(
+        &self,
+        plane: &'a [f32],
+        (w, h): (usize, usize),
+    ) -> std::borrow::Cow<'a, [f32]> {
+        if self.step <= 1 {
+            return std::borrow::Cow::Borrowed(plane);
+        }
+        let (gw, s) = (self.image.width, self.step);
+        if plane.len() != gw * self.image.height {
+            return std::borrow::Cow::Owned(Vec::new());
+        }
+        let mut out = Vec::with_capacity(w * h);
+        for y in 0..h {
+            let row = &plane[(y / s) * gw..(y / s + 1) * gw];
+            out.extend((0..w).map(|x| row[(x / s).min(gw - 1)]));
+        }
+        std::borrow::Cow::Owned(out)
     }
 
     /// The `[B, H, W]` array of `view` ([`Self::shown`]).
@@ -166,6 +211,91 @@ impl CleanKey {
     }
 }
 
+/// Pixel-bins a SPAD preview computes at most (the grid's pixels times the TDC bins):
+/// its grid step is the smallest that stays under it, 6 at 160 x 160 x 512. The
+/// preview's cost is about this many steps of the recursion, whatever the film's size.
+pub(super) const PREVIEW_PIXEL_BINS: usize = 1 << 19;
+
+/// The step of the preview grid for a film of `w x h` pixels and a TDC of `bins`:
+/// `ceil(sqrt(w h B / PREVIEW_PIXEL_BINS))`, 1 when the whole image fits.
+pub(super) fn preview_step(w: usize, h: usize, bins: usize) -> usize {
+    let work = (w as f64) * (h as f64) * (bins.max(1) as f64);
+    (work / PREVIEW_PIXEL_BINS as f64).sqrt().ceil().max(1.0) as usize
+}
+
+/// A SPAD's preview for (snapshot, sensor, ambient): [`preview_spad`].
+pub(super) struct SpadPreview {
+    pub(super) snapshot: u64,
+    pub(super) sensor: Sensor,
+    pub(super) ambient: Option<Arc<AmbientImage>>,
+    pub(super) spad: SpadMeasured,
+    pub(super) millis: f64,
+}
+
+/// The SPAD's expected histogram and depth of `snap` through `model` on every
+/// [`preview_step`]-th pixel in each direction (the pixel at the middle of each block):
+/// those pixels' TPRFs, clean measurement, steady and ambient values gathered into a
+/// small film and put through [`spad_expected`] as the full image is. Each preview
+/// pixel's values are exactly the full image's at that pixel; only the pixels between
+/// are missing (shown as their block's).
+pub(super) fn preview_spad(
+    model: &SensorModel,
+    snap: &FilmSnapshot,
+    ambient_image: Option<Arc<AmbientImage>>,
+) -> Result<SpadPreview, String> {
+    let started = Instant::now();
+    let (w, h, t) = (snap.width(), snap.height(), snap.axis().bins);
+    let s = preview_step(w, h, model.gate_count());
+    let (gw, gh) = (w.div_ceil(s), h.div_ceil(s));
+    let at = |i: usize, n: usize| (i * s + s / 2).min(n.saturating_sub(1));
+    let ambient = ambient_image
+        .as_deref()
+        .filter(|a| a.width == w && a.height == h)
+        .map(|a| a.radiance.as_slice());
+    let mut cube = Vec::with_capacity(gw * gh * t);
+    let mut steady = Vec::with_capacity(gw * gh);
+    let mut amb = ambient.map(|_| Vec::with_capacity(gw * gh));
+    for j in 0..gh {
+        for i in 0..gw {
+            let (x, y) = (at(i, w), at(j, h));
+            let mut tprf = snap.pixel(x, y);
+            tprf.resize(t, 0.0);
+            cube.extend_from_slice(&tprf);
+            steady.push(snap.steady().get(y * w + x).copied().unwrap_or(0.0));
+            if let (Some(a), Some(out)) = (ambient, amb.as_mut()) {
+                out.push(a[y * w + x]);
+            }
+        }
+    }
+    let clean = model
+        .measure_clean(&cube, gw, gh)
+        .map_err(|e| e.to_string())?;
+    let image = spad_expected(model, &clean, &steady, amb.as_deref()).map_err(|e| e.to_string())?;
+    let mut spad = SpadMeasured::new(image);
+    spad.step = s;
+    Ok(SpadPreview {
+        snapshot: snap.generation(),
+        sensor: model.sensor().clone(),
+        ambient: ambient_image,
+        spad,
+        millis: started.elapsed().as_secs_f64() * 1e3,
+    })
+}
+
+/// One thread for SPAD previews, beside [`background_pool`]: a preview never queues
+/// behind the measurement of all gates.
+pub(super) fn preview_pool() -> Option<&'static rayon::ThreadPool> {
+    static POOL: std::sync::OnceLock<Option<rayon::ThreadPool>> = std::sync::OnceLock::new();
+    POOL.get_or_init(|| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .thread_name(|_| "tprf-spad-preview".into())
+            .build()
+            .ok()
+    })
+    .as_ref()
+}
+
 /// What a measurement job sends back: all gates with the SPAD's expected histogram
 /// first, then (SPAD only) the realisation.
 pub(super) enum Stage {
@@ -231,7 +361,22 @@ pub(super) fn brightest_gate(model: &SensorModel, snap: &FilmSnapshot) -> Option
         .map(|(i, _)| i)
 }
 
-/// Threads for the background measurements: half the cores.
+/// Nice value of [`background_pool`]'s threads: the UI thread and the SPAD preview
+/// (nice 0) are scheduled before them when both want a core (Linux's fair scheduler
+/// weighs nice 5 at a third of nice 0), the renderer's threads (nice 10) after them.
+const BACKGROUND_NICE: i32 = 5;
+
+/// Lower the calling thread's priority to [`BACKGROUND_NICE`] (Linux, where a nice
+/// value is per thread; elsewhere nothing). Lowering needs no privilege.
+fn below_the_preview() {
+    #[cfg(target_os = "linux")]
+    // SAFETY: setpriority with `who = 0` changes only the calling thread's nice value.
+    unsafe {
+        libc::setpriority(libc::PRIO_PROCESS, 0, BACKGROUND_NICE);
+    }
+}
+
+/// Threads for the background measurements: half the cores, at [`BACKGROUND_NICE`].
 pub(super) fn background_pool() -> Option<&'static rayon::ThreadPool> {
     static POOL: std::sync::OnceLock<Option<rayon::ThreadPool>> = std::sync::OnceLock::new();
     POOL.get_or_init(|| {
@@ -239,6 +384,7 @@ pub(super) fn background_pool() -> Option<&'static rayon::ThreadPool> {
         rayon::ThreadPoolBuilder::new()
             .num_threads((n / 2).max(1))
             .thread_name(|i| format!("tprf-sensor-{i}"))
+            .start_handler(|_| below_the_preview())
             .build()
             .ok()
     })

@@ -142,7 +142,7 @@ fn spad_plot_ui(
     snap: &FilmSnapshot,
     (y, x): (usize, usize),
 ) -> bool {
-    let (Some(model), Some(sp)) = (state.model(), state.spad(snap)) else {
+    let (Some(model), Some(sp)) = (state.model(), state.spad_shown(snap)) else {
         return false;
     };
     let img = &sp.image;
@@ -157,9 +157,18 @@ fn spad_plot_ui(
         [a, b, ..] => b - a,
         _ => 0.0,
     };
-    let expected = img.pixel(&img.histogram, y, x);
-    let coates = img.pixel(&img.coates, y, x);
-    let counts = img.pixel(&img.counts, y, x);
+    // A preview holds a coarse grid: the pixel's expected histogram is the one computed
+    // here for it, and its realisation is not drawn yet.
+    let (expected, coates, counts) = if sp.is_preview() {
+        let e: Vec<f32> = px.expected.iter().map(|&v| v as f32).collect();
+        (e, Vec::new(), Vec::new())
+    } else {
+        (
+            img.pixel(&img.histogram, y, x),
+            img.pixel(&img.coates, y, x),
+            img.pixel(&img.counts, y, x),
+        )
+    };
     let curve = |v: &[f32]| bin_steps(centres, width_s, v.iter().map(|&v| f64::from(v)));
     let shown = centres.get(state.gate).copied();
     ui.label(RichText::new(format!(

@@ -4,8 +4,8 @@
 
 use super::handles::Handle;
 use super::measure::{
-    Measured, SpadMeasured, SpadView, Stage, background_pool, brightest_gate, measure_all,
-    sample_spad, shared_white,
+    Measured, SpadMeasured, SpadPreview, SpadView, Stage, background_pool, brightest_gate,
+    measure_all, preview_pool, preview_spad, sample_spad, shared_white,
 };
 use super::view::TimeView;
 use crate::viewer::textures::TextureCache;
@@ -37,6 +37,9 @@ pub(super) struct Plane {
 /// estimate follow from the same thread (the views that show them say "sampling"
 /// meanwhile), and the next edit cancels a realisation being drawn. An edit of the
 /// SPAD's own settings (or the noise) reuses the clean measurement of the last job.
+/// Until the SPAD's histograms are those of the current sensor, a preview of them on
+/// a coarse grid of pixels ([`preview_spad`], on a thread of its own) is shown, marked
+/// as one: it follows an edit within a frame or two.
 #[derive(Default)]
 pub struct SensorState {
     pub(super) model: Option<SensorModel>,
@@ -45,6 +48,9 @@ pub struct SensorState {
     job: Option<(Receiver<Stage>, Arc<AtomicBool>)>,
     /// The job drawing the SPAD's realisation after its first stage came back.
     sampling: Option<(Receiver<Stage>, Arc<AtomicBool>)>,
+    /// The latest SPAD preview, and the job making the next.
+    preview: Option<SpadPreview>,
+    preview_job: Option<Receiver<Result<SpadPreview, String>>>,
     noise_field: Option<NoiseField>,
     pub error: Option<String>,
     /// The gate shown, `i` (the TDC bin, for a SPAD).
@@ -157,6 +163,20 @@ impl SensorState {
                 Err(TryRecvError::Empty) => {}
             }
         }
+        if let Some(rx) = &self.preview_job {
+            match rx.try_recv() {
+                Ok(Ok(p)) => {
+                    self.preview = Some(p);
+                    self.preview_job = None;
+                }
+                Ok(Err(e)) => {
+                    self.error = Some(e);
+                    self.preview_job = None;
+                }
+                Err(TryRecvError::Disconnected) => self.preview_job = None,
+                Err(TryRecvError::Empty) => {}
+            }
+        }
         // The shared exposure: from the full measurement once current; measured now on
         // a small grid of pixels when the layout changed (a preset picked), so the
         // images never show another sensor's exposure.
@@ -200,11 +220,52 @@ impl SensorState {
                     });
                 }
             }
+            // A SPAD's preview, one at a time (each takes a frame or two; the one after
+            // an edit made during it starts when it is back).
+            if model.sensor().spad.is_some()
+                && self.preview_job.is_none()
+                && !self.preview_is_current_for(key, model.sensor())
+            {
+                self.spawn_preview(&model, snap);
+            }
             if self.job.is_none() {
                 self.spawn_measurement(&model, snap);
             }
         }
         self.model = Some(model);
+    }
+
+    /// Make the SPAD preview of `snap` through `model` on [`preview_pool`]; it comes back
+    /// through `preview_job`.
+    fn spawn_preview(&mut self, model: &SensorModel, snap: &Arc<FilmSnapshot>) {
+        let (tx, rx) = channel();
+        let (job_model, job_snap) = (model.clone(), snap.clone());
+        let job_ambient = self.ambient.clone();
+        let spawned = std::thread::Builder::new()
+            .name("tprf-spad-preview".into())
+            .spawn(move || {
+                let run = || preview_spad(&job_model, &job_snap, job_ambient);
+                let done = match preview_pool() {
+                    Some(pool) => pool.install(run),
+                    None => run(),
+                };
+                // The window may have gone on (or closed) meanwhile.
+                let _ = tx.send(done);
+            });
+        match spawned {
+            Ok(_) => self.preview_job = Some(rx),
+            Err(e) => self.error = Some(format!("cannot start the SPAD preview thread: {e}")),
+        }
+    }
+
+    /// Whether the SPAD preview is that of film `generation`, `sensor` and the ambient
+    /// image.
+    fn preview_is_current_for(&self, generation: u64, sensor: &Sensor) -> bool {
+        self.preview.as_ref().is_some_and(|p| {
+            p.snapshot == generation
+                && p.sensor == *sensor
+                && same_ambient(&p.ambient, &self.ambient)
+        })
     }
 
     /// Measure all gates of `snap` through `model` on a thread named `tprf-sensor`
@@ -266,11 +327,7 @@ impl SensorState {
         self.measured.as_ref().is_some_and(|m| {
             m.snapshot == generation
                 && m.sensor == *sensor
-                && match (&m.ambient, &self.ambient) {
-                    (Some(a), Some(b)) => Arc::ptr_eq(a, b),
-                    (None, None) => true,
-                    _ => false,
-                }
+                && same_ambient(&m.ambient, &self.ambient)
         })
     }
 
@@ -321,6 +378,48 @@ impl SensorState {
         self.measured.as_ref()?.spad.as_ref()
     }
 
+    /// The SPAD's histograms to show: the latest ones when current, else the preview
+    /// when it is that of the current sensor and film (see [`SpadMeasured::step`]).
+    pub(super) fn spad_shown(&self, snap: &FilmSnapshot) -> Option<&SpadMeasured> {
+        if let Some(sp) = self.spad(snap) {
+            return Some(sp);
+        }
+        let model = self.model.as_ref()?;
+        if !self.preview_is_current_for(snap.generation(), model.sensor()) {
+            return None;
+        }
+        self.preview.as_ref().map(|p| &p.spad)
+    }
+
+    /// Milliseconds the shown SPAD preview took, when one is shown.
+    pub fn preview_millis(&self, snap: &FilmSnapshot) -> Option<f64> {
+        let model = self.model.as_ref()?;
+        (self.spad(snap).is_none()
+            && self.preview_is_current_for(snap.generation(), model.sensor()))
+        .then(|| self.preview.as_ref().map(|p| p.millis))
+        .flatten()
+    }
+
+    /// The latest SPAD preview when it is that of the current sensor and film (shown
+    /// until the full histograms are), with its grid step: its pixel `(i, j)` is the
+    /// film's `(i s + s / 2, j s + s / 2)`, clamped to the film.
+    pub fn spad_preview(
+        &self,
+        snap: &FilmSnapshot,
+    ) -> Option<(&tprf_core::sensor::SpadImage, usize)> {
+        let model = self.model.as_ref()?;
+        if !self.preview_is_current_for(snap.generation(), model.sensor()) {
+            return None;
+        }
+        self.preview.as_ref().map(|p| (&p.spad.image, p.spad.step))
+    }
+
+    /// Whether the window shows the SPAD's preview (the full histograms are being
+    /// measured).
+    pub fn spad_previewing(&self, snap: &FilmSnapshot) -> bool {
+        self.spad_shown(snap).is_some_and(SpadMeasured::is_preview)
+    }
+
     /// The SPAD's latest histograms and depths (sensors with a `[spad]` section), when
     /// they are those of the current sensor and film.
     pub fn spad_image(&self, snap: &FilmSnapshot) -> Option<&tprf_core::sensor::SpadImage> {
@@ -356,6 +455,15 @@ fn layout_key(sensor: &Sensor, axis: &tprf_core::film::TimeAxis) -> String {
         axis.dt_s,
         axis.bins
     )
+}
+
+/// Whether two ambient images are the same one (by identity), or both absent.
+fn same_ambient(a: &Option<Arc<AmbientImage>>, b: &Option<Arc<AmbientImage>>) -> bool {
+    match (a, b) {
+        (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+        (None, None) => true,
+        _ => false,
+    }
 }
 
 /// Drop `value` on the background pool (or a thread of its own), not on the caller's.

@@ -190,10 +190,7 @@ pub fn folded_kernels(
             copies.push((k, g.shifted((n_lo + j as f64) * cycle_s)));
         }
     }
-    let pieces: Vec<(usize, SparseKernel)> = copies
-        .par_iter()
-        .map(|(k, g)| (*k, kernel(light, g, axis)))
-        .collect();
+    let pieces = shifted_kernels(light, &copies, axis);
     let mut folded: Vec<SparseKernel> = vec![SparseKernel::default(); gates.len()];
     for (k, piece) in pieces {
         if piece.weights.is_empty() {
@@ -220,6 +217,97 @@ pub fn folded_kernels(
         };
     }
     Ok(folded)
+}
+
+/// Where a box or jittered gate lies on `axis`'s bin grid: `(m, key)` with its start at
+/// `t0 + (m + phase) dt`, and `key` its shape and phase (to 1e-9 of a bin). Gates of one
+/// key have the same kernel shifted by their difference in `m`: a kernel weight
+/// depends on a bin's time only through its offset from the gate. Other gates: `None`.
+fn grid_key(g: &Gate, axis: &TimeAxis) -> Option<(i64, [i64; 4])> {
+    let (start_s, end_s, kind, shape) = match *g {
+        Gate::Jittered {
+            start_s,
+            end_s,
+            sigma_s,
+        } => (start_s, end_s, 1, sigma_s / axis.dt_s),
+        Gate::Box {
+            start_s,
+            end_s,
+            gain,
+        } => (start_s, end_s, 2, gain),
+        _ => return None,
+    };
+    let at = (start_s - axis.t0_s) / axis.dt_s;
+    let m = at.floor();
+    let q = |x: f64| (x * 1e9).round();
+    let key = [q(at - m), q((end_s - start_s) / axis.dt_s), q(shape)];
+    if !(m.abs() < 1e15 && key.iter().all(|k| k.abs() < 9e18)) {
+        return None;
+    }
+    Some((
+        m as i64,
+        [kind, key[0] as i64, key[1] as i64, key[2] as i64],
+    ))
+}
+
+/// [`kernel`] of every `(k, gate)` of `copies`. Shifted copies of one gate shape (a
+/// TDC's bins, each shifted by whole cycles: [`grid_key`]) share one evaluation: the
+/// first copy of a key whose kernel lies wholly inside the axis is computed, the others
+/// are it shifted by whole bins, cut to the axis and trimmed as [`kernel`] trims. At
+/// 512 TDC bins of 5 cube bins each, 5 kernels are integrated instead of every bin's
+/// (the weights agree to rounding: a bin's time is `t0 + b dt` either way).
+fn shifted_kernels(
+    light: &Light,
+    copies: &[(usize, Gate)],
+    axis: &TimeAxis,
+) -> Vec<(usize, SparseKernel)> {
+    use std::collections::HashMap;
+    let bins = axis.bins as i64;
+    let inside = |g: &Gate| {
+        let (s_lo, s_hi) = light.support_s();
+        let (g_lo, g_hi) = g.bin_average_support(axis.dt_s);
+        let lo = ((g_lo - s_hi - axis.t0_s) / axis.dt_s).floor();
+        let hi = ((g_hi - s_lo - axis.t0_s) / axis.dt_s).ceil();
+        lo >= 0.0 && hi <= (bins - 1) as f64
+    };
+    // One template a key: the first copy lying inside the axis.
+    let mut templates: HashMap<[i64; 4], (i64, usize)> = HashMap::new();
+    for (i, (_, g)) in copies.iter().enumerate() {
+        if let Some((m, key)) = grid_key(g, axis)
+            && !templates.contains_key(&key)
+            && inside(g)
+        {
+            templates.insert(key, (m, i));
+        }
+    }
+    let computed: HashMap<[i64; 4], (i64, SparseKernel)> = templates
+        .into_par_iter()
+        .map(|(key, (m, i))| (key, (m, kernel(light, &copies[i].1, axis))))
+        .collect();
+    let fraction = trim_fraction(axis);
+    copies
+        .par_iter()
+        .map(|(k, g)| {
+            let Some((m, key)) = grid_key(g, axis) else {
+                return (*k, kernel(light, g, axis));
+            };
+            let Some((m0, t)) = computed.get(&key) else {
+                return (*k, kernel(light, g, axis));
+            };
+            if t.weights.is_empty() {
+                return (*k, SparseKernel::default());
+            }
+            // The template's bins moved by m - m0, cut to the axis.
+            let first = t.first_bin as i64 + (m - m0);
+            let last = first + t.weights.len() as i64;
+            let (lo, hi) = (first.max(0), last.min(bins));
+            if lo >= hi {
+                return (*k, SparseKernel::default());
+            }
+            let w = t.weights[(lo - first) as usize..(hi - first) as usize].to_vec();
+            (*k, trimmed(lo as usize, w, fraction))
+        })
+        .collect()
 }
 
 /// The light's transfer between bins: entry `d - first_offset` is
@@ -308,6 +396,65 @@ impl BinTransfer {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Shifted copies sharing one integration ([`shifted_kernels`]) against each copy
+    /// integrated on its own ([`kernel`]): a TDC of 64 bins of 5 cube bins (and of 3.7,
+    /// off the grid) through jitter and a Gaussian pulse, over a window that cuts the
+    /// cycle's kernels at both ends and spans two cycles.
+    #[test]
+    fn shared_shifted_kernels_are_each_kernel_integrated() {
+        use crate::sensor::{Exposure, LightPulse, TimeOrigin};
+        let dt = 20e-12;
+        let axis = TimeAxis::new(1e-9, dt, 300).unwrap();
+        let light = LightPulse::Gaussian {
+            centre_s: 0.4e-9,
+            fwhm_s: 0.3e-9,
+            energy: 1.0,
+        }
+        .compile()
+        .unwrap();
+        for (width_bins, jitter_s) in [(5.0, 50e-12), (3.7, 50e-12), (5.0, 0.0)] {
+            let exposure = Exposure::Tdc {
+                origin: TimeOrigin::Window,
+                start_s: -0.5e-9,
+                bin_width_s: width_bins * dt,
+                bins: 64,
+                jitter_fwhm_s: jitter_s,
+            };
+            let gates = exposure.gates(axis.t0_s).unwrap();
+            let (cycle_s, _) = exposure.tdc_cycle_s().unwrap();
+            let copies: Vec<(usize, Gate)> = gates
+                .iter()
+                .enumerate()
+                .flat_map(|(k, g)| (-1..=2).map(move |n| (k, g.shifted(n as f64 * cycle_s))))
+                .collect();
+            let shared = shifted_kernels(&light, &copies, &axis);
+            let direct: Vec<SparseKernel> = copies
+                .iter()
+                .map(|(_, g)| kernel(&light, g, &axis))
+                .collect();
+            // The scale: a whole kernel's peak (a copy cut by the window keeps tails the
+            // shared one trimmed below 1e-12 of it).
+            let peak = direct
+                .iter()
+                .flat_map(|k| k.weights.iter())
+                .fold(0.0f64, |m, w| m.max(w.abs()));
+            let mut lit = 0;
+            for (((k, _), (k2, got)), want) in copies.iter().zip(&shared).zip(&direct) {
+                assert_eq!(k, k2);
+                lit += usize::from(!want.weights.is_empty());
+                for b in 0..axis.bins {
+                    assert!(
+                        (got.get(b) - want.get(b)).abs() <= 1e-10 * peak,
+                        "width {width_bins} bins, jitter {jitter_s}: gate {k} bin {b}: {} vs {}",
+                        got.get(b),
+                        want.get(b)
+                    );
+                }
+            }
+            assert!(lit > 20, "too few kernels inside the window: {lit}");
+        }
+    }
 
     /// A delta 3 bins after the trigger moves the TPRF 3 bins later, times its energy;
     /// the full result keeps what the clipped one drops past the end.

@@ -160,7 +160,8 @@ pub fn return_depth_m(
             0.0
         }
     };
-    // Moving average through a running sum.
+    // Moving average through a running sum (`scratch[..=n]`), each bin's smoothed value
+    // computed once into `scratch[n + 1..]`.
     scratch.clear();
     let mut sum = 0.0;
     scratch.push(0.0);
@@ -168,19 +169,24 @@ pub fn return_depth_m(
         sum += clean(v);
         scratch.push(sum);
     }
-    let smooth = |k: usize| {
+    for k in 0..n {
         let (lo, hi) = (k.saturating_sub(half_width), (k + half_width + 1).min(n));
-        (scratch[hi] - scratch[lo]) / (hi - lo) as f64
-    };
-    let peak = (0..n).map(smooth).fold(0.0f64, f64::max);
+        let s = (scratch[hi] - scratch[lo]) / (hi - lo) as f64;
+        scratch.push(s);
+    }
+    let smooth = &scratch[n + 1..];
+    let peak = smooth.iter().fold(0.0f64, |m, &s| m.max(s));
     if !(peak > p.min_signal && peak > 0.0) {
         return f64::NAN;
     }
     let threshold = p.threshold * peak;
-    let Some(start) = (0..n).find(|&k| smooth(k) >= threshold) else {
+    let Some(start) = smooth.iter().position(|&s| s >= threshold) else {
         return f64::NAN;
     };
-    let end = (start..n).find(|&k| smooth(k) < threshold).unwrap_or(n);
+    let end = smooth[start..]
+        .iter()
+        .position(|&s| s < threshold)
+        .map_or(n, |i| start + i);
     let (mut w, mut moment) = (0.0, 0.0);
     for k in start..end {
         let v = clean(values[k]);

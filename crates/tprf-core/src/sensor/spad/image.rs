@@ -16,7 +16,7 @@ use rayon::prelude::*;
 
 use super::Spad;
 use super::coates::{coates, return_depth_m};
-use super::detector::{Detector, Sampler};
+use super::detector::{Detector, ExpectedScratch, Sampler};
 use super::sample::{MAX_EVENTS, pixel_stream, sample_pixel};
 use crate::sensor::measure::Measurements;
 use crate::sensor::{FirstReturn, SensorError, SensorModel};
@@ -237,14 +237,21 @@ pub fn spad_sampler(
     let b = plan.det.bins.max(1);
     let mut totals = vec![0.0f64; plan.pixels()];
     totals.par_chunks_mut(BLOCK).enumerate().for_each_init(
-        || (Vec::new(), Vec::new(), Vec::new()),
-        |(sig, rates, out), (j, totals)| {
+        || {
+            (
+                Vec::new(),
+                Vec::new(),
+                Vec::new(),
+                ExpectedScratch::default(),
+            )
+        },
+        |(sig, rates, out, ex), (j, totals)| {
             let p0 = j * BLOCK;
             plan.gather_block(p0, totals.len(), sig);
             out.resize(b, 0.0);
             for (i, total) in totals.iter_mut().enumerate() {
                 plan.rates_of(p0 + i, &sig[i * b..(i + 1) * b], rates);
-                plan.det.expected(rates, out);
+                plan.det.expected_with(rates, out, ex);
                 *total = out.iter().sum::<f64>();
             }
         },
@@ -464,8 +471,15 @@ impl<'a> Plan<'a> {
                 .zip(band.depth_expected.par_chunks_mut(BLOCK))
                 .enumerate()
                 .for_each_init(
-                    || (Vec::new(), Vec::new(), Vec::new()),
-                    |(sig, rates, scratch), (j, ((outs, totals), depths))| {
+                    || {
+                        (
+                            Vec::new(),
+                            Vec::new(),
+                            Vec::new(),
+                            ExpectedScratch::default(),
+                        )
+                    },
+                    |(sig, rates, scratch, ex), (j, ((outs, totals), depths))| {
                         let p0 = range.start + j * BLOCK;
                         self.gather_block(p0, totals.len(), sig);
                         for (i, ((out, total), depth)) in outs
@@ -475,7 +489,7 @@ impl<'a> Plan<'a> {
                             .enumerate()
                         {
                             self.rates_of(p0 + i, &sig[i * b..(i + 1) * b], rates);
-                            self.det.expected(rates, out);
+                            self.det.expected_with(rates, out, ex);
                             *total = out.iter().sum();
                             *depth = self.depth(out, scratch);
                         }
@@ -515,16 +529,31 @@ impl<'a> Plan<'a> {
     fn image(&self, band: Band, rows: usize) -> SpadImage {
         let b = self.det.bins;
         let plane = rows * self.signal.width;
+        // Pixel-major f64 to plane-major f32 in tiles of TILE planes x PIXELS pixels:
+        // each tile reads PIXELS runs of TILE adjacent values and writes TILE runs of
+        // PIXELS (a cache line each), where a plane at a time read one value every `B`
+        // and missed the cache on each (a quarter of the expected histogram's time at
+        // 160 x 160 x 512).
+        const TILE: usize = 64;
+        const PIXELS: usize = 16;
         let transpose = |pm: &[f64]| -> Vec<f32> {
-            if pm.is_empty() {
+            if pm.is_empty() || plane == 0 {
                 return Vec::new();
             }
             let mut out = vec![0.0f32; pm.len()];
-            out.par_chunks_mut(plane.max(1))
+            out.par_chunks_mut(plane * TILE)
                 .enumerate()
-                .for_each(|(k, o)| {
-                    for (p, v) in o.iter_mut().enumerate() {
-                        *v = pm[p * b + k] as f32;
+                .for_each(|(g, o)| {
+                    let k0 = g * TILE;
+                    let planes = o.len() / plane;
+                    for p0 in (0..plane).step_by(PIXELS) {
+                        let p1 = (p0 + PIXELS).min(plane);
+                        for t in 0..planes {
+                            let row = &mut o[t * plane + p0..t * plane + p1];
+                            for (i, v) in row.iter_mut().enumerate() {
+                                *v = pm[(p0 + i) * b + k0 + t] as f32;
+                            }
+                        }
                     }
                 });
             out

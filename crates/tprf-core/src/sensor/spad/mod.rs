@@ -95,8 +95,9 @@ pub struct Spad {
     #[serde(default, alias = "dark_count_rate", with = "hertz")]
     pub dark_count_rate_hz: f64,
     /// Dead time after each detection, seconds, at most one laser cycle, counted from
-    /// the end of the TDC bin of the detection; any fraction of a bin is honoured
-    /// ([`detector`]).
+    /// the end of the TDC bin of the detection (a real SPAD counts it from the photon:
+    /// how far apart the two are, and when `tau - w / 2` is the better setting, is in
+    /// [`detector`]); any fraction of a bin is honoured.
     #[serde(default, alias = "dead_time", with = "seconds")]
     pub dead_time_s: f64,
     #[serde(default)]
