@@ -51,6 +51,10 @@ pub struct SensorState {
     /// The latest SPAD preview, and the job making the next.
     preview: Option<SpadPreview>,
     preview_job: Option<Receiver<Result<SpadPreview, String>>>,
+    /// The film generation and sensor of the preview job running or last started, and
+    /// whether it failed (then it is not started again for them: its error is shown).
+    preview_for: Option<(u64, Sensor)>,
+    preview_failed: bool,
     noise_field: Option<NoiseField>,
     pub error: Option<String>,
     /// The gate shown, `i` (the TDC bin, for a SPAD).
@@ -172,6 +176,7 @@ impl SensorState {
                 Ok(Err(e)) => {
                     self.error = Some(e);
                     self.preview_job = None;
+                    self.preview_failed = true;
                 }
                 Err(TryRecvError::Disconnected) => self.preview_job = None,
                 Err(TryRecvError::Empty) => {}
@@ -225,7 +230,14 @@ impl SensorState {
             if model.sensor().spad.is_some()
                 && self.preview_job.is_none()
                 && !self.preview_is_current_for(key, model.sensor())
+                && !(self.preview_failed
+                    && self
+                        .preview_for
+                        .as_ref()
+                        .is_some_and(|(g, s)| *g == key && s == model.sensor()))
             {
+                self.preview_for = Some((key, model.sensor().clone()));
+                self.preview_failed = false;
                 self.spawn_preview(&model, snap);
             }
             if self.job.is_none() {
