@@ -151,9 +151,11 @@ impl TprfApp {
             }
             let skipped = s.left_out.shadow_rays_late + s.left_out.shadow_rays_early;
             if skipped + s.left_out.paths_past_window > 0 {
+                let paths = s.left_out.paths_past_window;
                 parts.push(format!(
-                    "left out: {skipped} shadow rays, {} paths past the window",
-                    s.left_out.paths_past_window
+                    "left out: {skipped} shadow ray{}, {paths} path{} past the window",
+                    if skipped == 1 { "" } else { "s" },
+                    if paths == 1 { "" } else { "s" },
                 ));
             }
         } else if let Source::Cube { dir, meta, .. } = &self.source {
@@ -177,7 +179,7 @@ impl TprfApp {
                 "frame {cpu:.1} ms CPU with painting (UI {:.1} ms), every {:.0} ms",
                 t.ui_ms, t.interval_ms
             ),
-            None => format!("UI {:.1} ms a frame", t.ui_ms),
+            None => format!("UI {:.1} ms/frame", t.ui_ms),
         });
         parts.join("  ·  ")
     }
