@@ -119,6 +119,11 @@ impl TprfApp {
 
     /// State, spp, wall time, passes/s, rays/s, error estimate, store, frame time.
     pub fn status_line(&self, snap: Option<&Arc<FilmSnapshot>>) -> String {
+        self.status_parts(snap).join("  ·  ")
+    }
+
+    /// The parts of [`Self::status_line`], each shown whole (the bar wraps between them).
+    fn status_parts(&self, snap: Option<&Arc<FilmSnapshot>>) -> Vec<String> {
         let mut parts = Vec::new();
         if let Some(s) = self.status() {
             let state = match &s.state {
@@ -181,7 +186,7 @@ impl TprfApp {
             ),
             None => format!("UI {:.1} ms/frame", t.ui_ms),
         });
-        parts.join("  ·  ")
+        parts
     }
 
     /// The progress bar toward the target (when there is one), the status line, then
@@ -202,7 +207,12 @@ impl TprfApp {
                         .text(text),
                 );
             }
-            ui.label(self.status_line(snap));
+            for (i, part) in self.status_parts(snap).into_iter().enumerate() {
+                if i > 0 {
+                    ui.label("·");
+                }
+                ui.add(egui::Label::new(part).wrap_mode(egui::TextWrapMode::Extend));
+            }
             if let Some(m) = self.messages.last() {
                 ui.separator();
                 ui.label(RichText::new(m).color(super::message_color(ui, m)));
