@@ -95,9 +95,9 @@ fn run(label: &str, settings: ViewerSettings, frames: usize) {
     );
 }
 
-/// Sensor mode: the time of the frame that follows an edit of the light pulse (new
-/// kernels, new measurements of the whole film, noise, derived depth, new textures).
-fn sensor_edits(label: &str, preset: &str, side: usize, bins: usize, edits: usize) {
+/// The window in sensor mode with built-in `preset`, rendering a `side^2 x bins` film
+/// to 1 spp.
+fn sensor_window(preset: &str, side: usize, bins: usize) -> Harness<'static, TprfApp> {
     let settings = ViewerSettings {
         width: side,
         height: side,
@@ -107,9 +107,15 @@ fn sensor_edits(label: &str, preset: &str, side: usize, bins: usize, edits: usiz
         sensor: Sensor::builtin(preset).unwrap(),
         ..ViewerSettings::default()
     };
-    let mut h = Harness::builder()
+    Harness::builder()
         .with_size(Vec2::new(1280.0, 800.0))
-        .build_eframe(move |cc| TprfApp::with_settings(cc, settings, Start::Default));
+        .build_eframe(move |cc| TprfApp::with_settings(cc, settings, Start::Default))
+}
+
+/// Sensor mode: the time of the frame that follows an edit of the light pulse (new
+/// kernels, new measurements of the whole film, noise, derived depth, new textures).
+fn sensor_edits(label: &str, preset: &str, side: usize, bins: usize, edits: usize) {
+    let mut h = sensor_window(preset, side, bins);
     let start = Instant::now();
     while h.state().sensor.measurements().is_none() || h.state().status().map(|s| s.spp) != Some(1)
     {
@@ -212,18 +218,7 @@ fn spad() {
 }
 
 fn spad_edits(side: usize, bins: usize, edits: usize, light: bool) {
-    let settings = ViewerSettings {
-        width: side,
-        height: side,
-        bins,
-        spp_target: 1,
-        mode: Mode::Sensor,
-        sensor: Sensor::builtin("spad").unwrap(),
-        ..ViewerSettings::default()
-    };
-    let mut h = Harness::builder()
-        .with_size(Vec2::new(1280.0, 800.0))
-        .build_eframe(move |cc| TprfApp::with_settings(cc, settings, Start::Default));
+    let mut h = sensor_window("spad", side, bins);
     let start = Instant::now();
     loop {
         h.step();

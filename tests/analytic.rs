@@ -7,6 +7,7 @@ use common::*;
 use tprf_core::film::TimeAxis;
 use tprf_core::reference::furnace::Furnace;
 use tprf_core::reference::plane::Plane;
+use tprf_core::transport::RenderSettings;
 
 #[test]
 fn plane_lit_by_colocated_light_matches_single_bounce_answer() {
@@ -60,10 +61,12 @@ fn furnace_reference(r_m: f64, rho: f64, i: f64, axis: &TimeAxis) -> Vec<f64> {
     Furnace::point(r_m, rho, i).tprf(axis)
 }
 
-fn check_furnace(rho: f32) {
+/// The furnace (R 1 m, I 2 W/sr) rendered at 8 x 8, 1024 spp with `settings` against
+/// its reference: energy in the window, every bin, mean arrival. `what` names the case.
+fn check_furnace_with(rho: f32, settings: RenderSettings, what: &str) {
     let (r_m, i) = (1.0f32, 2.0f32);
     let axis = TimeAxis::new(0.25 / C, 0.5 / C, 60).unwrap();
-    let rendered = render_scene(furnace(r_m, rho, i), 8, 8, axis, 1024, 11, 0);
+    let rendered = render_with(furnace(r_m, rho, i), 8, 8, axis, 1024, settings, 0);
     let film = &rendered.film;
     let n = 64.0;
     let mut mean = vec![0.0; axis.bins];
@@ -91,21 +94,29 @@ fn check_furnace(rho: f32) {
     // 4 standard errors plus 0.5 % for the facets (the icosphere lies inside radius R).
     assert!(
         (total - total_ref).abs() < 4.0 * se + 0.005 * total_ref,
-        "rho {rho}: energy in window {total} vs {total_ref} (standard error {se})"
+        "{what}: energy in window {total} vs {total_ref} (standard error {se})"
     );
     let peak = reference.iter().cloned().fold(0.0, f64::max);
     for (b, (got, want)) in mean.iter().zip(&reference).enumerate() {
         assert!(
             (got - want).abs() < 0.03 * peak + 0.05 * want,
-            "rho {rho}: bin {b}: {got} vs {want} (peak {peak})"
+            "{what}: bin {b}: {got} vs {want} (peak {peak})"
         );
     }
     let t_ref = mean_arrival_s(&reference, &axis);
     let t_got = mean_arrival_s(&mean, &axis);
     assert!(
         (t_got - t_ref).abs() < 0.01 * t_ref,
-        "rho {rho}: mean arrival {t_got} vs {t_ref}"
+        "{what}: mean arrival {t_got} vs {t_ref}"
     );
+}
+
+fn check_furnace(rho: f32) {
+    let settings = RenderSettings {
+        seed: 11,
+        ..RenderSettings::default()
+    };
+    check_furnace_with(rho, settings, &format!("rho {rho}"));
 }
 
 #[test]
@@ -160,7 +171,6 @@ fn mean_tprf(film: &tprf_core::film::TprfFilm) -> Vec<f64> {
 /// estimation (emitter sampling + MIS) and without (BSDF sampling only) alike.
 #[test]
 fn emitting_furnace_matches_the_renewal_reference_with_and_without_nee() {
-    use tprf_core::transport::RenderSettings;
     let f = Furnace::emitting(1.0, 0.8, 1.5);
     let axis = f.default_axis(60).unwrap();
     let reference = f.tprf(&axis);
@@ -225,7 +235,6 @@ fn oned_world_in_3d_matches_the_exact_impulse_train() {
 /// furnace's energy in a window holding all but 1e-6 of it is `rho I / (pi R^2 (1 - rho))`.
 #[test]
 fn russian_roulette_floor_and_no_roulette_are_unbiased() {
-    use tprf_core::transport::RenderSettings;
     let f = Furnace::point(1.0, 0.7, 1.0);
     let axis = TimeAxis::new(0.0, 100.0 / C, 1).unwrap();
     for (rr_start, floor) in [(1, 0.5f32), (0, 0.9), (2, 1.0)] {
@@ -253,43 +262,13 @@ fn russian_roulette_floor_and_no_roulette_are_unbiased() {
 /// reference for k = 1 ..= 4, and the pilot's own choice.
 #[test]
 fn first_bounce_splitting_is_unbiased_in_energy_and_time() {
-    use tprf_core::transport::RenderSettings;
-    let (r_m, rho, i) = (1.0f64, 0.5f64, 2.0f64);
-    let f = Furnace::point(r_m, rho, i);
-    let axis = TimeAxis::new(0.25 / C, 0.5 / C, 60).unwrap();
-    let reference = furnace_reference(r_m, rho, i, &axis);
-    let total_ref: f64 = reference.iter().sum();
-    let peak = reference.iter().cloned().fold(0.0, f64::max);
     for splits in [1, 2, 3, 4, 0] {
         let settings = RenderSettings {
             seed: 11,
             first_bounce_splits: splits,
             ..RenderSettings::default()
         };
-        let r = render_with(f.scene(), 8, 8, axis, 1024, settings, 0);
-        let mean = mean_tprf(&r.film);
-        let totals = r.film.steady();
-        let total = totals.iter().sum::<f64>() / 64.0;
-        let var = totals.iter().map(|t| (t - total).powi(2)).sum::<f64>() / 63.0;
-        let se = (var / 64.0).sqrt();
-        assert!(
-            (total - total_ref).abs() < 4.0 * se + 0.005 * total_ref,
-            "splits {splits}: energy in window {total} vs {total_ref} (standard error {se})"
-        );
-        for (b, (got, want)) in mean.iter().zip(&reference).enumerate() {
-            assert!(
-                (got - want).abs() < 0.03 * peak + 0.05 * want,
-                "splits {splits}: bin {b}: {got} vs {want} (peak {peak})"
-            );
-        }
-        let (t_ref, t_got) = (
-            mean_arrival_s(&reference, &axis),
-            mean_arrival_s(&mean, &axis),
-        );
-        assert!(
-            (t_got - t_ref).abs() < 0.01 * t_ref,
-            "splits {splits}: mean arrival {t_got} vs {t_ref}"
-        );
+        check_furnace_with(0.5, settings, &format!("splits {splits}"));
     }
 }
 

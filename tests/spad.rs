@@ -129,16 +129,27 @@ fn assert_within_noise(what: &str, got: &[f64], mean: &[f64], error: &[f64]) {
     }
 }
 
+/// Where the simulated SPAD's dead time starts.
+#[derive(Clone, Copy)]
+enum DeadFrom {
+    /// The end of the detection's TDC bin (the model's meaning).
+    BinEnd,
+    /// The detected photon's own arrival (a real SPAD: dead `1 - u` bins shorter than
+    /// the model after a photon at the fraction `u` of its bin).
+    Photon,
+}
+
 /// The independent simulation in continuous time, for a dead time of any length: one
 /// run of `cycles` cycles, time in units of a bin. Bin `k` of each cycle receives a
 /// Poisson(`r_k`) number of photons at uniform times within it (the rate is constant
 /// in a bin); the SPAD, armed, detects the first photon at or after the time it
 /// re-armed; the detection is stamped with its bin, and the SPAD is dead for exactly
-/// `dead_bins` (a real number) from that bin's end. No afterpulsing.
+/// `dead_bins` (a real number) from `from`. No afterpulsing.
 fn monte_carlo_continuous(
     rates: &[f64],
     cycles: u64,
     dead_bins: f64,
+    from: DeadFrom,
     free_running: bool,
     rng: &mut Pcg64Mcg,
 ) -> Vec<f64> {
@@ -158,9 +169,13 @@ fn monte_carlo_continuous(
             times.clear();
             times.extend((0..photons).map(|_| start + rng.random::<f64>()));
             times.sort_by(f64::total_cmp);
-            if let Some(_t) = times.iter().find(|&&t| t >= armed_at) {
+            if let Some(&t) = times.iter().find(|&&t| t >= armed_at) {
                 counts[k] += 1.0;
-                armed_at = start + 1.0 + dead_bins;
+                armed_at = dead_bins
+                    + match from {
+                        DeadFrom::BinEnd => start + 1.0,
+                        DeadFrom::Photon => t,
+                    };
             }
         }
     }
@@ -202,6 +217,7 @@ fn check_against_continuous_mc(what: &str, s: &Spad, bins: usize, rates: &[f64])
             rates,
             s.cycles,
             tau_bins,
+            DeadFrom::BinEnd,
             s.mode == Acquisition::FreeRunning,
             &mut rng,
         )
@@ -1092,42 +1108,6 @@ fn spad_files_in_bands_are_the_whole_image() {
     }
 }
 
-/// The simulation of a real SPAD: as [`monte_carlo_continuous`], but the dead time runs
-/// for `dead_bins` from the detected photon's own arrival, not from the end of its TDC
-/// bin. The model ([`tprf_core::sensor::spad::detector`]) starts it at the bin's end,
-/// so it is dead `1 - u` bins longer after a photon at the fraction `u` of its bin.
-fn monte_carlo_photon_start(
-    rates: &[f64],
-    cycles: u64,
-    dead_bins: f64,
-    free_running: bool,
-    rng: &mut Pcg64Mcg,
-) -> Vec<f64> {
-    let b = rates.len();
-    let poisson: Vec<Option<Poisson<f64>>> = rates.iter().map(|&r| Poisson::new(r).ok()).collect();
-    let mut counts = vec![0.0; b];
-    let mut armed_at = 0.0f64;
-    let mut times = Vec::new();
-    for c in 0..cycles {
-        let cycle_start = (c * b as u64) as f64;
-        if !free_running {
-            armed_at = cycle_start;
-        }
-        for k in 0..b {
-            let start = cycle_start + k as f64;
-            let photons = poisson[k].as_ref().map_or(0.0, |p| p.sample(rng)) as usize;
-            times.clear();
-            times.extend((0..photons).map(|_| start + rng.random::<f64>()));
-            times.sort_by(f64::total_cmp);
-            if let Some(&t) = times.iter().find(|&&t| t >= armed_at) {
-                counts[k] += 1.0;
-                armed_at = t + dead_bins;
-            }
-        }
-    }
-    counts
-}
-
 /// How far the model (dead time from the end of the detection's TDC bin) lands from a
 /// real SPAD (dead time from the photon), measured against the photon-start simulation
 /// above (48 runs of 1500-2000 cycles; the figures are this test's, printed with
@@ -1149,10 +1129,11 @@ fn dead_time_from_the_photon_against_the_model() {
     let mc = |r: &[f64], s: &Spad, tau: f64| {
         mean_and_error(48, |run| {
             let mut rng = Pcg64Mcg::seed_from_u64(0xD00D + run);
-            monte_carlo_photon_start(
+            monte_carlo_continuous(
                 r,
                 s.cycles,
                 tau,
+                DeadFrom::Photon,
                 s.mode == Acquisition::FreeRunning,
                 &mut rng,
             )

@@ -253,17 +253,11 @@ impl SensorState {
         let (tx, rx) = channel();
         let (job_model, job_snap) = (model.clone(), snap.clone());
         let job_ambient = self.ambient.clone();
-        let spawned = std::thread::Builder::new()
-            .name("tprf-spad-preview".into())
-            .spawn(move || {
-                let run = || preview_spad(&job_model, &job_snap, job_ambient);
-                let done = match preview_pool() {
-                    Some(pool) => pool.install(run),
-                    None => run(),
-                };
-                // The window may have gone on (or closed) meanwhile.
-                let _ = tx.send(done);
-            });
+        let spawned = spawn_on("tprf-spad-preview", preview_pool, move || {
+            let done = preview_spad(&job_model, &job_snap, job_ambient);
+            // The window may have gone on (or closed) meanwhile.
+            let _ = tx.send(done);
+        });
         match spawned {
             Ok(_) => self.preview_job = Some(rx),
             Err(e) => self.error = Some(format!("cannot start the SPAD preview thread: {e}")),
@@ -294,40 +288,35 @@ impl SensorState {
         let clean = self.measured.as_ref().map(|m| m.clean.clone());
         let cancel = Arc::new(AtomicBool::new(false));
         let job_cancel = cancel.clone();
-        let spawned = std::thread::Builder::new()
-            .name("tprf-sensor".into())
-            .spawn(move || {
-                let run = || {
-                    let measured =
-                        measure_all(&job_model, &job_snap, job_ambient, field, clean).ok()?;
-                    let sample = measured.spad.as_ref().is_some_and(|s| !s.is_sampled());
-                    // The realisation is drawn from a copy's inputs once the first stage
-                    // is on its way.
-                    let (m_model, m_clean) = (job_model.clone(), measured.clean.clone());
-                    let m_ambient = measured.ambient.clone();
-                    let (snapshot, sensor) = (measured.snapshot, measured.sensor.clone());
-                    let first = measured.spad.as_ref().map(|s| s.image.clone());
-                    tx.send(Stage::Measured(Box::new(measured))).ok()?;
-                    if sample {
-                        let stub = super::measure::SampleInput {
-                            snapshot,
-                            sensor,
-                            clean: m_clean,
-                            ambient: m_ambient,
-                            image: first?,
-                        };
-                        let s = sample_spad(&m_model, &job_snap, &stub, &job_cancel)?;
-                        tx.send(Stage::Sampled(Box::new(s))).ok()?;
-                    }
-                    Some(())
-                };
-                // On its own threads, so the gate measured for the frame does not queue
-                // behind it on the global pool.
-                match background_pool() {
-                    Some(pool) => pool.install(run),
-                    None => run(),
-                };
-            });
+        // On pool threads of its own, so the gate measured for the frame does not queue
+        // behind it on the global pool.
+        let spawned = spawn_on("tprf-sensor", background_pool, move || {
+            let run = || {
+                let measured =
+                    measure_all(&job_model, &job_snap, job_ambient, field, clean).ok()?;
+                let sample = measured.spad.as_ref().is_some_and(|s| !s.is_sampled());
+                // The realisation is drawn from a copy's inputs once the first stage
+                // is on its way.
+                let (m_model, m_clean) = (job_model.clone(), measured.clean.clone());
+                let m_ambient = measured.ambient.clone();
+                let (snapshot, sensor) = (measured.snapshot, measured.sensor.clone());
+                let first = measured.spad.as_ref().map(|s| s.image.clone());
+                tx.send(Stage::Measured(Box::new(measured))).ok()?;
+                if sample {
+                    let stub = super::measure::SampleInput {
+                        snapshot,
+                        sensor,
+                        clean: m_clean,
+                        ambient: m_ambient,
+                        image: first?,
+                    };
+                    let s = sample_spad(&m_model, &job_snap, &stub, &job_cancel)?;
+                    tx.send(Stage::Sampled(Box::new(s))).ok()?;
+                }
+                Some(())
+            };
+            run();
+        });
         match spawned {
             Ok(_) => self.job = Some((rx, cancel)),
             Err(e) => self.error = Some(format!("cannot start the measurement thread: {e}")),
@@ -489,4 +478,20 @@ fn free_elsewhere<T: Send + 'static>(value: T) {
             }
         }
     }
+}
+
+/// Run `job` on a new thread named `name`, inside `pool()` when it has one (else on the
+/// global pool), so its parallel work stays on that pool's threads.
+fn spawn_on(
+    name: &str,
+    pool: fn() -> Option<&'static rayon::ThreadPool>,
+    job: impl FnOnce() + Send + 'static,
+) -> std::io::Result<()> {
+    std::thread::Builder::new()
+        .name(name.into())
+        .spawn(move || match pool() {
+            Some(p) => p.install(job),
+            None => job(),
+        })
+        .map(drop)
 }

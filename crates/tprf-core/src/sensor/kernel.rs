@@ -270,10 +270,12 @@ fn shifted_kernels(
         let hi = ((g_hi - s_lo - axis.t0_s) / axis.dt_s).ceil();
         lo >= 0.0 && hi <= (bins - 1) as f64
     };
+    let keys: Vec<Option<(i64, [i64; 4])>> =
+        copies.iter().map(|(_, g)| grid_key(g, axis)).collect();
     // One template a key: the first copy lying inside the axis.
     let mut templates: HashMap<[i64; 4], (i64, usize)> = HashMap::new();
-    for (i, (_, g)) in copies.iter().enumerate() {
-        if let Some((m, key)) = grid_key(g, axis)
+    for (i, ((_, g), key)) in copies.iter().zip(&keys).enumerate() {
+        if let Some((m, key)) = *key
             && !templates.contains_key(&key)
             && inside(g)
         {
@@ -287,11 +289,10 @@ fn shifted_kernels(
     let fraction = trim_fraction(axis);
     copies
         .par_iter()
-        .map(|(k, g)| {
-            let Some((m, key)) = grid_key(g, axis) else {
-                return (*k, kernel(light, g, axis));
-            };
-            let Some((m0, t)) = computed.get(&key) else {
+        .zip(&keys)
+        .map(|((k, g), key)| {
+            let shared = key.and_then(|(m, key)| computed.get(&key).map(|c| (m, c)));
+            let Some((m, (m0, t))) = shared else {
                 return (*k, kernel(light, g, axis));
             };
             if t.weights.is_empty() {

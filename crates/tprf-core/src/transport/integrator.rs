@@ -291,14 +291,14 @@ impl Renderer {
         let (w, h) = (layout.width, layout.height);
         let half = film.passes() % 2;
         let first = film.half_spp()[half as usize];
-        self.splits_for(&layout.axis, w, h);
+        let splits = self.splits_for(&layout.axis, w, h);
         let rays_before = self.rays_traced();
         let tally = film.run_pass(spp as u64, |x, y, sink| {
             let mut rng =
                 Sampler::new(self.settings.seed, half, (y * w + x) as u64).starting_at(first);
             let mut rays = 0u64;
             for _ in 0..spp {
-                rays += self.trace_sample(x, y, w, h, &mut rng, sink);
+                rays += self.trace_sample_split(x, y, w, h, splits, &mut rng, sink);
             }
             self.rays.fetch_add(rays, Ordering::Relaxed);
         });
@@ -353,8 +353,7 @@ impl Renderer {
         rng: &mut Sampler,
         sink: &mut impl Sink,
     ) -> u64 {
-        let path = Path::camera(origin, dir);
-        self.walk::<false>(&self.lights, path, self.splits(), rng, sink)
+        self.trace::<false>(&self.lights, origin, dir, rng, sink)
     }
 
     /// A path lit by `lights` (with their emissive surfaces when not `AMBIENT`). The

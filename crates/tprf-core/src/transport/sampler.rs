@@ -180,8 +180,14 @@ impl Sampler {
     #[inline]
     pub fn start_sample(&mut self) {
         self.index = self.index.wrapping_add(1);
-        self.index_reversed = self.index.reverse_bits();
-        self.sample_key = mix(self.key ^ (self.index as u64).wrapping_mul(0xD6E8_FEB8_6659_FD93));
+        self.draw_from(self.index);
+    }
+
+    /// Draw from index `i` of the stream from now on (its Sobol points and hashes).
+    #[inline]
+    fn draw_from(&mut self, i: u32) {
+        self.index_reversed = i.reverse_bits();
+        self.sample_key = mix(self.key ^ (i as u64).wrapping_mul(0xD6E8_FEB8_6659_FD93));
     }
 
     /// Begin branch `j` of `k` of the current sample: the draws from here on (the first
@@ -193,9 +199,7 @@ impl Sampler {
     /// earlier ones.)
     #[inline]
     pub fn start_branch(&mut self, j: u32, k: u32) {
-        let branch = self.index.wrapping_mul(k).wrapping_add(j);
-        self.index_reversed = branch.reverse_bits();
-        self.sample_key = mix(self.key ^ (branch as u64).wrapping_mul(0xD6E8_FEB8_6659_FD93));
+        self.draw_from(self.index.wrapping_mul(k).wrapping_add(j));
     }
 
     /// Hash of the sample and `slot`: 64 uniform bits.

@@ -29,7 +29,6 @@
 use super::integrator::{Renderer, Sink};
 use super::sampler::Sampler;
 use crate::film::TimeAxis;
-use glam::Vec3;
 use rayon::prelude::*;
 
 /// Largest automatic split.
@@ -47,17 +46,21 @@ const PILOT_SAMPLES: u32 = 8;
 /// Independent replicas per pilot pixel (each its own sample stream).
 const REPLICAS: usize = 4;
 
+/// Bins of the pilot's own time axis: the film's window cut into this many, whatever
+/// the film's bin count, so that a film of 1 bin and one of 100 000 over the same
+/// window trace the same paths.
+const PILOT_BINS: usize = 256;
+
 /// Sample streams of the pilot's replicas start here (the film's halves use 0 and 1).
 const PILOT_STREAM: u64 = 0x5_0117_0000;
 
-/// Sums one pilot pixel's replicas per bin and counts the rays.
+/// Sums one pilot pixel's replicas per bin.
 struct PilotSink {
     axis: TimeAxis,
     replica: usize,
     /// `[REPLICAS][T]` sums of the contributions.
     bins: Vec<f64>,
     touched: Vec<usize>,
-    rays: u64,
 }
 
 impl Sink for PilotSink {
@@ -76,15 +79,7 @@ impl Sink for PilotSink {
     fn window_start_s(&self) -> f64 {
         self.axis.t0_s
     }
-    fn ray(&mut self, _origin: Vec3, _dir: Vec3, _t_max_m: f32, _kind: super::RayKind) {
-        self.rays += 1;
-    }
 }
-
-/// Bins of the pilot's own time axis: the film's window cut into this many, whatever
-/// the film's bin count, so that a film of 1 bin and one of 100 000 over the same
-/// window trace the same paths.
-const PILOT_BINS: usize = 256;
 
 /// The automatic split for a `width x height` film on `axis` (its window: see
 /// [`PILOT_BINS`]); see the module doc.
@@ -108,13 +103,7 @@ pub(super) fn choose(renderer: &Renderer, axis: &TimeAxis, width: usize, height:
 /// The pilot of split `k`: the variance of the mean of [`PILOT_SAMPLES`] samples,
 /// summed over the bins of the grid's pixels, and the rays traced per sample. Both 0
 /// for an empty film or window.
-pub(super) fn pilot(
-    renderer: &Renderer,
-    axis: &TimeAxis,
-    width: usize,
-    height: usize,
-    k: u32,
-) -> (f64, f64) {
+fn pilot(renderer: &Renderer, axis: &TimeAxis, width: usize, height: usize, k: u32) -> (f64, f64) {
     let t = axis.bins;
     if t == 0 || width == 0 || height == 0 {
         return (0.0, 0.0);
@@ -132,7 +121,6 @@ pub(super) fn pilot(
                 replica: 0,
                 bins: vec![0.0; REPLICAS * t],
                 touched: Vec::new(),
-                rays: 0,
             },
             |sink, g| {
                 let (gx, gy) = (g % nx, g / nx);
@@ -141,12 +129,12 @@ pub(super) fn pilot(
                     (2 * gy + 1) * height / (2 * ny),
                 );
                 let pixel = (y * width + x) as u64;
-                sink.rays = 0;
+                let mut rays = 0;
                 for replica in 0..REPLICAS {
                     sink.replica = replica;
                     let mut rng = Sampler::new(seed, PILOT_STREAM + replica as u64, pixel);
                     for _ in 0..PILOT_SAMPLES {
-                        renderer.trace_sample_split(x, y, width, height, k, &mut rng, sink);
+                        rays += renderer.trace_sample_split(x, y, width, height, k, &mut rng, sink);
                     }
                 }
                 sink.touched.sort_unstable();
@@ -162,7 +150,7 @@ pub(super) fn pilot(
                     }
                 }
                 sink.touched.clear();
-                (variance, sink.rays)
+                (variance, rays)
             },
         )
         .collect();

@@ -29,9 +29,9 @@
 //!
 //! For a whole number of bins (`f = 0`) the re-armed states are armed from the start,
 //! `G, H` fold into `E, F` and this is the recursion of whole bins (bit for bit: no
-//! partly armed factors are computed). This treats the fraction exactly, at the cost of the whole-bin
-//! recursion (two more products a bin), with no finer grid: the fraction enters only
-//! through the partly armed bin.
+//! partly armed factors are computed). This treats the fraction exactly, at the cost
+//! of the whole-bin recursion (two more products a bin), with no finer grid: the
+//! fraction enters only through the partly armed bin.
 //!
 //! Its one approximation of a real SPAD is where the dead time starts: the avalanche is
 //! somewhere in its bin and a real SPAD is dead for `tau` from it, where this model
@@ -209,31 +209,15 @@ impl Detector {
         cycle.resize(b, 0.0);
         factors.clear();
         partial.clear();
-        // Each bin's factors, computed once per pixel: a run of bins of the same rate
-        // (the background between returns, most of a histogram) shares one computation.
-        let mut last: Option<(f64, BinFactors)> = None;
-        factors.extend(rates[..b].iter().map(|&r| match last {
-            Some((lr, f)) if lr.to_bits() == r.to_bits() => f,
-            _ => {
-                let f = BinFactors::new(r, self.trap_rate);
-                last = Some((r, f));
-                f
-            }
-        }));
+        factors_by_run(&rates[..b], factors, |r| BinFactors::new(r, self.trap_rate));
         // The partly armed bin after a fractional dead time: the same with the means
         // times `1 - f` (none for whole bins).
         if self.dead_fraction > 0.0 {
             let a = self.rearmed_part();
-            let mut last: Option<(f64, BinFactors)> = None;
-            partial.extend(rates[..b].iter().map(|&r| match last {
-                Some((lr, f)) if lr.to_bits() == r.to_bits() => f,
-                _ => {
-                    let rc = if r > 0.0 { r.min(RATE_CAP) } else { 0.0 };
-                    let f = BinFactors::new(a * rc, a * self.trap_rate);
-                    last = Some((r, f));
-                    f
-                }
-            }));
+            factors_by_run(&rates[..b], partial, |r| {
+                let rc = if r > 0.0 { r.min(RATE_CAP) } else { 0.0 };
+                BinFactors::new(a * rc, a * self.trap_rate)
+            });
         }
         match self.mode {
             Acquisition::Synchronous => {
@@ -361,6 +345,20 @@ impl BinFactors {
             fire_f,
         }
     }
+}
+
+/// `factor(r)` of each rate into `out`, computed once a run: a run of bins of the same
+/// rate (the background between returns, most of a histogram) shares one computation.
+fn factors_by_run(rates: &[f64], out: &mut Vec<BinFactors>, factor: impl Fn(f64) -> BinFactors) {
+    let mut last: Option<(f64, BinFactors)> = None;
+    out.extend(rates.iter().map(|&r| match last {
+        Some((lr, f)) if lr.to_bits() == r.to_bits() => f,
+        _ => {
+            let f = factor(r);
+            last = Some((r, f));
+            f
+        }
+    }));
 }
 
 /// `(e^-x, 1 - e^-x)` for `x >= 0` with one transcendental call, each to a relative
