@@ -743,6 +743,67 @@ fn ambient_image_is_the_uniform_rate_closed_form() {
     }
 }
 
+/// Units of the light budget: the pulse's energy `E` (J) and `photons_per_unit`
+/// (photons per radiance x second) enter the signal only as their product, and a steady
+/// lamp of `ambient_lamp_hz` pulse energies per second counts `ambient_lamp_hz E
+/// photons_per_unit steady` photons per second (hand-computed here as a uniform rate).
+/// So a 1 uJ pulse with its real photon factor gives what the unit pulse with that
+/// factor folded in gives, and the ambient image at `ambient_scale = 1` is physical.
+#[test]
+fn pulse_energy_and_photon_factor_enter_as_a_product() {
+    let bins = 64;
+    let ax = axis(0.0, 0.1 * NS, bins);
+    let (w, h) = (2, 1);
+    // [H, W, T]: a return at bin 10 in pixel 0, at bin 20 in pixel 1 (radiance x s per J).
+    let mut cube = vec![0.0f32; w * h * bins];
+    cube[10] = 3e-3;
+    cube[bins + 20] = 1e-3;
+    let steady: Vec<f32> = cube.chunks(bins).map(|px| px.iter().sum()).collect();
+    let lamp_hz = 5e6;
+    let histogram = |energy: f64, ppu: f64, lamp_hz: f64, ambient_hz: f64| {
+        let light = LightPulse::Delta { t_s: 0.0, energy };
+        let s = Spad {
+            photons_per_unit: ppu,
+            pde: 0.5,
+            ambient_lamp_hz: lamp_hz,
+            ambient_rate_hz: ambient_hz,
+            ..spad(1000)
+        };
+        let m = model(spad_sensor(s, bins as u64, 0.1 * NS, light), ax);
+        let Ok(meas) = m.measure_clean(&cube, w, h) else {
+            panic!("measure");
+        };
+        match spad_image(&m, &meas, &steady) {
+            Ok(i) => i,
+            Err(e) => panic!("{e}"),
+        }
+    };
+    let unit = histogram(1.0, 4e3, lamp_hz, 0.0);
+    let micro = histogram(1e-6, 4e9, lamp_hz, 0.0);
+    for (k, (a, b)) in unit.histogram.iter().zip(&micro.histogram).enumerate() {
+        assert!(
+            (a - b).abs() <= 1e-5 * a.abs().max(1e-9),
+            "value {k}: {a} vs {b}"
+        );
+    }
+    // The lamp of pixel p is a uniform rate of lamp_hz x E x ppu x steady[p].
+    for (p, &st) in steady.iter().enumerate() {
+        let rate_hz = lamp_hz * 1e-6 * 4e9 * f64::from(st);
+        let flat = histogram(1e-6, 4e9, 0.0, rate_hz);
+        let (y, x) = (p / w, p % w);
+        let (a, b) = (
+            micro.pixel(&micro.histogram, y, x),
+            flat.pixel(&flat.histogram, y, x),
+        );
+        for (k, (a, b)) in a.iter().zip(&b).enumerate() {
+            assert!(
+                (a - b).abs() <= 1e-5 * a.abs().max(1e-9),
+                "pixel {p} bin {k}: {a} vs {b}"
+            );
+        }
+    }
+}
+
 /// Mean of the first-photon time for a Gaussian return of `total` photons centred at
 /// `mu` with `sigma`, by quadrature of `s(t) exp(-integral s) / (1 - e^-total)`.
 fn first_photon_mean(total: f64, mu: f64, sigma: f64) -> f64 {

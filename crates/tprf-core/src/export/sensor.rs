@@ -806,7 +806,7 @@ fn spad_json(model: &SensorModel, spad: &SpadFiles) -> serde_json::Value {
         "parameters": {
             "cycles": {"value": p.cycles, "unit": "laser cycles"},
             "pde": {"value": p.pde, "unit": "probability"},
-            "photons_per_unit": {"value": p.photons_per_unit, "unit": "photons per unit of (TPRF * Light) (a cube bin's unit times the light's energy) per pulse"},
+            "photons_per_unit": {"value": p.photons_per_unit, "unit": "photons per W m^-2 sr^-1 s at the pixel (radiance x seconds: the unit of (TPRF * Light) for a light of its energy in J)"},
             "ambient_rate_hz": {"value": p.ambient_rate_hz, "unit": "photons/s per pixel (before the PDE)"},
             "ambient_lamp_hz": {"value": p.ambient_lamp_hz, "unit": "1/s: a steady lamp where the light is, in pulse energies per second"},
             "dark_count_rate_hz": {"value": p.dark_count_rate_hz, "unit": "counts/s"},

@@ -13,6 +13,7 @@
 //! pixel index in the image), so it does not depend on the way taken.
 
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::Spad;
 use super::coates::{coates, return_depth_m};
@@ -120,7 +121,8 @@ pub fn spad_pixel_ambient(
     let (spad, det, width_s) = detector(model)?;
     let mut rates = Vec::new();
     let scale = model.sensor().ambient_scale;
-    spad.rates(signal, steady, scale * ambient, width_s, &mut rates);
+    let lamp = steady * model.sensor().light.energy();
+    spad.rates(signal, lamp, scale * ambient, width_s, &mut rates);
     let mut expected = vec![0.0; rates.len()];
     det.expected(&rates, &mut expected);
     let n = det.cycles as f64;
@@ -187,13 +189,31 @@ pub fn spad_expected(
     steady: &[f32],
     ambient: Option<&[f32]>,
 ) -> Result<SpadImage, SensorError> {
-    let plan = Plan::new(model, signal, steady, ambient)?;
+    let never = AtomicBool::new(false);
+    spad_expected_until(model, signal, steady, ambient, &never)?
+        .ok_or_else(|| SensorError::Invalid("the SPAD's expected histogram was cancelled".into()))
+}
+
+/// [`spad_expected`], given up (`Ok(None)`) when `cancel` is set meanwhile (checked
+/// every few hundred pixels): for a viewer whose next edit makes this one stale.
+pub fn spad_expected_until(
+    model: &SensorModel,
+    signal: &Measurements,
+    steady: &[f32],
+    ambient: Option<&[f32]>,
+    cancel: &AtomicBool,
+) -> Result<Option<SpadImage>, SensorError> {
+    let mut plan = Plan::new(model, signal, steady, ambient)?;
     plan.check_budget(plan.pixels(), false)?;
+    plan.cancel = Some(cancel);
     let band = plan.band(0..plan.pixels(), None);
+    if cancel.load(Ordering::Relaxed) {
+        return Ok(None);
+    }
     let total = band.totals.iter().sum();
     let mut image = plan.image(band, signal.height);
     image.sampler = plan.sampler(total);
-    Ok(image)
+    Ok(Some(image))
 }
 
 /// Draws the realisation of `image` (made by [`spad_expected`] from the same inputs),
@@ -304,6 +324,9 @@ struct Plan<'a> {
     det: Detector,
     width_s: f64,
     ambient_scale: f64,
+    /// The light's energy, J: the steady lamp's power is `ambient_lamp_hz` of them a
+    /// second.
+    energy_j: f64,
     seed: u64,
     centres_s: Vec<f64>,
     light_mean_s: f64,
@@ -312,6 +335,8 @@ struct Plan<'a> {
     signal: &'a Measurements,
     steady: &'a [f32],
     ambient: Option<&'a [f32]>,
+    /// Set from elsewhere: the expected histograms stop early ([`spad_expected_until`]).
+    cancel: Option<&'a AtomicBool>,
 }
 
 /// A range of pixels' results, pixel-major (`B` values a pixel).
@@ -357,6 +382,7 @@ impl<'a> Plan<'a> {
             det,
             width_s,
             ambient_scale: model.sensor().ambient_scale,
+            energy_j: model.sensor().light.energy(),
             seed: model.sensor().noise.seed,
             centres_s: model.gate_centres_s().unwrap_or_default(),
             light_mean_s: model.light().mean_s(),
@@ -365,6 +391,7 @@ impl<'a> Plan<'a> {
             signal,
             steady,
             ambient,
+            cancel: None,
         })
     }
 
@@ -410,8 +437,8 @@ impl<'a> Plan<'a> {
         let ambient = self
             .ambient
             .map_or(0.0, |a| self.ambient_scale * f64::from(a[p]));
-        self.spad
-            .rates(sig, f64::from(self.steady[p]), ambient, self.width_s, rates);
+        let lamp = f64::from(self.steady[p]) * self.energy_j;
+        self.spad.rates(sig, lamp, ambient, self.width_s, rates);
     }
 
     /// The signals of pixels `p0 .. p0 + n` into `out`, pixel-major (`[n, B]`): per TDC
@@ -480,6 +507,9 @@ impl<'a> Plan<'a> {
                         )
                     },
                     |(sig, rates, scratch, ex), (j, ((outs, totals), depths))| {
+                        if self.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+                            return;
+                        }
                         let p0 = range.start + j * BLOCK;
                         self.gather_block(p0, totals.len(), sig);
                         for (i, ((out, total), depth)) in outs

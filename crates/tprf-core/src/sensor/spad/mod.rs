@@ -12,7 +12,8 @@
 //!       steady + ambient_scale photons_per_unit A) w) + dark_count_rate_hz w
 //! ```
 //!
-//! (`steady` the pixel's steady image, the sum of its TPRF: see [`Spad`]; `A` the
+//! (`steady` the pixel's steady image, the sum of its TPRF, times the light's energy:
+//! see [`Spad`]; `A` the
 //! pixel's ambient image, W m^-2 sr^-1, when the cube has one: see
 //! [`crate::sensor::ambient`]). Photons in
 //! different bins and cycles are independent Poisson counts. The detector
@@ -34,8 +35,8 @@ pub mod sample;
 pub use coates::{coates, return_depth_m};
 pub use detector::{Detector, Sampler};
 pub use image::{
-    SpadImage, SpadPixel, spad_bytes_per_pixel, spad_expected, spad_image, spad_image_ambient,
-    spad_pixel, spad_pixel_ambient, spad_rows, spad_sample, spad_sampler,
+    SpadImage, SpadPixel, spad_bytes_per_pixel, spad_expected, spad_expected_until, spad_image,
+    spad_image_ambient, spad_pixel, spad_pixel_ambient, spad_rows, spad_sample, spad_sampler,
 };
 
 use serde::{Deserialize, Serialize};
@@ -77,9 +78,11 @@ pub struct Spad {
     /// pixel makes an avalanche.
     #[serde(default = "one")]
     pub pde: f64,
-    /// Photons reaching the pixel per unit of `(TPRF * Light)` (the unit of a cube
-    /// bin, times the light's energy), per laser pulse: the pixel's solid angle,
-    /// aperture and the pulse's photon count in one number.
+    /// Photons reaching the pixel per unit of radiance x seconds (W m^-2 sr^-1 s, the
+    /// unit of `(TPRF * Light)` for a light of its energy in joules): the pixel's
+    /// etendue (aperture area x solid angle, m^2 sr) over the photon energy `h c /
+    /// lambda` (J). With the light's energy the pulse's own, the pulse and the scene's
+    /// ambient light (`ambient_scale = 1`) are then both at their stated power.
     pub photons_per_unit: f64,
     /// A uniform ambient background, photons per second reaching each pixel (sun on a
     /// grey scene, say).
@@ -87,8 +90,8 @@ pub struct Spad {
     pub ambient_rate_hz: f64,
     /// A steady lamp where the pulsed light is, of power `ambient_lamp_hz` times the
     /// pulse's energy (per second). It lights each pixel as the pulse does, integrated
-    /// over time: `ambient_lamp_hz x photons_per_unit x steady` photons per second,
-    /// `steady` the pixel's steady image (the sum of its TPRF).
+    /// over time: `ambient_lamp_hz x energy x photons_per_unit x steady` photons per
+    /// second, `steady` the pixel's steady image (the sum of its TPRF, per joule).
     #[serde(default, alias = "ambient_lamp", with = "hertz")]
     pub ambient_lamp_hz: f64,
     /// Dark counts per second (thermal avalanches; the PDE does not apply).
@@ -192,9 +195,9 @@ impl Spad {
 
     /// The mean detectable events per cycle in each TDC bin of width `bin_width_s`
     /// (into `out`) for a pixel whose folded `(TPRF * Light)` per bin is `signal` and
-    /// whose steady image is `steady` (both in the unit of a cube bin), under an ambient
-    /// radiance `ambient` (W m^-2 sr^-1: the cube's ambient image times
-    /// `ambient_scale`; 0 without one):
+    /// whose steady image times the light's energy is `steady` (both radiance x s),
+    /// under an ambient radiance `ambient` (W m^-2 sr^-1: the cube's ambient image
+    /// times `ambient_scale`; 0 without one):
     /// `r_k = PDE (photons_per_unit S_k + ambient photons/s x w) + DCR w`, the ambient
     /// photons/s being `ambient_rate_hz + photons_per_unit (ambient_lamp_hz steady +
     /// ambient)`: a radiance times `photons_per_unit` (photons per radiance x second)
