@@ -283,12 +283,16 @@ fn normal_cdf_diff(x1: f64, x2: f64) -> f64 {
     }
 }
 
-/// `integral_a^b Phi(x) dx` for `a <= b`, from the primitive `F(x) = x Phi(x) + phi(x)`;
-/// for positive arguments `F(x) = x + F(-x)`, which keeps the difference exact.
-fn normal_cdf_integral(a: f64, b: f64) -> f64 {
+/// `integral_a^{a + w} Phi(x) dx` for `w >= 0`, from the primitive `F(x) = x Phi(x) +
+/// phi(x)`; for positive arguments `F(x) = x + F(-x)`, which keeps the difference exact.
+/// The width is given, not taken as a difference: far past an edge (`a ~ 1e14` for a
+/// box open for a second seen through a femtosecond Gaussian) `(a + w) - a` would have
+/// lost the digits of `w`.
+fn normal_cdf_integral(a: f64, w: f64) -> f64 {
     let f = |x: f64| x * 0.5 * libm::erfc(-x / SQRT_2) + (-0.5 * x * x).exp() / (2.0 * PI).sqrt();
+    let b = a + w;
     if a >= 0.0 {
-        (b - a) + f(-b) - f(-a)
+        w + f(-b) - f(-a)
     } else if b <= 0.0 {
         f(b) - f(a)
     } else {
@@ -570,9 +574,16 @@ impl Gate {
         g
     }
 
-    /// `Exposure_i(t)` at each time of `t_s` (for plots).
+    /// `Exposure_i(t)` at each time of `t_s` (for plots): 0 outside [`Gate::support_s`]
+    /// without evaluating it (a viewer draws 64 TDC bins across a whole cycle every
+    /// frame; each jittered bin is open on a few of its points).
     pub fn sample(&self, t_s: &[f64]) -> Vec<f64> {
-        t_s.iter().map(|&t| self.value(t)).collect()
+        let (a, b) = self
+            .support_s()
+            .unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
+        t_s.iter()
+            .map(|&t| if t < a || t > b { 0.0 } else { self.value(t) })
+            .collect()
     }
 
     /// The gate's mean time, weighted by sensitivity, seconds (`None` for AMCW).
@@ -658,11 +669,63 @@ impl Gate {
                     // = (s/dt) [integral over x of Phi from (b-u-dt)/s to (b-u)/s, minus
                     // the same for a].
                     let s = *sigma_s;
-                    let part =
-                        |edge: f64| normal_cdf_integral((edge - u_s - dt_s) / s, (edge - u_s) / s);
+                    let part = |edge: f64| normal_cdf_integral((edge - u_s - dt_s) / s, dt_s / s);
                     (s / dt_s * (part(*end_s) - part(*start_s))).clamp(0.0, 1.0)
                 }
             }
+        }
+    }
+
+    /// This gate seen through a Gaussian of standard deviation `sigma_s > 0`, `integral
+    /// N(s; 0, sigma_s) E(t + s) ds`, when that is again a gate of closed form:
+    /// `(gate, factor)` with the blurred exposure `factor x gate`. A box or a jittered
+    /// box becomes a jittered box (variances add; a box's gain is the factor), a
+    /// Gaussian a wider Gaussian of the same area. `None` for other gates.
+    pub fn blurred(&self, sigma_s: f64) -> Option<(Gate, f64)> {
+        if !(sigma_s > 0.0 && sigma_s.is_finite()) {
+            return None;
+        }
+        match *self {
+            Gate::Box {
+                start_s,
+                end_s,
+                gain,
+            } => Some((
+                Gate::Jittered {
+                    start_s,
+                    end_s,
+                    sigma_s,
+                },
+                gain,
+            )),
+            Gate::Jittered {
+                start_s,
+                end_s,
+                sigma_s: s,
+            } => Some((
+                Gate::Jittered {
+                    start_s,
+                    end_s,
+                    sigma_s: s.hypot(sigma_s),
+                },
+                1.0,
+            )),
+            Gate::Gaussian {
+                centre_s,
+                sigma_s: s,
+                peak,
+            } => {
+                let wide = s.hypot(sigma_s);
+                Some((
+                    Gate::Gaussian {
+                        centre_s,
+                        sigma_s: wide,
+                        peak: peak * s / wide,
+                    },
+                    1.0,
+                ))
+            }
+            _ => None,
         }
     }
 

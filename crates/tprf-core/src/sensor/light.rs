@@ -507,6 +507,15 @@ impl Light {
         }
     }
 
+    /// `Some((mu_s, sigma_s))` when the pulse is `energy N(t; mu_s, sigma_s)` (its
+    /// tails, cut at 8 sigma, hold 1.2e-15 of the energy).
+    pub fn gaussian(&self) -> Option<(f64, f64)> {
+        match self.shape {
+            Shape::Gaussian { mu_s, sigma_s } => Some((mu_s, sigma_s)),
+            _ => None,
+        }
+    }
+
     /// The time range holding the pulse, seconds (tails cut where less than 1e-15 of
     /// the energy lies beyond): `(t, t)` for a delta.
     pub fn support_s(&self) -> (f64, f64) {
