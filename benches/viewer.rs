@@ -176,7 +176,9 @@ fn main() {
         .filter(|a| a.parse::<usize>().is_err())
         .collect();
     let part = |name: &str| {
-        only.iter().all(|a| *a == "gated" || *a == "lidar") || only.iter().any(|a| *a == name)
+        only.iter()
+            .all(|a| ["gated", "lidar", "amcw"].contains(&a.as_str()))
+            || only.iter().any(|a| *a == name)
     };
     // `-- spad`: the SPAD preset's preview and first stage after an edit.
     if part("frames") {
@@ -184,7 +186,7 @@ fn main() {
     }
     if part("sensor") {
         // `-- sensor lidar` keeps only that preset's rows.
-        let presets: Vec<&str> = ["gated", "lidar"]
+        let presets: Vec<&str> = ["gated", "lidar", "amcw"]
             .into_iter()
             .filter(|p| only.iter().any(|a| a == p))
             .collect();
@@ -424,6 +426,14 @@ fn sensor(presets: &[&str]) {
             256,
             1024,
             20,
+        ),
+        ("256 x 256 x 1024, AMCW", "amcw", 256, 1024, 20),
+        (
+            "256 x 256 x 1024, SPAD (512 TDC bins)",
+            "spad",
+            256,
+            1024,
+            12,
         ),
     ];
     for (label, preset, side, bins, edits) in rows {

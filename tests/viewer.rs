@@ -1057,6 +1057,19 @@ fn spad_preview_follows_an_edit_and_matches_the_full_image_at_its_pixels() {
         } else if let LightPulse::Gaussian { centre_s, .. } = &mut sensor.light {
             *centre_s += 50e-12;
         }
+        // The frame of the edit keeps the SPAD's images (the last ones, marked as
+        // updating) rather than falling back to the bin's plain measurement.
+        h.step();
+        assert!(
+            h.query_all_by_label_contains("TDC bin k").next().is_some(),
+            "edit {edit}: the SPAD view left the screen"
+        );
+        assert!(
+            h.state().sensor.spad_previewing(&snap)
+                || h.query_by_label_contains("Updating after the edit")
+                    .is_some(),
+            "edit {edit}: stale histograms shown unmarked"
+        );
         let start = Instant::now();
         loop {
             h.step();

@@ -73,9 +73,10 @@ fn spad_images(
     gate_sel: &mut usize,
     view: &mut SpadView,
 ) -> Option<(usize, usize)> {
-    let (Some(model), Some(sp)) = (state.model.as_ref(), state.spad_shown(snap)) else {
+    let (Some(model), Some(shown)) = (state.model.as_ref(), state.spad_shown(snap)) else {
         return None;
     };
+    let sp = shown.sp;
     let (w, h) = (snap.width(), snap.height());
     let preview = sp.is_preview().then_some(sp.step);
     let img = &sp.image;
@@ -97,6 +98,13 @@ fn spad_images(
         _ => "sampling…".to_string(),
     };
     match preview {
+        _ if !shown.current => ui.label(
+            RichText::new(
+                "Updating after the edit… (these histograms are of the sensor or film before \
+                 it)",
+            )
+            .color(ui.visuals().warn_fg_color),
+        ),
         Some(step) => ui.label(
             RichText::new(format!(
                 "PREVIEW from one pixel per {step} x {step} block ({} x {}, made in {:.0} \
@@ -126,7 +134,8 @@ fn spad_images(
         format!("{x:?}").hash(&mut hasher);
         hasher.finish()
     };
-    let key = hash(&(snap.generation(), model.sensor(), sp.shown(*view), sp.step));
+    // Keyed on what the histograms are of (a stale image keeps its textures).
+    let key = hash(&(shown.snapshot, shown.sensor, sp.shown(*view), sp.step));
     let avail = ui.available_size();
     let avail = Vec2::new(avail.x, avail.y - strip_height(avail.y, bins));
     let title_h = 22.0;

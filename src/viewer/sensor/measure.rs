@@ -10,7 +10,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 use tprf_core::film::FilmSnapshot;
-use tprf_core::sensor::spad::{spad_expected, spad_rows};
+use tprf_core::sensor::spad::{spad_expected, spad_expected_until, spad_rows};
 use tprf_core::sensor::{
     AmcwImage, Measurements, NoiseField, Sensor, SensorModel, SpadImage, derived,
 };
@@ -401,6 +401,7 @@ pub(super) fn measure_all(
     ambient_image: Option<Arc<AmbientImage>>,
     mut noise_field: NoiseField,
     clean: Option<Arc<CleanKey>>,
+    cancel: &AtomicBool,
 ) -> Result<Measured, String> {
     let started = Instant::now();
     let sensor = model.sensor();
@@ -423,7 +424,9 @@ pub(super) fn measure_all(
     // additive noise is the gates' own.
     let spad = match model.sensor().spad {
         Some(_) => Some(SpadMeasured::new(
-            spad_expected(model, &m, snap.steady(), ambient).map_err(|e| e.to_string())?,
+            spad_expected_until(model, &m, snap.steady(), ambient, cancel)
+                .map_err(|e| e.to_string())?
+                .ok_or("cancelled by an edit")?,
         )),
         None => None,
     };

@@ -142,24 +142,26 @@ fn spad_plot_ui(
     snap: &FilmSnapshot,
     (y, x): (usize, usize),
 ) -> bool {
-    let (Some(model), Some(sp)) = (state.model(), state.spad_shown(snap)) else {
+    let (Some(model), Some(shown)) = (state.model(), state.spad_shown(snap)) else {
         return false;
     };
-    let img = &sp.image;
+    let (sp, img) = (shown.sp, &shown.sp.image);
     let signal: Vec<f32> = signal.iter().map(|&v| v as f32).collect();
     let steady: f64 = tprf.iter().map(|&v| f64::from(v)).sum();
     let ambient = state.ambient_at(y, x);
     let Ok(px) = spad_pixel_ambient(model, &signal, steady, ambient) else {
         return false;
     };
-    let centres = &img.centres_s;
+    // The current sensor's bins (a stale image may have others).
+    let centres = &model.gate_centres_s().unwrap_or_default();
     let width_s = match centres[..] {
         [a, b, ..] => b - a,
         _ => 0.0,
     };
-    // A preview holds a coarse grid: the pixel's expected histogram is the one computed
-    // here for it, and its realisation is not drawn yet.
-    let (expected, coates, counts) = if sp.is_preview() {
+    // A preview holds a coarse grid, and stale histograms another sensor's: the pixel's
+    // expected histogram is the one computed here for it, and its realisation is not
+    // drawn yet.
+    let (expected, coates, counts) = if sp.is_preview() || !shown.current {
         let e: Vec<f32> = px.expected.iter().map(|&v| v as f32).collect();
         (e, Vec::new(), Vec::new())
     } else {

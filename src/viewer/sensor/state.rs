@@ -17,6 +17,17 @@ use tprf_core::film::FilmSnapshot;
 use tprf_core::sensor::{Measurements, NoiseField, PixelTrace, Sensor, SensorModel};
 use tprf_core::transport::ambient::AmbientImage;
 
+/// SPAD histograms on screen ([`SensorState::spad_shown`]) and what they are of.
+#[derive(Clone, Copy)]
+pub(super) struct SpadShown<'a> {
+    pub(super) sp: &'a SpadMeasured,
+    /// The film generation and sensor they were measured for.
+    pub(super) snapshot: u64,
+    pub(super) sensor: &'a Sensor,
+    /// Whether they are of the current sensor and film (else an edit's are coming).
+    pub(super) current: bool,
+}
+
 /// The shown gate's image, measured on the UI thread right after an edit.
 pub(super) struct Plane {
     /// The film's [`FilmSnapshot::generation`].
@@ -46,6 +57,8 @@ pub struct SensorState {
     pub(super) measured: Option<Measured>,
     pub(super) plane: Option<Plane>,
     job: Option<(Receiver<Stage>, Arc<AtomicBool>)>,
+    /// The sensor `job` measures.
+    job_sensor: Option<Sensor>,
     /// The job drawing the SPAD's realisation after its first stage came back.
     sampling: Option<(Receiver<Stage>, Arc<AtomicBool>)>,
     /// The latest SPAD preview, and the job making the next.
@@ -201,7 +214,13 @@ impl SensorState {
                 .plane
                 .as_ref()
                 .is_none_or(|p| p.snapshot != key || p.gate != gate || p.sensor != *model.sensor());
-            if stale && let Some(k) = model.kernels().get(gate) {
+            // A SPAD shows its histograms, or the last ones until an edit's preview:
+            // the bin's plain image is measured only before there are any.
+            let spad_shown = self.spad_shown_for(model.sensor(), snap).is_some();
+            if stale
+                && !spad_shown
+                && let Some(k) = model.kernels().get(gate)
+            {
                 let started = Instant::now();
                 let packed =
                     tprf_core::sensor::PackedKernels::new(std::slice::from_ref(k), axis.bins);
@@ -239,6 +258,15 @@ impl SensorState {
                 self.preview_for = Some((key, model.sensor().clone()));
                 self.preview_failed = false;
                 self.spawn_preview(&model, snap);
+            }
+            // A SPAD's first stage for a sensor edited since is given up (the preview
+            // stands in meanwhile), so that the current sensor's starts at once rather
+            // than after it; a new film alone lets it finish.
+            if model.sensor().spad.is_some()
+                && let (Some((_, cancel)), Some(s)) = (&self.job, &self.job_sensor)
+                && s != model.sensor()
+            {
+                cancel.store(true, Ordering::Relaxed);
             }
             if self.job.is_none() {
                 self.spawn_measurement(&model, snap);
@@ -292,8 +320,15 @@ impl SensorState {
         // behind it on the global pool.
         let spawned = spawn_on("tprf-sensor", background_pool, move || {
             let run = || {
-                let measured =
-                    measure_all(&job_model, &job_snap, job_ambient, field, clean).ok()?;
+                let measured = measure_all(
+                    &job_model,
+                    &job_snap,
+                    job_ambient,
+                    field,
+                    clean,
+                    &job_cancel,
+                )
+                .ok()?;
                 let sample = measured.spad.as_ref().is_some_and(|s| !s.is_sampled());
                 // The realisation is drawn from a copy's inputs once the first stage
                 // is on its way.
@@ -318,7 +353,10 @@ impl SensorState {
             run();
         });
         match spawned {
-            Ok(_) => self.job = Some((rx, cancel)),
+            Ok(_) => {
+                self.job = Some((rx, cancel));
+                self.job_sensor = Some(model.sensor().clone());
+            }
             Err(e) => self.error = Some(format!("cannot start the measurement thread: {e}")),
         }
     }
@@ -380,16 +418,51 @@ impl SensorState {
     }
 
     /// The SPAD's histograms to show: the latest ones when current, else the preview
-    /// when it is that of the current sensor and film (see [`SpadMeasured::step`]).
-    pub(super) fn spad_shown(&self, snap: &FilmSnapshot) -> Option<&SpadMeasured> {
-        if let Some(sp) = self.spad(snap) {
-            return Some(sp);
+    /// when it is that of the current sensor and film (see [`SpadMeasured::step`]),
+    /// else, in the frames between an edit and its preview, the latest preview or
+    /// histograms of an earlier sensor or film, marked stale ([`SpadShown::current`]):
+    /// the view keeps its images and layout while a drag goes on rather than falling
+    /// back to the bin's plain measurement for a frame or two.
+    pub(super) fn spad_shown(&self, snap: &FilmSnapshot) -> Option<SpadShown<'_>> {
+        self.spad_shown_for(self.model.as_ref()?.sensor(), snap)
+    }
+
+    /// [`Self::spad_shown`] with `sensor` the current one.
+    fn spad_shown_for(&self, sensor: &Sensor, snap: &FilmSnapshot) -> Option<SpadShown<'_>> {
+        sensor.spad.as_ref()?;
+        let full = self.measured.as_ref().and_then(|m| {
+            m.spad.as_ref().map(|sp| SpadShown {
+                sp,
+                snapshot: m.snapshot,
+                sensor: &m.sensor,
+                current: false,
+            })
+        });
+        let preview = self.preview.as_ref().map(|p| SpadShown {
+            sp: &p.spad,
+            snapshot: p.snapshot,
+            sensor: &p.sensor,
+            current: false,
+        });
+        if self.is_current_for(snap.generation(), sensor) {
+            return full.map(|f| SpadShown { current: true, ..f });
         }
-        let model = self.model.as_ref()?;
-        if !self.preview_is_current_for(snap.generation(), model.sensor()) {
-            return None;
+        if self.preview_is_current_for(snap.generation(), sensor) {
+            return preview.map(|p| SpadShown { current: true, ..p });
         }
-        self.preview.as_ref().map(|p| &p.spad)
+        // The newer of the two: a preview is started after every edit, so it is of a
+        // later sensor than the full histograms unless those have caught up with it.
+        // Only histograms of the film's size (a new resolution starts afresh).
+        let fits = |s: &SpadShown| {
+            let step = s.sp.step.max(1);
+            (s.sp.image.width, s.sp.image.height)
+                == (snap.width().div_ceil(step), snap.height().div_ceil(step))
+        };
+        let (preview, full) = (preview.filter(fits), full.filter(fits));
+        match (preview, full) {
+            (Some(p), Some(f)) if f.sensor == p.sensor && f.snapshot >= p.snapshot => Some(f),
+            (p, f) => p.or(f),
+        }
     }
 
     /// Milliseconds the shown SPAD preview took, when one is shown.
@@ -418,7 +491,8 @@ impl SensorState {
     /// Whether the window shows the SPAD's preview (the full histograms are being
     /// measured).
     pub fn spad_previewing(&self, snap: &FilmSnapshot) -> bool {
-        self.spad_shown(snap).is_some_and(SpadMeasured::is_preview)
+        self.spad_shown(snap)
+            .is_some_and(|s| s.current && s.sp.is_preview())
     }
 
     /// The SPAD's latest histograms and depths (sensors with a `[spad]` section), when
