@@ -5,19 +5,19 @@
 use crate::film::{
     DENSE_BAND_VALUES, FilmError, FilmLayout, FilmSnapshot, LeftOutCounts, StoreStats, TimeAxis,
 };
+use bulk_file::BulkFile;
 pub use npy_read::NpyF32;
 use npyz::WriterBuilder;
 use serde::{Deserialize, Serialize};
-use sparse_file::SparseWriter;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 pub mod ambient;
+pub mod bulk_file;
 mod npy_read;
 pub mod sensor;
 pub mod shard;
-pub mod sparse_file;
 pub mod staging;
 pub mod zarr;
 
@@ -286,6 +286,39 @@ pub fn write_atomic(
     result
 }
 
+/// [`write_atomic`] for a large file written front to back through a [`BulkFile`]
+/// (`O_DIRECT` where allowed, all-zero chunks left as holes).
+pub fn write_atomic_bulk(
+    path: &Path,
+    write: impl FnOnce(&mut BulkFile) -> Result<(), WriteError>,
+) -> Result<(), ExportError> {
+    let tmp = temp_path(path);
+    let result = (|| {
+        let mut file = BulkFile::create(&tmp).map_err(|source| ExportError::Create {
+            path: tmp.clone(),
+            source,
+        })?;
+        let written = (|| -> Result<(), WriteError> {
+            write(&mut file)?;
+            file.finish()?;
+            Ok(())
+        })();
+        written.map_err(|source| ExportError::Write {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        std::fs::rename(&tmp, path).map_err(|source| ExportError::Rename {
+            from: tmp.clone(),
+            to: path.to_path_buf(),
+            source,
+        })
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
 /// Create folder `dir` and its parents (nothing if it exists).
 pub fn create_dir(dir: &Path) -> Result<(), ExportError> {
     std::fs::create_dir_all(dir).map_err(|source| ExportError::Create {
@@ -486,8 +519,8 @@ impl Drop for NpyBands {
 /// Write a snapshot's cube as a float32 C-order `.npy`: `[H, W, T]` for the total
 /// (`layer` `None`) or `[L, H, W, T]` for all per-bounce layers (`layer` `Some(_)` is
 /// ignored beyond choosing that form). Rows are made dense one at a time, so the only
-/// cube-sized memory is the file, and blocks of zeros are left as holes in it
-/// ([`sparse_file`]): the write costs what the light stored, not the dense size.
+/// cube-sized memory is the file, written straight to the disk with chunks of zeros
+/// left as holes ([`bulk_file`]).
 pub fn write_snapshot_npy(
     path: &Path,
     snap: &FilmSnapshot,
@@ -504,12 +537,12 @@ pub fn write_snapshot_npy(
     } else {
         (vec![h, w, t], vec![None])
     };
-    write_atomic(path, |out| {
-        // Blocks of bins no light reached are holes in the file, not written zeros.
-        let mut sparse = npyz::WriteOptions::<f32>::new()
+    write_atomic_bulk(path, |out| {
+        // Chunks no light reached are holes in the file, not written zeros.
+        let sparse = npyz::WriteOptions::<f32>::new()
             .default_dtype()
             .shape(&shape)
-            .writer(SparseWriter::new(&mut *out))
+            .writer(&mut *out)
             .write_header_only()?;
         // The data: little-endian float32 (the header's `<f4`), a row at a time.
         let (mut row, mut bytes) = (Vec::new(), Vec::new());
@@ -521,9 +554,6 @@ pub fn write_snapshot_npy(
                 sparse.write_all(&bytes)?;
             }
         }
-        let (len, out) = sparse.finish()?;
-        out.flush()?;
-        out.get_ref().set_len(len)?;
         Ok(())
     })
 }

@@ -659,11 +659,11 @@ fn merge_npy(
     let planes = layers.unwrap_or(1);
     let mut read = 0u64;
     let mut failure: Option<ShardError> = None;
-    super::write_atomic(&dir.join(name), |out| {
-        let mut sparse = npyz::WriteOptions::<f32>::new()
+    super::write_atomic_bulk(&dir.join(name), |out| {
+        let sparse = npyz::WriteOptions::<f32>::new()
             .default_dtype()
             .shape(&shape)
-            .writer(super::sparse_file::SparseWriter::new(&mut *out))
+            .writer(&mut *out)
             .write_header_only()?;
         let mut row = vec![0u8; row_bytes];
         for plane in 0..planes {
@@ -679,9 +679,6 @@ fn merge_npy(
                 sparse.write_all(&row)?;
             }
         }
-        let (len, out) = sparse.finish()?;
-        out.flush()?;
-        out.get_ref().set_len(len)?;
         Ok(())
     })
     .map_err(|e| failure.take().unwrap_or(ShardError::Export(e)))?;
