@@ -45,6 +45,74 @@ fn number(
     ui.end_row();
 }
 
+/// The light's energy in joules, shown with an SI prefix ("1 µJ", "2.5 mJ") and typed
+/// as joules or with a unit ("1e-6", "1 uJ"): a real pulse's microjoules would read
+/// 0.00 with two decimals.
+fn energy_j(ui: &mut egui::Ui, v: &mut f64) {
+    let l = ui.label("energy");
+    let speed = (v.abs() * 0.01).max(1e-18);
+    ui.add(
+        egui::DragValue::new(v)
+            .range(0.0..=1e12)
+            .speed(speed)
+            .custom_formatter(|x, _| si_joules(x))
+            .custom_parser(parse_joules),
+    )
+    .on_hover_text("pulse energy, J (type e.g. 1e-6 or 1 uJ)")
+    .labelled_by(l.id);
+    ui.end_row();
+}
+
+/// `x` joules with the SI prefix that puts it in 1 ..= 999, four significant digits.
+fn si_joules(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x} J");
+    }
+    const PREFIXES: [(f64, &str); 7] = [
+        (1e3, "kJ"),
+        (1.0, "J"),
+        (1e-3, "mJ"),
+        (1e-6, "µJ"),
+        (1e-9, "nJ"),
+        (1e-12, "pJ"),
+        (1e-15, "fJ"),
+    ];
+    let (scale, unit) = PREFIXES
+        .iter()
+        .copied()
+        .find(|(s, _)| x.abs() >= *s * 0.9995)
+        .unwrap_or((1e-15, "fJ"));
+    let v = x / scale;
+    let decimals = 3usize.saturating_sub(v.abs().log10().floor().max(0.0) as usize);
+    let text = format!("{v:.decimals$}");
+    let text = if text.contains('.') {
+        text.trim_end_matches('0').trim_end_matches('.')
+    } else {
+        &text
+    };
+    format!("{text} {unit}")
+}
+
+/// Joules typed as a number or a number and a unit (fJ .. kJ, `u` for µ).
+fn parse_joules(s: &str) -> Option<f64> {
+    let s = s.trim();
+    for (suffix, scale) in [
+        ("fJ", 1e-15),
+        ("pJ", 1e-12),
+        ("nJ", 1e-9),
+        ("µJ", 1e-6),
+        ("uJ", 1e-6),
+        ("mJ", 1e-3),
+        ("kJ", 1e3),
+        ("J", 1.0),
+    ] {
+        if let Some(num) = s.strip_suffix(suffix) {
+            return num.trim().parse::<f64>().ok().map(|v| v * scale);
+        }
+    }
+    s.parse().ok()
+}
+
 /// A count from 1 to `max`.
 fn count(ui: &mut egui::Ui, label: &str, v: &mut u64, max: u64) {
     let l = ui.label(label);
@@ -213,7 +281,7 @@ pub(crate) fn controls_ui(
         .show(ui, |ui| match &mut sensor.light {
             LightPulse::Delta { t_s, energy } => {
                 time_ns(ui, "time", t_s, speed);
-                number(ui, "energy", energy, 0.0..=1e12, 0.01);
+                energy_j(ui, energy);
             }
             LightPulse::Gaussian {
                 centre_s,
@@ -222,7 +290,7 @@ pub(crate) fn controls_ui(
             } => {
                 time_ns(ui, "centre", centre_s, speed);
                 time_ns(ui, "FWHM", fwhm_s, speed);
-                number(ui, "energy", energy, 0.0..=1e12, 0.01);
+                energy_j(ui, energy);
             }
             LightPulse::Rect {
                 start_s,
@@ -231,7 +299,7 @@ pub(crate) fn controls_ui(
             } => {
                 time_ns(ui, "start", start_s, speed);
                 time_ns(ui, "width", width_s, speed);
-                number(ui, "energy", energy, 0.0..=1e12, 0.01);
+                energy_j(ui, energy);
             }
             LightPulse::Exponential {
                 onset_s,
@@ -240,7 +308,7 @@ pub(crate) fn controls_ui(
             } => {
                 time_ns(ui, "onset", onset_s, speed);
                 time_ns(ui, "decay τ", tau_s, speed);
-                number(ui, "energy", energy, 0.0..=1e12, 0.01);
+                energy_j(ui, energy);
             }
             LightPulse::LaserDiode {
                 onset_s,
@@ -251,7 +319,7 @@ pub(crate) fn controls_ui(
                 time_ns(ui, "onset", onset_s, speed);
                 time_ns(ui, "rise", rise_s, speed);
                 time_ns(ui, "fall", fall_s, speed);
-                number(ui, "energy", energy, 0.0..=1e12, 0.01);
+                energy_j(ui, energy);
             }
             LightPulse::Sinc2 {
                 centre_s,
@@ -265,12 +333,12 @@ pub(crate) fn controls_ui(
                 ui.add(egui::DragValue::new(lobes).range(0..=64))
                     .labelled_by(l.id);
                 ui.end_row();
-                number(ui, "energy", energy, 0.0..=1e12, 0.01);
+                energy_j(ui, energy);
             }
             LightPulse::PiecewiseLinear { points, energy } => {
                 ui.label(format!("{} knots: drag them on the plot", points.len()));
                 ui.end_row();
-                number(ui, "energy", energy, 0.0..=1e12, 0.01);
+                energy_j(ui, energy);
             }
         });
 
@@ -448,4 +516,30 @@ pub(crate) fn controls_ui(
         ui.end_row();
     });
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Hand-written cases: the prefix that puts the value in 1 ..= 999, and the typed
+    /// forms read back.
+    #[test]
+    fn joules_are_shown_with_a_prefix_and_read_back() {
+        for (x, shown) in [
+            (1e-6, "1 µJ"),
+            (2.5e-3, "2.5 mJ"),
+            (1.0, "1 J"),
+            (0.0, "0 J"),
+            (123.456e-9, "123.5 nJ"),
+            (4e3, "4 kJ"),
+        ] {
+            assert_eq!(si_joules(x), shown, "{x}");
+            let back = parse_joules(shown).unwrap();
+            assert!((back - x).abs() <= 1e-3 * x.abs(), "{shown}: {back}");
+        }
+        assert_eq!(parse_joules("1e-6"), Some(1e-6));
+        assert_eq!(parse_joules(" 3 uJ "), Some(3e-6));
+        assert_eq!(parse_joules("lots"), None);
+    }
 }
