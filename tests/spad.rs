@@ -19,7 +19,8 @@ use tprf_core::sensor::FirstReturn;
 use tprf_core::sensor::light::FWHM_PER_SIGMA;
 use tprf_core::sensor::spad::sample::{pixel_stream, sample_pixel};
 use tprf_core::sensor::spad::{
-    Detector, Sampler, coates, return_depth_m, spad_pixel, spad_pixel_ambient,
+    Detector, Sampler, coates, return_depth_m, spad_expected, spad_expected_until, spad_pixel,
+    spad_pixel_ambient,
 };
 use tprf_core::sensor::{
     Acquisition, Exposure, LightPulse, Sensor, SensorError, SensorModel, Spad, TimeOrigin,
@@ -802,6 +803,65 @@ fn pulse_energy_and_photon_factor_enter_as_a_product() {
             );
         }
     }
+}
+
+/// The cancellable expected histogram: with its flag left clear it is the plain one,
+/// value for value; with the flag set before it starts it gives up (`None`) rather than
+/// an image.
+#[test]
+fn the_expected_histogram_gives_up_when_cancelled() {
+    use std::sync::atomic::AtomicBool;
+    let bins = 64;
+    let ax = axis(0.0, 0.1 * NS, bins);
+    let (w, h) = (9, 8);
+    let cube: Vec<f32> = (0..w * h * bins)
+        .map(|i| {
+            if i % bins == 10 + (i / bins) % 7 {
+                2e-3
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let steady: Vec<f32> = cube.chunks(bins).map(|px| px.iter().sum()).collect();
+    let s = Spad {
+        photons_per_unit: 1e3,
+        ..spad(500)
+    };
+    let m = model(
+        spad_sensor(s, bins as u64, 0.1 * NS, LightPulse::default()),
+        ax,
+    );
+    let Ok(meas) = m.measure_clean(&cube, w, h) else {
+        panic!("measure");
+    };
+    let plain = match spad_expected(&m, &meas, &steady, None) {
+        Ok(i) => i,
+        Err(e) => panic!("{e}"),
+    };
+    let clear = AtomicBool::new(false);
+    let Ok(Some(until)) = spad_expected_until(&m, &meas, &steady, None, &clear) else {
+        panic!("not cancelled, yet no image");
+    };
+    assert_eq!(until.histogram, plain.histogram);
+    assert_eq!(
+        until
+            .depth_histogram_m
+            .iter()
+            .map(|d| d.to_bits())
+            .collect::<Vec<_>>(),
+        plain
+            .depth_histogram_m
+            .iter()
+            .map(|d| d.to_bits())
+            .collect::<Vec<_>>()
+    );
+    assert!(plain.histogram.iter().any(|&v| v > 0.0));
+    let set = AtomicBool::new(true);
+    assert!(matches!(
+        spad_expected_until(&m, &meas, &steady, None, &set),
+        Ok(None)
+    ));
 }
 
 /// Mean of the first-photon time for a Gaussian return of `total` photons centred at
