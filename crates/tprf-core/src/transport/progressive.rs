@@ -23,10 +23,13 @@ pub enum PassSize {
     /// costs about as much as 2 samples of a pixel: the passes of a small film grow so
     /// that this stays a few per cent.)
     Doubling { cap: u32 },
-    /// Passes of about `seconds` each, sized from the rate the last pass measured
-    /// (1 to 256 samples per pixel): a fresh preview at a steady pace. Pass sizes then
-    /// depend on the machine's speed, and so does which half of the film (even or odd
-    /// passes) each sample lands in.
+    /// Passes sized from the rate the last pass measured (1 to 256 samples per pixel):
+    /// about `seconds` each at first, growing to [`PACED_GROWTH`] times that over the
+    /// first [`PACED_GROWTH_S`] seconds of the render: fresh previews while the image
+    /// is young, and later fewer of the merges into the film and the snapshots a pass
+    /// costs, which at 0.25 s a pass held a window to 0.75 of `tprf render`'s rate (1.00 now).
+    /// Pass sizes then depend on the machine's speed, and so does which half of the
+    /// film (even or odd passes) each sample lands in.
     Paced { seconds: f64 },
 }
 
@@ -116,6 +119,19 @@ pub fn doubling_spp(pass: u64, cap: u32) -> u32 {
 /// Largest pass of [`PassSize::Paced`], samples per pixel.
 const MAX_PACED_SPP: u32 = 256;
 
+/// How much longer than its first passes a [`PassSize::Paced`] pass grows.
+pub const PACED_GROWTH: f64 = 4.0;
+
+/// Seconds of rendering over which [`PassSize::Paced`] passes grow to [`PACED_GROWTH`]
+/// times their first length (linearly).
+pub const PACED_GROWTH_S: f64 = 6.0;
+
+/// The length a [`PassSize::Paced`] pass aims at, `render_s` seconds into the render.
+pub fn paced_target_s(seconds: f64, render_s: f64) -> f64 {
+    let grown = 1.0 + (PACED_GROWTH - 1.0) * (render_s / PACED_GROWTH_S).clamp(0.0, 1.0);
+    seconds * grown
+}
+
 /// Run passes of `renderer` into `film` until `schedule` is met or `on_pass` breaks;
 /// returns the report of every pass made. A film that already holds samples goes on
 /// from where it is (its pass index and spp).
@@ -159,7 +175,8 @@ pub fn render(
         paths += stats.paths;
         left_out += stats.left_out;
         if let PassSize::Paced { seconds } = schedule.pass_size {
-            let ratio = seconds / pass_time.as_secs_f64().max(1e-4);
+            let target = paced_target_s(seconds, render_time.as_secs_f64());
+            let ratio = target / pass_time.as_secs_f64().max(1e-4);
             paced_spp = ((spp as f64 * ratio).round().max(1.0) as u32).min(MAX_PACED_SPP);
         }
         let mut report = PassReport {
@@ -184,4 +201,19 @@ pub fn render(
         }
     }
     reports
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Hand-computed: 0.25 s passes at the start, 4 x 0.25 = 1 s from 6 s on, half
+    /// way (3 s) 0.25 (1 + 3 / 2) = 0.625 s.
+    #[test]
+    fn paced_passes_grow_from_their_first_length_to_four_times_it() {
+        for (render_s, want) in [(0.0, 0.25), (3.0, 0.625), (6.0, 1.0), (100.0, 1.0)] {
+            let got = paced_target_s(0.25, render_s);
+            assert!((got - want).abs() < 1e-12, "{render_s} s: {got} vs {want}");
+        }
+    }
 }

@@ -124,11 +124,10 @@ pub struct RenderWorker {
     handle: Option<JoinHandle<()>>,
 }
 
-/// Seconds a pass should take: short enough to keep the view fresh, long enough that
-/// a pass's merge into the film and its snapshot stay a small part of it. At 0.25 s the
-/// window reached 32 spp at 256 x 256 x 512 at 0.75 of `tprf render`'s rate on 2 cores
-/// (`cargo bench --bench viewer -- throughput`), at 0.5 s at 0.97.
-const PASS_TARGET_S: f64 = 0.5;
+/// Seconds the first passes take, short enough to keep a young image fresh; later
+/// passes grow to 4 times that ([`progressive::PACED_GROWTH`]) so that a pass's merge
+/// into the film and its snapshot stay a small part of it.
+const PASS_TARGET_S: f64 = 0.25;
 
 /// Samples per pixel of the ambient image the worker renders once, after the film's
 /// first pass, when the scene has ambient light.
