@@ -257,33 +257,17 @@ pub fn write_atomic(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<File>) -> Result<(), WriteError>,
 ) -> Result<(), ExportError> {
-    let tmp = temp_path(path);
-    let result = (|| {
-        let file = File::create(&tmp).map_err(|source| ExportError::Create {
-            path: tmp.clone(),
-            source,
-        })?;
-        let written = (|| -> Result<(), WriteError> {
+    through_temp(
+        path,
+        |p| File::create(p),
+        |file| {
             let mut w = BufWriter::new(file);
             write(&mut w)?;
             w.flush()?;
             w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
             Ok(())
-        })();
-        written.map_err(|source| ExportError::Write {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        std::fs::rename(&tmp, path).map_err(|source| ExportError::Rename {
-            from: tmp.clone(),
-            to: path.to_path_buf(),
-            source,
-        })
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+        },
+    )
 }
 
 /// [`write_atomic`] for a large file written front to back through a [`BulkFile`]
@@ -292,18 +276,27 @@ pub fn write_atomic_bulk(
     path: &Path,
     write: impl FnOnce(&mut BulkFile) -> Result<(), WriteError>,
 ) -> Result<(), ExportError> {
+    through_temp(path, BulkFile::create, |mut file| {
+        write(&mut file)?;
+        file.finish()?;
+        Ok(())
+    })
+}
+
+/// The temporary file beside `path` made by `create`, filled (and synced) by `fill`,
+/// renamed over `path`; removed on any failure, `path` untouched.
+fn through_temp<F>(
+    path: &Path,
+    create: impl FnOnce(&Path) -> std::io::Result<F>,
+    fill: impl FnOnce(F) -> Result<(), WriteError>,
+) -> Result<(), ExportError> {
     let tmp = temp_path(path);
     let result = (|| {
-        let mut file = BulkFile::create(&tmp).map_err(|source| ExportError::Create {
+        let file = create(&tmp).map_err(|source| ExportError::Create {
             path: tmp.clone(),
             source,
         })?;
-        let written = (|| -> Result<(), WriteError> {
-            write(&mut file)?;
-            file.finish()?;
-            Ok(())
-        })();
-        written.map_err(|source| ExportError::Write {
+        fill(file).map_err(|source| ExportError::Write {
             path: path.to_path_buf(),
             source,
         })?;
