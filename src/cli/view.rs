@@ -20,5 +20,12 @@ pub fn run(a: &ViewArgs) -> Result<()> {
         Some(w) if Path::new(w).is_dir() => Start::Cube(PathBuf::from(w)),
         Some(w) => Start::Scene(w.clone()),
     };
+    // rayon's global pool (the UI's time slices and gate images, the automatic window's
+    // pilot) named as such: unnamed, its threads took the name of whichever thread made
+    // them first (the render thread's), which made profiles of the window misleading.
+    // Already built (it cannot be here) is not an error worth stopping for.
+    let _ = rayon::ThreadPoolBuilder::new()
+        .thread_name(|i| format!("tprf-global-{i}"))
+        .build_global();
     crate::viewer::run(start).map_err(|e| anyhow::anyhow!("cannot open the window: {e}"))
 }
