@@ -1142,6 +1142,56 @@ fn spad_preview_follows_an_edit_and_matches_the_full_image_at_its_pixels() {
     }
 }
 
+/// A new resolution in SPAD mode: the histograms of the old film (another size) are
+/// never drawn over the new one; every frame until the new film's are measured shows
+/// histograms of the new film's size or none, and they come.
+#[test]
+fn a_new_resolution_in_spad_mode_never_shows_the_old_films_histograms() {
+    // Tall enough that the SPAD's controls leave "Apply & restart" on screen.
+    let settings = ViewerSettings {
+        mode: Mode::Sensor,
+        ..small_settings("builtin:cornell", 16, 32, 2)
+    };
+    let mut h = Harness::builder()
+        .with_size(Vec2::new(1280.0, 1800.0))
+        .build_eframe(move |cc| TprfApp::with_settings(cc, settings, Start::Default));
+    wait_done(&mut h, Duration::from_secs(120));
+    h.state_mut().settings.sensor = Sensor::builtin("spad").unwrap();
+    h.step();
+    wait_sensor(&mut h);
+    let old = h.state().snapshot().unwrap();
+    assert!(h.state().sensor.spad_image(&old).is_some());
+    h.state_mut().pending.width = 24;
+    h.step();
+    h.get_by_label("Apply & restart").click();
+    let start = Instant::now();
+    loop {
+        h.step();
+        assert!(
+            start.elapsed() < Duration::from_secs(120),
+            "no SPAD histograms of the new film"
+        );
+        // The restarted render has no film for its first moments.
+        let Some(snap) = h.state().snapshot() else {
+            std::thread::sleep(Duration::from_millis(5));
+            continue;
+        };
+        if let Some(img) = h.state().sensor.spad_image(&snap) {
+            assert_eq!((img.width, img.height), (snap.width(), snap.height()));
+            if snap.width() == 24 {
+                break;
+            }
+        }
+        if let Some((img, step)) = h.state().sensor.spad_preview(&snap) {
+            assert_eq!(
+                (img.width, img.height),
+                (snap.width().div_ceil(step), snap.height().div_ceil(step))
+            );
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
 #[test]
 fn spad_preset_shows_the_first_photon_histogram_of_the_cached_film() {
     use tprf_core::sensor::Spad;

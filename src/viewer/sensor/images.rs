@@ -4,7 +4,7 @@
 //! gates need light the film does not hold, which ones, with the two ways out.
 
 use super::gate_time_label;
-use super::measure::SpadView;
+use super::measure::{Measured, SpadView};
 use super::state::SensorState;
 use super::view::{Coverage, coverage, gates_fitted, main_span, window_covering};
 use crate::viewer::axes::{self, BIN_UNIT, BarScale};
@@ -405,7 +405,7 @@ fn measurement_images(
         format!("{x:?}").hash(&mut hasher);
         hasher.finish()
     };
-    let measured = state.measured.as_ref();
+    let measured = measured_of_film(state, snap);
     // One exposure over all gates, the same before and after all gates are measured.
     let white = state
         .shared_white()
@@ -749,7 +749,7 @@ fn readout(
     );
     // The depth images on screen are the latest full measurement's (a pass behind
     // while the renderer runs): read out what is shown.
-    if let Some(m) = &state.measured {
+    if let Some(m) = measured_of_film(state, snap) {
         if let Some(d) = m.depth().and_then(|d| d.get(i)) {
             if d.is_finite() {
                 s += &format!(" · depth {d:.3} m");
@@ -764,6 +764,16 @@ fn readout(
         }
     }
     s
+}
+
+/// The latest measurement of all gates when it has the film's size: a pass behind
+/// while the renderer runs, it is drawn until the next one comes; one of a film of
+/// another resolution (a restart) is not (its images would not fit the film's).
+fn measured_of_film<'a>(state: &'a SensorState, snap: &FilmSnapshot) -> Option<&'a Measured> {
+    state
+        .measured
+        .as_ref()
+        .filter(|m| (m.m.width, m.m.height) == (snap.width(), snap.height()))
 }
 
 /// Depth in turbo between `lo` and `hi`; no return is black.
