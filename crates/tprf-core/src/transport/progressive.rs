@@ -27,7 +27,7 @@ pub enum PassSize {
     /// about `seconds` each at first, growing to [`PACED_GROWTH`] times that over the
     /// first [`PACED_GROWTH_S`] seconds of the render: fresh previews while the image
     /// is young, and later fewer of the merges into the film and the snapshots a pass
-    /// costs, which at 0.25 s a pass held a window to 0.75 of `tprf render`'s rate (1.00 now).
+    /// costs (at a fixed 0.25 s they held a window to 0.75 of `tprf render`'s rate).
     /// Pass sizes then depend on the machine's speed, and so does which half of the
     /// film (even or odd passes) each sample lands in.
     Paced { seconds: f64 },

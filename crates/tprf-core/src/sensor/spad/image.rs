@@ -189,9 +189,9 @@ pub fn spad_expected(
     steady: &[f32],
     ambient: Option<&[f32]>,
 ) -> Result<SpadImage, SensorError> {
-    let never = AtomicBool::new(false);
-    spad_expected_until(model, signal, steady, ambient, &never)?
-        .ok_or_else(|| SensorError::Invalid("the SPAD's expected histogram was cancelled".into()))
+    let plan = Plan::new(model, signal, steady, ambient)?;
+    plan.check_budget(plan.pixels(), false)?;
+    Ok(plan.expected_image())
 }
 
 /// [`spad_expected`], given up (`Ok(None)`) when `cancel` is set meanwhile (checked
@@ -206,14 +206,8 @@ pub fn spad_expected_until(
     let mut plan = Plan::new(model, signal, steady, ambient)?;
     plan.check_budget(plan.pixels(), false)?;
     plan.cancel = Some(cancel);
-    let band = plan.band(0..plan.pixels(), None);
-    if cancel.load(Ordering::Relaxed) {
-        return Ok(None);
-    }
-    let total = band.totals.iter().sum();
-    let mut image = plan.image(band, signal.height);
-    image.sampler = plan.sampler(total);
-    Ok(Some(image))
+    let image = plan.expected_image();
+    Ok((!cancel.load(Ordering::Relaxed)).then_some(image))
 }
 
 /// Draws the realisation of `image` (made by [`spad_expected`] from the same inputs),
@@ -454,6 +448,16 @@ impl<'a> Plan<'a> {
                 out[i * b + k] = v;
             }
         }
+    }
+
+    /// The expected histograms and depths of every pixel, with the sampler of their
+    /// total; `counts`, `coates` and their depths left empty.
+    fn expected_image(&self) -> SpadImage {
+        let band = self.band(0..self.pixels(), None);
+        let total = band.totals.iter().sum();
+        let mut image = self.image(band, self.signal.height);
+        image.sampler = self.sampler(total);
+        image
     }
 
     fn sampler(&self, expected_detections: f64) -> Sampler {
