@@ -1,6 +1,6 @@
 //! The renderer against answers derived by hand: a plane lit by a co-located point light
 //! (single bounce, per pixel time and value) and the transient furnace (a closed diffuse
-//! sphere with light and camera at the centre).
+//! sphere with light and camera at the centre, or the light off the centre).
 
 mod common;
 use common::*;
@@ -255,6 +255,90 @@ fn russian_roulette_floor_and_no_roulette_are_unbiased() {
             "rr_start {rr_start}, floor {floor}: {mean} vs {want} (se {se})"
         );
     }
+}
+
+/// The furnace with its light off the centre, near the wall (a point light, or a spot
+/// when `spot` holds its inner and outer cone angles): the first bounce is bright next
+/// to the light, but the light the wall scatters (all the light's power P, times rho)
+/// spreads uniformly over a sphere (`cos cos / d^2 = 1 / (4 R^2)` for any two wall
+/// points), so from the second bounce on every pixel sees exactly
+/// `rho^j P / (4 pi^2 R^2)` at bounce j, however the light is placed or aimed
+/// (`P = 4 pi I` for a point light: `rho^j I / (pi R^2)`). These are the paths
+/// that light-vertex connections (MIS against BSDF sampling, with and without the first
+/// vertex split) find a second way; their weights vary over the wall here, unlike with
+/// the light at the centre. Returns the spread of the pixels' second bounce over its
+/// expected value (pure noise, the answer being uniform).
+fn check_off_centre_furnace(light_vertex: bool, splits: u32, spot: Option<(f32, f32)>) -> f64 {
+    let (r_m, rho, i) = (1.0f32, 0.5f32, 2.0f32);
+    let mut scene = furnace(r_m, rho, i);
+    scene.lights[0].position = glam::Vec3::new(0.45, 0.3, -0.55);
+    // Power: 2 pi I times the integral over cos(theta) of the falloff
+    // ((c - cos_outer) / (cos_inner - cos_outer))^2, clamped to [0, 1].
+    let power_w = match spot {
+        None => 4.0 * std::f64::consts::PI * i as f64,
+        Some((inner, outer)) => {
+            scene.lights[0].spot = Some(tprf_core::scene::Spot {
+                direction: glam::Vec3::new(0.3, -0.8, -0.4).normalize(),
+                inner_cone_rad: inner,
+                outer_cone_rad: outer,
+            });
+            let (ci, co) = (inner.cos() as f64, outer.cos() as f64);
+            2.0 * std::f64::consts::PI * i as f64 * ((ci - co) / 3.0 + (1.0 - ci))
+        }
+    };
+    // One bin holding everything but rho^100 of the light.
+    let axis = TimeAxis::new(0.0, 150.0 * r_m as f64 / C, 1).unwrap();
+    let settings = RenderSettings {
+        seed: 5,
+        light_vertex,
+        first_bounce_splits: splits,
+        ..RenderSettings::default()
+    };
+    let film = render_with(scene, 8, 8, axis, 512, settings, 3).film;
+    let unit = power_w / (4.0 * std::f64::consts::PI.powi(2) * (r_m * r_m) as f64);
+    let rho = rho as f64;
+    // Layers: bounce 0, 1, 2, 3, then 4 and more.
+    let expected = [
+        (2, rho.powi(2)),
+        (3, rho.powi(3)),
+        (4, rho.powi(4) / (1.0 - rho)),
+    ];
+    let mut spread_2 = 0.0;
+    for (layer, factor) in expected {
+        let values: Vec<f64> = (0..64)
+            .map(|p| film.pixel_bounces(p % 8, p / 8)[layer][0])
+            .collect();
+        let mean = values.iter().sum::<f64>() / 64.0;
+        let sd = (values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / 63.0).sqrt();
+        let want = factor * unit;
+        // 4 standard errors, plus 0.5 % for the facets (the icosphere lies inside R).
+        assert!(
+            (mean - want).abs() < 4.0 * sd / 8.0 + 0.005 * want,
+            "light vertex {light_vertex}, splits {splits}, spot {spot:?}, bounce layer {layer}: \
+             {mean} vs {want} (pixel spread {sd})"
+        );
+        if layer == 2 {
+            spread_2 = sd / want;
+        }
+    }
+    spread_2
+}
+
+#[test]
+fn light_vertex_connections_are_unbiased_and_tame_a_light_near_a_wall() {
+    let off = check_off_centre_furnace(false, 1, None);
+    let on = check_off_centre_furnace(true, 1, None);
+    let on_split = check_off_centre_furnace(true, 4, None);
+    let spot = Some((0.35, 0.6));
+    let spot_off = check_off_centre_furnace(false, 1, spot);
+    let spot_on = check_off_centre_furnace(true, 2, spot);
+    // Found from the light, the second bounce no longer carries the light's 1 / r^2.
+    assert!(
+        on < 0.5 * off,
+        "second-bounce noise with light vertices {on}, without {off}"
+    );
+    assert!(on_split < off, "split: {on_split} vs {off}");
+    assert!(spot_on < spot_off, "spot: {spot_on} vs {spot_off}");
 }
 
 /// Splitting a sample at its first vertex (each of k branches carrying 1/k) stays

@@ -33,8 +33,19 @@ pub struct EstimatorSetting {
     pub max_bounces: Option<u32>,
     /// Branches at the first vertex (`RenderSettings::first_bounce_splits`; 0 = auto).
     pub splits: Option<u32>,
+    /// Light-vertex connections on or off (`RenderSettings::light_vertex`).
+    pub light_vertex: Option<bool>,
     /// Its own time budget, seconds (default: the run's).
     pub seconds: Option<f64>,
+}
+
+/// `on` / `off` (or true / false, 1 / 0).
+fn on_off(v: &str) -> Option<bool> {
+    match v {
+        "on" | "true" | "1" => Some(true),
+        "off" | "false" | "0" => Some(false),
+        _ => None,
+    }
 }
 
 impl EstimatorSetting {
@@ -48,6 +59,7 @@ impl EstimatorSetting {
             rr_min_survival: None,
             max_bounces: None,
             splits: None,
+            light_vertex: None,
             seconds: None,
         }
     }
@@ -55,7 +67,7 @@ impl EstimatorSetting {
     /// Parse `default` or comma-separated `key=value` pairs: `nee=on|off`,
     /// `filter=box|tent`, `rr_start=N`, `rr_floor=P` (survival floor in [0, 1]),
     /// `max_bounces=N`, `splits=N` (first-bounce branches, 1 ..= 64, or `auto`),
-    /// `seconds=S`.
+    /// `light_vertex=on|off` (eye vertices joined to a light vertex), `seconds=S`.
     pub fn parse(spec: &str) -> Result<EstimatorSetting, ReportError> {
         let mut s = EstimatorSetting::default_setting();
         s.label = spec.trim().to_string();
@@ -75,13 +87,7 @@ impl EstimatorSetting {
                 .ok_or_else(|| error(format!("'{part}' is not key=value")))?;
             let bad = |why: &str| error(format!("{k}={v}: {why}"));
             match k.trim() {
-                "nee" => {
-                    s.nee = Some(match v {
-                        "on" | "true" | "1" => true,
-                        "off" | "false" | "0" => false,
-                        _ => return Err(bad("expected on or off")),
-                    })
-                }
+                "nee" => s.nee = Some(on_off(v).ok_or_else(|| bad("expected on or off"))?),
                 "filter" => {
                     s.filter = match v {
                         "box" => TimeFilter::Box,
@@ -111,6 +117,9 @@ impl EstimatorSetting {
                         },
                     })
                 }
+                "light_vertex" => {
+                    s.light_vertex = Some(on_off(v).ok_or_else(|| bad("expected on or off"))?)
+                }
                 "seconds" => {
                     let t: f64 = v.parse().map_err(|_| bad("expected a number"))?;
                     if !(t.is_finite() && t > 0.0) {
@@ -121,7 +130,7 @@ impl EstimatorSetting {
                 _ => {
                     return Err(error(format!(
                         "unknown key '{k}' (known: nee, filter, rr_start, rr_floor, \
-                         max_bounces, splits, seconds)"
+                         max_bounces, splits, light_vertex, seconds)"
                     )));
                 }
             }
@@ -137,6 +146,7 @@ impl EstimatorSetting {
             rr_min_survival: self.rr_min_survival.unwrap_or(base.rr_min_survival),
             max_bounces: self.max_bounces.unwrap_or(base.max_bounces),
             first_bounce_splits: self.splits.unwrap_or(base.first_bounce_splits),
+            light_vertex: self.light_vertex.unwrap_or(base.light_vertex),
             ..base
         }
     }

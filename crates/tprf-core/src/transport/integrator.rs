@@ -3,6 +3,7 @@
 //! arrival time and scattering count.
 
 use super::bsdf::{Bsdf, Frame, LobeKind};
+use super::connect::{EyeVertex, LazyLightVertex, connected_weight};
 use super::lights::Lights;
 use super::sampler::{Sampler, dim};
 use super::surface::{SurfacePoint, Surfaces};
@@ -88,6 +89,10 @@ pub struct RenderSettings {
     /// of the sample. 1: no splitting; 0 (the default): chosen per render by a pilot
     /// for the least work times variance ([`super::split`]). Unbiased for every value.
     pub first_bounce_splits: u32,
+    /// Join every eye vertex to a light vertex found from a punctual light, one per
+    /// camera sample (MIS against BSDF sampling, [`super::connect`]). Off: paths to
+    /// punctual lights are found by the path tracer alone. Unbiased either way.
+    pub light_vertex: bool,
 }
 
 impl Default for RenderSettings {
@@ -100,6 +105,7 @@ impl Default for RenderSettings {
             rr_start: 3,
             rr_min_survival: 0.0,
             first_bounce_splits: 0,
+            light_vertex: true,
         }
     }
 }
@@ -137,7 +143,7 @@ pub struct Renderer {
 /// Whether a contribution arriving at `arrival_s` falls clearly outside `sink`'s window
 /// (strictly: an arrival on the edge is left to the film to bin), and on which side.
 #[inline]
-fn outside(sink: &impl Sink, arrival_s: f64) -> Option<LeftOut> {
+pub(super) fn outside(sink: &impl Sink, arrival_s: f64) -> Option<LeftOut> {
     if arrival_s > sink.window_end_s() {
         Some(LeftOut::ShadowRayLate)
     } else if arrival_s < sink.window_start_s() {
@@ -167,6 +173,10 @@ struct Path {
     last_position: Vec3,
     /// Straight pass-throughs (alpha coverage) since the last scattering.
     pass_throughs: u32,
+    /// When the last vertex was joined to a light vertex and this ray is its BSDF
+    /// sample: that sample's solid-angle pdf times the BSDF samples leaving the vertex
+    /// (for the MIS weight of next-event estimation at the next vertex); else 0.
+    connected_pdf: f32,
 }
 
 impl Path {
@@ -183,13 +193,14 @@ impl Path {
             last_pdf: None,
             last_position: origin,
             pass_throughs: 0,
+            connected_pdf: 0.0,
         }
     }
 }
 
 /// Power heuristic (beta = 2) weight of strategy `a` against `b`.
 #[inline]
-fn power_heuristic(a: f32, b: f32) -> f32 {
+pub(super) fn power_heuristic(a: f32, b: f32) -> f32 {
     let (a2, b2) = (a * a, b * b);
     if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
 }
@@ -231,6 +242,10 @@ impl Renderer {
         &self.accel
     }
 
+    pub(super) fn surfaces(&self) -> &Surfaces {
+        &self.surfaces
+    }
+
     /// The first-bounce split of this render: the settings' value, or when that is 0
     /// the pilot's choice for a `width x height` film on `axis` ([`super::split`]),
     /// made once (the first film rendered decides for the renderer's life, so every
@@ -262,7 +277,7 @@ impl Renderer {
     /// Offset of a new ray origin from `p`, metres: scene-relative plus a few ulps of
     /// the coordinates, so a scene scaled by s gets offsets scaled by s.
     #[inline]
-    fn offset_m(&self, p: Vec3) -> f32 {
+    pub(super) fn offset_m(&self, p: Vec3) -> f32 {
         self.eps_m + p.abs().max_element() * 4.0 * f32::EPSILON
     }
 
@@ -339,7 +354,14 @@ impl Renderer {
         rng.start_sample();
         let (jx, jy) = rng.get2(dim::CAMERA);
         let (origin, dir) = self.camera_ray(x as f32 + jx, y as f32 + jy, w, h);
-        self.walk::<false>(&self.lights, Path::camera(origin, dir), splits, rng, sink)
+        self.walk::<false>(
+            &self.lights,
+            Path::camera(origin, dir),
+            splits,
+            None,
+            rng,
+            sink,
+        )
     }
 
     /// Trace a path from the eye at `origin` along unit `dir`. The eye-side optical path
@@ -371,22 +393,25 @@ impl Renderer {
         sink: &mut impl Sink,
     ) -> u64 {
         let splits = if AMBIENT { 1 } else { self.splits() };
-        self.walk::<AMBIENT>(lights, Path::camera(origin, dir), splits, rng, sink)
+        self.walk::<AMBIENT>(lights, Path::camera(origin, dir), splits, None, rng, sink)
     }
 
     /// Follow `path` until it ends; returns the rays traced. At its first scattering
     /// vertex the path splits into `splits` branches (see
     /// [`RenderSettings::first_bounce_splits`]), each followed with `1 / splits` of the
-    /// path's share and its own draws ([`Sampler::start_branch`]).
+    /// path's share and its own draws ([`Sampler::start_branch`]). `light_vertex` is
+    /// the sample's light vertex when drawn already (a branch shares its sample's).
     fn walk<const AMBIENT: bool>(
         &self,
         lights: &Lights,
         mut path: Path,
         splits: u32,
+        mut light_vertex: LazyLightVertex,
         rng: &mut Sampler,
         sink: &mut impl Sink,
     ) -> u64 {
         let s = &self.settings;
+        let connects = !AMBIENT && s.nee && s.light_vertex && !lights.punctual.is_empty();
         let window_end_opl_m = sink.window_end_s() * C_M_PER_S;
         let mut rays = 0u64;
         loop {
@@ -451,6 +476,14 @@ impl Renderer {
             let wo = frame.to_local(-dir);
             if s.nee && bsdf.has_smooth_lobe() {
                 let p_out = sp.position + sp.n_face * self.offset_m(sp.position);
+                // The density with which the last vertex's BSDF sample found this one,
+                // per unit area, when that vertex was also joined to the light vertex.
+                let connected_pdf_area = if path.connected_pdf > 0.0 {
+                    let d2 = (sp.position - path.last_position).length_squared();
+                    path.connected_pdf * sp.n_face.dot(dir).abs() / d2
+                } else {
+                    0.0
+                };
                 rays += self.next_event::<AMBIENT>(
                     lights,
                     &bsdf,
@@ -463,10 +496,51 @@ impl Renderer {
                     path.ior_here,
                     path.throughput * path.share,
                     path.scatterings,
+                    connected_pdf_area,
                     rng,
                     sink,
                 );
             }
+            // Join this vertex to the sample's light vertex (drawn at the first vertex
+            // that needs it), when the path could also reach it by a BSDF sample here.
+            let connected = connects
+                && bsdf.has_smooth_lobe()
+                && path.ior_here == 1.0
+                && path.scatterings + 2 <= s.max_bounces;
+            if connected {
+                let lv = match light_vertex {
+                    Some(lv) => lv,
+                    None => {
+                        let (lv, n) = self.light_vertex(lights, path.scatterings, rng, sink);
+                        rays += n;
+                        light_vertex = Some(lv);
+                        lv
+                    }
+                };
+                if let Some(lv) = lv {
+                    let x = EyeVertex {
+                        bsdf: &bsdf,
+                        frame: &frame,
+                        wo,
+                        position: sp.position,
+                        position_out: sp.position + sp.n_face * self.offset_m(sp.position),
+                        n_face: sp.n_face,
+                        opl_m: path.opl_m,
+                        throughput: path.throughput * path.share,
+                        scatterings: path.scatterings,
+                        bsdf_samples: splits as f32,
+                    };
+                    rays += self.connect(&x, &lv, sink);
+                }
+            }
+            // What the next vertex's next-event weight needs of this BSDF sample.
+            let mark = |mut next: Path, n: u32| {
+                next.connected_pdf = match next.last_pdf {
+                    Some(pdf) if connected => pdf * n as f32,
+                    _ => 0.0,
+                };
+                next
+            };
             if splits > 1 {
                 // Split: each branch draws its own lobe, direction and what follows.
                 let share = path.share / splits as f32;
@@ -474,13 +548,14 @@ impl Renderer {
                     rng.start_branch(j, splits);
                     let branch = Path { share, ..path };
                     if let Some(next) = self.scatter(&sp, &frame, wo, branch, rng) {
-                        rays += self.walk::<AMBIENT>(lights, next, 1, rng, sink);
+                        let next = mark(next, splits);
+                        rays += self.walk::<AMBIENT>(lights, next, 1, light_vertex, rng, sink);
                     }
                 }
                 break;
             }
             match self.scatter(&sp, &frame, wo, path, rng) {
-                Some(next) => path = next,
+                Some(next) => path = mark(next, 1),
                 None => break,
             }
         }
@@ -541,7 +616,10 @@ impl Renderer {
     /// Next-event estimation at a vertex with outgoing `wo` (local): every punctual light
     /// and one power-sampled point on the emitters (MIS against BSDF sampling). `vertex`
     /// counts the scattering events before this one; the contribution arrives at
-    /// `(opl_m + n d) / c` with `vertex + 1` events.
+    /// `(opl_m + n d) / c` with `vertex + 1` events. When the previous vertex was joined
+    /// to a light vertex, `connected_pdf_area` (> 0) is the density per unit area with
+    /// which its BSDF sample found this vertex, and the punctual terms take the power
+    /// heuristic's weight against finding it from the light ([`connected_weight`]).
     ///
     /// Directions, distances and cosines are taken from the surface point `p` itself;
     /// only the shadow ray starts from the offset point `p_out`. (Taken from `p_out`, a
@@ -565,12 +643,13 @@ impl Renderer {
         ior_here: f32,
         throughput: f32,
         vertex: u32,
+        connected_pdf_area: f32,
         rng: &Sampler,
         sink: &mut impl Sink,
     ) -> u64 {
         let scatterings = vertex + 1;
         let mut rays = 0;
-        for light in &lights.punctual {
+        for (i, light) in lights.punctual.iter().enumerate() {
             let to = light.position - p;
             let d2 = to.length_squared();
             if !(d2 > 0.0) {
@@ -597,7 +676,12 @@ impl Renderer {
             let tr = self.transmittance(p_out, wi_world, t_max);
             if tr > 0.0 {
                 let cos_i = frame.to_local(wi_world).z;
-                let value = throughput * f * cos_i * intensity / d2 * tr;
+                let mis = if connected_pdf_area > 0.0 {
+                    connected_weight(lights, i, connected_pdf_area, wi_world, d, n_face)
+                } else {
+                    1.0
+                };
+                let value = throughput * f * cos_i * intensity / d2 * tr * mis;
                 sink.add(arrival_s, value as f64, scatterings);
             }
         }
@@ -668,7 +752,7 @@ impl Renderer {
     /// Fraction of light passing straight from `p` along unit `dir` for `dist_m`: the
     /// product of `1 - coverage` of the partly covered surfaces crossed; 0 when an opaque
     /// or refracting surface is in the way. 1 for `dist_m <= 0` (nothing fits in between).
-    fn transmittance(&self, p: Vec3, dir: Vec3, dist_m: f32) -> f32 {
+    pub(super) fn transmittance(&self, p: Vec3, dir: Vec3, dist_m: f32) -> f32 {
         if !(dist_m > 0.0) {
             return 1.0;
         }

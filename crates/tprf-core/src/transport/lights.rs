@@ -4,6 +4,7 @@
 //! ambient group instead: its point and spot lights, directional lights (delta in
 //! direction) and a constant sky.
 
+use super::bsdf::Frame;
 use crate::scene::{Channel, DirectionalLight, PunctualLight, Scene};
 use glam::Vec3;
 
@@ -13,7 +14,11 @@ pub struct Punctual {
     pub position: Vec3,
     /// Radiant intensity in this band, W/sr.
     pub intensity_w_per_sr: f32,
+    /// Spot lights: axis, falloff scale and offset (`a = axis . dir scale + offset`).
     spot: Option<(Vec3, f32, f32)>,
+    /// Cosine of the half-angle of the cone holding all emission: -1 for a point light,
+    /// the outer cone's for a spot.
+    cos_cone: f32,
 }
 
 impl Punctual {
@@ -24,11 +29,49 @@ impl Punctual {
             let scale = 1.0 / (cos_inner - cos_outer).max(1e-3);
             (s.direction.normalize_or_zero(), scale, -cos_outer * scale)
         });
+        let cos_cone = match (l.spot, spot) {
+            (Some(s), Some((axis, _, _))) if axis != Vec3::ZERO => s.outer_cone_rad.cos(),
+            _ => -1.0,
+        };
         Punctual {
             position: l.position,
             intensity_w_per_sr: channel.pick(l.intensity_w_per_sr).max(0.0),
             spot,
+            cos_cone,
         }
+    }
+
+    /// Solid angle of the cone holding the emission, sr: 4 pi for a point light.
+    fn cone_sr(&self) -> f32 {
+        2.0 * std::f32::consts::PI * (1.0 - self.cos_cone)
+    }
+
+    /// An upper bound on the emitted power, W (intensity times the cone's solid angle):
+    /// what [`Lights::sample_emission`] picks lights by.
+    fn power_bound_w(&self) -> f32 {
+        self.intensity_w_per_sr * self.cone_sr()
+    }
+
+    /// A direction uniform in the emission cone for `(u1, u2)` in [0, 1)^2 (the whole
+    /// sphere for a point light); its density is [`Punctual::pdf_direction`].
+    fn sample_direction(&self, (u1, u2): (f32, f32)) -> Vec3 {
+        let cos_t = 1.0 - u1 * (1.0 - self.cos_cone);
+        let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+        let phi = 2.0 * std::f32::consts::PI * u2;
+        let local = Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t);
+        match self.spot {
+            Some((axis, _, _)) if axis != Vec3::ZERO => Frame::new(axis).to_world(local),
+            _ => local,
+        }
+    }
+
+    /// Solid-angle density of [`Punctual::sample_direction`] at unit `dir`, 1/sr.
+    fn pdf_direction(&self, dir: Vec3) -> f32 {
+        let inside = match self.spot {
+            Some((axis, _, _)) if axis != Vec3::ZERO => axis.dot(dir) >= self.cos_cone,
+            _ => true,
+        };
+        if inside { 1.0 / self.cone_sr() } else { 0.0 }
     }
 
     /// Radiant intensity toward unit direction `dir` (from the light), W/sr. Spot lights
@@ -96,6 +139,21 @@ pub struct Lights {
     cdf: Vec<f32>,
     /// Scene triangle -> emitter index (`u32::MAX` for none).
     emitter_of: Vec<u32>,
+    /// Cumulative probabilities with which [`Lights::sample_emission`] picks each
+    /// punctual light (by [`Punctual::power_bound_w`]).
+    punctual_cdf: Vec<f32>,
+}
+
+/// A ray leaving a punctual light, for a light vertex ([`super::connect`]).
+#[derive(Clone, Copy, Debug)]
+pub struct EmissionSample {
+    pub light: usize,
+    /// Unit direction from the light.
+    pub dir: Vec3,
+    /// Radiant intensity along `dir`, W/sr.
+    pub intensity_w_per_sr: f32,
+    /// Density of picking this light and `dir`, 1/sr.
+    pub pdf: f32,
 }
 
 impl Lights {
@@ -115,17 +173,19 @@ impl Lights {
             emitters: Vec::new(),
             cdf: Vec::new(),
             emitter_of: vec![u32::MAX; scene.triangles.len()],
+            punctual_cdf: Vec::new(),
         }
     }
 
     /// The pulsed lights of `scene` in one band: its punctual lights and emissive
     /// triangles (the ambient group is left out).
     pub fn new(scene: &Scene, channel: Channel) -> Lights {
-        let punctual = scene
+        let punctual: Vec<Punctual> = scene
             .lights
             .iter()
             .map(|l| Punctual::new(l, channel))
             .collect();
+        let punctual_cdf = cumulative(punctual.iter().map(|l| l.power_bound_w()));
         let mut emitters = Vec::new();
         let mut weights = Vec::new();
         let mut emitter_of = vec![u32::MAX; scene.triangles.len()];
@@ -150,15 +210,7 @@ impl Lights {
                 weights.push(le * area * sides);
             }
         }
-        let total: f64 = weights.iter().map(|&w| w as f64).sum();
-        let mut acc = 0.0f64;
-        let cdf = weights
-            .iter()
-            .map(|&w| {
-                acc += w as f64;
-                (acc / total) as f32
-            })
-            .collect();
+        let cdf = cumulative(weights.into_iter());
         Lights {
             punctual,
             directional: Vec::new(),
@@ -166,9 +218,68 @@ impl Lights {
             emitters,
             cdf,
             emitter_of,
+            punctual_cdf,
         }
     }
 
+    /// A light vertex's first ray: a punctual light picked by emitted power (`u`), then
+    /// a direction uniform in its emission cone (`u2`). `None` when no punctual light
+    /// emits, or toward a direction where the spot's falloff is 0.
+    pub fn sample_emission(&self, u: f32, u2: (f32, f32)) -> Option<EmissionSample> {
+        let total = self.punctual_cdf.last().copied().unwrap_or(0.0);
+        if !(total > 0.0) {
+            return None;
+        }
+        let i = self
+            .punctual_cdf
+            .partition_point(|&c| c <= u)
+            .min(self.punctual.len() - 1);
+        let light = &self.punctual[i];
+        let dir = light.sample_direction(u2);
+        let intensity_w_per_sr = light.intensity_toward(dir);
+        let pdf = self.emission_pdf(i, dir);
+        (intensity_w_per_sr > 0.0 && pdf > 0.0).then_some(EmissionSample {
+            light: i,
+            dir,
+            intensity_w_per_sr,
+            pdf,
+        })
+    }
+
+    /// Density with which [`Lights::sample_emission`] picks punctual light `i` and unit
+    /// direction `dir` from it, 1/sr.
+    pub fn emission_pdf(&self, i: usize, dir: Vec3) -> f32 {
+        let (hi, lo) = (
+            self.punctual_cdf.get(i).copied().unwrap_or(0.0),
+            if i == 0 {
+                0.0
+            } else {
+                self.punctual_cdf[i - 1]
+            },
+        );
+        (hi - lo) * self.punctual.get(i).map_or(0.0, |l| l.pdf_direction(dir))
+    }
+}
+
+/// Cumulative probabilities in proportion to `weights` (all 0 when they sum to 0).
+fn cumulative(weights: impl Iterator<Item = f32>) -> Vec<f32> {
+    let weights: Vec<f64> = weights.map(|w| w.max(0.0) as f64).collect();
+    let total: f64 = weights.iter().sum();
+    let mut acc = 0.0f64;
+    weights
+        .iter()
+        .map(|&w| {
+            acc += w;
+            if total > 0.0 {
+                (acc / total) as f32
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
+impl Lights {
     pub fn has_emitters(&self) -> bool {
         !self.emitters.is_empty()
     }
@@ -214,5 +325,69 @@ impl Lights {
             }
             _ => 0.0,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{Spot, builtin};
+
+    /// Two punctual lights, a point light of 1 W/sr (4 pi W) and a spot of 3 W/sr with a
+    /// 60 degree outer cone (3 pi W): picked in proportion 4 : 3, directions uniform in
+    /// each one's cone, and the density `emission_pdf` gives is the one sampled.
+    #[test]
+    fn emission_picks_lights_by_power_and_directions_in_their_cones() {
+        let mut scene = builtin::load("cornell").unwrap();
+        let light = scene.lights[0].clone();
+        let axis = Vec3::new(0.0, -1.0, 0.0);
+        scene.lights = vec![
+            PunctualLight {
+                intensity_w_per_sr: [1.0; 3],
+                ..light.clone()
+            },
+            PunctualLight {
+                intensity_w_per_sr: [3.0; 3],
+                spot: Some(Spot {
+                    direction: axis,
+                    inner_cone_rad: 0.5,
+                    outer_cone_rad: std::f32::consts::FRAC_PI_3,
+                }),
+                ..light
+            },
+        ];
+        let lights = Lights::new(&scene, Channel::Gray);
+        let n = 4000;
+        let mut picked = [0usize; 2];
+        for k in 0..n {
+            let u = (k as f32 + 0.5) / n as f32;
+            let u2 = (
+                (k as f32 * 0.618_034).fract(),
+                (k as f32 * 0.754_878).fract(),
+            );
+            let Some(e) = lights.sample_emission(u, u2) else {
+                // Only where the spot's smooth falloff is 0: its outer edge.
+                continue;
+            };
+            picked[e.light] += 1;
+            assert!((e.dir.length() - 1.0).abs() < 1e-5);
+            let (p_pick, cone_sr) = match e.light {
+                0 => (4.0 / 7.0, 4.0 * std::f32::consts::PI),
+                _ => {
+                    assert!(
+                        e.dir.dot(axis) >= 0.5 - 1e-5,
+                        "outside the cone: {:?}",
+                        e.dir
+                    );
+                    (3.0 / 7.0, std::f32::consts::PI)
+                }
+            };
+            assert!((e.pdf - p_pick / cone_sr).abs() < 1e-5 * e.pdf);
+            assert_eq!(e.pdf, lights.emission_pdf(e.light, e.dir));
+        }
+        let share = picked[0] as f64 / n as f64;
+        assert!((share - 4.0 / 7.0).abs() < 1e-3, "{picked:?}");
+        // Outside the spot's cone the density is 0.
+        assert_eq!(lights.emission_pdf(1, -axis), 0.0);
     }
 }

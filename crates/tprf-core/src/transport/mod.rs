@@ -5,6 +5,7 @@
 
 pub mod ambient;
 pub mod bsdf;
+mod connect;
 mod integrator;
 pub mod lights;
 pub mod progressive;

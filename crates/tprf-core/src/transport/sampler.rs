@@ -40,8 +40,13 @@ pub mod dim {
     pub const BSDF_DIRECTION: u32 = 4;
     /// Russian roulette after the vertex (1-D).
     pub const ROULETTE: u32 = 5;
+    /// Which punctual light a light vertex starts from (1-D; drawn at the vertex that
+    /// first connects to it, usually the first).
+    pub const LIGHT_SELECT: u32 = 6;
+    /// The direction of the light vertex's ray from that light (2-D).
+    pub const LIGHT_DIRECTION: u32 = 7;
     /// Slots per vertex.
-    pub const PER_VERTEX: u32 = 6;
+    pub const PER_VERTEX: u32 = 8;
 
     /// Slot of `use_` at vertex `k` (0: the first surface the camera ray meets).
     #[inline]
