@@ -290,7 +290,7 @@ fn check_off_centre_furnace(light_vertex: bool, splits: u32, spot: Option<(f32, 
     let axis = TimeAxis::new(0.0, 150.0 * r_m as f64 / C, 1).unwrap();
     let settings = RenderSettings {
         seed: 5,
-        light_vertex,
+        light_vertex: Some(light_vertex),
         first_bounce_splits: splits,
         ..RenderSettings::default()
     };
@@ -339,6 +339,29 @@ fn light_vertex_connections_are_unbiased_and_tame_a_light_near_a_wall() {
     );
     assert!(on_split < off, "split: {on_split} vs {off}");
     assert!(spot_on < spot_off, "spot: {spot_on} vs {spot_off}");
+}
+
+/// The pilot keeps light vertices where they pay for their rays: in the furnace with
+/// its light near the wall (the second bounce's noise falls tenfold, above), not over a
+/// single plane lit from the camera, where a light vertex can reach no other point of
+/// the plane and only costs a ray.
+#[test]
+fn the_pilot_keeps_light_vertices_only_where_they_pay() {
+    let strategy = |scene, axis: TimeAxis| {
+        let renderer = tprf_core::transport::Renderer::new(
+            std::sync::Arc::new(scene),
+            RenderSettings::default(),
+        );
+        renderer.strategy_for(&axis, 32, 32)
+    };
+    let mut furnace = furnace(1.0, 0.5, 2.0);
+    furnace.lights[0].position = glam::Vec3::new(0.45, 0.3, -0.55);
+    let axis = TimeAxis::new(0.0, 0.1 / C, 128).unwrap();
+    assert!(strategy(furnace, axis).light_vertex);
+    let h_m = 2.0;
+    let axis = TimeAxis::new(0.95 * 2.0 * h_m / C, 0.004 * 2.0 * h_m / C, 100).unwrap();
+    let plane = strategy(lit_plane(h_m as f32, 0.5, 3.0, 50.0, 40.0), axis);
+    assert!(!plane.light_vertex, "{plane:?}");
 }
 
 /// Splitting a sample at its first vertex (each of k branches carrying 1/k) stays

@@ -159,6 +159,11 @@ pub struct CubeMetadata {
     /// written before it was recorded.
     #[serde(default)]
     pub first_bounce_splits: u32,
+    /// Whether eye vertices were joined to light vertices found from the punctual
+    /// lights (`RenderSettings::light_vertex`, as the pilot chose it); false in files
+    /// written before it was recorded.
+    #[serde(default)]
+    pub light_vertex: bool,
     /// Error of the cube estimated from two independent halves of the samples (relative
     /// RMS), when both halves have samples.
     pub error_estimate: Option<f64>,

@@ -33,7 +33,8 @@ pub struct EstimatorSetting {
     pub max_bounces: Option<u32>,
     /// Branches at the first vertex (`RenderSettings::first_bounce_splits`; 0 = auto).
     pub splits: Option<u32>,
-    /// Light-vertex connections on or off (`RenderSettings::light_vertex`).
+    /// Light-vertex connections on or off (`RenderSettings::light_vertex`; unset: the
+    /// pilot chooses).
     pub light_vertex: Option<bool>,
     /// Its own time budget, seconds (default: the run's).
     pub seconds: Option<f64>,
@@ -146,7 +147,7 @@ impl EstimatorSetting {
             rr_min_survival: self.rr_min_survival.unwrap_or(base.rr_min_survival),
             max_bounces: self.max_bounces.unwrap_or(base.max_bounces),
             first_bounce_splits: self.splits.unwrap_or(base.first_bounce_splits),
-            light_vertex: self.light_vertex.unwrap_or(base.light_vertex),
+            light_vertex: self.light_vertex.or(base.light_vertex),
             ..base
         }
     }

@@ -6,6 +6,7 @@ use super::bsdf::{Bsdf, Frame, LobeKind};
 use super::connect::{EyeVertex, LazyLightVertex, connected_weight};
 use super::lights::Lights;
 use super::sampler::{Sampler, dim};
+use super::split::Strategy;
 use super::surface::{SurfacePoint, Surfaces};
 use crate::accel::Accel;
 use crate::film::{LeftOut, LeftOutCounts, PixelSink, TimeAxis, TprfFilm};
@@ -91,8 +92,9 @@ pub struct RenderSettings {
     pub first_bounce_splits: u32,
     /// Join every eye vertex to a light vertex found from a punctual light, one per
     /// camera sample (MIS against BSDF sampling, [`super::connect`]). Off: paths to
-    /// punctual lights are found by the path tracer alone. Unbiased either way.
-    pub light_vertex: bool,
+    /// punctual lights are found by the path tracer alone. `None` (the default): chosen
+    /// per render by the pilot, with the split. Unbiased either way.
+    pub light_vertex: Option<bool>,
 }
 
 impl Default for RenderSettings {
@@ -105,7 +107,7 @@ impl Default for RenderSettings {
             rr_start: 3,
             rr_min_survival: 0.0,
             first_bounce_splits: 0,
-            light_vertex: true,
+            light_vertex: None,
         }
     }
 }
@@ -135,9 +137,9 @@ pub struct Renderer {
     /// Tangent of half the camera's vertical field of view.
     tan_half_yfov: f32,
     rays: AtomicU64,
-    /// The first-bounce split in use: `settings.first_bounce_splits`, or the pilot's
-    /// choice for the first film rendered ([`Renderer::splits_for`]).
-    splits: OnceLock<u32>,
+    /// The sampling strategy in use: the settings', or the pilot's choice for the first
+    /// film rendered ([`Renderer::strategy_for`]).
+    strategy: OnceLock<Strategy>,
 }
 
 /// Whether a contribution arriving at `arrival_s` falls clearly outside `sink`'s window
@@ -226,7 +228,7 @@ impl Renderer {
             settings,
             eps_m,
             rays: AtomicU64::new(0),
-            splits: OnceLock::new(),
+            strategy: OnceLock::new(),
         }
     }
 
@@ -246,27 +248,28 @@ impl Renderer {
         &self.surfaces
     }
 
-    /// The first-bounce split of this render: the settings' value, or when that is 0
-    /// the pilot's choice for a `width x height` film on `axis` ([`super::split`]),
-    /// made once (the first film rendered decides for the renderer's life, so every
-    /// pass and thread uses the same).
-    pub fn splits_for(&self, axis: &TimeAxis, width: usize, height: usize) -> u32 {
+    /// The sampling strategy of this render: the settings' first-bounce split and
+    /// light-vertex choice, with what they leave automatic chosen by the pilot for a
+    /// `width x height` film on `axis` ([`super::split`]), once (the first film rendered
+    /// decides for the renderer's life, so every pass and thread uses the same).
+    pub fn strategy_for(&self, axis: &TimeAxis, width: usize, height: usize) -> Strategy {
         *self
-            .splits
-            .get_or_init(|| match self.settings.first_bounce_splits {
-                0 => super::split::choose(self, axis, width, height),
-                k => k,
-            })
+            .strategy
+            .get_or_init(|| super::split::choose(self, axis, width, height))
     }
 
-    /// The split in use: as chosen by [`Renderer::splits_for`], else the settings' value
-    /// (1 if automatic and not chosen yet).
-    pub fn splits(&self) -> u32 {
-        self.splits
-            .get()
-            .copied()
-            .unwrap_or(self.settings.first_bounce_splits)
-            .max(1)
+    /// The strategy in use: as chosen by [`Renderer::strategy_for`], else the settings'
+    /// (no split and light vertices on where automatic and not chosen yet).
+    pub fn strategy(&self) -> Strategy {
+        self.strategy.get().copied().unwrap_or(Strategy {
+            splits: self.settings.first_bounce_splits.max(1),
+            light_vertex: self.settings.light_vertex.unwrap_or(true),
+        })
+    }
+
+    /// Whether the scene has pulsed punctual lights (what light vertices start from).
+    pub(super) fn has_punctual_lights(&self) -> bool {
+        !self.lights.punctual.is_empty()
     }
 
     /// Rays traced so far (camera, bounce and shadow rays).
@@ -306,14 +309,14 @@ impl Renderer {
         let (w, h) = (layout.width, layout.height);
         let half = film.passes() % 2;
         let first = film.half_spp()[half as usize];
-        let splits = self.splits_for(&layout.axis, w, h);
+        let strategy = self.strategy_for(&layout.axis, w, h);
         let rays_before = self.rays_traced();
         let tally = film.run_pass(spp as u64, |x, y, sink| {
             let mut rng =
                 Sampler::new(self.settings.seed, half, (y * w + x) as u64).starting_at(first);
             let mut rays = 0u64;
             for _ in 0..spp {
-                rays += self.trace_sample_split(x, y, w, h, splits, &mut rng, sink);
+                rays += self.trace_sample_with(x, y, w, h, strategy, &mut rng, sink);
             }
             self.rays.fetch_add(rays, Ordering::Relaxed);
         });
@@ -336,18 +339,18 @@ impl Renderer {
         rng: &mut Sampler,
         sink: &mut impl Sink,
     ) -> u64 {
-        self.trace_sample_split(x, y, w, h, self.splits(), rng, sink)
+        self.trace_sample_with(x, y, w, h, self.strategy(), rng, sink)
     }
 
-    /// [`Renderer::trace_sample`] split into `splits` branches at the first vertex.
+    /// [`Renderer::trace_sample`] with `strategy`.
     #[allow(clippy::too_many_arguments)]
-    pub(super) fn trace_sample_split(
+    pub(super) fn trace_sample_with(
         &self,
         x: usize,
         y: usize,
         w: usize,
         h: usize,
-        splits: u32,
+        strategy: Strategy,
         rng: &mut Sampler,
         sink: &mut impl Sink,
     ) -> u64 {
@@ -357,7 +360,7 @@ impl Renderer {
         self.walk::<false>(
             &self.lights,
             Path::camera(origin, dir),
-            splits,
+            strategy,
             None,
             rng,
             sink,
@@ -392,12 +395,16 @@ impl Renderer {
         rng: &mut Sampler,
         sink: &mut impl Sink,
     ) -> u64 {
-        let splits = if AMBIENT { 1 } else { self.splits() };
-        self.walk::<AMBIENT>(lights, Path::camera(origin, dir), splits, None, rng, sink)
+        let strategy = if AMBIENT {
+            Strategy::PLAIN
+        } else {
+            self.strategy()
+        };
+        self.walk::<AMBIENT>(lights, Path::camera(origin, dir), strategy, None, rng, sink)
     }
 
-    /// Follow `path` until it ends; returns the rays traced. At its first scattering
-    /// vertex the path splits into `splits` branches (see
+    /// Follow `path` with `strategy` until it ends; returns the rays traced. At its first
+    /// scattering vertex the path splits into `strategy.splits` branches (see
     /// [`RenderSettings::first_bounce_splits`]), each followed with `1 / splits` of the
     /// path's share and its own draws ([`Sampler::start_branch`]). `light_vertex` is
     /// the sample's light vertex when drawn already (a branch shares its sample's).
@@ -405,13 +412,14 @@ impl Renderer {
         &self,
         lights: &Lights,
         mut path: Path,
-        splits: u32,
+        strategy: Strategy,
         mut light_vertex: LazyLightVertex,
         rng: &mut Sampler,
         sink: &mut impl Sink,
     ) -> u64 {
         let s = &self.settings;
-        let connects = !AMBIENT && s.nee && s.light_vertex && !lights.punctual.is_empty();
+        let splits = strategy.splits;
+        let connects = !AMBIENT && s.nee && strategy.light_vertex && !lights.punctual.is_empty();
         let window_end_opl_m = sink.window_end_s() * C_M_PER_S;
         let mut rays = 0u64;
         loop {
@@ -549,7 +557,12 @@ impl Renderer {
                     let branch = Path { share, ..path };
                     if let Some(next) = self.scatter(&sp, &frame, wo, branch, rng) {
                         let next = mark(next, splits);
-                        rays += self.walk::<AMBIENT>(lights, next, 1, light_vertex, rng, sink);
+                        let strategy = Strategy {
+                            splits: 1,
+                            ..strategy
+                        };
+                        rays +=
+                            self.walk::<AMBIENT>(lights, next, strategy, light_vertex, rng, sink);
                     }
                 }
                 break;

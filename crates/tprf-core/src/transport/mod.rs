@@ -16,4 +16,5 @@ mod window;
 pub mod worker;
 
 pub use integrator::{PassStats, RayKind, RenderSettings, Renderer, Sink};
+pub use split::Strategy;
 pub use window::{WindowError, WindowRequest, auto_window};

@@ -81,29 +81,102 @@ impl Sink for PilotSink {
     }
 }
 
-/// The automatic split for a `width x height` film on `axis` (its window: see
-/// [`PILOT_BINS`]); see the module doc.
-pub(super) fn choose(renderer: &Renderer, axis: &TimeAxis, width: usize, height: usize) -> u32 {
-    let span_s = axis.end_s() - axis.t0_s;
-    let axis = &TimeAxis::new(axis.t0_s, span_s / PILOT_BINS as f64, PILOT_BINS).unwrap_or(*axis);
-    let (var_1, rays_1) = pilot(renderer, axis, width, height, 1);
-    let (var_k, rays_k) = pilot(renderer, axis, width, height, MAX_SPLITS);
-    let k = MAX_SPLITS as f64;
-    // var(k) = P + B / k and rays(k) = c1 + k c2, from k = 1 and k = MAX_SPLITS.
-    let branches = (var_1 - var_k) * k / (k - 1.0);
-    let prefix = var_1 - branches;
-    let c2 = (rays_k - rays_1) / (k - 1.0);
-    let c1 = rays_1 - c2;
-    // The prefix's share at TARGET_SPP: its variance falls like n^-3/2 (stratified),
-    // the branches' like n^-1.
-    let prefix_at_target = prefix * (PILOT_SAMPLES as f64 / TARGET_SPP).sqrt();
-    splits_for(c1, c2, prefix_at_target, branches)
+/// How a render samples its paths: the branches of a camera sample at its first vertex,
+/// and whether eye vertices are joined to light vertices ([`super::connect`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Strategy {
+    pub splits: u32,
+    pub light_vertex: bool,
 }
 
-/// The pilot of split `k`: the variance of the mean of [`PILOT_SAMPLES`] samples,
+impl Strategy {
+    /// One path per camera sample, the path tracer alone.
+    pub const PLAIN: Strategy = Strategy {
+        splits: 1,
+        light_vertex: false,
+    };
+}
+
+/// The strategy for a `width x height` film on `axis` (its window: see [`PILOT_BINS`]):
+/// the settings' split and light-vertex choice, and where they are automatic the
+/// pilot's, for the least work times variance (see the module doc). With light
+/// vertices automatic and a punctual light in the scene, both choices are piloted (each
+/// with its best split): the light vertex is kept where it pays for its rays, not on a
+/// single lit plane, where no light vertex can reach another point of the plane.
+pub(super) fn choose(
+    renderer: &Renderer,
+    axis: &TimeAxis,
+    width: usize,
+    height: usize,
+) -> Strategy {
+    let settings = renderer.settings();
+    let span_s = axis.end_s() - axis.t0_s;
+    let axis = &TimeAxis::new(axis.t0_s, span_s / PILOT_BINS as f64, PILOT_BINS).unwrap_or(*axis);
+    let light_vertex = match settings.light_vertex {
+        Some(on) => vec![on],
+        None if settings.nee && renderer.has_punctual_lights() => vec![true, false],
+        None => vec![false],
+    };
+    let k_fixed = settings.first_bounce_splits;
+    if k_fixed != 0 && light_vertex.len() == 1 {
+        return Strategy {
+            splits: k_fixed,
+            light_vertex: light_vertex[0],
+        };
+    }
+    // Per light-vertex choice: its split and the predicted work times variance.
+    let candidates = light_vertex.into_iter().map(|light_vertex| {
+        let at = |splits| {
+            let strategy = Strategy {
+                splits,
+                light_vertex,
+            };
+            pilot(renderer, axis, width, height, strategy)
+        };
+        if k_fixed != 0 {
+            let (var, rays) = at(k_fixed);
+            let strategy = Strategy {
+                splits: k_fixed,
+                light_vertex,
+            };
+            return (strategy, var * rays);
+        }
+        let (var_1, rays_1) = at(1);
+        let (var_k, rays_k) = at(MAX_SPLITS);
+        let k = MAX_SPLITS as f64;
+        // var(k) = P + B / k and rays(k) = c1 + k c2, from k = 1 and k = MAX_SPLITS.
+        let branches = (var_1 - var_k) * k / (k - 1.0);
+        let prefix = var_1 - branches;
+        let c2 = (rays_k - rays_1) / (k - 1.0);
+        let c1 = rays_1 - c2;
+        // The prefix's share at TARGET_SPP: its variance falls like n^-3/2 (stratified),
+        // the branches' like n^-1.
+        let prefix_at_target = prefix * (PILOT_SAMPLES as f64 / TARGET_SPP).sqrt();
+        let splits = splits_for(c1, c2, prefix_at_target, branches);
+        let s = splits as f64;
+        let work_x_variance = (c1 + s * c2) * (prefix_at_target + branches / s);
+        let strategy = Strategy {
+            splits,
+            light_vertex,
+        };
+        (strategy, work_x_variance)
+    });
+    // The first of the least (a NaN estimate, from an empty pilot, never wins).
+    candidates
+        .reduce(|best, c| if c.1 < best.1 { c } else { best })
+        .map_or(Strategy::PLAIN, |(s, _)| s)
+}
+
+/// The pilot of `strategy`: the variance of the mean of [`PILOT_SAMPLES`] samples,
 /// summed over the bins of the grid's pixels, and the rays traced per sample. Both 0
 /// for an empty film or window.
-fn pilot(renderer: &Renderer, axis: &TimeAxis, width: usize, height: usize, k: u32) -> (f64, f64) {
+fn pilot(
+    renderer: &Renderer,
+    axis: &TimeAxis,
+    width: usize,
+    height: usize,
+    strategy: Strategy,
+) -> (f64, f64) {
     let t = axis.bins;
     if t == 0 || width == 0 || height == 0 {
         return (0.0, 0.0);
@@ -134,7 +207,8 @@ fn pilot(renderer: &Renderer, axis: &TimeAxis, width: usize, height: usize, k: u
                     sink.replica = replica;
                     let mut rng = Sampler::new(seed, PILOT_STREAM + replica as u64, pixel);
                     for _ in 0..PILOT_SAMPLES {
-                        rays += renderer.trace_sample_split(x, y, width, height, k, &mut rng, sink);
+                        rays += renderer
+                            .trace_sample_with(x, y, width, height, strategy, &mut rng, sink);
                     }
                 }
                 sink.touched.sort_unstable();
