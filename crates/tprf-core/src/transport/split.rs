@@ -1,6 +1,7 @@
 //! How many branches a camera sample splits into at its first scattering vertex
-//! ([`RenderSettings::first_bounce_splits`](super::RenderSettings)), chosen per render by
-//! a small pilot when it is 0 (automatic).
+//! ([`RenderSettings::first_bounce_splits`](super::RenderSettings)), and whether eye
+//! vertices are joined to light vertices ([`super::connect`]), chosen per render by a
+//! small pilot where the settings leave them automatic.
 //!
 //! A split sample shares its prefix (the camera ray, the first hit and its next-event
 //! estimate) between `k` continuations (the bounce and everything after), each
@@ -21,7 +22,13 @@
 //! samples before `k*` is taken (at 8 samples the pilot would undersplit every
 //! longer render). Measured at equal error on the race's corner, room and
 //! `builtin:cornell`, this rule picks the best or a near-best of 1 ..= 4, and 1 on
-//! `builtin:canopy` (docs/benchmarks.md). The choice depends on the scene, the
+//! `builtin:canopy` (docs/benchmarks.md).
+//!
+//! Light vertices: the pilot runs with and without them (each with its own best
+//! split, by the rule above) and keeps the one of least predicted work times variance
+//! at [`TARGET_SPP`]: on where a light lights a wall the eye's paths bounce off (the
+//! race's corner and room, `builtin:cornell`), off where they cannot help (a single lit
+//! plane, `builtin:canopy`'s foliage seen from the laser's side). The choice depends on the scene, the
 //! settings, the seed and the film's size and window, not on the samples asked for,
 //! the bin count or the threads: a longer render continues a shorter one, and a film
 //! binned finer over the same window traces the same paths.
