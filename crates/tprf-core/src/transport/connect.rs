@@ -12,7 +12,7 @@
 //! and `y` are close (`1 / d^2`), where BSDF sampling is good. The two are combined with
 //! the power heuristic (Veach's multiple importance sampling), the path tracer's side
 //! weighted in [`Renderer::next_event`]'s punctual term with
-//! [`connected_weight`](connected_weight), so every weight pair sums to 1 and the sum is
+//! [`connected_weight`], so every weight pair sums to 1 and the sum is
 //! unbiased. This is bidirectional path tracing's strategy with one light vertex, one
 //! per camera sample, shared by every eye vertex that connects to it.
 //!

@@ -482,8 +482,9 @@ impl Renderer {
             let bsdf = sp.bsdf;
             let frame = Frame::new(sp.n_shading);
             let wo = frame.to_local(-dir);
+            // Where shadow rays from this vertex start.
+            let p_out = sp.position + sp.n_face * self.offset_m(sp.position);
             if s.nee && bsdf.has_smooth_lobe() {
-                let p_out = sp.position + sp.n_face * self.offset_m(sp.position);
                 // The density with which the last vertex's BSDF sample found this one,
                 // per unit area, when that vertex was also joined to the light vertex.
                 let connected_pdf_area = if path.connected_pdf > 0.0 {
@@ -531,7 +532,7 @@ impl Renderer {
                         frame: &frame,
                         wo,
                         position: sp.position,
-                        position_out: sp.position + sp.n_face * self.offset_m(sp.position),
+                        position_out: p_out,
                         n_face: sp.n_face,
                         opl_m: path.opl_m,
                         throughput: path.throughput * path.share,

@@ -230,10 +230,7 @@ impl Lights {
         if !(total > 0.0) {
             return None;
         }
-        let i = self
-            .punctual_cdf
-            .partition_point(|&c| c <= u)
-            .min(self.punctual.len() - 1);
+        let i = pick(&self.punctual_cdf, u);
         let light = &self.punctual[i];
         let dir = light.sample_direction(u2);
         let intensity_w_per_sr = light.intensity_toward(dir);
@@ -249,16 +246,24 @@ impl Lights {
     /// Density with which [`Lights::sample_emission`] picks punctual light `i` and unit
     /// direction `dir` from it, 1/sr.
     pub fn emission_pdf(&self, i: usize, dir: Vec3) -> f32 {
-        let (hi, lo) = (
-            self.punctual_cdf.get(i).copied().unwrap_or(0.0),
-            if i == 0 {
-                0.0
-            } else {
-                self.punctual_cdf[i - 1]
-            },
-        );
-        (hi - lo) * self.punctual.get(i).map_or(0.0, |l| l.pdf_direction(dir))
+        probability(&self.punctual_cdf, i)
+            * self.punctual.get(i).map_or(0.0, |l| l.pdf_direction(dir))
     }
+}
+
+/// The index `u` in [0, 1) picks from cumulative probabilities `cdf` (not empty).
+fn pick(cdf: &[f32], u: f32) -> usize {
+    cdf.partition_point(|&c| c <= u).min(cdf.len() - 1)
+}
+
+/// The probability of index `i` under cumulative probabilities `cdf` (0 past its end).
+fn probability(cdf: &[f32], i: usize) -> f32 {
+    let hi = cdf.get(i).copied().unwrap_or(0.0);
+    let lo = match i {
+        0 => 0.0,
+        _ => cdf.get(i - 1).copied().unwrap_or(0.0),
+    };
+    hi - lo
 }
 
 /// Cumulative probabilities in proportion to `weights` (all 0 when they sum to 0).
@@ -284,29 +289,16 @@ impl Lights {
         !self.emitters.is_empty()
     }
 
-    fn select_probability(&self, i: usize) -> f32 {
-        let hi = self.cdf.get(i).copied().unwrap_or(0.0);
-        let lo = if i == 0 {
-            0.0
-        } else {
-            self.cdf.get(i - 1).copied().unwrap_or(0.0)
-        };
-        hi - lo
-    }
-
     /// Pick an emitter by power and a uniform point on it.
     pub fn sample_emitter(&self, u_select: f32, u1: f32, u2: f32) -> Option<EmitterSample> {
         if self.emitters.is_empty() {
             return None;
         }
-        let i = self
-            .cdf
-            .partition_point(|&c| c <= u_select)
-            .min(self.emitters.len() - 1);
+        let i = pick(&self.cdf, u_select);
         let e = &self.emitters[i];
         let s = u1.sqrt();
         let (bu, bv) = (s * (1.0 - u2), s * u2);
-        let p = self.select_probability(i);
+        let p = probability(&self.cdf, i);
         (p > 0.0).then(|| EmitterSample {
             triangle: e.triangle,
             position: e.p0 + e.e1 * bu + e.e2 * bv,
@@ -321,7 +313,7 @@ impl Lights {
         match self.emitter_of.get(triangle as usize) {
             Some(&i) if i != u32::MAX => {
                 let e = &self.emitters[i as usize];
-                self.select_probability(i as usize) / e.area_m2
+                probability(&self.cdf, i as usize) / e.area_m2
             }
             _ => 0.0,
         }
