@@ -16,8 +16,9 @@ pub struct Punctual {
     pub intensity_w_per_sr: f32,
     /// Spot lights: axis, falloff scale and offset (`a = axis . dir scale + offset`).
     spot: Option<(Vec3, f32, f32)>,
-    /// Cosine of the half-angle of the cone holding all emission: -1 for a point light,
-    /// the outer cone's for a spot.
+    /// The cone holding all emission: its axis and the cosine of its half-angle (the
+    /// whole sphere, cosine -1 around +Z, for a point light; the outer cone for a spot).
+    cone_axis: Vec3,
     cos_cone: f32,
 }
 
@@ -29,14 +30,15 @@ impl Punctual {
             let scale = 1.0 / (cos_inner - cos_outer).max(1e-3);
             (s.direction.normalize_or_zero(), scale, -cos_outer * scale)
         });
-        let cos_cone = match (l.spot, spot) {
-            (Some(s), Some((axis, _, _))) if axis != Vec3::ZERO => s.outer_cone_rad.cos(),
-            _ => -1.0,
+        let (cone_axis, cos_cone) = match (l.spot, spot) {
+            (Some(s), Some((axis, _, _))) if axis != Vec3::ZERO => (axis, s.outer_cone_rad.cos()),
+            _ => (Vec3::Z, -1.0),
         };
         Punctual {
             position: l.position,
             intensity_w_per_sr: channel.pick(l.intensity_w_per_sr).max(0.0),
             spot,
+            cone_axis,
             cos_cone,
         }
     }
@@ -58,19 +60,12 @@ impl Punctual {
         let cos_t = 1.0 - u1 * (1.0 - self.cos_cone);
         let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
         let phi = 2.0 * std::f32::consts::PI * u2;
-        let local = Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t);
-        match self.spot {
-            Some((axis, _, _)) if axis != Vec3::ZERO => Frame::new(axis).to_world(local),
-            _ => local,
-        }
+        Frame::new(self.cone_axis).to_world(Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t))
     }
 
     /// Solid-angle density of [`Punctual::sample_direction`] at unit `dir`, 1/sr.
     fn pdf_direction(&self, dir: Vec3) -> f32 {
-        let inside = match self.spot {
-            Some((axis, _, _)) if axis != Vec3::ZERO => axis.dot(dir) >= self.cos_cone,
-            _ => true,
-        };
+        let inside = self.cos_cone <= -1.0 || self.cone_axis.dot(dir) >= self.cos_cone;
         if inside { 1.0 / self.cone_sr() } else { 0.0 }
     }
 

@@ -119,10 +119,11 @@ pub(super) fn choose(
     let settings = renderer.settings();
     let span_s = axis.end_s() - axis.t0_s;
     let axis = &TimeAxis::new(axis.t0_s, span_s / PILOT_BINS as f64, PILOT_BINS).unwrap_or(*axis);
-    let light_vertex = match settings.light_vertex {
-        Some(on) => vec![on],
-        None if settings.nee && renderer.has_punctual_lights() => vec![true, false],
-        None => vec![false],
+    let light_vertex: &[bool] = match settings.light_vertex {
+        Some(true) => &[true],
+        Some(false) => &[false],
+        None if settings.nee && renderer.has_punctual_lights() => &[true, false],
+        None => &[false],
     };
     let k_fixed = settings.first_bounce_splits;
     if k_fixed != 0 && light_vertex.len() == 1 {
@@ -132,7 +133,7 @@ pub(super) fn choose(
         };
     }
     // Per light-vertex choice: its split and the predicted work times variance.
-    let candidates = light_vertex.into_iter().map(|light_vertex| {
+    let candidates = light_vertex.iter().map(|&light_vertex| {
         let at = |splits| {
             let strategy = Strategy {
                 splits,
