@@ -92,6 +92,7 @@ fn tree(dir: &Path) -> std::collections::BTreeMap<PathBuf, Vec<u8>> {
 
 /// A small render with light in most rows, per-bounce layers and an uneven last band.
 const NPY: &[&str] = &[
+    "--uniform",
     "--width",
     "20",
     "--height",
@@ -179,6 +180,7 @@ fn merged_shards_of_a_scene_with_a_sun_carry_its_ambient_image() {
     // for the same seed) and the merge keeps one copy, as one process writes it.
     let dir = tempdir("ambient");
     let args = [
+        "--uniform",
         "--width",
         "24",
         "--height",
@@ -217,6 +219,7 @@ fn merged_zarr_shards_are_the_one_process_store_chunk_for_chunk() {
     let dir = tempdir("zarr");
     // 3 bands of 32 rows (the chunk height), an edge tile in x, two time chunks.
     let args = [
+        "--uniform",
         "--width",
         "40",
         "--height",
@@ -289,6 +292,7 @@ fn merged_zarr_shards_are_the_one_process_store_chunk_for_chunk() {
 
 /// A fixed window, so two renders of other settings still agree on it.
 const SMALL: &[&str] = &[
+    "--uniform",
     "--width",
     "16",
     "--height",
@@ -356,6 +360,7 @@ fn shards_of_another_render_are_refused_naming_the_difference() {
         &format!("{}/assets/cornell.gltf", env!("CARGO_MANIFEST_DIR")),
         "--out",
         scene_dir.to_str().unwrap(),
+        "--uniform",
         "--width",
         "16",
         "--height",
@@ -498,6 +503,7 @@ fn shard_settings_that_cannot_be_split_are_refused() {
             "8",
             "--bins",
             "8",
+            "--uniform",
         ];
         a.extend_from_slice(extra);
         let o = tprf(&a);
@@ -513,6 +519,29 @@ fn shard_settings_that_cannot_be_split_are_refused() {
     assert!(e.contains("K/N"), "{e}");
     let e = run(&["--spp", "2", "--shard", "0/2", "--band-rows", "0"]);
     assert!(e.contains("--band-rows must be at least 1"), "{e}");
+}
+
+#[test]
+fn a_shard_without_uniform_sampling_is_refused() {
+    let dir = tempdir("adaptive");
+    let out = dir.join("x");
+    let o = tprf(&[
+        "render",
+        "builtin:cornell",
+        "--out",
+        out.to_str().unwrap(),
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--spp",
+        "2",
+        "--shard",
+        "0/2",
+    ]);
+    let e = stderr(&o);
+    assert!(!o.status.success() && !out.exists(), "rendered: {e}");
+    assert!(e.contains("--shard needs --uniform"), "{e}");
 }
 
 /// `tprf batch MANIFEST ARGS...`.
@@ -675,8 +704,21 @@ bins = 8
 fn a_truncated_zarr_chunk_is_refused() {
     let dir = tempdir("zarr-cut");
     let args = [
-        "--width", "16", "--height", "64", "--spp", "2", "--bins", "16", "--format", "zarr",
-        "--t0", "3m", "--dt", "0.5m",
+        "--uniform",
+        "--width",
+        "16",
+        "--height",
+        "64",
+        "--spp",
+        "2",
+        "--bins",
+        "16",
+        "--format",
+        "zarr",
+        "--t0",
+        "3m",
+        "--dt",
+        "0.5m",
     ];
     let parts = shards(&dir, "builtin:cornell", &args, 2);
     let chunk = tree(&parts[1].join("tprf.zarr"))

@@ -33,8 +33,8 @@ pub struct ConvergeArgs {
     pub out: PathBuf,
     /// An estimator setting to compare (repeat for several on one plot): `default`, or
     /// comma-separated nee=on|off, filter=box|tent, rr_start=N, rr_floor=P,
-    /// max_bounces=N, splits=N|auto, light_vertex=on|off, seconds=S. Default: just
-    /// `default`.
+    /// max_bounces=N, splits=N|auto, light_vertex=on|off, adaptive=on|off, seconds=S.
+    /// Default: just `default`.
     #[arg(long = "setting")]
     pub settings: Vec<String>,
     /// Film width (default: the reference's).

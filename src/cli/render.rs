@@ -72,10 +72,17 @@ pub struct RenderArgs {
     /// The spectral band the one-channel cube records: red, green, blue or gray.
     #[arg(long, default_value_t = Channel::Gray, value_parser = parse_channel)]
     pub channel: Channel,
+    /// Every pixel draws every pass's samples, for the same noise across the image.
+    /// Default: from the fourth sample per pixel on, pixels draw samples in proportion
+    /// to their measured noise over the square root of their cost, for the least cube
+    /// error per second (unbiased either way).
+    #[arg(long)]
+    pub uniform: bool,
     /// Render only shard K of N (0-based, "K/N"): the image's bands of --band-rows rows,
     /// band b going to shard b mod N, with the same passes and window as the whole
     /// render. `tprf merge` puts the N shard folders together into the cube one
-    /// process writes, bit for bit. Needs --spp (a time budget is not reproducible).
+    /// process writes, bit for bit. Needs --spp (a time budget is not reproducible) and
+    /// --uniform (a shard cannot see the other shards' noise to plan its samples).
     #[arg(long, conflicts_with_all = ["seconds", "frames"])]
     pub shard: Option<String>,
     /// Rows per band of --shard. Bands of whole Zarr chunks (32 rows, the default) let
@@ -123,6 +130,12 @@ fn check_render_args(a: &RenderArgs) -> Result<()> {
     if a.shard.is_some() && a.seconds.is_some() {
         bail!("--shard needs a fixed --spp: a --seconds budget gives each shard other passes");
     }
+    if a.shard.is_some() && !a.uniform {
+        bail!(
+            "--shard needs --uniform: adaptive sampling plans each pixel's samples from the \
+             whole image's noise, which a shard does not see"
+        );
+    }
     if a.ambient_spp == Some(0) {
         bail!("--ambient-spp must be at least 1");
     }
@@ -158,6 +171,7 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
         max_bounces: a.max_bounces,
         seed: a.seed,
         channel: a.channel,
+        adaptive: !a.uniform,
         ..Default::default()
     };
     let scene = Arc::new(scene);
@@ -302,6 +316,7 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
         paths_traced: last.map_or(0, |r| r.paths),
         first_bounce_splits: renderer.strategy().splits,
         light_vertex: renderer.strategy().light_vertex,
+        adaptive: !a.uniform,
         error_estimate: film.half_error_estimate(),
         passes: reports.len() as u64,
         left_out: last.map_or_else(Default::default, |r| r.left_out),

@@ -27,6 +27,9 @@ pub struct ViewerSettings {
     pub max_bounces: u32,
     pub channel: Channel,
     pub seed: u64,
+    /// Every pixel draws every pass's samples (the same noise everywhere); off: adaptive
+    /// sampling, samples where the noise is (`RenderSettings::adaptive`).
+    pub uniform_sampling: bool,
     /// A constant sky (W m^-2 sr^-1) in the scene's ambient light group, replacing the
     /// scene's own; `None`: the scene's (the worker renders its ambient image, which
     /// the sensor tab adds to every gate and the SPAD).
@@ -74,6 +77,7 @@ impl Default for ViewerSettings {
             max_bounces: 1024,
             channel: Channel::Gray,
             seed: 0,
+            uniform_sampling: false,
             sky_radiance_w_m2_sr: None,
             play_bins_per_s: 30.0,
             looping: true,
@@ -121,8 +125,8 @@ impl ViewerSettings {
     }
 
     /// These settings with the render ones (scene, size, window, spp, bounces, band,
-    /// seed) taken from `other`: what "Apply & restart" applies. Display and sensor
-    /// settings take effect at once and are not part of it.
+    /// seed, sampling, sky) taken from `other`: what "Apply & restart" applies. Display
+    /// and sensor settings take effect at once and are not part of it.
     pub(super) fn with_render_of(&self, other: &ViewerSettings) -> ViewerSettings {
         ViewerSettings {
             scene: other.scene.clone(),
@@ -136,6 +140,7 @@ impl ViewerSettings {
             max_bounces: other.max_bounces,
             channel: other.channel,
             seed: other.seed,
+            uniform_sampling: other.uniform_sampling,
             sky_radiance_w_m2_sr: other.sky_radiance_w_m2_sr,
             ..self.clone()
         }
@@ -174,6 +179,7 @@ impl ViewerSettings {
                 max_bounces: self.max_bounces,
                 seed: self.seed,
                 channel: self.channel,
+                adaptive: !self.uniform_sampling,
                 ..Default::default()
             },
             spp_target: (self.spp_target > 0).then_some(self.spp_target),

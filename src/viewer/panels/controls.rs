@@ -196,6 +196,13 @@ impl TprfApp {
                 let l = ui.label("Seed");
                 ui.add(egui::DragValue::new(&mut p.seed)).labelled_by(l.id);
                 ui.end_row();
+                let l = ui.label("Uniform samples").on_hover_text(
+                    "every pixel draws every pass's samples: the same noise across the \
+                     image; off: samples go where the noise is, for the least cube error \
+                     per second (unbiased either way)",
+                );
+                ui.checkbox(&mut p.uniform_sampling, "").labelled_by(l.id);
+                ui.end_row();
                 let l = ui.label("Sky").on_hover_text(
                     "a constant sky in the ambient light group (steady light: the sensor adds \
                      its ambient image to every gate and the SPAD); off: the scene's own",

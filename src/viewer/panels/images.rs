@@ -133,7 +133,9 @@ impl TprfApp {
     }
 
     /// What the window says of pixel `(x, y)`: its value in the scrubber's bin and its
-    /// steady value with their units, and when its light peaks (ns and optical path m).
+    /// steady value with their units, when its light peaks (ns and optical path m), and
+    /// the samples it drew against the image's mean (adaptive sampling gives noisy
+    /// pixels more).
     pub fn pixel_readout(&self, snap: &FilmSnapshot, x: usize, y: usize) -> String {
         let axis = snap.axis();
         let tprf = snap.pixel(x, y);
@@ -148,8 +150,14 @@ impl TprfApp {
                 let t = axis.bin_center_s(b as usize);
                 format!("peak at {:.3} ns ({:.3} m)", t * 1e9, t * C_M_PER_S)
             });
+        let samples = match snap.pixel_samples_drawn(x, y) {
+            Some(n) if snap.spp > 0 => {
+                format!(" · {n} spp ({:.2}x the mean)", n as f64 / snap.spp as f64)
+            }
+            _ => String::new(),
+        };
         format!(
-            "pixel ({x}, {y}) · bin {}: {} · steady {} · {peak}",
+            "pixel ({x}, {y}) · bin {}: {} · steady {} · {peak}{samples}",
             self.bin,
             axes::format_value(f64::from(v), BIN_UNIT),
             axes::format_value(steady, STEADY_UNIT),

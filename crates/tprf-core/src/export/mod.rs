@@ -164,6 +164,10 @@ pub struct CubeMetadata {
     /// written before it was recorded.
     #[serde(default)]
     pub light_vertex: bool,
+    /// Whether pixels drew samples in proportion to their noise
+    /// (`RenderSettings::adaptive`); false in files written before it was recorded.
+    #[serde(default)]
+    pub adaptive: bool,
     /// Error of the cube estimated from two independent halves of the samples (relative
     /// RMS), when both halves have samples.
     pub error_estimate: Option<f64>,

@@ -47,12 +47,13 @@ impl FilmLayout {
     }
 
     /// Bytes a film of this shape and its readers hold whatever light it stores: per
-    /// pixel the run directory, steady sum and peak bin ([`super::BYTES_PER_PIXEL`]) and
-    /// 16 B per bounce layer; a snapshot's steady image and peak bins (f32 and
+    /// pixel the run directory, steady sum, peak bin and sampling record
+    /// ([`super::BYTES_PER_PIXEL`]) and 16 B per bounce layer; an adaptive pass's plan
+    /// while it is made (8 B); a snapshot's steady image and peak bins (f32 and
     /// `Option<u32>`: 12 B); the exported steady image (f64 and 8-bit: 9 B); one dense
     /// f32 row (`W x T x 4` B) of a cube file being written. `None` on overflow.
     pub fn fixed_bytes(&self) -> Option<u64> {
-        let per_pixel = super::BYTES_PER_PIXEL + 16 * self.bounce_layers() as u64 + 12 + 9;
+        let per_pixel = super::BYTES_PER_PIXEL + 16 * self.bounce_layers() as u64 + 8 + 12 + 9;
         let row = (self.width as u64)
             .checked_mul(self.axis.bins as u64)?
             .checked_mul(4)?;

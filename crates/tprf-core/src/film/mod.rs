@@ -15,6 +15,7 @@ mod time_axis;
 pub use error::FilmError;
 pub use filter::TimeFilter;
 pub use layout::FilmLayout;
+pub use row::{PixelPass, PixelSamples};
 pub use sink::{LeftOut, LeftOutCounts, PixelSink};
 pub use snapshot::{
     DENSE_BAND_VALUES, FilmSnapshot, SliceCursor, SnapshotBuilder, quantile, quantile_f32,

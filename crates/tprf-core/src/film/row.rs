@@ -25,6 +25,25 @@ pub struct FilmRow {
     /// Over the row's bins: the sums of `(a / n_a - b / n_b)^2` and `((a + b) / n)^2`
     /// for the sample counts the row was built with (the two-half error estimate).
     pub(super) err_terms: (f64, f64),
+    /// Per pixel: the samples it drew and what they cost (empty in a row read from a
+    /// file, which draws none).
+    pub(super) samples: Vec<PixelSamples>,
+}
+
+/// One pixel's sampling so far: what an adaptive pass plan reads (see
+/// [`TprfFilm::run_pass_planned`](super::TprfFilm::run_pass_planned)).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PixelSamples {
+    /// Samples drawn into each half: the index of the next one in the pixel's stream of
+    /// that half.
+    pub drawn: [u32; 2],
+    /// Work per sample of the pixel's last pass, in whatever unit the renderer reports
+    /// (rays); 0 before its first pass.
+    pub cost: f32,
+    /// Sum over the pixel's bins of `(a / n_a - b / n_b)^2`: the squared difference of
+    /// the two halves' means (the film's `n_a`, `n_b`), the pixel's term of the two-half
+    /// error estimate.
+    pub half_diff2: f32,
 }
 
 impl FilmRow {
@@ -36,6 +55,7 @@ impl FilmRow {
             steady_sum: vec![0.0; width],
             peak_bin: vec![NO_PEAK; width],
             err_terms: (0.0, 0.0),
+            samples: vec![PixelSamples::default(); width],
         }
     }
 
@@ -56,6 +76,7 @@ impl FilmRow {
             steady_sum,
             peak_bin,
             err_terms: (0.0, 0.0),
+            samples: Vec::new(),
         }
     }
 
@@ -82,6 +103,12 @@ impl FilmRow {
             + self.layers.capacity() * std::mem::size_of::<SparseRow<f64>>()
             + self.steady_sum.capacity() * 8
             + self.peak_bin.capacity() * 4
+            + self.samples.capacity() * std::mem::size_of::<PixelSamples>()
+    }
+
+    /// Pixel `x`'s sampling so far (none drawn in a row read from a file).
+    pub fn pixel_samples(&self, x: usize) -> PixelSamples {
+        self.samples.get(x).copied().unwrap_or_default()
     }
 }
 
@@ -165,9 +192,21 @@ pub(super) struct RowTally {
     pub left_out: LeftOutCounts,
 }
 
-/// Render row `y` of a pass into half `half`: every pixel through `render_pixel`, in
-/// order, then the old row merged with the new bins. `spp_after` is the film's samples
-/// per half once the pass is counted.
+/// Samples one pass draws for one pixel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PixelPass {
+    /// Index of the first one in the pixel's sample stream of the pass's half: the
+    /// samples the pixel drew into that half before.
+    pub first: u32,
+    /// How many (at least 1).
+    pub samples: u32,
+}
+
+/// Render row `y` of a pass of `pass_spp` samples per pixel (nominal) into half `half`:
+/// every pixel through `render_pixel`, in order, then the old row merged with the new
+/// bins. `plan` is the row's samples per pixel (`None`: `pass_spp` each); a pixel's
+/// contributions are weighted `pass_spp / samples` (see `TprfFilm::run_pass_planned`).
+/// `spp_after` is the film's samples per half once the pass is counted.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn render_row<F>(
     old: &FilmRow,
@@ -175,12 +214,14 @@ pub(super) fn render_row<F>(
     layout: &FilmLayout,
     filter: TimeFilter,
     half: usize,
+    pass_spp: u32,
+    plan: Option<&[u32]>,
     spp_after: [u64; 2],
     work: &mut RowWork,
     render_pixel: &F,
 ) -> (FilmRow, RowTally)
 where
-    F: Fn(usize, usize, &mut PixelSink<'_>) + Sync,
+    F: Fn(usize, usize, PixelPass, &mut PixelSink<'_>) -> u64 + Sync,
 {
     let w = layout.width;
     let t = layout.axis.bins;
@@ -192,9 +233,27 @@ where
         work.layer_new[l].clear();
         work.layer_new_end[l].clear();
     }
+    let mut samples = Vec::with_capacity(w);
     for x in 0..w {
-        let mut sink = PixelSink::new(*layout, filter, &mut work.scratch);
-        render_pixel(x, y, &mut sink);
+        let mut drawn = old.pixel_samples(x);
+        let n = plan
+            .and_then(|p| p.get(x).copied())
+            .unwrap_or(pass_spp)
+            .max(1);
+        let pass = PixelPass {
+            first: drawn.drawn[half],
+            samples: n,
+        };
+        let weight = if n == pass_spp {
+            1.0
+        } else {
+            pass_spp as f64 / n as f64
+        };
+        let mut sink = PixelSink::new(*layout, filter, weight, &mut work.scratch);
+        let cost = render_pixel(x, y, pass, &mut sink);
+        drawn.drawn[half] = drawn.drawn[half].wrapping_add(n);
+        drawn.cost = (cost as f64 / n as f64) as f32;
+        samples.push(drawn);
         tally.outside += sink.outside;
         tally.left_out += sink.left_out;
         let s = &mut work.scratch;
@@ -251,7 +310,7 @@ where
         layer_rows.push(work.layer.take_exact(w));
     }
     let (steady_sum, peak_bin) = summaries(&halves);
-    let err_terms = error_terms(&halves, spp_after);
+    let err_terms = error_terms(&halves, spp_after, &mut samples);
     (
         FilmRow {
             halves,
@@ -259,14 +318,19 @@ where
             steady_sum,
             peak_bin,
             err_terms,
+            samples,
         },
         tally,
     )
 }
 
 /// The row's sums of `(a / n_a - b / n_b)^2` and `((a + b) / n)^2` (see
-/// `TprfFilm::half_error_estimate`).
-fn error_terms(halves: &SparseRow<[f64; 2]>, [na, nb]: [u64; 2]) -> (f64, f64) {
+/// `TprfFilm::half_error_estimate`), and each pixel's first sum into its `samples`.
+fn error_terms(
+    halves: &SparseRow<[f64; 2]>,
+    [na, nb]: [u64; 2],
+    samples: &mut [PixelSamples],
+) -> (f64, f64) {
     if na == 0 || nb == 0 {
         return (0.0, 0.0);
     }
@@ -274,15 +338,18 @@ fn error_terms(halves: &SparseRow<[f64; 2]>, [na, nb]: [u64; 2]) -> (f64, f64) {
     let n = na + nb;
     let mut diff2 = 0.0;
     let mut norm2 = 0.0;
-    for x in 0..halves.width() {
+    for (x, s) in samples.iter_mut().enumerate().take(halves.width()) {
+        let mut pixel_diff2 = 0.0;
         for (_, values) in halves.pixel_runs(x) {
             for [a, b] in values {
                 let d = a / na - b / nb;
                 let m = (a + b) / n;
                 diff2 += d * d;
+                pixel_diff2 += d * d;
                 norm2 += m * m;
             }
         }
+        s.half_diff2 = pixel_diff2 as f32;
     }
     (diff2, norm2)
 }

@@ -68,6 +68,9 @@ pub struct PixelSink<'a> {
     axis: TimeAxis,
     layout: FilmLayout,
     filter: TimeFilter,
+    /// What each contribution is multiplied by: the pass's samples per pixel over the
+    /// pixel's (1 in a uniform pass).
+    weight: f64,
     scratch: &'a mut Scratch,
     /// Sum of contributions that arrived before or after the window (for diagnostics).
     pub outside: f64,
@@ -79,12 +82,14 @@ impl<'a> PixelSink<'a> {
     pub(super) fn new(
         layout: FilmLayout,
         filter: TimeFilter,
+        weight: f64,
         scratch: &'a mut Scratch,
     ) -> PixelSink<'a> {
         PixelSink {
             axis: layout.axis,
             layout,
             filter,
+            weight,
             scratch,
             outside: 0.0,
             left_out: LeftOutCounts::default(),
@@ -93,13 +98,15 @@ impl<'a> PixelSink<'a> {
 
     /// Add one contribution `value` (radiance of one sample, W / (m^2 sr) per unit pulse
     /// energy) arriving at `arrival_s` after `scatterings` scattering events, binned by
-    /// the film's [`TimeFilter`] (box: the whole value in the bin holding `arrival_s`).
+    /// the film's [`TimeFilter`] (box: the whole value in the bin holding `arrival_s`),
+    /// times the pixel's weight in this pass.
     #[inline]
     pub fn add(&mut self, arrival_s: f64, value: f64, scatterings: u32) {
         if !(value.is_finite() && arrival_s.is_finite()) {
             self.left_out.non_finite += 1;
             return;
         }
+        let value = value * self.weight;
         if self.filter == TimeFilter::Tent {
             match self.axis.tent_split(arrival_s) {
                 Some(split) => {

@@ -218,6 +218,15 @@ impl FilmSnapshot {
             .filter(|_| x < self.layout.width)
     }
 
+    /// The samples pixel `(x, y)` drew, both halves together (under adaptive sampling a
+    /// pixel's own count, against the film's mean `spp`); `None` outside
+    /// the image and for a cube read from a file, which records none.
+    pub fn pixel_samples_drawn(&self, x: usize, y: usize) -> Option<u64> {
+        let row = self.row(x, y)?;
+        let drawn = row.samples.get(x)?.drawn;
+        Some(drawn[0] as u64 + drawn[1] as u64)
+    }
+
     /// Pixel `(x, y)`'s runs of stored bins in increasing order: `f(first bin, means)`.
     /// Bins not visited hold 0. This is how a reader touches only the light (the
     /// sensor's measurement, a sparse export).

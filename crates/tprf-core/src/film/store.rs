@@ -10,7 +10,7 @@
 //! The film is a list of immutable rows (`row.rs`); a pass builds new rows and a
 //! [`FilmSnapshot`] shares them, so publishing a snapshot copies nothing.
 
-use super::row::{FilmRow, RowWork, render_row};
+use super::row::{FilmRow, PixelPass, PixelSamples, RowWork, render_row};
 use super::{FilmError, FilmLayout, FilmSnapshot, LeftOutCounts, PixelSink, TimeAxis, TimeFilter};
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -38,9 +38,9 @@ pub struct StoreStats {
     pub dense_bytes: u64,
 }
 
-/// Bytes per pixel the film holds whatever it stores: the run directory, steady sum and
-/// peak bin (see [`FilmRow`]).
-pub const BYTES_PER_PIXEL: u64 = 16 + 8 + 4;
+/// Bytes per pixel the film holds whatever it stores: the run directory, steady sum,
+/// peak bin and sampling record (see [`FilmRow`]).
+pub const BYTES_PER_PIXEL: u64 = 16 + 8 + 4 + std::mem::size_of::<PixelSamples>() as u64;
 
 /// The TPRF cache: accumulated sample sums and counts.
 #[derive(Clone, Debug)]
@@ -145,7 +145,9 @@ impl TprfFilm {
         &self.layout.axis
     }
 
-    /// Samples per pixel so far.
+    /// Samples per pixel so far: the sum of the passes' sizes (each pixel's mean is of
+    /// this many, a pixel's own count may differ under an adaptive plan: see
+    /// [`TprfFilm::run_pass_planned`]).
     pub fn spp(&self) -> u64 {
         self.spp[0] + self.spp[1]
     }
@@ -168,15 +170,50 @@ impl TprfFilm {
     where
         F: Fn(usize, usize, &mut PixelSink<'_>) + Sync,
     {
+        let spp = spp_in_pass.min(u32::MAX as u64) as u32;
+        self.run_pass_planned(spp, None, |x, y, _, sink| {
+            render_pixel(x, y, sink);
+            0
+        })
+    }
+
+    /// Run one pass of `spp_in_pass` samples per pixel on average, pixel `i` (row-major)
+    /// drawing `plan[i]` of them (at least 1; `None`: `spp_in_pass` each):
+    /// `render_pixel(x, y, pass, sink)` draws `pass.samples` samples from index
+    /// `pass.first` of the pixel's stream of this pass's half into `sink`, and returns
+    /// their work (rays), which the film keeps per sample ([`PixelSamples::cost`]).
+    ///
+    /// Each contribution of the pass is weighted `spp_in_pass / samples`, so the pass
+    /// adds to every pixel `spp_in_pass` times the mean of its samples: the film's
+    /// means stay `sum / spp` and every pass's term is unbiased whatever `plan` was,
+    /// provided the plan is fixed before the pass's samples are drawn (it may follow
+    /// earlier passes, as an adaptive plan does: their noise decides how many samples
+    /// a pixel draws, never how its samples are weighted within the pass's sum).
+    pub fn run_pass_planned<F>(
+        &mut self,
+        spp_in_pass: u32,
+        plan: Option<&[u32]>,
+        render_pixel: F,
+    ) -> PassTally
+    where
+        F: Fn(usize, usize, PixelPass, &mut PixelSink<'_>) -> u64 + Sync,
+    {
         let layout = self.layout;
         let half = (self.passes % 2) as usize;
         let filter = self.filter;
         let mut spp_after = self.spp;
-        spp_after[half] += spp_in_pass;
+        spp_after[half] += spp_in_pass as u64;
+        let w = layout.width;
+        let plan = plan.filter(|p| p.len() == layout.pixels());
         let rows_rendered = self.rows_rendered.clone();
+        // Rows in leaves of at most a 16th of a thread's share, so that a pass whose plan
+        // piles samples into a few rows does not leave threads idle while one finishes
+        // a long stretch of them (on 2 threads, rows in one leaf each).
+        let leaf_rows = (layout.height / (rayon::current_num_threads() * 16)).max(1);
         let results: Vec<(Arc<FilmRow>, super::row::RowTally)> = self
             .rows
             .par_iter()
+            .with_max_len(leaf_rows)
             .enumerate()
             .map_init(
                 || RowWork::new(&layout),
@@ -193,6 +230,8 @@ impl TprfFilm {
                         &layout,
                         filter,
                         half,
+                        spp_in_pass,
+                        plan.and_then(|p| p.get(y * w..(y + 1) * w)),
                         spp_after,
                         work,
                         &render_pixel,
@@ -217,6 +256,19 @@ impl TprfFilm {
 
     fn row(&self, y: usize) -> Option<&FilmRow> {
         self.rows.get(y).map(|r| &**r)
+    }
+
+    /// Every pixel's sampling so far, row-major (what an adaptive plan reads).
+    pub fn pixel_samples(&self) -> impl Iterator<Item = PixelSamples> + '_ {
+        let w = self.layout.width;
+        self.rows
+            .iter()
+            .flat_map(move |r| (0..w).map(move |x| r.pixel_samples(x)))
+    }
+
+    /// Whether a pass renders every row (not a shard's bands).
+    pub fn renders_all_rows(&self) -> bool {
+        self.rows_rendered.is_none()
     }
 
     /// What a sum is divided by to give a mean.

@@ -36,6 +36,8 @@ pub struct EstimatorSetting {
     /// Light-vertex connections on or off (`RenderSettings::light_vertex`; unset: the
     /// pilot chooses).
     pub light_vertex: Option<bool>,
+    /// Adaptive sampling on or off (`RenderSettings::adaptive`).
+    pub adaptive: Option<bool>,
     /// Its own time budget, seconds (default: the run's).
     pub seconds: Option<f64>,
 }
@@ -61,6 +63,7 @@ impl EstimatorSetting {
             max_bounces: None,
             splits: None,
             light_vertex: None,
+            adaptive: None,
             seconds: None,
         }
     }
@@ -68,7 +71,8 @@ impl EstimatorSetting {
     /// Parse `default` or comma-separated `key=value` pairs: `nee=on|off`,
     /// `filter=box|tent`, `rr_start=N`, `rr_floor=P` (survival floor in [0, 1]),
     /// `max_bounces=N`, `splits=N` (first-bounce branches, 1 ..= 64, or `auto`),
-    /// `light_vertex=on|off` (eye vertices joined to a light vertex), `seconds=S`.
+    /// `light_vertex=on|off` (eye vertices joined to a light vertex), `adaptive=on|off`
+    /// (samples planned per pixel from the film's noise), `seconds=S`.
     pub fn parse(spec: &str) -> Result<EstimatorSetting, ReportError> {
         let mut s = EstimatorSetting::default_setting();
         s.label = spec.trim().to_string();
@@ -121,6 +125,9 @@ impl EstimatorSetting {
                 "light_vertex" => {
                     s.light_vertex = Some(on_off(v).ok_or_else(|| bad("expected on or off"))?)
                 }
+                "adaptive" => {
+                    s.adaptive = Some(on_off(v).ok_or_else(|| bad("expected on or off"))?)
+                }
                 "seconds" => {
                     let t: f64 = v.parse().map_err(|_| bad("expected a number"))?;
                     if !(t.is_finite() && t > 0.0) {
@@ -131,7 +138,7 @@ impl EstimatorSetting {
                 _ => {
                     return Err(error(format!(
                         "unknown key '{k}' (known: nee, filter, rr_start, rr_floor, \
-                         max_bounces, splits, light_vertex, seconds)"
+                         max_bounces, splits, light_vertex, adaptive, seconds)"
                     )));
                 }
             }
@@ -148,6 +155,7 @@ impl EstimatorSetting {
             max_bounces: self.max_bounces.unwrap_or(base.max_bounces),
             first_bounce_splits: self.splits.unwrap_or(base.first_bounce_splits),
             light_vertex: self.light_vertex.or(base.light_vertex),
+            adaptive: self.adaptive.unwrap_or(base.adaptive),
             ..base
         }
     }

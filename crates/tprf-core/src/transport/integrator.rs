@@ -95,6 +95,11 @@ pub struct RenderSettings {
     /// punctual lights are found by the path tracer alone. `None` (the default): chosen
     /// per render by the pilot, with the split. Unbiased either way.
     pub light_vertex: Option<bool>,
+    /// Adaptive sampling: from the film's fourth sample per half on, each pass gives a
+    /// pixel samples in proportion to its measured noise over the square root of its
+    /// cost ([`super::adaptive`]). Off: every pixel draws every pass's samples. Unbiased
+    /// either way.
+    pub adaptive: bool,
 }
 
 impl Default for RenderSettings {
@@ -108,6 +113,7 @@ impl Default for RenderSettings {
             rr_min_survival: 0.0,
             first_bounce_splits: 0,
             light_vertex: None,
+            adaptive: true,
         }
     }
 }
@@ -299,29 +305,39 @@ impl Renderer {
         (cam.position(), dir)
     }
 
-    /// One pass: `spp` samples per pixel into `film`, rows in parallel on the current
-    /// rayon pool. Each half of the film (even and odd passes) has its own sample stream
-    /// per pixel, and a pass continues it: sample `i` of a pixel's half depends only on
-    /// (seed, half, pixel, i), not on pass sizes or threads, and the halves stay
-    /// independent estimates.
+    /// One pass: `spp` samples per pixel on average into `film` (each pixel's share
+    /// planned from the film's noise when [`RenderSettings::adaptive`]), rows in parallel
+    /// on the current rayon pool. Each half of the film (even and odd passes) has its own
+    /// sample stream per pixel, and a pass continues it: sample `i` of a pixel's half
+    /// depends only on (seed, half, pixel, i), not on pass sizes or threads, and the
+    /// halves stay independent estimates.
     pub fn render_pass(&self, film: &mut TprfFilm, spp: u32) -> PassStats {
         let layout = *film.layout();
         let (w, h) = (layout.width, layout.height);
         let half = film.passes() % 2;
-        let first = film.half_spp()[half as usize];
         let strategy = self.strategy_for(&layout.axis, w, h);
+        let plan = if self.settings.adaptive {
+            super::adaptive::plan(film, spp)
+        } else {
+            None
+        };
         let rays_before = self.rays_traced();
-        let tally = film.run_pass(spp as u64, |x, y, sink| {
-            let mut rng =
-                Sampler::new(self.settings.seed, half, (y * w + x) as u64).starting_at(first);
+        let tally = film.run_pass_planned(spp, plan.as_deref(), |x, y, pass, sink| {
+            let mut rng = Sampler::new(self.settings.seed, half, (y * w + x) as u64)
+                .starting_at(pass.first as u64);
             let mut rays = 0u64;
-            for _ in 0..spp {
+            for _ in 0..pass.samples {
                 rays += self.trace_sample_with(x, y, w, h, strategy, &mut rng, sink);
             }
             self.rays.fetch_add(rays, Ordering::Relaxed);
+            rays
         });
+        let paths = match &plan {
+            Some(p) => p.iter().map(|&n| n as u64).sum(),
+            None => (w * film.rows_rendered()) as u64 * spp as u64,
+        };
         PassStats {
-            paths: (w * film.rows_rendered()) as u64 * spp as u64,
+            paths,
             rays: self.rays_traced() - rays_before,
             outside_per_pixel: tally.outside_per_pixel,
             left_out: tally.left_out,

@@ -3,6 +3,7 @@
 //! a path with k scattering events is one sample of the k-th term, and it arrives at
 //! `t = (optical path length, light -> ... -> eye) / c`.
 
+pub mod adaptive;
 pub mod ambient;
 pub mod bsdf;
 mod connect;
