@@ -84,12 +84,13 @@ def main():
         return json.loads((Path(folder) / "tprf.json").read_text())["render_seconds"]
 
     run([binary, "render", "builtin:cornell", "--out", str(tmp / "one1"), "--threads", "1",
-         *flags])
+         "--uniform", *flags])
     work = [("one process, 1 thread", render_s(tmp / "one1"))]
     for n in (2, 8):
         for k in range(n):
             run([binary, "render", "builtin:cornell", "--out", str(tmp / f"w{n}-{k}"),
-                 "--threads", "1", "--band-rows", "4", "--shard", f"{k}/{n}", *flags])
+                 "--threads", "1", "--band-rows", "4", "--uniform", "--shard", f"{k}/{n}",
+                 *flags])
         work.append((f"{n} shards, 1 thread each, summed",
                      sum(render_s(tmp / f"w{n}-{k}") for k in range(n))))
     base = rows[1][1]
@@ -131,7 +132,7 @@ def main():
             out = tmp / f"m-{fmt}-{k}"
             run([binary, "render", "builtin:cornell", "--out", str(out), "--width", str(w),
                  "--height", str(h), "--spp", "4", "--bins", str(bins), "--t0", "3m",
-                 "--dt", "1cm", "--format", fmt, "--shard", f"{k}/{n}"])
+                 "--dt", "1cm", "--format", fmt, "--uniform", "--shard", f"{k}/{n}"])
             parts.append(str(out))
         t = best(lambda: run([binary, "merge", str(tmp / f"merged-{fmt}"), *parts]), a.repeat)
         mib = w * h * bins * 4 / 2**20

@@ -165,3 +165,49 @@ fn the_plan_follows_the_noise_and_the_means_stay_unbiased() {
         assert!(ratio < 0.2, "steady pixel {p} drew {ratio} of uniform");
     }
 }
+
+/// A film of `w x h` pixels after 4 uniform passes of 8 samples whose two halves differ
+/// by exactly `2 a(p)` in pixel `p`'s one bin (half 0 holds `1 + a`, half 1 `1 - a`), one
+/// ray per sample: the noise the plan estimates is known by hand.
+fn film_with_half_differences(w: usize, h: usize, a: impl Fn(usize) -> f64 + Sync) -> TprfFilm {
+    let (mut film, axis) = film(w, h, 4);
+    for pass in 0..4 {
+        let sign = if pass % 2 == 0 { 1.0 } else { -1.0 };
+        film.run_pass_planned(8, None, |x, y, px, sink| {
+            for _ in 0..px.samples {
+                sink.add(axis.bin_center_s(1), 1.0 + sign * a(y * w + x), 1);
+            }
+            px.samples as u64
+        });
+    }
+    film
+}
+
+#[test]
+fn a_plan_is_made_only_where_it_pays_and_in_proportion_to_the_noise() {
+    let (w, h) = (16, 8);
+    // The same noise everywhere: the predicted gain is exactly 1, no plan.
+    let even = film_with_half_differences(w, h, |_| 0.1);
+    assert_eq!(adaptive::plan(&even, 16), None);
+    // Noise 4x larger (variance 16x) in the left half, columns 0-7. A pixel's variance
+    // is the larger of its own and its 3 x 3 neighbourhood's mean, which changes only
+    // column 8: (3 x 16 + 6 x 1) / 9 = 6 (in units of the right half's). So s is 4 in
+    // columns 0-7, sqrt(6) = 2.449 in column 8 and 1 in 9-15; mean(s) = (8 x 4 + 2.449 +
+    // 7) / 16 = 2.5906, mean(s^2) = (8 x 16 + 6 + 7) / 16 = 8.8125, and the predicted
+    // gain 8.8125 / 2.5906^2 = 1.31, over the 1.2 a plan needs. A pixel's share of the
+    // pass is 0.9 s / mean(s) + 0.1: 1.4897 (23.8 of 16 samples) on the left, 0.9509
+    // (15.2) in column 8, 0.4474 (7.2) on the right, rounded with the remainder carried.
+    let uneven = film_with_half_differences(w, h, |p| if p % w < w / 2 { 0.4 } else { 0.1 });
+    let plan = adaptive::plan(&uneven, 16).expect("a plan");
+    for (p, &n) in plan.iter().enumerate() {
+        let want = match p % w {
+            0..=7 => 23..=24,
+            8 => 15..=16,
+            _ => 7..=8,
+        };
+        assert!(want.contains(&n), "pixel {p}: {n}, want {want:?}");
+    }
+    // The shares add up to the pass: 16 per pixel.
+    let total: u32 = plan.iter().sum();
+    assert!(total.abs_diff(16 * (w * h) as u32) <= 1, "{total}");
+}

@@ -22,9 +22,9 @@ TIMINGS = ("wall_seconds", "render_seconds", "threads")
 
 
 def one_process(tprf_bin, out, args):
-    """The reference: one tprf render of the whole image."""
+    """The reference: one tprf render of the whole image, sampled uniformly as shards are."""
     flags = tprf_dist.render_args_to_flags({k: v for k, v in args.items() if k != "band_rows"})
-    subprocess.run([tprf_bin, "render", "builtin:cornell", "--out", str(out), *flags],
+    subprocess.run([tprf_bin, "render", "builtin:cornell", "--out", str(out), "--uniform", *flags],
                    check=True, capture_output=True)
 
 

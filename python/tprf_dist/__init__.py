@@ -151,7 +151,7 @@ def render_shard(
         return str(final)
     attempt = parts_dir / f".shard-{k}-of-{n}.attempt-{os.getpid()}-{uuid.uuid4().hex}"
     try:
-        _run([binary, "render", scene, "--out", str(attempt / "cube"),
+        _run([binary, "render", scene, "--out", str(attempt / "cube"), "--uniform",
               "--shard", f"{k}/{n}", *flags])
         try:
             os.rename(attempt / "cube", final)
@@ -189,6 +189,8 @@ def render_sharded(
     Shards go to ``parts`` (default ``OUT.parts``, beside ``out``; it must be on a file
     system every worker sees) and are removed after the merge unless ``keep_shards``.
     Returns ``out``; raises the task's error (a :class:`TprfError`) if it kept failing.
+    Shards sample uniformly (``--uniform``: adaptive sampling needs the whole image's
+    noise), so the cube is the one ``tprf render --uniform`` writes.
     """
     if n_shards < 1:
         raise ValueError(f"n_shards must be at least 1 (got {n_shards})")
