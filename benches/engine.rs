@@ -31,6 +31,7 @@ use tprf_core::transport::sampler::Sampler;
 use tprf_core::transport::{RayKind, RenderSettings, Renderer, Sink, WindowRequest, auto_window};
 
 mod common;
+
 use common::cornell_blob;
 
 // ---------------------------------------------------------------------------------------
@@ -313,8 +314,13 @@ fn run_case(case: &Case, make_scene: impl FnOnce() -> Scene) -> Figures {
     let (accel, bvh_s, bvh_bytes, bvh_peak) = measured(|| Accel::build(&scene));
     drop(accel);
     let scene = Arc::new(scene);
-    let (renderer, renderer_s, _, _) =
-        measured(|| Renderer::new(scene.clone(), RenderSettings::default()));
+    // Uniform samples: the replays below draw every pixel's samples of each pass, as a
+    // pass without an adaptive plan does.
+    let uniform = RenderSettings {
+        adaptive: false,
+        ..RenderSettings::default()
+    };
+    let (renderer, renderer_s, _, _) = measured(|| Renderer::new(scene.clone(), uniform));
     let axis = auto_window(
         &renderer,
         WindowRequest {

@@ -102,7 +102,14 @@ fn main() {
         } else {
             name.to_string()
         };
-        let renderer = Renderer::new(Arc::new(scene), RenderSettings::default());
+        // Uniform samples: the dense replay draws every pixel's samples of each pass.
+        let renderer = Renderer::new(
+            Arc::new(scene),
+            RenderSettings {
+                adaptive: false,
+                ..RenderSettings::default()
+            },
+        );
         let Ok(axis) = auto_window(
             &renderer,
             WindowRequest {
