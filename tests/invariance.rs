@@ -50,6 +50,35 @@ fn same_output_for_one_and_two_threads() {
 }
 
 #[test]
+fn an_adaptive_render_is_the_same_for_one_and_two_threads() {
+    // builtin:cornell's noise sits in a few pixels, so its passes are planned: each plan
+    // is made from the film alone, whatever the pool that rendered it.
+    let render = || {
+        let scene = tprf_core::scene::load("builtin:cornell").unwrap();
+        let axis = TimeAxis::new(3.5e-9, 5e-11, 64).unwrap();
+        render_scene(scene, 24, 24, axis, 96, 3, 0)
+    };
+    let (one, two) = (in_pool(1, render), in_pool(2, render));
+    let (a, b) = (one.film.cube_f64(), two.film.cube_f64());
+    assert!(a.iter().any(|&v| v > 0.0));
+    assert!(
+        a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()),
+        "cubes differ"
+    );
+    assert_eq!(one.rays, two.rays);
+    // Planned: the pixels drew unequal samples.
+    let drawn: Vec<[u32; 2]> = one.film.pixel_samples().map(|s| s.drawn).collect();
+    assert!(drawn.iter().any(|d| d != &drawn[0]), "no pass was planned");
+    assert_eq!(
+        drawn,
+        two.film
+            .pixel_samples()
+            .map(|s| s.drawn)
+            .collect::<Vec<_>>()
+    );
+}
+
+#[test]
 fn sum_over_time_equals_steady_state_render() {
     // Same seed, same paths: a one-bin render covering all times (a steady-state render)
     // must equal the sum over 200 bins of a window that holds every arrival. Uniform
