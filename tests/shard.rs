@@ -581,7 +581,7 @@ sensors = ["builtin:lidar"]
 [[sweep]]
 scenes = ["builtin:cornell"]
 out = "out/{scene}-{settings}"
-settings = [{ name = "a", seed = 1 }, { name = "b", seed = 2, spp = 5 }]
+settings = [{ name = "a", seed = 1 }, { name = "b", seed = 2, spp = 5, uniform = true }]
 "#,
     )
     .unwrap();
@@ -600,10 +600,22 @@ settings = [{ name = "a", seed = 1 }, { name = "b", seed = 2, spp = 5 }]
         "builtin:cornell",
         &one,
         &[
-            "--width", "12", "--height", "10", "--spp", "5", "--bins", "16", "--seed", "2",
+            "--width",
+            "12",
+            "--height",
+            "10",
+            "--spp",
+            "5",
+            "--bins",
+            "16",
+            "--seed",
+            "2",
+            "--uniform",
         ],
     );
     assert!(bytes(&one.join("tprf.npy")) == bytes(&out.join("cornell-b/tprf.npy")));
+    assert_eq!(json(&out.join("cornell-b/tprf.json"))["adaptive"], false);
+    assert_eq!(json(&out.join("cornell-a/tprf.json"))["adaptive"], true);
 
     let before: Vec<_> = ["lidar", "cornell-a", "cornell-b"]
         .iter()
@@ -644,6 +656,20 @@ settings = [{ name = "a", seed = 1 }, { name = "b", seed = 2, spp = 5 }]
     let list = String::from_utf8_lossy(&o.stdout).into_owned();
     assert_eq!(list.lines().count(), 3, "{list}");
     assert!(list.lines().all(|l| l.contains("\tcomplete\t")), "{list}");
+
+    // A job asking for uniform samples is not complete with an adaptive cube.
+    let text = std::fs::read_to_string(&manifest).unwrap();
+    let uniform_a = text.replace(
+        r#"name = "a", seed = 1"#,
+        r#"name = "a", seed = 1, uniform = true"#,
+    );
+    std::fs::write(&manifest, uniform_a).unwrap();
+    let o = batch(&manifest, &["--list"]);
+    let list = String::from_utf8_lossy(&o.stdout).into_owned();
+    let a = list.lines().find(|l| l.contains("cornell-a")).unwrap();
+    assert!(a.contains("\tto do\t"), "{list}");
+    let complete = list.lines().filter(|l| l.contains("\tcomplete\t")).count();
+    assert_eq!(complete, 2, "{list}");
 }
 
 #[test]

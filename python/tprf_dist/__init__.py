@@ -151,7 +151,8 @@ def render_shard(
         return str(final)
     attempt = parts_dir / f".shard-{k}-of-{n}.attempt-{os.getpid()}-{uuid.uuid4().hex}"
     try:
-        _run([binary, "render", scene, "--out", str(attempt / "cube"), "--uniform",
+        uniform = [] if "--uniform" in flags else ["--uniform"]
+        _run([binary, "render", scene, "--out", str(attempt / "cube"), *uniform,
               "--shard", f"{k}/{n}", *flags])
         try:
             os.rename(attempt / "cube", final)

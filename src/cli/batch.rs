@@ -71,6 +71,9 @@ pub struct JobSettings {
     pub channel: Option<String>,
     /// `npy`, `zarr` or `auto`.
     pub format: Option<String>,
+    /// Every pixel draws every pass's samples (`tprf render --uniform`); default false:
+    /// adaptive sampling.
+    pub uniform: Option<bool>,
     /// Sensor presets (TOML files or builtin:NAME) each measuring the cube into
     /// `OUT/sensor-NAME/`.
     pub sensors: Option<Vec<String>>,
@@ -92,6 +95,7 @@ impl JobSettings {
             bounces_separate: self.bounces_separate.or(b.bounces_separate),
             channel: self.channel.or(b.channel),
             format: self.format.or(b.format),
+            uniform: self.uniform.or(b.uniform),
             sensors: self.sensors.or(b.sensors),
         }
     }
@@ -274,6 +278,9 @@ fn render_argv(job: &Job, threads: Option<usize>) -> Vec<String> {
     flag("channel", s.channel.clone());
     flag("format", s.format.clone());
     flag("threads", threads.map(|v| v.to_string()));
+    if s.uniform == Some(true) {
+        argv.push("--uniform".into());
+    }
     argv
 }
 
@@ -328,6 +335,15 @@ pub fn cube_incomplete(job: &Job) -> Option<String> {
     }
     if meta.scene != job.scene {
         return Some(format!("it renders {}, the job {}", meta.scene, job.scene));
+    }
+    let uniform = s.uniform.unwrap_or(false);
+    if meta.adaptive == uniform {
+        let sampling = |uniform| if uniform { "uniform" } else { "adaptive" };
+        return Some(format!(
+            "its sampling is {}, the job's {}",
+            sampling(!meta.adaptive),
+            sampling(uniform)
+        ));
     }
     let cube = ["tprf.npy", tprf_core::export::zarr::ZARR_NAME];
     if !cube.iter().any(|c| job.out.join(c).exists()) {

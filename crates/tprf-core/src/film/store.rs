@@ -178,7 +178,8 @@ impl TprfFilm {
     }
 
     /// Run one pass of `spp_in_pass` samples per pixel on average, pixel `i` (row-major)
-    /// drawing `plan[i]` of them (at least 1; `None`: `spp_in_pass` each):
+    /// drawing `plan[i]` of them (at least 1; `None`, or a plan whose length is not the
+    /// film's pixel count: `spp_in_pass` each):
     /// `render_pixel(x, y, pass, sink)` draws `pass.samples` samples from index
     /// `pass.first` of the pixel's stream of this pass's half into `sink`, and returns
     /// their work (rays), which the film keeps per sample ([`PixelSamples::cost`]).
