@@ -13,7 +13,7 @@ use egui_kittest::kittest::{NodeT, Queryable};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use tprf::viewer::sensor::SensorState;
-use tprf::viewer::{Mode, Selection, Start, TprfApp, ViewerSettings};
+use tprf::viewer::{Mode, Selection, Start, SteadyBlock, TprfApp, ViewerSettings};
 use tprf_core::film::{FilmLayout, FilmSnapshot, TimeAxis};
 use tprf_core::sensor::{Exposure, LightPulse, Sensor, TimeOrigin};
 use tprf_core::transport::worker::WorkerState;
@@ -1543,6 +1543,50 @@ fn the_sensor_tab_adds_the_scenes_ambient_image() {
     }
 }
 
+/// The samples each pixel drew: under adaptive sampling the steady block can show them
+/// against the image's mean, and the readout gives a pixel's own count; with uniform
+/// samples every pixel drew the film's spp. (1024 spp: on so small a film the worker's
+/// paced passes are 1, 256, 256, ... samples, and a pass is planned once both halves of
+/// the film hold a few.)
+#[test]
+fn the_steady_block_shows_the_samples_each_pixel_drew() {
+    let mut h = harness(small_settings("builtin:cornell", 24, 32, 1024));
+    wait_done(&mut h, Duration::from_secs(120));
+    h.run_steps(2);
+    h.get_by_label("steady image");
+    h.state_mut().settings.steady_block = SteadyBlock::Samples;
+    h.run_steps(2);
+    h.get_by_label("samples image");
+    assert!(h.query_by_label("steady image").is_none());
+    let bar = label_with(&h, "colour bar: samples image");
+    assert!(bar.ends_with("× the mean, log"), "{bar}");
+    // The worker's film: its pixels drew unequal samples averaging the film's spp.
+    let snap = h.state().snapshot().expect("a snapshot");
+    let drawn: Vec<u64> = (0..24 * 24)
+        .map(|i| snap.pixel_samples_drawn(i % 24, i / 24).unwrap())
+        .collect();
+    assert!(drawn.iter().any(|&d| d != drawn[0]), "{drawn:?}");
+    let mean = drawn.iter().sum::<u64>() as f64 / drawn.len() as f64;
+    assert!(
+        (mean / snap.spp as f64 - 1.0).abs() < 0.05,
+        "{mean} vs {}",
+        snap.spp
+    );
+    let readout = h.state().pixel_readout(&snap, 3, 5);
+    let own = drawn[5 * 24 + 3];
+    assert!(readout.contains(&format!(" · {own} spp (")), "{readout}");
+    // Uniform samples: every pixel drew the film's spp.
+    let mut h = harness(ViewerSettings {
+        uniform_sampling: true,
+        ..small_settings("builtin:cornell", 24, 32, 1024)
+    });
+    wait_done(&mut h, Duration::from_secs(120));
+    let snap = h.state().snapshot().expect("a snapshot");
+    for i in 0..24 * 24 {
+        assert_eq!(snap.pixel_samples_drawn(i % 24, i / 24), Some(1024));
+    }
+}
+
 /// The window's sky: a scene with none rendered under a sky from the render settings
 /// has an ambient image, and the steady block shows it (its own image, colour bar in
 /// W m^-2 sr^-1) when chosen, the steady image otherwise.
@@ -1570,7 +1614,7 @@ fn the_steady_block_shows_the_ambient_image_of_the_sky_set_in_the_window() {
     h.run_steps(2);
     h.get_by_label("steady image");
     assert!(h.query_by_label("ambient image").is_none());
-    h.state_mut().settings.steady_ambient = true;
+    h.state_mut().settings.steady_block = SteadyBlock::Ambient;
     h.run_steps(2);
     h.get_by_label("ambient image");
     assert!(h.query_by_label("steady image").is_none());
@@ -1579,7 +1623,7 @@ fn the_steady_block_shows_the_ambient_image_of_the_sky_set_in_the_window() {
     // Without a sky (the scene's own: none) there is no choice to make.
     let mut h = harness(small_settings("builtin:cornell", 16, 32, 4));
     wait_done(&mut h, Duration::from_secs(120));
-    h.state_mut().settings.steady_ambient = true;
+    h.state_mut().settings.steady_block = SteadyBlock::Ambient;
     h.run_steps(2);
     assert!(h.state().ambient().is_none());
     h.get_by_label("steady image");

@@ -38,9 +38,11 @@ pub struct TprfApp {
     pub(super) drag_start: Option<(usize, usize)>,
     /// The slice, steady and rainbow images.
     pub(super) textures: TextureCache<ImageKey>,
-    /// The ambient image's texture (steady block, [`ViewerSettings::steady_ambient`]),
+    /// The ambient image's texture (steady block, [`ViewerSettings::steady_block`]),
     /// keyed by the image's address and the colour settings, with its white point.
     pub(super) ambient_texture: TextureCache<(usize, bool)>,
+    /// The samples image's texture (steady block), keyed by the snapshot's generation.
+    pub(super) samples_texture: TextureCache<u64>,
     pub(super) ambient_white: Option<f64>,
     /// How each image's texture was exposed (for its colour bar).
     pub(super) exposures: Vec<(View, Exposure)>,
@@ -101,6 +103,7 @@ impl TprfApp {
             drag_start: None,
             textures: TextureCache::default(),
             ambient_texture: TextureCache::default(),
+            samples_texture: TextureCache::default(),
             ambient_white: None,
             exposures: Vec::new(),
             scratch: Scratch::default(),

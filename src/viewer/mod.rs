@@ -42,7 +42,7 @@ mod tone;
 pub use app::{FrameTiming, TprfApp};
 pub use files::FileAction;
 pub use selection::Selection;
-pub use settings::{Mode, ViewerSettings};
+pub use settings::{Mode, SteadyBlock, ViewerSettings};
 
 use eframe::egui;
 use std::path::PathBuf;

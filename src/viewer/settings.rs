@@ -45,13 +45,25 @@ pub struct ViewerSettings {
     pub plot_log: bool,
     /// Per-bounce curves shown: 1, 2, 3, >3 scattering events.
     pub show_bounces: [bool; 4],
-    /// The steady block shows the scene's ambient image (W m^-2 sr^-1) instead of the
-    /// steady image, when the scene has one.
-    pub steady_ambient: bool,
+    /// What the steady block shows: the steady image, or the scene's ambient image
+    /// (W m^-2 sr^-1) when it has one, or the samples each pixel drew.
+    pub steady_block: SteadyBlock,
     /// What the window shows: light in flight, or the sensor's measurements.
     pub mode: Mode,
     /// The sensor being edited (Light, gates, noise).
     pub sensor: Sensor,
+}
+
+/// What the steady block of the transient view shows.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum SteadyBlock {
+    /// The steady image: the sum over time of each pixel's TPRF.
+    #[default]
+    Steady,
+    /// The scene's ambient image (sun, sky, lamps tagged ambient), when it has one.
+    Ambient,
+    /// The samples each pixel drew, against the image's mean (adaptive sampling).
+    Samples,
 }
 
 /// The window's two views of the film.
@@ -87,7 +99,7 @@ impl Default for ViewerSettings {
             colormap: ColorMap::Inferno,
             plot_log: false,
             show_bounces: [true, true, true, true],
-            steady_ambient: false,
+            steady_block: SteadyBlock::Steady,
             mode: Mode::Transient,
             sensor: Sensor::builtin("lidar").expect("the built-in LiDAR preset parses"),
         }

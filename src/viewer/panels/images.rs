@@ -10,6 +10,7 @@ use crate::viewer::colorbar::ColorBar;
 use crate::viewer::colormap;
 use crate::viewer::layout::image_layout;
 use crate::viewer::selection::Selection;
+use crate::viewer::settings::SteadyBlock;
 use crate::viewer::textures::ImageKey;
 use crate::viewer::timeline::bin_label;
 use crate::viewer::tone::{View, view_pixels};
@@ -23,6 +24,11 @@ const TITLE_H: f32 = 22.0;
 const READOUT_H: f32 = 24.0;
 /// Space between image blocks, points.
 const GAP: f32 = 10.0;
+/// The samples image's scale: a pixel's samples over the image's mean, 1/16 to 16.
+const SAMPLES_SCALE: BarScale = BarScale::Log {
+    lo: 1.0 / 16.0,
+    hi: 16.0,
+};
 
 impl TprfApp {
     /// The texture of `view` and how it was exposed, made again only when the snapshot,
@@ -238,44 +244,74 @@ impl TprfApp {
         snap: &FilmSnapshot,
         size: Vec2,
     ) -> Option<(usize, usize)> {
-        // The scene's ambient image, in the steady block, when it has one of the film's
-        // size and it is chosen.
+        // The steady block offers the scene's ambient image, when it has one of the
+        // film's size, and the samples each pixel drew, when the film records them.
         let ambient = self
             .ambient()
             .filter(|a| a.width == snap.width() && a.height == snap.height());
-        if view == View::Steady
-            && let Some(a) = ambient
-        {
+        let has_samples = snap.spp > 0 && snap.pixel_samples_drawn(0, 0).is_some();
+        if view == View::Steady && (ambient.is_some() || has_samples) {
             ui.horizontal(|ui| {
                 ui.set_height(TITLE_H - 4.0);
-                let s = &mut self.settings.steady_ambient;
-                ui.selectable_value(s, false, RichText::new("Steady").strong())
+                let s = &mut self.settings.steady_block;
+                ui.selectable_value(s, SteadyBlock::Steady, RichText::new("Steady").strong())
                     .on_hover_text("steady state: the sum over time of the TPRF");
-                ui.selectable_value(s, true, RichText::new("Ambient").strong())
-                    .on_hover_text("the ambient light group (sun, sky, lamps tagged ambient): steady light, W m⁻² sr⁻¹");
-            });
-            self.pending.steady_ambient = self.settings.steady_ambient;
-            if self.settings.steady_ambient {
-                let tex = self.ambient_texture_of(&a);
-                let hovered = self.image_ui(ui, tex, snap, size, "ambient image");
-                let ramp = |t: f64| colormap::color_of(colormap::ColorMap::Gray, t);
-                ColorBar {
-                    of: "ambient image",
-                    ramp: &ramp,
-                    scale: BarScale::Linear {
-                        lo: 0.0,
-                        hi: self.ambient_white.unwrap_or(1.0),
-                    },
-                    unit: STEADY_UNIT,
-                    second: None,
-                    note: &format!(
-                        "radiance of the scene's ambient light group (sun, sky, lamps tagged \
-                         ambient), steady, {} spp; white = the 99.9th percentile",
-                        a.spp
-                    ),
+                if ambient.is_some() {
+                    ui.selectable_value(s, SteadyBlock::Ambient, RichText::new("Ambient").strong())
+                        .on_hover_text("the ambient light group (sun, sky, lamps tagged ambient): steady light, W m⁻² sr⁻¹");
                 }
-                .ui(ui, size.x);
-                return hovered;
+                if has_samples {
+                    ui.selectable_value(s, SteadyBlock::Samples, RichText::new("Samples").strong())
+                        .on_hover_text(
+                            "the samples each pixel drew, over the image's mean: adaptive \
+                             sampling gives the noisy pixels more",
+                        );
+                }
+            });
+            self.pending.steady_block = self.settings.steady_block;
+            match (self.settings.steady_block, ambient) {
+                (SteadyBlock::Ambient, Some(a)) => {
+                    let tex = self.ambient_texture_of(&a);
+                    let hovered = self.image_ui(ui, tex, snap, size, "ambient image");
+                    let ramp = |t: f64| colormap::color_of(colormap::ColorMap::Gray, t);
+                    ColorBar {
+                        of: "ambient image",
+                        ramp: &ramp,
+                        scale: BarScale::Linear {
+                            lo: 0.0,
+                            hi: self.ambient_white.unwrap_or(1.0),
+                        },
+                        unit: STEADY_UNIT,
+                        second: None,
+                        note: &format!(
+                            "radiance of the scene's ambient light group (sun, sky, lamps \
+                             tagged ambient), steady, {} spp; white = the 99.9th percentile",
+                            a.spp
+                        ),
+                    }
+                    .ui(ui, size.x);
+                    return hovered;
+                }
+                (SteadyBlock::Samples, _) if has_samples => {
+                    let tex = self.samples_texture_of(snap);
+                    let hovered = self.image_ui(ui, tex, snap, size, "samples image");
+                    let ramp = |t: f64| colormap::color_of(colormap::ColorMap::Inferno, t);
+                    ColorBar {
+                        of: "samples image",
+                        ramp: &ramp,
+                        scale: SAMPLES_SCALE,
+                        unit: "× the mean",
+                        second: None,
+                        note: &format!(
+                            "samples each pixel drew over the image's mean ({} spp), clamped \
+                             to the bar: adaptive sampling gives the noisy pixels more",
+                            snap.spp
+                        ),
+                    }
+                    .ui(ui, size.x);
+                    return hovered;
+                }
+                _ => {}
             }
             let tex = self.texture(view, snap);
             let hovered = self.image_ui(ui, tex, snap, size, "steady image");
@@ -325,6 +361,30 @@ impl TprfApp {
                 [a.width, a.height],
                 &colormap::colorize(&a.radiance, &tone, colormap::ColorMap::Gray),
             )
+        })
+    }
+
+    /// The samples image's texture: per pixel the samples it drew over the film's mean,
+    /// on [`SAMPLES_SCALE`] (clamped), inferno; made again only for a new snapshot.
+    fn samples_texture_of(&mut self, snap: &FilmSnapshot) -> TextureHandle {
+        let (cache, ctx) = (&mut self.samples_texture, &self.ctx);
+        cache.get(ctx, "samples", snap.generation(), || {
+            let (w, h) = (snap.width(), snap.height());
+            let mean = snap.spp.max(1) as f64;
+            let mut rgba = Vec::with_capacity(w * h * 4);
+            for y in 0..h {
+                for x in 0..w {
+                    let r = snap.pixel_samples_drawn(x, y).unwrap_or(0) as f64 / mean;
+                    let t = if r > 0.0 {
+                        SAMPLES_SCALE.fraction(r).clamp(0.0, 1.0)
+                    } else {
+                        0.0
+                    };
+                    let [cr, cg, cb] = colormap::color_of(colormap::ColorMap::Inferno, t);
+                    rgba.extend([cr, cg, cb, 255]);
+                }
+            }
+            egui::ColorImage::from_rgba_unmultiplied([w, h], &rgba)
         })
     }
 
