@@ -73,9 +73,10 @@ pub struct RenderArgs {
     #[arg(long, default_value_t = Channel::Gray, value_parser = parse_channel)]
     pub channel: Channel,
     /// Every pixel draws every pass's samples, for the same noise across the image.
-    /// Default: from the fourth sample per pixel on, pixels draw samples in proportion
-    /// to their measured noise over the square root of their cost, for the least cube
-    /// error per second (unbiased either way).
+    /// Default: from the fourth sample per pixel on, where the noise is uneven enough for
+    /// it to pay, pixels draw samples in proportion to their measured noise over the
+    /// square root of their cost, for the least cube error per second (unbiased either
+    /// way).
     #[arg(long)]
     pub uniform: bool,
     /// Render only shard K of N (0-based, "K/N"): the image's bands of --band-rows rows,

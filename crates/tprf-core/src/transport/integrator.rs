@@ -95,9 +95,10 @@ pub struct RenderSettings {
     /// punctual lights are found by the path tracer alone. `None` (the default): chosen
     /// per render by the pilot, with the split. Unbiased either way.
     pub light_vertex: Option<bool>,
-    /// Adaptive sampling: from the film's fourth sample per half on, each pass gives a
-    /// pixel samples in proportion to its measured noise over the square root of its
-    /// cost ([`super::adaptive`]). Off: every pixel draws every pass's samples. Unbiased
+    /// Adaptive sampling: from the film's fourth sample per half on, where the film's
+    /// noise is uneven enough for it to pay, each pass gives a pixel samples in
+    /// proportion to its measured noise over the square root of its cost
+    /// ([`super::adaptive`]). Off: every pixel draws every pass's samples. Unbiased
     /// either way.
     pub adaptive: bool,
 }
