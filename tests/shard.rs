@@ -503,7 +503,6 @@ fn shard_settings_that_cannot_be_split_are_refused() {
             "8",
             "--bins",
             "8",
-            "--uniform",
         ];
         a.extend_from_slice(extra);
         let o = tprf(&a);
@@ -511,36 +510,32 @@ fn shard_settings_that_cannot_be_split_are_refused() {
         assert!(!out.exists());
         stderr(&o)
     };
-    let e = run(&["--spp", "2", "--shard", "0/3", "--band-rows", "4"]);
+    let e = run(&[
+        "--uniform",
+        "--spp",
+        "2",
+        "--shard",
+        "0/3",
+        "--band-rows",
+        "4",
+    ]);
     assert!(e.contains("2 band(s), fewer than the 3 shards"), "{e}");
-    let e = run(&["--seconds", "1", "--shard", "0/2"]);
+    let e = run(&["--uniform", "--seconds", "1", "--shard", "0/2"]);
     assert!(e.contains("--seconds") && e.contains("--shard"), "{e}");
-    let e = run(&["--spp", "2", "--shard", "2/2"]);
+    let e = run(&["--uniform", "--spp", "2", "--shard", "2/2"]);
     assert!(e.contains("K/N"), "{e}");
-    let e = run(&["--spp", "2", "--shard", "0/2", "--band-rows", "0"]);
-    assert!(e.contains("--band-rows must be at least 1"), "{e}");
-}
-
-#[test]
-fn a_shard_without_uniform_sampling_is_refused() {
-    let dir = tempdir("adaptive");
-    let out = dir.join("x");
-    let o = tprf(&[
-        "render",
-        "builtin:cornell",
-        "--out",
-        out.to_str().unwrap(),
-        "--width",
-        "8",
-        "--height",
-        "8",
+    let e = run(&[
+        "--uniform",
         "--spp",
         "2",
         "--shard",
         "0/2",
+        "--band-rows",
+        "0",
     ]);
-    let e = stderr(&o);
-    assert!(!o.status.success() && !out.exists(), "rendered: {e}");
+    assert!(e.contains("--band-rows must be at least 1"), "{e}");
+    // A shard cannot plan adaptive samples: it sees only its rows' noise.
+    let e = run(&["--spp", "2", "--shard", "0/2"]);
     assert!(e.contains("--shard needs --uniform"), "{e}");
 }
 

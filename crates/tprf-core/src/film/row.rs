@@ -244,11 +244,8 @@ where
             first: drawn.drawn[half],
             samples: n,
         };
-        let weight = if n == pass_spp {
-            1.0
-        } else {
-            pass_spp as f64 / n as f64
-        };
+        // Exactly 1 when the pixel draws the pass's samples (x / x = 1 in IEEE).
+        let weight = pass_spp as f64 / n as f64;
         let mut sink = PixelSink::new(*layout, filter, weight, &mut work.scratch);
         let cost = render_pixel(x, y, pass, &mut sink);
         drawn.drawn[half] = drawn.drawn[half].wrapping_add(n);
