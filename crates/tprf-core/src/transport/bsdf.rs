@@ -42,6 +42,31 @@ impl Frame {
     }
 }
 
+/// `(cos 2 pi u, sin 2 pi u)`: the point a fraction `u` of a turn round the unit circle,
+/// for the azimuth of sampled directions. The angle is reduced exactly to `x` in
+/// [-pi/4, pi/4] plus a whole number of quarter turns, and `sin x`, `cos x` are Cephes'
+/// single-precision minimax polynomials; the quadrant's swap and signs are selects, not
+/// branches. Within 2.5e-7 of the exact values for any `u` in [-2^20, 2^20] (tested), and
+/// several times faster than libm's `sincosf`, which on the race's corner took 6 % of a
+/// render.
+#[inline]
+pub fn turn_cos_sin(u: f32) -> (f32, f32) {
+    let quarters = u * 4.0; // exact: a power-of-two scale
+    let q = quarters.round();
+    let x = (quarters - q) * std::f32::consts::FRAC_PI_2; // quarters - q is exact
+    let x2 = x * x;
+    let s = x + x * x2 * (-1.666_665_5e-1 + x2 * (8.332_161e-3 + x2 * -1.951_529_6e-4));
+    let c =
+        1.0 - 0.5 * x2 + x2 * x2 * (4.166_664_6e-2 + x2 * (-1.388_731_6e-3 + x2 * 2.443_315_7e-5));
+    // cos(q pi/2 + x), sin(q pi/2 + x): odd quadrants swap c and s; cos is negative in
+    // quadrants 1 and 2, sin in 2 and 3 (bit 31 is the sign).
+    let q = q as i64 as u32;
+    let (a, b) = if q & 1 == 1 { (s, c) } else { (c, s) };
+    let cos = f32::from_bits(a.to_bits() ^ ((q.wrapping_add(1) & 2) << 30));
+    let sin = f32::from_bits(b.to_bits() ^ ((q & 2) << 30));
+    (cos, sin)
+}
+
 /// Which lobe produced a sampled direction.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LobeKind {
@@ -232,8 +257,8 @@ impl Bsdf {
         if u < self.p_diffuse {
             // Cosine-weighted hemisphere.
             let r = u1.sqrt();
-            let phi = 2.0 * PI * u2;
-            let wi = Vec3::new(r * phi.cos(), r * phi.sin(), (1.0 - u1).max(0.0).sqrt());
+            let (cos_phi, sin_phi) = turn_cos_sin(u2);
+            let wi = Vec3::new(r * cos_phi, r * sin_phi, (1.0 - u1).max(0.0).sqrt());
             smooth_sample(wi, LobeKind::Diffuse)
         } else if u < self.p_diffuse + self.p_spec {
             if self.is_mirror() {
@@ -251,8 +276,8 @@ impl Bsdf {
             let cos2 = (1.0 - u1) / (u1 * (a2 - 1.0) + 1.0);
             let cos_h = cos2.clamp(0.0, 1.0).sqrt();
             let sin_h = (1.0 - cos_h * cos_h).max(0.0).sqrt();
-            let phi = 2.0 * PI * u2;
-            let h = Vec3::new(sin_h * phi.cos(), sin_h * phi.sin(), cos_h);
+            let (cos_phi, sin_phi) = turn_cos_sin(u2);
+            let h = Vec3::new(sin_h * cos_phi, sin_h * sin_phi, cos_h);
             let wi = 2.0 * wo.dot(h) * h - wo;
             if wi.z <= 0.0 {
                 return None;
@@ -291,6 +316,32 @@ impl Bsdf {
 mod tests {
     use super::*;
     use crate::transport::sampler::Sampler;
+
+    /// The fast azimuth against f64 sine and cosine: every 2^-20 of a turn over two
+    /// turns each way, and far out where the angle's reduction is tested.
+    #[test]
+    fn turn_cos_sin_matches_the_exact_circle() {
+        let mut worst = 0.0f64;
+        let grid = (-(2i32 << 20)..=(2 << 20)).map(|k| k as f32 / (1 << 20) as f32);
+        let far = [
+            1e5f32,
+            -1e5 - 0.3,
+            1048575.75,
+            -1048576.0,
+            0.999_999_94,
+            0.5,
+            0.25,
+        ];
+        for u in grid.chain(far) {
+            let (c, s) = turn_cos_sin(u);
+            let a = std::f64::consts::TAU * u as f64;
+            worst = worst
+                .max((c as f64 - a.cos()).abs())
+                .max((s as f64 - a.sin()).abs());
+        }
+        assert!(worst < 2.5e-7, "largest error {worst:e}");
+        assert_eq!(turn_cos_sin(0.0), (1.0, 0.0));
+    }
 
     fn params(base: f32, metallic: f32, roughness: f32, specular_factor: f32) -> BsdfParams {
         BsdfParams {

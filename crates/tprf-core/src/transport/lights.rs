@@ -4,7 +4,7 @@
 //! ambient group instead: its point and spot lights, directional lights (delta in
 //! direction) and a constant sky.
 
-use super::bsdf::Frame;
+use super::bsdf::{Frame, turn_cos_sin};
 use crate::scene::{Channel, DirectionalLight, PunctualLight, Scene};
 use glam::Vec3;
 
@@ -59,8 +59,8 @@ impl Punctual {
     fn sample_direction(&self, (u1, u2): (f32, f32)) -> Vec3 {
         let cos_t = 1.0 - u1 * (1.0 - self.cos_cone);
         let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-        let phi = 2.0 * std::f32::consts::PI * u2;
-        Frame::new(self.cone_axis).to_world(Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t))
+        let (cos_phi, sin_phi) = turn_cos_sin(u2);
+        Frame::new(self.cone_axis).to_world(Vec3::new(sin_t * cos_phi, sin_t * sin_phi, cos_t))
     }
 
     /// Solid-angle density of [`Punctual::sample_direction`] at unit `dir`, 1/sr.
