@@ -7,10 +7,11 @@
 //!   paths/s and rays/s (camera, bounce and shadow rays);
 //! - the same passes again with a sink that only sums (no time binning), and once more
 //!   recording every ray the paths trace;
-//! - the recorded rays replayed against the BVH alone: `Accel::closest_hit` (obvhs CWBVH
-//!   traversal + the triangle test) on every ray, on the same pool and on one thread,
-//!   and with the renderer's own query kinds (closest hit for path rays, any hit for
-//!   shadow rays);
+//! - the recorded rays replayed against the BVH alone: obvhs CWBVH traversal + the
+//!   triangle test (`Accel::build_bvh`, `closest_hit`) on every ray, on the same pool
+//!   and on one thread; and with the renderer's own tracing (its `Accel`: the blocks of a
+//!   small scene, and its query kinds: closest hit for path rays, any hit for shadow
+//!   rays);
 //! - BVH build time and heap, and the film's memory for a 256 x 256 x 1024 cube.
 //!
 //! It prints markdown tables (docs/benchmarks.md keeps a copy).
@@ -310,9 +311,8 @@ fn run_case(case: &Case, make_scene: impl FnOnce() -> Scene) -> Figures {
     let triangles = scene.triangles.len();
     eprintln!("{}: {triangles} triangles", case.label);
 
-    // The BVH on its own (Renderer::new builds it again, with the light and surface tables).
-    let (accel, bvh_s, bvh_bytes, bvh_peak) = measured(|| Accel::build(&scene));
-    drop(accel);
+    // The CWBVH on its own, whatever the scene's size: the raw obvhs baseline.
+    let (bvh, bvh_s, bvh_bytes, bvh_peak) = measured(|| Accel::build_bvh(&scene));
     let scene = Arc::new(scene);
     // Uniform samples: the replays below draw every pixel's samples of each pass, as a
     // pass without an adaptive plan does.
@@ -381,21 +381,21 @@ fn run_case(case: &Case, make_scene: impl FnOnce() -> Scene) -> Figures {
         .filter(|r| r.kind == RayKind::Shadow)
         .count();
 
-    // 4. Those rays against the BVH alone.
-    let accel = renderer.accel();
+    // 4. Those rays against the CWBVH alone, and with the renderer's own tracing.
     let mut hits = 0;
     let raw_pool = best_of(|| {
         hits = black_box(
             recorded
                 .par_chunks(CHUNK)
-                .map(|c| closest_all(accel, c))
+                .map(|c| closest_all(&bvh, c))
                 .sum(),
         );
     });
     let raw_one = best_of(|| {
-        let n: usize = recorded.chunks(CHUNK).map(|c| closest_all(accel, c)).sum();
+        let n: usize = recorded.chunks(CHUNK).map(|c| closest_all(&bvh, c)).sum();
         assert_eq!(black_box(n), hits);
     });
+    let accel = renderer.accel();
     let raw_kinds_pool = best_of(|| {
         black_box(
             recorded
@@ -515,13 +515,17 @@ fn main() {
     println!("\n## The renderer's rays against the BVH alone\n");
     println!(
         "Mrays/s. The renderer's rays are recorded by replaying its passes, then traced \
-         again with `Accel::closest_hit` (obvhs CWBVH traversal + Moller-Trumbore), in \
-         chunks of {CHUNK} rays in recorded order. *per wall s*: rays over the run's wall \
+         again in chunks of {CHUNK} rays in recorded order: *raw obvhs closest-hit* with \
+         the CWBVH (`Accel::build_bvh`: obvhs traversal + Moller-Trumbore) whatever the \
+         scene's size; *renderer's own tracing* with the renderer's `Accel` (eight \
+         triangles at a time, without a BVH, for scenes of at most {} triangles) and its \
+         query kinds (any hit for shadow rays). *per wall s*: rays over the run's wall \
          time; *per CPU s*: over the CPU time the process used (all threads), which holds \
-         up when other programs share the cores.\n"
+         up when other programs share the cores.\n",
+        tprf_core::accel::SMALL_SCENE_TRIANGLES
     );
     println!(
-        "| scene | per | renderer | renderer, no binning | raw closest-hit, {threads} threads | raw closest-hit, 1 thread | raw, renderer's query kinds, {threads} threads | renderer : raw closest-hit | ray hits |"
+        "| scene | per | renderer | renderer, no binning | raw obvhs closest-hit, {threads} threads | raw obvhs closest-hit, 1 thread | renderer's own tracing, {threads} threads | renderer : raw obvhs closest-hit | ray hits |"
     );
     println!("|---|---|--:|--:|--:|--:|--:|--:|--:|");
     for f in &figures {
@@ -548,11 +552,11 @@ fn main() {
 
     println!("\n## Where the render time goes\n");
     println!(
-        "Shares of the render's CPU time: BVH = the same rays with the renderer's query \
-         kinds on the BVH alone; binning = render minus the no-binning replay; the rest is \
+        "Shares of the render's CPU time: tracing = the same rays with the renderer's own \
+         tracing alone; binning = render minus the no-binning replay; the rest is \
          sampling, shading, NEE and bookkeeping.\n"
     );
-    println!("| scene | BVH | time binning | sampling, shading, rest |");
+    println!("| scene | tracing | time binning | sampling, shading, rest |");
     println!("|---|--:|--:|--:|");
     for f in &figures {
         let bvh = f.raw_kinds_pool.cpu_s / f.render.cpu_s;
@@ -571,7 +575,7 @@ fn main() {
         "{threads} on the pool (1 for the one-thread run) when nothing else ran on the \
          machine; less means the timed run shared the cores.\n"
     );
-    println!("| scene | render | no binning | raw, pool | raw, 1 thread | raw query kinds, pool |");
+    println!("| scene | render | no binning | raw, pool | raw, 1 thread | own tracing, pool |");
     println!("|---|--:|--:|--:|--:|--:|");
     for f in &figures {
         println!(
@@ -587,7 +591,7 @@ fn main() {
 
     println!("\n## Scene and BVH\n");
     println!(
-        "| scene | triangles | scene built in | scene heap | BVH build | BVH heap (B/triangle) | BVH build peak heap | Renderer::new |"
+        "| scene | triangles | scene built in | scene heap | CWBVH build | CWBVH heap (B/triangle) | CWBVH build peak heap | Renderer::new |"
     );
     println!("|---|--:|--:|--:|--:|--:|--:|--:|");
     for f in &figures {
