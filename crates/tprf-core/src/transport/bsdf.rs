@@ -52,7 +52,10 @@ impl Frame {
 #[inline]
 pub fn turn_cos_sin(u: f32) -> (f32, f32) {
     let quarters = u * 4.0; // exact: a power-of-two scale
-    let q = quarters.round();
+    // The nearest whole number (ties to even) for |quarters| <= 2^22: adding 1.5 * 2^23
+    // leaves no fraction bits. (`round` is a libm call on baseline x86-64.)
+    const ROUNDER: f32 = 12_582_912.0;
+    let q = (quarters + ROUNDER) - ROUNDER;
     let x = (quarters - q) * std::f32::consts::FRAC_PI_2; // quarters - q is exact
     let x2 = x * x;
     let s = x + x * x2 * (-1.666_665_5e-1 + x2 * (8.332_161e-3 + x2 * -1.951_529_6e-4));
