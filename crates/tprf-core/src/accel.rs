@@ -405,14 +405,24 @@ impl Accel {
     }
 
     /// Closest hit along `origin + t dir` for `t` in (0, t_max_m). `dir` must be unit length.
+    #[inline]
     pub fn closest_hit(&self, origin: Vec3, dir: Vec3, t_max_m: f32) -> Option<Hit> {
         let o = (Vec3A::from(origin) - self.origin) * self.scale;
         let d: Vec3A = dir.into();
         if !self.blocks.is_empty() {
             return self.closest_hit_small(o, d, t_max_m * self.scale);
         }
+        self.closest_hit_bvh(o, d, t_max_m * self.scale)
+    }
+
+    /// [`Accel::closest_hit`] through the CWBVH, in BVH space. Not inlined: a small
+    /// scene's rays go straight to its blocks, without this path's stack frame (3.5 %
+    /// of a one-thread `builtin:cornell` render; the same split of `any_hit` measured
+    /// 3-4 % slower, so it stays whole).
+    #[inline(never)]
+    fn closest_hit_bvh(&self, o: Vec3A, d: Vec3A, t_max: f32) -> Option<Hit> {
         let bvh = self.bvh.as_ref()?;
-        let ray = Ray::new(o, d, 0.0, t_max_m * self.scale);
+        let ray = Ray::new(o, d, 0.0, t_max);
         let mut best: Option<(f32, usize, f32, f32)> = None;
         let mut hit = obvhs::ray::RayHit::none();
         bvh.ray_traverse(ray, &mut hit, |r, id| {
