@@ -595,7 +595,9 @@ impl Renderer {
 
     /// Sample the next direction at surface point `sp` (outgoing `wo`, local to
     /// `frame`) and step `path` onto it, Russian roulette included; `None` ends the path.
-    #[inline]
+    /// Always inlined (its two call sites in `walk`): 4 % of a one-thread render
+    /// measured, where left to the compiler it was a call.
+    #[inline(always)]
     fn scatter(
         &self,
         sp: &SurfacePoint,
