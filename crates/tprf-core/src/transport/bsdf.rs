@@ -243,6 +243,7 @@ impl Bsdf {
 
     /// Sample an incident direction for outgoing `wo` (local frame) from uniform numbers
     /// in [0, 1): `u_lobe` picks the lobe, `(u1, u2)` the direction within it.
+    #[inline(always)]
     pub fn sample(&self, wo: Vec3, u_lobe: f32, (u1, u2): (f32, f32)) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
