@@ -328,7 +328,7 @@ impl Surfaces {
     }
 
     /// Everything at a hit of a ray travelling along `dir` (unit).
-    #[inline]
+    #[inline(always)]
     pub fn at(&self, hit: &Hit, origin: Vec3, dir: Vec3) -> SurfacePoint {
         let tri = hit.triangle;
         let (u, v) = (hit.u, hit.v);
