@@ -224,6 +224,7 @@ impl Bsdf {
 
     /// `f(wo, wi)` of the non-delta lobes (1/sr) and the one-sample pdf of sampling `wi`
     /// (1/sr). Both zero when either direction is below the surface.
+    #[inline(always)]
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> (f32, f32) {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return (0.0, 0.0);
