@@ -220,6 +220,7 @@ impl Lights {
     /// A light vertex's first ray: a punctual light picked by emitted power (`u`), then
     /// a direction uniform in its emission cone (`u2`). `None` when no punctual light
     /// emits, or toward a direction where the spot's falloff is 0.
+    #[inline(always)]
     pub fn sample_emission(&self, u: f32, u2: (f32, f32)) -> Option<EmissionSample> {
         let total = self.punctual_cdf.last().copied().unwrap_or(0.0);
         if !(total > 0.0) {
