@@ -159,7 +159,8 @@ pub struct Accel {
     blocks: Vec<TriBlock>,
     /// BVH primitive order (block lane order for small scenes) -> scene triangle index.
     scene_index: Vec<u32>,
-    /// Whether the blocks are tested with AVX2 (the CPU has it).
+    /// Whether the blocks are tested with AVX2 (the CPU has it; never elsewhere).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     wide: bool,
 }
 
