@@ -559,14 +559,14 @@ fn main() {
     println!("| scene | tracing | time binning | sampling, shading, rest |");
     println!("|---|--:|--:|--:|");
     for f in &figures {
-        let bvh = f.raw_kinds_pool.cpu_s / f.render.cpu_s;
+        let tracing = f.raw_kinds_pool.cpu_s / f.render.cpu_s;
         let binning = (f.render.cpu_s - f.nobin.cpu_s) / f.render.cpu_s;
         println!(
             "| {} | {:.0} % | {:.0} % | {:.0} % |",
             f.label,
-            100.0 * bvh,
+            100.0 * tracing,
             100.0 * binning,
-            100.0 * (1.0 - bvh - binning)
+            100.0 * (1.0 - tracing - binning)
         );
     }
 

@@ -302,87 +302,46 @@ impl Accel {
         !self.blocks.is_empty()
     }
 
-    /// Closest hit among the blocks of a small scene, with AVX2 where the CPU has it.
-    fn closest_hit_small(&self, o: Vec3A, d: Vec3A, t_max: f32) -> Option<Hit> {
-        #[cfg(target_arch = "x86_64")]
-        if self.wide {
-            // SAFETY: `wide` is set only where the CPU was found to have AVX2.
-            return unsafe { self.closest_hit_small_avx2(o, d, t_max) };
-        }
-        self.closest_hit_small_any(o, d, t_max)
-    }
-
-    /// [`Accel::closest_hit_small`] compiled for AVX2.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn closest_hit_small_avx2(&self, o: Vec3A, d: Vec3A, t_max: f32) -> Option<Hit> {
-        self.closest_hit_small_any(o, d, t_max)
-    }
-
-    /// [`Accel::closest_hit_small`] for the instruction set it is compiled for.
-    #[inline(always)]
-    fn closest_hit_small_any(&self, o: Vec3A, d: Vec3A, t_max: f32) -> Option<Hit> {
-        let mut best: Option<(f32, usize, f32, f32)> = None;
-        let mut t_best = t_max;
-        for (k, b) in self.blocks.iter().enumerate() {
-            let h = intersect_block(b, o, d, t_best);
-            let mut mask = h.mask;
-            while mask != 0 {
-                let lane = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
-                if h.t[lane] < t_best {
-                    t_best = h.t[lane];
-                    best = Some((h.t[lane], k * LANES + lane, h.u[lane], h.v[lane]));
-                }
-            }
-        }
-        let (t, id, u, v) = best?;
-        Some(Hit {
-            t_m: t / self.scale,
-            triangle: *self.scene_index.get(id)?,
-            u,
-            v,
-        })
-    }
-
-    /// Any hit among the blocks of a small scene (see [`Accel::any_hit`]), with AVX2
-    /// where the CPU has it.
-    fn any_hit_small(
+    /// Every hit of the ray among a small scene's blocks within (0, `t_max`), in block
+    /// and lane order, with AVX2 where the CPU has it: `visit(lane, t, u, v, t_max)`
+    /// gets the triangle's index in block-lane order, may lower `t_max` for the hits
+    /// still to come, and returns whether to stop. Returns whether it stopped.
+    fn small_hits(
         &self,
         o: Vec3A,
         d: Vec3A,
         t_max: f32,
-        visit: impl FnMut(Hit) -> bool,
+        visit: impl FnMut(usize, f32, f32, f32, &mut f32) -> bool,
     ) -> bool {
         #[cfg(target_arch = "x86_64")]
         if self.wide {
             // SAFETY: `wide` is set only where the CPU was found to have AVX2.
-            return unsafe { self.any_hit_small_avx2(o, d, t_max, visit) };
+            return unsafe { self.small_hits_avx2(o, d, t_max, visit) };
         }
-        self.any_hit_small_any(o, d, t_max, visit)
+        self.small_hits_any(o, d, t_max, visit)
     }
 
-    /// [`Accel::any_hit_small`] compiled for AVX2.
+    /// [`Accel::small_hits`] compiled for AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn any_hit_small_avx2(
+    fn small_hits_avx2(
         &self,
         o: Vec3A,
         d: Vec3A,
         t_max: f32,
-        visit: impl FnMut(Hit) -> bool,
+        visit: impl FnMut(usize, f32, f32, f32, &mut f32) -> bool,
     ) -> bool {
-        self.any_hit_small_any(o, d, t_max, visit)
+        self.small_hits_any(o, d, t_max, visit)
     }
 
-    /// [`Accel::any_hit_small`] for the instruction set it is compiled for.
+    /// [`Accel::small_hits`] for the instruction set it is compiled for.
     #[inline(always)]
-    fn any_hit_small_any(
+    fn small_hits_any(
         &self,
         o: Vec3A,
         d: Vec3A,
-        t_max: f32,
-        mut visit: impl FnMut(Hit) -> bool,
+        mut t_max: f32,
+        mut visit: impl FnMut(usize, f32, f32, f32, &mut f32) -> bool,
     ) -> bool {
         for (k, b) in self.blocks.iter().enumerate() {
             let h = intersect_block(b, o, d, t_max);
@@ -390,19 +349,37 @@ impl Accel {
             while mask != 0 {
                 let lane = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
-                if let Some(&triangle) = self.scene_index.get(k * LANES + lane)
-                    && visit(Hit {
-                        t_m: h.t[lane] / self.scale,
-                        triangle,
-                        u: h.u[lane],
-                        v: h.v[lane],
-                    })
-                {
+                if visit(
+                    k * LANES + lane,
+                    h.t[lane],
+                    h.u[lane],
+                    h.v[lane],
+                    &mut t_max,
+                ) {
                     return true;
                 }
             }
         }
         false
+    }
+
+    /// Closest hit among the blocks of a small scene.
+    fn closest_hit_small(&self, o: Vec3A, d: Vec3A, t_max: f32) -> Option<Hit> {
+        let mut best: Option<(f32, usize, f32, f32)> = None;
+        self.small_hits(o, d, t_max, |id, t, u, v, t_best| {
+            if t < *t_best {
+                *t_best = t;
+                best = Some((t, id, u, v));
+            }
+            false
+        });
+        let (t, id, u, v) = best?;
+        Some(Hit {
+            t_m: t / self.scale,
+            triangle: *self.scene_index.get(id)?,
+            u,
+            v,
+        })
     }
 
     /// Closest hit along `origin + t dir` for `t` in (0, t_max_m). `dir` must be unit length.
@@ -456,7 +433,16 @@ impl Accel {
         let d: Vec3A = dir.into();
         let t_max = t_max_m * self.scale;
         if !self.blocks.is_empty() {
-            return self.any_hit_small(o, d, t_max, visit);
+            return self.small_hits(o, d, t_max, |id, t, u, v, _| {
+                self.scene_index.get(id).is_some_and(|&triangle| {
+                    visit(Hit {
+                        t_m: t / self.scale,
+                        triangle,
+                        u,
+                        v,
+                    })
+                })
+            });
         }
         let Some(bvh) = self.bvh.as_ref() else {
             return false;
