@@ -7,6 +7,7 @@
 use super::sink::{PixelSink, Scratch, drain_touched};
 use super::sparse::{RowBuilder, SparseRow, merge_pixel};
 use super::{FilmLayout, LeftOutCounts, TimeFilter};
+use std::sync::Arc;
 
 /// [`FilmRow::peak_bin`] of a pixel that received no light.
 pub const NO_PEAK: u32 = u32::MAX;
@@ -68,16 +69,17 @@ impl FilmRow {
     /// A row of means built pixel by pixel (first half, one sample), see
     /// `SnapshotBuilder`.
     pub(super) fn from_builder(mut b: RowBuilder<[f64; 2]>, width: usize) -> FilmRow {
-        let halves = b.take_exact(width);
-        let (steady_sum, peak_bin) = summaries(&halves);
-        FilmRow {
-            halves,
+        let mut row = FilmRow {
+            halves: b.take_exact(width),
             layers: Vec::new(),
-            steady_sum,
-            peak_bin,
+            steady_sum: Vec::new(),
+            peak_bin: Vec::new(),
             err_terms: (0.0, 0.0),
             samples: Vec::new(),
-        }
+        };
+        // One sample in the first half, none in the second: no error terms.
+        row.summarise([1, 0]);
+        row
     }
 
     /// A layer row of means `[W, T]` added to a row made by [`FilmRow::from_dense`].
@@ -132,29 +134,6 @@ fn dense_to_builder<V: Copy>(
     b
 }
 
-/// Per-pixel steady sums and peak bins of `halves`.
-fn summaries(halves: &SparseRow<[f64; 2]>) -> (Vec<f64>, Vec<u32>) {
-    let w = halves.width();
-    let mut steady = Vec::with_capacity(w);
-    let mut peak = Vec::with_capacity(w);
-    for x in 0..w {
-        let mut sum = 0.0;
-        let mut best: Option<(u32, f64)> = None;
-        for (start, values) in halves.pixel_runs(x) {
-            for (i, v) in values.iter().enumerate() {
-                let s = v[0] + v[1];
-                sum += s;
-                if s > 0.0 && best.is_none_or(|(_, m)| s > m) {
-                    best = Some(((start + i) as u32, s));
-                }
-            }
-        }
-        steady.push(sum);
-        peak.push(best.map_or(NO_PEAK, |(b, _)| b));
-    }
-    (steady, peak)
-}
-
 /// What a task keeps from row to row during a pass: the pixel scratch and the buffers
 /// of the new bins and the builders.
 pub(super) struct RowWork {
@@ -167,6 +146,8 @@ pub(super) struct RowWork {
     layer_new_end: Vec<Vec<usize>>,
     halves: RowBuilder<[f64; 2]>,
     layer: RowBuilder<f64>,
+    /// Where the new bins sit in a row's values (see [`SparseRow::add_in_place`]).
+    pos: Vec<u32>,
 }
 
 impl RowWork {
@@ -181,6 +162,7 @@ impl RowWork {
             layer_new_end: vec![Vec::new(); l],
             halves: RowBuilder::default(),
             layer: RowBuilder::default(),
+            pos: Vec::new(),
         }
     }
 }
@@ -203,13 +185,14 @@ pub struct PixelPass {
 }
 
 /// Render row `y` of a pass of `pass_spp` samples per pixel (nominal) into half `half`:
-/// every pixel through `render_pixel`, in order, then the old row merged with the new
-/// bins. `plan` is the row's samples per pixel (`None`: `pass_spp` each); a pixel's
+/// every pixel through `render_pixel`, in order, then the new bins added to the row: in
+/// place where the film holds the row's only reference and every new bin is stored
+/// already, else merged with the old row into a new one. `plan` is the row's samples per pixel (`None`: `pass_spp` each); a pixel's
 /// contributions are weighted `pass_spp / samples` (see `TprfFilm::run_pass_planned`).
 /// `spp_after` is the film's samples per half once the pass is counted.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn render_row<F>(
-    old: &FilmRow,
+    row: &mut Arc<FilmRow>,
     y: usize,
     layout: &FilmLayout,
     filter: TimeFilter,
@@ -219,7 +202,7 @@ pub(super) fn render_row<F>(
     spp_after: [u64; 2],
     work: &mut RowWork,
     render_pixel: &F,
-) -> (FilmRow, RowTally)
+) -> RowTally
 where
     F: Fn(usize, usize, PixelPass, &mut PixelSink<'_>) -> u64 + Sync,
 {
@@ -235,7 +218,7 @@ where
     }
     let mut samples = Vec::with_capacity(w);
     for x in 0..w {
-        let mut drawn = old.pixel_samples(x);
+        let mut drawn = row.pixel_samples(x);
         let n = plan
             .and_then(|p| p.get(x).copied())
             .unwrap_or(pass_spp)
@@ -264,89 +247,149 @@ where
             work.layer_new_end[l].push(work.layer_new[l].len());
         }
     }
-    // Merge: the old sums plus this pass's, pixel by pixel.
-    let mut start = 0;
-    for x in 0..w {
-        let end = work.new_end[x];
-        merge_pixel(
+    let add_half = |mut o: [f64; 2], n: f64| {
+        o[half] += n;
+        o
+    };
+    let fresh_half = |n: f64| {
+        let mut v = [0.0; 2];
+        v[half] = n;
+        v
+    };
+    let Some(r) = Arc::get_mut(row) else {
+        // Shared with a reader: the next row is new, the old one stays as it is.
+        let old = &**row;
+        merge_row(
             &old.halves,
-            x,
-            &work.new[start..end],
+            &work.new,
+            &work.new_end,
             &mut work.halves,
-            |mut o, n| {
-                o[half] += n;
-                o
-            },
-            |n| {
-                let mut v = [0.0; 2];
-                v[half] = n;
-                v
-            },
+            add_half,
+            fresh_half,
+        );
+        let halves = work.halves.take_exact(w);
+        let empty = SparseRow::empty(w);
+        let layer_rows = (0..layers)
+            .map(|l| {
+                merge_row(
+                    old.layers.get(l).unwrap_or(&empty),
+                    &work.layer_new[l],
+                    &work.layer_new_end[l],
+                    &mut work.layer,
+                    |o, n| o + n,
+                    |n| n,
+                );
+                work.layer.take_exact(w)
+            })
+            .collect();
+        let mut new = FilmRow {
+            halves,
+            layers: layer_rows,
+            steady_sum: Vec::new(),
+            peak_bin: Vec::new(),
+            err_terms: (0.0, 0.0),
+            samples,
+        };
+        new.summarise(spp_after);
+        *row = Arc::new(new);
+        return tally;
+    };
+    // The film's only copy: the pass's bins are added where they are stored, and the row
+    // is rebuilt only where one is new.
+    if !r
+        .halves
+        .add_in_place(&work.new, &work.new_end, &mut work.pos, add_half)
+    {
+        merge_row(
+            &r.halves,
+            &work.new,
+            &work.new_end,
+            &mut work.halves,
+            add_half,
+            fresh_half,
+        );
+        r.halves = work.halves.take_exact(w);
+    }
+    r.layers
+        .resize_with(layers.max(r.layers.len()), || SparseRow::empty(w));
+    for (l, layer) in r.layers.iter_mut().enumerate().take(layers) {
+        let (new, new_end) = (&work.layer_new[l], &work.layer_new_end[l]);
+        if !layer.add_in_place(new, new_end, &mut work.pos, |o, n| o + n) {
+            merge_row(layer, new, new_end, &mut work.layer, |o, n| o + n, |n| n);
+            *layer = work.layer.take_exact(w);
+        }
+    }
+    r.samples = samples;
+    r.summarise(spp_after);
+    tally
+}
+
+/// Merge every pixel of `old` with the pass's new bins (`new`, pixel `x`'s ending at
+/// `new_end[x]`) into `out` (see [`merge_pixel`]).
+fn merge_row<V: Copy>(
+    old: &SparseRow<V>,
+    new: &[(u32, f64)],
+    new_end: &[usize],
+    out: &mut RowBuilder<V>,
+    mut combine: impl FnMut(V, f64) -> V,
+    mut fresh: impl FnMut(f64) -> V,
+) {
+    let mut start = 0;
+    for (x, &end) in new_end.iter().enumerate() {
+        merge_pixel(
+            old,
+            x,
+            new.get(start..end).unwrap_or(&[]),
+            out,
+            &mut combine,
+            &mut fresh,
         );
         start = end;
     }
-    let halves = work.halves.take_exact(w);
-    let mut layer_rows = Vec::with_capacity(layers);
-    for l in 0..layers {
-        let mut start = 0;
-        let old_layer = old.layers.get(l);
-        let empty = SparseRow::empty(w);
-        let old_layer = old_layer.unwrap_or(&empty);
-        for x in 0..w {
-            let end = work.layer_new_end[l][x];
-            merge_pixel(
-                old_layer,
-                x,
-                &work.layer_new[l][start..end],
-                &mut work.layer,
-                |o, n| o + n,
-                |n| n,
-            );
-            start = end;
-        }
-        layer_rows.push(work.layer.take_exact(w));
-    }
-    let (steady_sum, peak_bin) = summaries(&halves);
-    let err_terms = error_terms(&halves, spp_after, &mut samples);
-    (
-        FilmRow {
-            halves,
-            layers: layer_rows,
-            steady_sum,
-            peak_bin,
-            err_terms,
-            samples,
-        },
-        tally,
-    )
 }
 
-/// The row's sums of `(a / n_a - b / n_b)^2` and `((a + b) / n)^2` (see
-/// `TprfFilm::half_error_estimate`), and each pixel's first sum into its `samples`.
-fn error_terms(
-    halves: &SparseRow<[f64; 2]>,
-    [na, nb]: [u64; 2],
-    samples: &mut [PixelSamples],
-) -> (f64, f64) {
-    if na == 0 || nb == 0 {
-        return (0.0, 0.0);
-    }
-    let (na, nb) = (na as f64, nb as f64);
-    let n = na + nb;
-    let mut diff2 = 0.0;
-    let mut norm2 = 0.0;
-    for (x, s) in samples.iter_mut().enumerate().take(halves.width()) {
-        let mut pixel_diff2 = 0.0;
-        for (_, values) in halves.pixel_runs(x) {
-            for [a, b] in values {
-                let d = a / na - b / nb;
-                let m = (a + b) / n;
-                diff2 += d * d;
-                pixel_diff2 += d * d;
-                norm2 += m * m;
+impl FilmRow {
+    /// Remake the per-pixel summaries from the halves in one sweep: steady sums, peak
+    /// bins, and the two-half error terms for `spp_after` samples per half (see
+    /// [`error_terms`]) with each pixel's share in its `samples`.
+    ///
+    /// The error terms are the row's sums of `(a / n_a - b / n_b)^2` and `((a + b) /
+    /// n)^2` over its bins (see `TprfFilm::half_error_estimate`), 0 while a half has no
+    /// samples; each pixel's first sum goes into its `samples` (where it has them).
+    fn summarise(&mut self, [na, nb]: [u64; 2]) {
+        let w = self.halves.width();
+        let halves_drawn = na > 0 && nb > 0;
+        let (na, nb) = (na as f64, nb as f64);
+        let n = na + nb;
+        let (mut diff2, mut norm2) = (0.0, 0.0);
+        self.steady_sum.clear();
+        self.peak_bin.clear();
+        for x in 0..w {
+            let mut sum = 0.0;
+            let mut best: Option<(u32, f64)> = None;
+            let mut pixel_diff2 = 0.0;
+            for (start, values) in self.halves.pixel_runs(x) {
+                for (i, &[a, b]) in values.iter().enumerate() {
+                    let s = a + b;
+                    sum += s;
+                    if s > 0.0 && best.is_none_or(|(_, m)| s > m) {
+                        best = Some(((start + i) as u32, s));
+                    }
+                    if halves_drawn {
+                        let d = a / na - b / nb;
+                        let m = s / n;
+                        diff2 += d * d;
+                        pixel_diff2 += d * d;
+                        norm2 += m * m;
+                    }
+                }
+            }
+            self.steady_sum.push(sum);
+            self.peak_bin.push(best.map_or(NO_PEAK, |(b, _)| b));
+            if let Some(s) = self.samples.get_mut(x) {
+                s.half_diff2 = pixel_diff2 as f32;
             }
         }
-        s.half_diff2 = pixel_diff2 as f32;
+        self.err_terms = (diff2, norm2);
     }
-    (diff2, norm2)
 }

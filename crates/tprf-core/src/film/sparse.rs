@@ -146,6 +146,63 @@ impl<V: Copy> SparseRow<V> {
     }
 }
 
+impl<V: Copy> SparseRow<V> {
+    /// Add a pass's new bins in place where every one of them is stored already: `new`
+    /// holds each pixel's bins in increasing order, pixel `x`'s ending at `new_end[x]`;
+    /// a stored value `v` becomes `combine(v, n)`. Returns `false`, changing nothing,
+    /// where a new bin is not stored (the row must then be rebuilt, see
+    /// [`merge_pixel`]). `pos` is scratch.
+    pub fn add_in_place<N: Copy>(
+        &mut self,
+        new: &[(u32, N)],
+        new_end: &[usize],
+        pos: &mut Vec<u32>,
+        mut combine: impl FnMut(V, N) -> V,
+    ) -> bool {
+        pos.clear();
+        if new_end.last().copied().unwrap_or(0) != new.len() || new_end.len() > self.width() {
+            return false;
+        }
+        let mut start = 0;
+        for (p, &end) in self.pixels.iter().zip(new_end) {
+            let Some(bins) = new.get(start..end) else {
+                return false;
+            };
+            start = end;
+            let Some(runs) = self
+                .runs
+                .get(p.run_start as usize..(p.run_start + p.run_count) as usize)
+            else {
+                return false;
+            };
+            let mut runs = runs.iter();
+            // The run at hand: bins [run_start, run_end), the first one's value index.
+            let (mut run_start, mut run_end, mut value) = (0, 0, p.value_start as usize);
+            for &(b, _) in bins {
+                let b = b as usize;
+                while b >= run_end {
+                    let Some(r) = runs.next() else {
+                        return false;
+                    };
+                    value += run_end - run_start;
+                    run_start = run_end + r.gap as usize;
+                    run_end = run_start + r.len as usize;
+                }
+                if b < run_start {
+                    return false;
+                }
+                pos.push((value + b - run_start) as u32);
+            }
+        }
+        for (&p, &(_, n)) in pos.iter().zip(new) {
+            if let Some(v) = self.values.get_mut(p as usize) {
+                *v = combine(*v, n);
+            }
+        }
+        true
+    }
+}
+
 /// Where [`SparseRow::get_from`] got to in one pixel's runs: the runs passed, the bin
 /// after the last of them, and the values they hold.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -394,6 +451,52 @@ mod tests {
         let row = from_dense(std::slice::from_ref(&p));
         assert_eq!(to_dense(&row, 0, bins), p);
         assert_eq!(row.pixel_span(0), Some((3, bins - 1)));
+    }
+
+    /// Adding in place gives what the dense addition gives where every new bin is
+    /// stored, and refuses, changing nothing, where one is not.
+    #[test]
+    fn adding_in_place_equals_dense_addition() {
+        let (width, bins) = (4, 300);
+        let mut dense = vec![vec![0.0f64; bins]; width];
+        // Pixel x stores bins x, x + 7, x + 14, ... (runs of one, gaps of six).
+        for (x, d) in dense.iter_mut().enumerate() {
+            for b in (x..bins).step_by(7) {
+                d[b] = (b + 1) as f64;
+            }
+        }
+        let mut row = from_dense(&dense);
+        let runs = row.runs();
+        let mut pos = Vec::new();
+        // New bins in stored places (pixel 1 gets none): added in place.
+        let new: Vec<(u32, f64)> = vec![(0, 0.5), (70, 1.5), (2, 2.5), (9, 3.5), (297, 4.5)];
+        let new_end = [2, 2, 4, 5];
+        assert!(row.add_in_place(&new, &new_end, &mut pos, |o, n| o + n));
+        for (x, b, v) in [
+            (0, 0, 0.5),
+            (0, 70, 1.5),
+            (2, 2, 2.5),
+            (2, 9, 3.5),
+            (3, 297, 4.5),
+        ] {
+            dense[x][b] += v;
+        }
+        for (x, d) in dense.iter().enumerate() {
+            assert_eq!(&to_dense(&row, x, bins), d);
+        }
+        assert_eq!(row.runs(), runs);
+        // One bin not stored (pixel 2's bin 3, between its runs): refused, unchanged.
+        let before = row.clone();
+        let new = vec![(7, 1.0), (2, 1.0), (3, 1.0)];
+        assert!(!row.add_in_place(&new, &[1, 1, 3, 3], &mut pos, |o, n| o + n));
+        // Past the last run, and before the first.
+        assert!(!row.add_in_place(&[(299, 1.0)], &[0, 0, 0, 1], &mut pos, |o, n| o + n));
+        assert!(!row.add_in_place(&[(0, 1.0)], &[0, 0, 0, 1], &mut pos, |o, n| o + n));
+        // Ends that do not match the bins.
+        assert!(!row.add_in_place(&[(7, 1.0)], &[0, 0, 0, 0], &mut pos, |o, n| o + n));
+        for x in 0..width {
+            assert_eq!(to_dense(&row, x, bins), to_dense(&before, x, bins));
+        }
     }
 
     #[test]

@@ -211,22 +211,22 @@ impl TprfFilm {
         // piles samples into a few rows does not leave threads idle while one finishes
         // a long stretch of them (on 2 threads, rows in one leaf each).
         let leaf_rows = (layout.height / (rayon::current_num_threads() * 16)).max(1);
-        let results: Vec<(Arc<FilmRow>, super::row::RowTally)> = self
+        let tallies: Vec<super::row::RowTally> = self
             .rows
-            .par_iter()
+            .par_iter_mut()
             .with_max_len(leaf_rows)
             .enumerate()
             .map_init(
                 || RowWork::new(&layout),
-                |work, (y, old)| {
+                |work, (y, row)| {
                     if rows_rendered
                         .as_ref()
                         .is_some_and(|r| !r.get(y).copied().unwrap_or(false))
                     {
-                        return (old.clone(), super::row::RowTally::default());
+                        return super::row::RowTally::default();
                     }
-                    let (row, tally) = render_row(
-                        old,
+                    render_row(
+                        row,
                         y,
                         &layout,
                         filter,
@@ -236,15 +236,13 @@ impl TprfFilm {
                         spp_after,
                         work,
                         &render_pixel,
-                    );
-                    (Arc::new(row), tally)
+                    )
                 },
             )
             .collect();
         // Summed in row order: the same totals for any thread count.
         let mut tally = PassTally::default();
-        for (row, (new, t)) in self.rows.iter_mut().zip(results) {
-            *row = new;
+        for t in tallies {
             tally.outside_per_pixel += t.outside;
             tally.left_out += t.left_out;
         }
