@@ -5,7 +5,7 @@
 //! share rows by `Arc` while the film moves on.
 
 use super::sink::{PixelSink, Scratch, drain_touched};
-use super::sparse::{RowBuilder, SparseRow, merge_pixel};
+use super::sparse::{RowBuilder, SparseRow, count_unstored, merge_pixel};
 use super::{FilmLayout, LeftOutCounts, TimeFilter};
 use std::sync::Arc;
 
@@ -144,8 +144,6 @@ pub(super) struct RowWork {
     new_end: Vec<usize>,
     layer_new: Vec<Vec<(u32, f64)>>,
     layer_new_end: Vec<Vec<usize>>,
-    halves: RowBuilder<[f64; 2]>,
-    layer: RowBuilder<f64>,
     /// Where the new bins sit in a row's values (see [`SparseRow::add_in_place`]).
     pos: Vec<u32>,
 }
@@ -160,8 +158,6 @@ impl RowWork {
             new_end: Vec::new(),
             layer_new: vec![Vec::new(); l],
             layer_new_end: vec![Vec::new(); l],
-            halves: RowBuilder::default(),
-            layer: RowBuilder::default(),
             pos: Vec::new(),
         }
     }
@@ -256,67 +252,43 @@ where
         v[half] = n;
         v
     };
+    let add = |o: f64, n: f64| o + n;
+    let fresh = |n: f64| n;
     let Some(r) = Arc::get_mut(row) else {
         // Shared with a reader: the next row is new, the old one stays as it is.
         let old = &**row;
-        merge_row(
-            &old.halves,
-            &work.new,
-            &work.new_end,
-            &mut work.halves,
-            add_half,
-            fresh_half,
-        );
-        let halves = work.halves.take_exact(w);
         let empty = SparseRow::empty(w);
-        let layer_rows = (0..layers)
-            .map(|l| {
-                merge_row(
-                    old.layers.get(l).unwrap_or(&empty),
-                    &work.layer_new[l],
-                    &work.layer_new_end[l],
-                    &mut work.layer,
-                    |o, n| o + n,
-                    |n| n,
-                );
-                work.layer.take_exact(w)
-            })
-            .collect();
-        let mut new = FilmRow {
-            halves,
-            layers: layer_rows,
+        let (new, new_end) = (&work.new, &work.new_end);
+        let mut next = FilmRow {
+            halves: merge_row(&old.halves, w, new, new_end, add_half, fresh_half),
+            layers: (0..layers)
+                .map(|l| {
+                    let old_layer = old.layers.get(l).unwrap_or(&empty);
+                    let (new, new_end) = (&work.layer_new[l], &work.layer_new_end[l]);
+                    merge_row(old_layer, w, new, new_end, add, fresh)
+                })
+                .collect(),
             steady_sum: Vec::new(),
             peak_bin: Vec::new(),
             err_terms: (0.0, 0.0),
             samples,
         };
-        new.summarise(spp_after);
-        *row = Arc::new(new);
+        next.summarise(spp_after);
+        *row = Arc::new(next);
         return tally;
     };
     // The film's only copy: the pass's bins are added where they are stored, and the row
     // is rebuilt only where one is new.
-    if !r
-        .halves
-        .add_in_place(&work.new, &work.new_end, &mut work.pos, add_half)
-    {
-        merge_row(
-            &r.halves,
-            &work.new,
-            &work.new_end,
-            &mut work.halves,
-            add_half,
-            fresh_half,
-        );
-        r.halves = work.halves.take_exact(w);
+    let (new, new_end) = (&work.new, &work.new_end);
+    if !r.halves.add_in_place(new, new_end, &mut work.pos, add_half) {
+        r.halves = merge_row(&r.halves, w, new, new_end, add_half, fresh_half);
     }
     r.layers
         .resize_with(layers.max(r.layers.len()), || SparseRow::empty(w));
     for (l, layer) in r.layers.iter_mut().enumerate().take(layers) {
         let (new, new_end) = (&work.layer_new[l], &work.layer_new_end[l]);
-        if !layer.add_in_place(new, new_end, &mut work.pos, |o, n| o + n) {
-            merge_row(layer, new, new_end, &mut work.layer, |o, n| o + n, |n| n);
-            *layer = work.layer.take_exact(w);
+        if !layer.add_in_place(new, new_end, &mut work.pos, add) {
+            *layer = merge_row(layer, w, new, new_end, add, fresh);
         }
     }
     r.samples = samples;
@@ -324,28 +296,32 @@ where
     tally
 }
 
-/// Merge every pixel of `old` with the pass's new bins (`new`, pixel `x`'s ending at
-/// `new_end[x]`) into `out` (see [`merge_pixel`]).
+/// Every pixel of `old` merged with the pass's new bins (`new`, pixel `x`'s ending at
+/// `new_end[x]`) into a new row of `width` pixels (see [`merge_pixel`]), its values
+/// allocated once at their final size.
 fn merge_row<V: Copy>(
     old: &SparseRow<V>,
+    width: usize,
     new: &[(u32, f64)],
     new_end: &[usize],
-    out: &mut RowBuilder<V>,
     mut combine: impl FnMut(V, f64) -> V,
     mut fresh: impl FnMut(f64) -> V,
-) {
+) -> SparseRow<V> {
+    let added = count_unstored(old, new, new_end);
+    let mut out = RowBuilder::with_capacity(width, old.runs() + added, old.stored_bins() + added);
     let mut start = 0;
     for (x, &end) in new_end.iter().enumerate() {
         merge_pixel(
             old,
             x,
             new.get(start..end).unwrap_or(&[]),
-            out,
+            &mut out,
             &mut combine,
             &mut fresh,
         );
         start = end;
     }
+    out.finish(width)
 }
 
 impl FilmRow {

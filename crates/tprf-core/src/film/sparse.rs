@@ -147,6 +147,20 @@ impl<V: Copy> SparseRow<V> {
 }
 
 impl<V: Copy> SparseRow<V> {
+    /// Pixel `x`'s runs and values (empty outside the row).
+    fn pixel_parts(&self, x: usize) -> (&[Run], &[V], usize) {
+        let Some(p) = self.pixels.get(x) else {
+            return (&[], &[], 0);
+        };
+        let r = p.run_start as usize..(p.run_start + p.run_count) as usize;
+        let v = p.value_start as usize..(p.value_start + p.value_count) as usize;
+        (
+            self.runs.get(r).unwrap_or(&[]),
+            self.values.get(v).unwrap_or(&[]),
+            p.value_start as usize,
+        )
+    }
+
     /// Add a pass's new bins in place where every one of them is stored already: `new`
     /// holds each pixel's bins in increasing order, pixel `x`'s ending at `new_end[x]`;
     /// a stored value `v` becomes `combine(v, n)`. Returns `false`, changing nothing,
@@ -164,34 +178,14 @@ impl<V: Copy> SparseRow<V> {
             return false;
         }
         let mut start = 0;
-        for (p, &end) in self.pixels.iter().zip(new_end) {
+        for (x, &end) in new_end.iter().enumerate() {
             let Some(bins) = new.get(start..end) else {
                 return false;
             };
             start = end;
-            let Some(runs) = self
-                .runs
-                .get(p.run_start as usize..(p.run_start + p.run_count) as usize)
-            else {
+            let (runs, _, first) = self.pixel_parts(x);
+            if !for_stored(runs, bins, |i, _| pos.push((first + i) as u32)) {
                 return false;
-            };
-            let mut runs = runs.iter();
-            // The run at hand: bins [run_start, run_end), the first one's value index.
-            let (mut run_start, mut run_end, mut value) = (0, 0, p.value_start as usize);
-            for &(b, _) in bins {
-                let b = b as usize;
-                while b >= run_end {
-                    let Some(r) = runs.next() else {
-                        return false;
-                    };
-                    value += run_end - run_start;
-                    run_start = run_end + r.gap as usize;
-                    run_end = run_start + r.len as usize;
-                }
-                if b < run_start {
-                    return false;
-                }
-                pos.push((value + b - run_start) as u32);
             }
         }
         for (&p, &(_, n)) in pos.iter().zip(new) {
@@ -201,6 +195,32 @@ impl<V: Copy> SparseRow<V> {
         }
         true
     }
+}
+
+/// Walk `runs` (one pixel's) with the bins of `new` in increasing order, calling `at(i,
+/// n)` with the index of each bin's value among the pixel's values. Returns `false` at
+/// the first bin not stored (the bins before it were visited).
+#[inline]
+fn for_stored<N: Copy>(runs: &[Run], new: &[(u32, N)], mut at: impl FnMut(usize, N)) -> bool {
+    let mut runs = runs.iter();
+    // The run at hand: bins [run_start, run_end), the first one's value index.
+    let (mut run_start, mut run_end, mut value) = (0, 0, 0);
+    for &(b, n) in new {
+        let b = b as usize;
+        while b >= run_end {
+            let Some(r) = runs.next() else {
+                return false;
+            };
+            value += run_end - run_start;
+            run_start = run_end + r.gap as usize;
+            run_end = run_start + r.len as usize;
+        }
+        if b < run_start {
+            return false;
+        }
+        at(value + b - run_start, n);
+    }
+    true
 }
 
 /// Where [`SparseRow::get_from`] got to in one pixel's runs: the runs passed, the bin
@@ -324,6 +344,50 @@ impl<V: Copy> RowBuilder<V> {
         self.end_bin = b + 1;
     }
 
+    /// Append the stored run `values` from bin `start` (after every bin pushed so far
+    /// in this pixel) to the current pixel, joined to its last run where it follows on;
+    /// returns the index of the run's first value in the row's values.
+    fn push_run(&mut self, start: usize, values: &[V]) -> usize {
+        let v0 = self.row.values.len();
+        let n = values.len();
+        if n == 0 {
+            return v0;
+        }
+        debug_assert!(start >= self.end_bin || self.pixel.value_count == 0);
+        let extend = self.pixel.run_count > 0
+            && start == self.end_bin
+            && self
+                .row
+                .runs
+                .last()
+                .is_some_and(|r| r.len as usize + n <= u16::MAX as usize);
+        if extend {
+            if let Some(r) = self.row.runs.last_mut() {
+                r.len += n as u16;
+            }
+        } else {
+            let mut gap = start.saturating_sub(self.end_bin);
+            while gap > u16::MAX as usize {
+                self.row.runs.push(Run {
+                    gap: u16::MAX,
+                    len: 0,
+                });
+                self.pixel.run_count += 1;
+                gap -= u16::MAX as usize;
+            }
+            // A stored run is at most u16::MAX long (see `push`).
+            self.row.runs.push(Run {
+                gap: gap as u16,
+                len: n.min(u16::MAX as usize) as u16,
+            });
+            self.pixel.run_count += 1;
+        }
+        self.row.values.extend_from_slice(values);
+        self.pixel.value_count += n as u32;
+        self.end_bin = start + n;
+        v0
+    }
+
     /// Close the current pixel and start the next.
     pub fn end_pixel(&mut self) {
         self.row.pixels.push(self.pixel);
@@ -355,7 +419,8 @@ impl<V: Copy> RowBuilder<V> {
 }
 
 /// Merge pixel `x` of `old` with `new` (bins in increasing order, each once) into `out`:
-/// a bin in both gets `combine(old, new)`, a bin only in `new` gets `fresh(new)`.
+/// a bin in both gets `combine(old, new)`, a bin only in `new` gets `fresh(new)`. Each
+/// stored run is copied whole, then the new bins inside it are combined in place.
 pub fn merge_pixel<V: Copy, N: Copy>(
     old: &SparseRow<V>,
     x: usize,
@@ -366,29 +431,62 @@ pub fn merge_pixel<V: Copy, N: Copy>(
 ) {
     let mut new = new.iter().peekable();
     for (start, values) in old.pixel_runs(x) {
-        for (i, v) in values.iter().enumerate() {
-            let b = start + i;
-            while let Some(&&(nb, nv)) = new.peek() {
-                let nb = nb as usize;
-                if nb >= b {
-                    break;
-                }
-                out.push(nb, fresh(nv));
-                new.next();
+        while let Some(&&(nb, nv)) = new.peek() {
+            if nb as usize >= start {
+                break;
             }
-            match new.peek() {
-                Some(&&(nb, nv)) if nb as usize == b => {
-                    out.push(b, combine(*v, nv));
-                    new.next();
-                }
-                _ => out.push(b, *v),
+            out.push(nb as usize, fresh(nv));
+            new.next();
+        }
+        let end = start + values.len();
+        let v0 = out.push_run(start, values);
+        while let Some(&&(nb, nv)) = new.peek() {
+            let nb = nb as usize;
+            if nb >= end {
+                break;
             }
+            if let Some(v) = out.row.values.get_mut(v0 + nb - start) {
+                *v = combine(*v, nv);
+            }
+            new.next();
         }
     }
     for &(nb, nv) in new {
         out.push(nb as usize, fresh(nv));
     }
     out.end_pixel();
+}
+
+/// How many of `new`'s bins (pixel `x`'s ending at `new_end[x]`, increasing within a
+/// pixel) `row` does not store: what merging them adds to its values.
+pub fn count_unstored<V: Copy, N: Copy>(
+    row: &SparseRow<V>,
+    new: &[(u32, N)],
+    new_end: &[usize],
+) -> usize {
+    let mut count = 0;
+    let mut start = 0;
+    for (x, &end) in new_end.iter().enumerate() {
+        let bins = new.get(start..end).unwrap_or(&[]);
+        start = end;
+        let (runs, _, _) = row.pixel_parts(x);
+        let mut runs = runs.iter();
+        let (mut run_start, mut run_end) = (0, 0);
+        for &(b, _) in bins {
+            let b = b as usize;
+            while b >= run_end {
+                match runs.next() {
+                    Some(r) => {
+                        run_start = run_end + r.gap as usize;
+                        run_end = run_start + r.len as usize;
+                    }
+                    None => (run_start, run_end) = (usize::MAX, usize::MAX),
+                }
+            }
+            count += usize::from(b < run_start);
+        }
+    }
+    count
 }
 
 #[cfg(test)]
@@ -524,6 +622,22 @@ mod tests {
                 })
                 .collect();
             let added: usize = news.iter().map(Vec::len).sum();
+            // The bins merging adds: those not yet non-zero in the dense copy.
+            let unstored = news
+                .iter()
+                .zip(&dense)
+                .map(|(new, d)| new.iter().filter(|e| d[e.0 as usize] == 0.0).count())
+                .sum::<usize>();
+            let flat: Vec<(u32, f64)> = news.iter().flatten().copied().collect();
+            let ends: Vec<usize> = news
+                .iter()
+                .scan(0, |end, n| {
+                    *end += n.len();
+                    Some(*end)
+                })
+                .collect();
+            assert_eq!(count_unstored(&row, &flat, &ends), unstored);
+            let stored_before = row.stored_bins();
             let mut b =
                 RowBuilder::with_capacity(width, row.runs() + added, row.stored_bins() + added);
             for (x, (d, new)) in dense.iter_mut().zip(&news).enumerate() {
@@ -533,6 +647,7 @@ mod tests {
                 merge_pixel(&row, x, new, &mut b, |o, n| o + n, |n| n);
             }
             row = b.finish(width);
+            assert_eq!(row.stored_bins(), stored_before + unstored);
             for (x, d) in dense.iter().enumerate() {
                 assert_eq!(&to_dense(&row, x, bins), d);
                 assert_eq!(
