@@ -220,9 +220,11 @@ fn as_renderer(accel: &Accel, rays: &[TracedRay]) -> usize {
         .count()
 }
 
-/// Repetitions of each timed run; the fastest counts (the others absorb page faults,
-/// cache warm-up and whatever else the machine was doing).
-const REPEATS: usize = 2;
+/// Rounds of the timed runs, each round running every kind once in turn (so a drift of
+/// the machine's speed over the minutes of a case touches every kind alike); per kind
+/// the fastest counts (the others absorb page faults, cache warm-up and whatever else
+/// the machine was doing).
+const REPEATS: usize = 3;
 
 /// CPU seconds this process has used so far, all threads (utime + stime from
 /// /proc/self/stat, in USER_HZ = 100 ticks); 0 where that is not available.
@@ -264,12 +266,12 @@ impl Timing {
     }
 }
 
-/// The fastest of `REPEATS` runs of `f`.
-fn best_of(mut f: impl FnMut()) -> Timing {
-    (0..REPEATS)
-        .map(|_| Timing::of(&mut f))
-        .min_by(|a, b| a.wall_s.total_cmp(&b.wall_s))
-        .expect("REPEATS > 0")
+/// Time `f` once, keeping the faster of that and `best`.
+fn keep_fastest(best: &mut Option<Timing>, f: impl FnOnce()) {
+    let t = Timing::of(f);
+    if best.is_none_or(|b| t.wall_s < b.wall_s) {
+        *best = Some(t);
+    }
 }
 
 // ---------------------------------------------------------------------------------------
@@ -336,20 +338,24 @@ fn run_case(case: &Case, make_scene: impl FnOnce() -> Scene) -> Figures {
         bounces_separate: 0,
     };
     // 1. The transient render, as `tprf render` runs it, on a fresh film each time.
-    let mut rays = 0;
-    let mut reports = Vec::new();
-    let render = best_of(|| {
+    let render_once = || {
         let mut film = TprfFilm::new(layout).expect("film");
         let rays_before = renderer.rays_traced();
-        reports = progressive::render(&renderer, &mut film, &Schedule::spp(case.spp), |_, _| {
-            ControlFlow::Continue(())
-        });
-        rays = renderer.rays_traced() - rays_before;
+        let reports =
+            progressive::render(&renderer, &mut film, &Schedule::spp(case.spp), |_, _| {
+                ControlFlow::Continue(())
+            });
+        let rays = renderer.rays_traced() - rays_before;
         eprintln!(
             "  rendered in {:.2} s",
             reports.last().expect("one pass").render_s
         );
-    });
+        (reports, rays)
+    };
+    let mut render = None;
+    let mut first = None;
+    keep_fastest(&mut render, || first = Some(render_once()));
+    let (reports, rays) = first.expect("rendered");
     let last = *reports.last().expect("one pass");
     let mut passes = Vec::new();
     let mut spp_before = 0;
@@ -360,14 +366,7 @@ fn run_case(case: &Case, make_scene: impl FnOnce() -> Scene) -> Figures {
     let size = (case.width, case.height);
     let end_s = axis.end_s();
 
-    // 2. The same paths, summed instead of binned.
-    let nobin = best_of(|| {
-        let (sinks, nobin_rays) = replay(&renderer, size, &passes, || SumSink { end_s, sum: 0.0 });
-        black_box(sinks.iter().map(|s| s.sum).sum::<f64>());
-        assert_eq!(nobin_rays, rays, "the replay traced other rays");
-    });
-
-    // 3. The same paths, recording their rays.
+    // 2. The same paths, recording their rays.
     let start = Instant::now();
     let (sinks, _) = replay(&renderer, size, &passes, || RecordSink {
         end_s,
@@ -380,30 +379,50 @@ fn run_case(case: &Case, make_scene: impl FnOnce() -> Scene) -> Figures {
         .iter()
         .filter(|r| r.kind == RayKind::Shadow)
         .count();
+    let hits = closest_all(&bvh, &recorded);
 
-    // 4. Those rays against the CWBVH alone, and with the renderer's own tracing.
-    let mut hits = 0;
-    let raw_pool = best_of(|| {
-        hits = black_box(
-            recorded
+    // 3. Rounds of: the render again; the same paths summed instead of binned; their
+    // rays against the CWBVH alone (on the pool and on one thread), and with the
+    // renderer's own tracing.
+    let accel = renderer.accel();
+    let (mut nobin, mut raw_pool, mut raw_one, mut raw_kinds_pool) = (None, None, None, None);
+    for round in 0..REPEATS {
+        if round > 0 {
+            keep_fastest(&mut render, || {
+                let (_, again) = render_once();
+                assert_eq!(again, rays, "the render traced other rays");
+            });
+        }
+        keep_fastest(&mut nobin, || {
+            let (sinks, nobin_rays) =
+                replay(&renderer, size, &passes, || SumSink { end_s, sum: 0.0 });
+            black_box(sinks.iter().map(|s| s.sum).sum::<f64>());
+            assert_eq!(nobin_rays, rays, "the replay traced other rays");
+        });
+        keep_fastest(&mut raw_pool, || {
+            let n: usize = recorded
                 .par_chunks(CHUNK)
                 .map(|c| closest_all(&bvh, c))
-                .sum(),
-        );
-    });
-    let raw_one = best_of(|| {
-        let n: usize = recorded.chunks(CHUNK).map(|c| closest_all(&bvh, c)).sum();
-        assert_eq!(black_box(n), hits);
-    });
-    let accel = renderer.accel();
-    let raw_kinds_pool = best_of(|| {
-        black_box(
-            recorded
-                .par_chunks(CHUNK)
-                .map(|c| as_renderer(accel, c))
-                .sum::<usize>(),
-        );
-    });
+                .sum();
+            assert_eq!(black_box(n), hits);
+        });
+        keep_fastest(&mut raw_one, || {
+            let n: usize = recorded.chunks(CHUNK).map(|c| closest_all(&bvh, c)).sum();
+            assert_eq!(black_box(n), hits);
+        });
+        keep_fastest(&mut raw_kinds_pool, || {
+            black_box(
+                recorded
+                    .par_chunks(CHUNK)
+                    .map(|c| as_renderer(accel, c))
+                    .sum::<usize>(),
+            );
+        });
+    }
+    let timed = "REPEATS > 0";
+    let (render, nobin) = (render.expect(timed), nobin.expect(timed));
+    let (raw_pool, raw_one) = (raw_pool.expect(timed), raw_one.expect(timed));
+    let raw_kinds_pool = raw_kinds_pool.expect(timed);
 
     Figures {
         label: case.label.to_string(),
@@ -487,7 +506,8 @@ fn main() {
     println!(
         "Default settings (max 1024 bounces, Russian roulette from bounce 3, NEE), a \
          256-bin time window chosen by the pilot render, progressive passes as `tprf \
-         render` runs them; fastest of {REPEATS} runs.\n"
+         render` runs them; fastest of {REPEATS} runs, each kind of run below once per round \
+         in turn.\n"
     );
     println!(
         "| scene | triangles | image x spp | bins | paths | rays (shadow) | rays/path | render s | paths/s | rays/s |"
