@@ -338,8 +338,13 @@ impl FilmRow {
         let (na, nb) = (na as f64, nb as f64);
         let n = na + nb;
         let (mut diff2, mut norm2) = (0.0, 0.0);
+        // Exactly `w` each, whichever way the row was made (the store's byte count must
+        // not depend on it: the last row still sharing a film's first, empty row finds
+        // it unique and keeps its vectors).
         self.steady_sum.clear();
+        self.steady_sum.reserve_exact(w);
         self.peak_bin.clear();
+        self.peak_bin.reserve_exact(w);
         for x in 0..w {
             let mut sum = 0.0;
             let mut best: Option<(u32, f64)> = None;
