@@ -184,7 +184,12 @@ impl<V: Copy> SparseRow<V> {
             };
             start = end;
             let (runs, _, first) = self.pixel_parts(x);
-            if !for_stored(runs, bins, |i, _| pos.push((first + i) as u32)) {
+            let mut stored = true;
+            locate(runs, bins, |i, _| match i {
+                Some(i) => pos.push((first + i) as u32),
+                None => stored = false,
+            });
+            if !stored {
                 return false;
             }
         }
@@ -197,30 +202,28 @@ impl<V: Copy> SparseRow<V> {
     }
 }
 
-/// Walk `runs` (one pixel's) with the bins of `new` in increasing order, calling `at(i,
-/// n)` with the index of each bin's value among the pixel's values. Returns `false` at
-/// the first bin not stored (the bins before it were visited).
+/// Walk one pixel's `runs` with the bins of `new` in increasing order: `at(Some(i), n)`
+/// for a bin stored as the pixel's `i`-th value, `at(None, n)` for a bin not stored.
 #[inline]
-fn for_stored<N: Copy>(runs: &[Run], new: &[(u32, N)], mut at: impl FnMut(usize, N)) -> bool {
+fn locate<N: Copy>(runs: &[Run], new: &[(u32, N)], mut at: impl FnMut(Option<usize>, N)) {
     let mut runs = runs.iter();
-    // The run at hand: bins [run_start, run_end), the first one's value index.
+    // The run at hand: bins [run_start, run_end), the first one's value index (both
+    // ends past every bin once the runs are used up).
     let (mut run_start, mut run_end, mut value) = (0, 0, 0);
     for &(b, n) in new {
         let b = b as usize;
         while b >= run_end {
-            let Some(r) = runs.next() else {
-                return false;
-            };
             value += run_end - run_start;
-            run_start = run_end + r.gap as usize;
-            run_end = run_start + r.len as usize;
+            (run_start, run_end) = match runs.next() {
+                Some(r) => {
+                    let start = run_end + r.gap as usize;
+                    (start, start + r.len as usize)
+                }
+                None => (usize::MAX, usize::MAX),
+            };
         }
-        if b < run_start {
-            return false;
-        }
-        at(value + b - run_start, n);
+        at((b >= run_start).then(|| value + b - run_start), n);
     }
-    true
 }
 
 /// Where [`SparseRow::get_from`] got to in one pixel's runs: the runs passed, the bin
@@ -470,21 +473,7 @@ pub fn count_unstored<V: Copy, N: Copy>(
         let bins = new.get(start..end).unwrap_or(&[]);
         start = end;
         let (runs, _, _) = row.pixel_parts(x);
-        let mut runs = runs.iter();
-        let (mut run_start, mut run_end) = (0, 0);
-        for &(b, _) in bins {
-            let b = b as usize;
-            while b >= run_end {
-                match runs.next() {
-                    Some(r) => {
-                        run_start = run_end + r.gap as usize;
-                        run_end = run_start + r.len as usize;
-                    }
-                    None => (run_start, run_end) = (usize::MAX, usize::MAX),
-                }
-            }
-            count += usize::from(b < run_start);
-        }
+        locate(runs, bins, |i, _| count += usize::from(i.is_none()));
     }
     count
 }
