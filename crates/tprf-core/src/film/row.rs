@@ -1,8 +1,9 @@
 //! One image row of the film: the two halves' sums and the bounce layers as sparse runs
-//! (`sparse.rs`), with per-pixel summaries made when the row is built. A row is never
-//! changed: a pass renders the row's pixels into a dense scratch, one pixel at a time,
-//! and merges the old row with what the pass added into a new row. Readers (snapshots)
-//! share rows by `Arc` while the film moves on.
+//! (`sparse.rs`), with per-pixel summaries remade after every pass. A pass renders the
+//! row's pixels into a dense scratch, one pixel at a time, then adds what it found to the
+//! row in place where the film holds the row's only reference and every new bin is
+//! stored, else merges the old row with it into a new row. Readers (snapshots) share
+//! rows by `Arc` while the film moves on; a row they share is never changed.
 
 use super::sink::{PixelSink, Scratch, drain_touched};
 use super::sparse::{RowBuilder, SparseRow, count_unstored, merge_pixel};
@@ -326,8 +327,8 @@ fn merge_row<V: Copy>(
 
 impl FilmRow {
     /// Remake the per-pixel summaries from the halves in one sweep: steady sums, peak
-    /// bins, and the two-half error terms for `spp_after` samples per half (see
-    /// [`error_terms`]) with each pixel's share in its `samples`.
+    /// bins, and the two-half error terms for `spp_after` samples per half, with each
+    /// pixel's share in its `samples`.
     ///
     /// The error terms are the row's sums of `(a / n_a - b / n_b)^2` and `((a + b) /
     /// n)^2` over its bins (see `TprfFilm::half_error_estimate`), 0 while a half has no

@@ -3,9 +3,11 @@
 //! A pixel keeps only its non-zero bins, as runs of consecutive bins: each run is a
 //! 4-byte header (`gap` empty bins since the end of the previous run, then `len` stored
 //! bins) followed, in the row's value array, by one value per stored bin. A lone bin
-//! costs its value plus 4 bytes; a run of `L` bins costs `L` values plus 4 bytes. A row
-//! is immutable: a pass builds the next one by merging the old row with what the pass
-//! added ([`RowBuilder`]), so readers can hold a row (an `Arc`) while the next is made.
+//! costs its value plus 4 bytes; a run of `L` bins costs `L` values plus 4 bytes. A pass
+//! builds the next row by merging the old one with what the pass added ([`merge_pixel`],
+//! [`RowBuilder`]), so readers can hold a row (an `Arc`) while the next is made; where
+//! no reader holds it and every new bin is stored, the pass adds in place
+//! ([`SparseRow::add_in_place`]).
 
 /// A run of stored bins: `gap` bins not stored since the end of the previous run (or
 /// since bin 0), then `len` stored bins. Gaps longer than `u16::MAX` are written as runs

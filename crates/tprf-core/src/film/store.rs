@@ -7,8 +7,9 @@
 //! pixel's radiance (W m^-2 sr^-1 s per unit pulse energy): summed over bins it is the
 //! steady-state radiance for a unit pulse (DESIGN.md).
 //!
-//! The film is a list of immutable rows (`row.rs`); a pass builds new rows and a
-//! [`FilmSnapshot`] shares them, so publishing a snapshot copies nothing.
+//! The film is a list of rows (`row.rs`) behind `Arc`s; a pass builds new rows, or adds
+//! to a row in place where the film holds its only reference, and a [`FilmSnapshot`]
+//! shares them (a shared row is never changed), so publishing a snapshot copies nothing.
 
 use super::row::{FilmRow, PixelPass, PixelSamples, RowWork, render_row};
 use super::{FilmError, FilmLayout, FilmSnapshot, LeftOutCounts, PixelSink, TimeAxis, TimeFilter};
