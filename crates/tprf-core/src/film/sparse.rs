@@ -380,7 +380,9 @@ impl<V: Copy> RowBuilder<V> {
                 self.pixel.run_count += 1;
                 gap -= u16::MAX as usize;
             }
-            // A stored run is at most u16::MAX long (see `push`).
+            // A stored run is at most u16::MAX long (see `push`, whose run logic this
+            // repeats for a whole run: `push` written as a run of one measured 3 %
+            // slower on the engine bench's render).
             self.row.runs.push(Run {
                 gap: gap as u16,
                 len: n.min(u16::MAX as usize) as u16,
