@@ -457,11 +457,11 @@ impl Blocks {
     ) -> bool {
         let all = (1u32 << self.blocks.len()) - 1;
         let (mut entered, near) = if self.cull {
-            enter_blocks(&self.bounds, o, Vec3A::ONE / d, t_max)
+            let (entered, near) = enter_blocks(&self.bounds, o, Vec3A::ONE / d, t_max);
+            (entered & all, near)
         } else {
             (all, [0.0; LANES])
         };
-        entered &= all;
         while entered != 0 {
             let k = entered.trailing_zeros() as usize;
             entered &= entered - 1;
