@@ -38,7 +38,8 @@ pub enum PassSize {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Schedule {
     pub pass_size: PassSize,
-    /// Stop at exactly this many samples per pixel (the last pass is cut to fit).
+    /// Stop at exactly this many samples per pixel (the last pair of passes is cut, or
+    /// stretched, to fit: see [`toward_target`]).
     pub spp_target: Option<u64>,
     /// Stop at the end of the first pass that ends after this many seconds of wall time
     /// (callbacks included; at least one pass is made).
@@ -116,6 +117,34 @@ pub fn doubling_spp(pass: u64, cap: u32) -> u32 {
     (1u32 << doubling).min(cap.max(1))
 }
 
+/// Samples per pixel of pass `pass` of a render with `left` still to draw, where the
+/// schedule's passes are `spp` now and `next` after this pair (0 where not known).
+///
+/// Even passes fill one half of the film and odd passes the other, so passes go in pairs
+/// of equal size: an even pass takes at most half of what is left, so the last pair ends
+/// balanced. And where a full pair would leave less than one `next` pass, this pair takes
+/// what is left (up to `spp + next / 2` each): a pair of runt passes after it would cost
+/// two merges of every pixel's bins into the film for a few samples.
+pub fn toward_target(pass: u64, spp: u32, next: u32, left: u64) -> u32 {
+    let (spp, next) = (spp as u64, next as u64);
+    let take = if pass.is_multiple_of(2) {
+        let half = left.div_ceil(2);
+        let rest = left.saturating_sub(2 * spp);
+        if rest > 0 && rest < next {
+            half
+        } else {
+            spp.min(half)
+        }
+    } else if left < spp + next {
+        // The even pass before took what was left over two (see above), or all was
+        // at most `spp` anyway.
+        left
+    } else {
+        spp.min(left)
+    };
+    take.min(u32::MAX as u64) as u32
+}
+
 /// Largest pass of [`PassSize::Paced`], samples per pixel.
 const MAX_PACED_SPP: u32 = 256;
 
@@ -159,14 +188,15 @@ pub fn render(
             if left == 0 {
                 break;
             }
-            // Even passes fill one half of the film and odd passes the other: an even pass
-            // takes at most half of what is left, so the last pair ends balanced too.
-            let share = if pass.is_multiple_of(2) {
-                left.div_ceil(2)
-            } else {
-                left
+            // What the pass after this pair would be: in a doubling schedule, known now.
+            let next = match schedule.pass_size {
+                PassSize::Doubling { cap } => {
+                    let after = pass + if pass.is_multiple_of(2) { 2 } else { 1 };
+                    doubling_spp(after, doubling_cap(cap, pixels))
+                }
+                PassSize::Paced { .. } => 0,
             };
-            spp = spp.min(share.min(u32::MAX as u64) as u32);
+            spp = toward_target(pass, spp, next, left);
         }
         let pass_start = Instant::now();
         let stats = renderer.render_pass(film, spp);
@@ -206,6 +236,54 @@ pub fn render(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The pass sizes of a doubling schedule toward `target` spp (cap 16).
+    fn passes_toward(target: u64) -> Vec<u32> {
+        let (mut drawn, mut sizes) = (0u64, Vec::new());
+        for pass in 0.. {
+            let left = target - drawn;
+            if left == 0 {
+                break;
+            }
+            let after = pass + if pass % 2 == 0 { 2 } else { 1 };
+            let n = toward_target(pass, doubling_spp(pass, 16), doubling_spp(after, 16), left);
+            sizes.push(n);
+            drawn += n as u64;
+        }
+        sizes
+    }
+
+    /// Hand-worked schedules: pairs of equal size (the halves balanced to within one
+    /// sample), no runt pair at the end, and the sizes of a plain doubling schedule up
+    /// to the last pair.
+    #[test]
+    fn a_target_ends_on_a_whole_pair_without_runts() {
+        assert_eq!(passes_toward(1), [1]);
+        assert_eq!(passes_toward(2), [1, 1]);
+        assert_eq!(passes_toward(3), [2, 1]);
+        assert_eq!(passes_toward(4), [1, 1, 1, 1]);
+        assert_eq!(passes_toward(32), [1, 1, 2, 2, 4, 4, 9, 9]);
+        assert_eq!(passes_toward(64), [1, 1, 2, 2, 4, 4, 8, 8, 17, 17]);
+        assert_eq!(passes_toward(64 + 2), [1, 1, 2, 2, 4, 4, 8, 8, 18, 18]);
+        assert_eq!(
+            passes_toward(64 + 40),
+            [1, 1, 2, 2, 4, 4, 8, 8, 16, 16, 21, 21]
+        );
+        for target in 1..300u64 {
+            let sizes = passes_toward(target);
+            let half = |h: usize| {
+                sizes
+                    .iter()
+                    .skip(h)
+                    .step_by(2)
+                    .map(|&n| n as u64)
+                    .sum::<u64>()
+            };
+            assert_eq!(half(0) + half(1), target);
+            assert!(half(0) - half(1) <= 1, "{target}: {sizes:?}");
+            assert!(sizes.iter().all(|&n| n <= 24), "{target}: {sizes:?}");
+        }
+    }
 
     /// Hand-computed: 0.25 s passes at the start, 4 x 0.25 = 1 s from 6 s on, half
     /// way (3 s) 0.25 (1 + 3 / 2) = 0.625 s.
