@@ -337,7 +337,8 @@ impl FilmRow {
         let w = self.halves.width();
         let halves_drawn = na > 0 && nb > 0;
         let (na, nb) = (na as f64, nb as f64);
-        let n = na + nb;
+        // Reciprocals: three multiplications per bin where three divisions were.
+        let (inv_na, inv_nb, inv_n) = (1.0 / na, 1.0 / nb, 1.0 / (na + nb));
         let (mut diff2, mut norm2) = (0.0, 0.0);
         // Exactly `w` each, whichever way the row was made (the store's byte count must
         // not depend on it: the last row still sharing a film's first, empty row finds
@@ -358,8 +359,8 @@ impl FilmRow {
                         best = Some(((start + i) as u32, s));
                     }
                     if halves_drawn {
-                        let d = a / na - b / nb;
-                        let m = s / n;
+                        let d = a * inv_na - b * inv_nb;
+                        let m = s * inv_n;
                         diff2 += d * d;
                         pixel_diff2 += d * d;
                         norm2 += m * m;
