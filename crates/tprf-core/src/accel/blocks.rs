@@ -13,6 +13,9 @@
 
 use glam::{Vec3, Vec3A};
 
+#[cfg(target_arch = "x86_64")]
+mod avx2;
+
 /// Lanes per block, and blocks per scene at most: one AVX register per coordinate where
 /// the CPU has AVX2 (detected at run time), two SSE or NEON registers elsewhere.
 pub(super) const LANES: usize = 8;
@@ -430,13 +433,13 @@ impl Blocks {
             // SAFETY: `wide` is set only where the CPU was found to have AVX2.
             return unsafe { self.hits_avx2(o, d, t_max, visit) };
         }
-        self.hits_any(o, d, t_max, visit)
+        self.hits_portable(o, d, t_max, visit)
     }
 
-    /// [`Blocks::hits`] compiled for AVX2.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn hits_avx2(
+    /// [`Blocks::hits_any`] kept out of line: callers inline [`Blocks::hits`], and the
+    /// path they take on AVX2 machines stays a single call.
+    #[inline(never)]
+    fn hits_portable(
         &self,
         o: Vec3A,
         d: Vec3A,
@@ -444,6 +447,46 @@ impl Blocks {
         visit: impl FnMut(usize, f32, f32, f32, &mut f32) -> bool,
     ) -> bool {
         self.hits_any(o, d, t_max, visit)
+    }
+
+    /// [`Blocks::hits`] in AVX2 intrinsics (`avx2.rs`): the same tests as
+    /// [`Blocks::hits_any`], in the same order.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn hits_avx2(
+        &self,
+        o: Vec3A,
+        d: Vec3A,
+        mut t_max: f32,
+        mut visit: impl FnMut(usize, f32, f32, f32, &mut f32) -> bool,
+    ) -> bool {
+        let ray = avx2::Ray8::new(o, d);
+        let all = (1u32 << self.blocks.len()) - 1;
+        let (mut entered, near) = if self.cull {
+            let (entered, near) = avx2::enter_blocks(&self.bounds, &ray, t_max);
+            (entered & all, near)
+        } else {
+            (all, [0.0; LANES])
+        };
+        while entered != 0 {
+            let k = entered.trailing_zeros() as usize;
+            entered &= entered - 1;
+            let Some(b) = self.blocks.get(k) else { break };
+            if near[k] > t_max {
+                continue;
+            }
+            let h = avx2::intersect_block(b, &ray, t_max);
+            let mut mask = h.mask;
+            while mask != 0 {
+                let lane = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                let (t, u, v) = h.lane(lane);
+                if visit(k * LANES + lane, t, u, v, &mut t_max) {
+                    return true;
+                }
+            }
+        }
+        false
     }
 
     /// [`Blocks::hits`] for the instruction set it is compiled for.
