@@ -534,16 +534,13 @@ impl Renderer {
                 && path.ior_here == 1.0
                 && path.scatterings + 2 <= s.max_bounces;
             if connected {
-                let lv = match light_vertex {
-                    Some(lv) => lv,
-                    None => {
-                        let (lv, n) = self.light_vertex(lights, path.scatterings, rng, sink);
-                        rays += n;
-                        light_vertex = Some(lv);
-                        lv
-                    }
-                };
-                if let Some(lv) = lv {
+                if light_vertex.is_none() {
+                    let (lv, n) = self.light_vertex(lights, path.scatterings, rng, sink);
+                    rays += n;
+                    light_vertex = Some(lv);
+                }
+                // By reference: a light vertex is over a hundred bytes.
+                if let Some(Some(lv)) = &light_vertex {
                     let x = EyeVertex {
                         bsdf: &bsdf,
                         frame: &frame,
@@ -556,7 +553,7 @@ impl Renderer {
                         scatterings: path.scatterings,
                         bsdf_samples: splits as f32,
                     };
-                    rays += self.connect(&x, &lv, sink);
+                    rays += self.connect(&x, lv, sink);
                 }
             }
             // What the next vertex's next-event weight needs of this BSDF sample.
