@@ -22,13 +22,6 @@ fn load(a: &[f32; LANES]) -> __m256 {
     unsafe { _mm256_loadu_ps(a.as_ptr()) }
 }
 
-#[inline]
-#[target_feature(enable = "avx2")]
-fn store(a: &mut [f32; LANES], v: __m256) {
-    // SAFETY: `a` is eight writable f32s; `storeu` has no alignment requirement.
-    unsafe { _mm256_storeu_ps(a.as_mut_ptr(), v) }
-}
-
 /// `a . b` as the portable test sums it: `(a0 b0 + a1 b1) + a2 b2`.
 #[inline]
 #[target_feature(enable = "avx2")]
@@ -67,10 +60,8 @@ pub(super) fn enter_blocks(b: &BlockBounds, r: &Ray8, tmax: f32) -> (u32, [f32; 
         near = _mm256_max_ps(near, _mm256_min_ps(t0, t1));
         far = _mm256_min_ps(far, _mm256_max_ps(t0, t1));
     }
-    let mut near_out = [0.0; LANES];
-    store(&mut near_out, near);
     let hit = _mm256_cmp_ps::<_CMP_LE_OQ>(near, far);
-    (_mm256_movemask_ps(hit) as u32, near_out)
+    (_mm256_movemask_ps(hit) as u32, lanes(near))
 }
 
 /// [`intersect_block`](super::intersect_block): Cramer's rule against `|det|`.
@@ -107,16 +98,19 @@ pub(super) fn intersect_block(b: &Block, r: &Ray8, tmax: f32) -> BlockHits {
         .into_iter()
         .reduce(|a, b| _mm256_and_ps(a, b))
         .unwrap_or(zero);
-    let mut out = BlockHits {
+    BlockHits {
         mask: _mm256_movemask_ps(hit) as u32,
-        t: [0.0; LANES],
-        u: [0.0; LANES],
-        v: [0.0; LANES],
-        det: [0.0; LANES],
-    };
-    store(&mut out.t, t);
-    store(&mut out.u, u);
-    store(&mut out.v, v);
-    store(&mut out.det, abs_det);
-    out
+        t: lanes(t),
+        u: lanes(u),
+        v: lanes(v),
+        det: lanes(abs_det),
+    }
+}
+
+/// The eight lanes of `v`.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn lanes(v: __m256) -> [f32; LANES] {
+    // SAFETY: `__m256` is eight f32s, every bit pattern a valid f32.
+    unsafe { std::mem::transmute::<__m256, [f32; LANES]>(v) }
 }
