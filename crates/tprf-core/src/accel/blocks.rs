@@ -457,36 +457,17 @@ impl Blocks {
         &self,
         o: Vec3A,
         d: Vec3A,
-        mut t_max: f32,
-        mut visit: impl FnMut(usize, f32, f32, f32, &mut f32) -> bool,
+        t_max: f32,
+        visit: impl FnMut(usize, f32, f32, f32, &mut f32) -> bool,
     ) -> bool {
         let ray = avx2::Ray8::new(o, d);
-        let all = (1u32 << self.blocks.len()) - 1;
-        let (mut entered, near) = if self.cull {
-            let (entered, near) = avx2::enter_blocks(&self.bounds, &ray, t_max);
-            (entered & all, near)
-        } else {
-            (all, [0.0; LANES])
-        };
-        while entered != 0 {
-            let k = entered.trailing_zeros() as usize;
-            entered &= entered - 1;
-            let Some(b) = self.blocks.get(k) else { break };
-            if near[k] > t_max {
-                continue;
-            }
-            let h = avx2::intersect_block(b, &ray, t_max);
-            let mut mask = h.mask;
-            while mask != 0 {
-                let lane = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
-                let (t, u, v) = h.lane(lane);
-                if visit(k * LANES + lane, t, u, v, &mut t_max) {
-                    return true;
-                }
-            }
-        }
-        false
+        let entered = self.entered(|| avx2::enter_blocks(&self.bounds, &ray, t_max));
+        self.visit_blocks(
+            entered,
+            t_max,
+            |b, t| avx2::intersect_block(b, &ray, t),
+            visit,
+        )
     }
 
     /// [`Blocks::hits`] for the instruction set it is compiled for.
@@ -495,16 +476,37 @@ impl Blocks {
         &self,
         o: Vec3A,
         d: Vec3A,
-        mut t_max: f32,
-        mut visit: impl FnMut(usize, f32, f32, f32, &mut f32) -> bool,
+        t_max: f32,
+        visit: impl FnMut(usize, f32, f32, f32, &mut f32) -> bool,
     ) -> bool {
+        let entered = self.entered(|| enter_blocks(&self.bounds, o, Vec3A::ONE / d, t_max));
+        self.visit_blocks(entered, t_max, |b, t| intersect_block(b, o, d, t), visit)
+    }
+
+    /// The blocks a ray enters (a mask), and where it enters each: by `slab`, the slab
+    /// test of their bounds, where the blocks are culled; else every block, from 0.
+    #[inline(always)]
+    fn entered(&self, slab: impl FnOnce() -> (u32, [f32; LANES])) -> (u32, [f32; LANES]) {
         let all = (1u32 << self.blocks.len()) - 1;
-        let (mut entered, near) = if self.cull {
-            let (entered, near) = enter_blocks(&self.bounds, o, Vec3A::ONE / d, t_max);
+        if self.cull {
+            let (entered, near) = slab();
             (entered & all, near)
         } else {
             (all, [0.0; LANES])
-        };
+        }
+    }
+
+    /// The blocks `entered` (entered where `near` says) in order, each tested by
+    /// `test(block, t_max)` unless the ray enters it past `t_max`, and their hits lane by
+    /// lane handed to `visit` (see [`Blocks::hits`]).
+    #[inline(always)]
+    fn visit_blocks(
+        &self,
+        (mut entered, near): (u32, [f32; LANES]),
+        mut t_max: f32,
+        test: impl Fn(&Block, f32) -> BlockHits,
+        mut visit: impl FnMut(usize, f32, f32, f32, &mut f32) -> bool,
+    ) -> bool {
         while entered != 0 {
             let k = entered.trailing_zeros() as usize;
             entered &= entered - 1;
@@ -512,7 +514,7 @@ impl Blocks {
             if near[k] > t_max {
                 continue;
             }
-            let h = intersect_block(b, o, d, t_max);
+            let h = test(b, t_max);
             let mut mask = h.mask;
             while mask != 0 {
                 let lane = mask.trailing_zeros() as usize;

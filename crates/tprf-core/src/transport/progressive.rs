@@ -48,7 +48,7 @@ pub struct Schedule {
 
 impl Schedule {
     /// Exactly `spp` samples per pixel in doubling passes (capped at 16 per pass, more
-    /// on small films).
+    /// on small films; the last pair up to half as much again, see [`toward_target`]).
     pub fn spp(spp: u64) -> Schedule {
         Schedule {
             pass_size: PassSize::Doubling { cap: 16 },
