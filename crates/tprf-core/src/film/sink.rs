@@ -104,18 +104,10 @@ impl<'a> PixelSink<'a> {
     pub fn add(&mut self, arrival_s: f64, value: f64, scatterings: u32) {
         // The common case inlined into the integrator: a finite value, the box filter,
         // no bounce layers.
-        let s = &mut *self.scratch;
-        if self.filter == TimeFilter::Box && s.layers.is_empty() && value.is_finite() {
+        if self.filter == TimeFilter::Box && self.scratch.layers.is_empty() && value.is_finite() {
             let value = value * self.weight;
             match self.axis.bin_of(arrival_s) {
-                Some(b) => {
-                    if let Some(slot) = s.bins.get_mut(b) {
-                        if *slot == 0.0 {
-                            s.touched.push(b as u32);
-                        }
-                        *slot += value;
-                    }
-                }
+                Some(b) => self.put(b, value, scatterings),
                 // Outside the window, or a NaN or infinite arrival time.
                 None if arrival_s.is_finite() => self.outside += value,
                 None => self.left_out.non_finite += 1,
