@@ -197,26 +197,35 @@ fn a_pass_after_a_snapshot_leaves_the_snapshot_as_it_was() {
     assert_ne!(before.generation(), film.snapshot().generation());
 }
 
+/// With and without bounce layers (without, a contribution takes the sink's inlined
+/// common path): non-finite values and arrival times are counted, never stored; a
+/// finite arrival outside the window is light outside, not an error.
 #[test]
 fn non_finite_contributions_are_counted_and_kept_out() {
-    let axis = TimeAxis::new(0.0, 1.0, 4).unwrap();
-    let layout = FilmLayout {
-        width: 2,
-        height: 1,
-        axis,
-        bounces_separate: 1,
-    };
-    let mut film = TprfFilm::new(layout).unwrap();
-    let tally = film.run_pass(1, |x, _, sink| {
-        sink.add(0.5, 1.0, 0);
-        if x == 1 {
-            sink.add(1.5, f64::INFINITY, 1);
-            sink.add(2.5, f64::NAN, 1);
-            sink.add(f64::NAN, 1.0, 1);
-        }
-    });
-    assert_eq!(tally.left_out.non_finite, 3);
-    assert_eq!(film.pixel_tprf(1, 0), vec![1.0, 0.0, 0.0, 0.0]);
-    assert!(film.half_error_estimate().is_none());
-    assert!(film.steady().iter().all(|v| v.is_finite()));
+    for bounces_separate in [0, 1] {
+        let axis = TimeAxis::new(0.0, 1.0, 4).unwrap();
+        let layout = FilmLayout {
+            width: 2,
+            height: 1,
+            axis,
+            bounces_separate,
+        };
+        let mut film = TprfFilm::new(layout).unwrap();
+        let tally = film.run_pass(1, |x, _, sink| {
+            sink.add(0.5, 1.0, 0);
+            if x == 1 {
+                sink.add(1.5, f64::INFINITY, 1);
+                sink.add(2.5, f64::NAN, 1);
+                sink.add(f64::NAN, 1.0, 1);
+                sink.add(f64::INFINITY, 1.0, 1);
+                sink.add(7.5, 2.0, 1);
+            }
+        });
+        assert_eq!(tally.left_out.non_finite, 4, "{bounces_separate} layers");
+        // Pixel 1's 2.0 after the window, over the image's 2 pixels.
+        assert_eq!(tally.outside_per_pixel, 1.0, "{bounces_separate} layers");
+        assert_eq!(film.pixel_tprf(1, 0), vec![1.0, 0.0, 0.0, 0.0]);
+        assert!(film.half_error_estimate().is_none());
+        assert!(film.steady().iter().all(|v| v.is_finite()));
+    }
 }
