@@ -197,9 +197,8 @@ fn a_pass_after_a_snapshot_leaves_the_snapshot_as_it_was() {
     assert_ne!(before.generation(), film.snapshot().generation());
 }
 
-/// With and without bounce layers (without, a contribution takes the sink's inlined
-/// common path): non-finite values and arrival times are counted, never stored; a
-/// finite arrival outside the window is light outside, not an error.
+/// With and without bounce layers: non-finite values and arrival times are counted,
+/// never stored; a finite arrival outside the window is light outside, not an error.
 #[test]
 fn non_finite_contributions_are_counted_and_kept_out() {
     for bounces_separate in [0, 1] {

@@ -433,19 +433,6 @@ impl Blocks {
             // SAFETY: `wide` is set only where the CPU was found to have AVX2.
             return unsafe { self.hits_avx2(o, d, t_max, visit) };
         }
-        self.hits_portable(o, d, t_max, visit)
-    }
-
-    /// [`Blocks::hits_any`] kept out of line: callers inline [`Blocks::hits`], and the
-    /// path they take on AVX2 machines stays a single call.
-    #[inline(never)]
-    fn hits_portable(
-        &self,
-        o: Vec3A,
-        d: Vec3A,
-        t_max: f32,
-        visit: impl FnMut(usize, f32, f32, f32, &mut f32) -> bool,
-    ) -> bool {
         self.hits_any(o, d, t_max, visit)
     }
 
@@ -470,8 +457,9 @@ impl Blocks {
         )
     }
 
-    /// [`Blocks::hits`] for the instruction set it is compiled for.
-    #[inline(always)]
+    /// [`Blocks::hits`] for the instruction set it is compiled for. Out of line: callers
+    /// inline [`Blocks::hits`], and the path they take on AVX2 machines stays one call.
+    #[inline(never)]
     fn hits_any(
         &self,
         o: Vec3A,

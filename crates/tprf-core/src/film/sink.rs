@@ -100,46 +100,37 @@ impl<'a> PixelSink<'a> {
     /// energy) arriving at `arrival_s` after `scatterings` scattering events, binned by
     /// the film's [`TimeFilter`] (box: the whole value in the bin holding `arrival_s`),
     /// times the pixel's weight in this pass.
+    ///
+    /// Inlined into the integrator; the tent filter's split is out of line.
     #[inline]
     pub fn add(&mut self, arrival_s: f64, value: f64, scatterings: u32) {
-        // The common case inlined into the integrator: a finite value, the box filter,
-        // no bounce layers.
-        if self.filter == TimeFilter::Box && self.scratch.layers.is_empty() && value.is_finite() {
-            let value = value * self.weight;
-            match self.axis.bin_of(arrival_s) {
-                Some(b) => self.put(b, value, scatterings),
-                // Outside the window, or a NaN or infinite arrival time.
-                None if arrival_s.is_finite() => self.outside += value,
-                None => self.left_out.non_finite += 1,
-            }
-            return;
-        }
-        self.add_any(arrival_s, value, scatterings);
-    }
-
-    /// [`Self::add`] for any contribution, filter and layers.
-    #[inline(never)]
-    fn add_any(&mut self, arrival_s: f64, value: f64, scatterings: u32) {
         if !(value.is_finite() && arrival_s.is_finite()) {
             self.left_out.non_finite += 1;
             return;
         }
         let value = value * self.weight;
         if self.filter == TimeFilter::Tent {
-            match self.axis.tent_split(arrival_s) {
-                Some(split) => {
-                    for (b, w) in split {
-                        if w > 0.0 {
-                            self.put(b, w * value, scatterings);
-                        }
-                    }
-                }
-                None => self.outside += value,
-            }
+            self.add_tent(arrival_s, value, scatterings);
             return;
         }
         match self.axis.bin_of(arrival_s) {
             Some(b) => self.put(b, value, scatterings),
+            None => self.outside += value,
+        }
+    }
+
+    /// [`Self::add`]'s weighted `value` shared between the two bins nearest `arrival_s`
+    /// (the tent filter).
+    #[inline(never)]
+    fn add_tent(&mut self, arrival_s: f64, value: f64, scatterings: u32) {
+        match self.axis.tent_split(arrival_s) {
+            Some(split) => {
+                for (b, w) in split {
+                    if w > 0.0 {
+                        self.put(b, w * value, scatterings);
+                    }
+                }
+            }
             None => self.outside += value,
         }
     }

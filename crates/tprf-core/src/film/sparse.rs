@@ -329,20 +329,7 @@ impl<V: Copy> RowBuilder<V> {
                 r.len += 1;
             }
         } else {
-            let mut gap = b.saturating_sub(self.end_bin);
-            while gap > u16::MAX as usize {
-                self.row.runs.push(Run {
-                    gap: u16::MAX,
-                    len: 0,
-                });
-                self.pixel.run_count += 1;
-                gap -= u16::MAX as usize;
-            }
-            self.row.runs.push(Run {
-                gap: gap as u16,
-                len: 1,
-            });
-            self.pixel.run_count += 1;
+            self.open_run(b, 1);
         }
         self.row.values.push(value);
         self.pixel.value_count += 1;
@@ -371,28 +358,35 @@ impl<V: Copy> RowBuilder<V> {
                 r.len += n as u16;
             }
         } else {
-            let mut gap = start.saturating_sub(self.end_bin);
-            while gap > u16::MAX as usize {
-                self.row.runs.push(Run {
-                    gap: u16::MAX,
-                    len: 0,
-                });
-                self.pixel.run_count += 1;
-                gap -= u16::MAX as usize;
-            }
-            // A stored run is at most u16::MAX long (see `push`, whose run logic this
-            // repeats for a whole run: `push` written as a run of one measured 3 %
-            // slower on the engine bench's render).
-            self.row.runs.push(Run {
-                gap: gap as u16,
-                len: n.min(u16::MAX as usize) as u16,
-            });
-            self.pixel.run_count += 1;
+            // A stored run is at most u16::MAX long. (`push` is not written as a run of
+            // one: that measured 3 % slower on the engine bench's render.)
+            self.open_run(start, n.min(u16::MAX as usize) as u16);
         }
         self.row.values.extend_from_slice(values);
         self.pixel.value_count += n as u32;
         self.end_bin = start + n;
         v0
+    }
+
+    /// Start a run of `len` bins at bin `start` of the current pixel (after every bin
+    /// pushed so far): its gap from the pixel's last stored bin, gaps longer than
+    /// `u16::MAX` written as runs of length 0 first.
+    #[inline(always)]
+    fn open_run(&mut self, start: usize, len: u16) {
+        let mut gap = start.saturating_sub(self.end_bin);
+        while gap > u16::MAX as usize {
+            self.row.runs.push(Run {
+                gap: u16::MAX,
+                len: 0,
+            });
+            self.pixel.run_count += 1;
+            gap -= u16::MAX as usize;
+        }
+        self.row.runs.push(Run {
+            gap: gap as u16,
+            len,
+        });
+        self.pixel.run_count += 1;
     }
 
     /// Close the current pixel and start the next.
