@@ -5,8 +5,8 @@
 //! stored, else merges the old row with it into a new row. Readers (snapshots) share
 //! rows by `Arc` while the film moves on; a row they share is never changed.
 
-use super::sink::{PixelSink, Scratch, drain_touched};
-use super::sparse::{RowBuilder, SparseRow, count_unstored, merge_pixel};
+use super::sink::{PixelSink, Scratch};
+use super::sparse::{RowBuilder, SparseRow, merge_pixel};
 use super::{FilmLayout, LeftOutCounts, TimeFilter};
 use std::sync::Arc;
 
@@ -139,7 +139,6 @@ fn dense_to_builder<V: Copy>(
 /// of the new bins and the builders.
 pub(super) struct RowWork {
     scratch: Scratch,
-    drained: Vec<(u32, f64)>,
     /// New bins of the halves: all pixels of the row, and where each pixel's end.
     new: Vec<(u32, f64)>,
     new_end: Vec<usize>,
@@ -154,7 +153,6 @@ impl RowWork {
         let l = layout.bounce_layers();
         RowWork {
             scratch: Scratch::new(layout),
-            drained: Vec::new(),
             new: Vec::new(),
             new_end: Vec::new(),
             layer_new: vec![Vec::new(); l],
@@ -234,25 +232,17 @@ where
         tally.outside += sink.outside;
         tally.left_out += sink.left_out;
         let s = &mut work.scratch;
-        drain_touched(&mut s.bins, &mut s.touched, &mut work.drained);
-        work.new.extend_from_slice(&work.drained);
+        s.touched.drain(&mut s.bins, &mut work.new);
         work.new_end.push(work.new.len());
         for l in 0..layers {
             let bins = s.layers.get_mut(l * t..(l + 1) * t).unwrap_or(&mut []);
-            drain_touched(bins, &mut s.layer_touched[l], &mut work.drained);
-            work.layer_new[l].extend_from_slice(&work.drained);
+            s.layer_touched[l].drain(bins, &mut work.layer_new[l]);
             work.layer_new_end[l].push(work.layer_new[l].len());
         }
     }
-    let add_half = |mut o: [f64; 2], n: f64| {
-        o[half] += n;
-        o
-    };
-    let fresh_half = |n: f64| {
-        let mut v = [0.0; 2];
-        v[half] = n;
-        v
-    };
+    // Branches, not `o[half]`: an array indexed by a variable lives on the stack.
+    let add_half = |[a, b]: [f64; 2], n: f64| if half == 0 { [a + n, b] } else { [a, b + n] };
+    let fresh_half = |n: f64| if half == 0 { [n, 0.0] } else { [0.0, n] };
     let add = |o: f64, n: f64| o + n;
     let fresh = |n: f64| n;
     let Some(r) = Arc::get_mut(row) else {
@@ -299,7 +289,7 @@ where
 
 /// Every pixel of `old` merged with the pass's new bins (`new`, pixel `x`'s ending at
 /// `new_end[x]`) into a new row of `width` pixels (see [`merge_pixel`]), its values
-/// allocated once at their final size.
+/// allocated once.
 fn merge_row<V: Copy>(
     old: &SparseRow<V>,
     width: usize,
@@ -308,8 +298,12 @@ fn merge_row<V: Copy>(
     mut combine: impl FnMut(V, f64) -> V,
     mut fresh: impl FnMut(f64) -> V,
 ) -> SparseRow<V> {
-    let added = count_unstored(old, new, new_end);
-    let mut out = RowBuilder::with_capacity(width, old.runs() + added, old.stored_bins() + added);
+    // At most every new bin is new to the row: room for that, and `finish` gives back
+    // what is left over (a shrink in place, not a copy; counting the new bins first
+    // cost a third walk of the row's runs).
+    let at_most = new.len();
+    let mut out =
+        RowBuilder::with_capacity(width, old.runs() + at_most, old.stored_bins() + at_most);
     let mut start = 0;
     for (x, &end) in new_end.iter().enumerate() {
         merge_pixel(
@@ -348,27 +342,29 @@ impl FilmRow {
         self.peak_bin.clear();
         self.peak_bin.reserve_exact(w);
         for x in 0..w {
+            // The pixel's values are contiguous: one pass over them, then the peak's
+            // value index turned into its bin.
+            let values = self.halves.pixel_values(x);
             let mut sum = 0.0;
-            let mut best: Option<(u32, f64)> = None;
+            let mut best: Option<(usize, f64)> = None;
             let mut pixel_diff2 = 0.0;
-            for (start, values) in self.halves.pixel_runs(x) {
-                for (i, &[a, b]) in values.iter().enumerate() {
-                    let s = a + b;
-                    sum += s;
-                    if s > 0.0 && best.is_none_or(|(_, m)| s > m) {
-                        best = Some(((start + i) as u32, s));
-                    }
-                    if halves_drawn {
-                        let d = a * inv_na - b * inv_nb;
-                        let m = s * inv_n;
-                        diff2 += d * d;
-                        pixel_diff2 += d * d;
-                        norm2 += m * m;
-                    }
+            for (i, &[a, b]) in values.iter().enumerate() {
+                let s = a + b;
+                sum += s;
+                if s > 0.0 && best.is_none_or(|(_, m)| s > m) {
+                    best = Some((i, s));
+                }
+                if halves_drawn {
+                    let d = a * inv_na - b * inv_nb;
+                    let m = s * inv_n;
+                    diff2 += d * d;
+                    pixel_diff2 += d * d;
+                    norm2 += m * m;
                 }
             }
             self.steady_sum.push(sum);
-            self.peak_bin.push(best.map_or(NO_PEAK, |(b, _)| b));
+            let peak = best.and_then(|(i, _)| self.halves.bin_of_value(x, i));
+            self.peak_bin.push(peak.map_or(NO_PEAK, |b| b as u32));
             if let Some(s) = self.samples.get_mut(x) {
                 s.half_diff2 = pixel_diff2 as f32;
             }

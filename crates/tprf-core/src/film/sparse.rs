@@ -101,6 +101,23 @@ impl<V: Copy> SparseRow<V> {
         }
     }
 
+    /// Pixel `x`'s stored values in increasing bin order (empty outside the row).
+    pub fn pixel_values(&self, x: usize) -> &[V] {
+        self.pixel_parts(x).1
+    }
+
+    /// The bin of pixel `x`'s `i`-th stored value (`None` past its last).
+    pub fn bin_of_value(&self, x: usize, i: usize) -> Option<usize> {
+        let mut before = 0;
+        for (start, values) in self.pixel_runs(x) {
+            if i < before + values.len() {
+                return Some(start + i - before);
+            }
+            before += values.len();
+        }
+        None
+    }
+
     /// Pixel `x`'s value in bin `b`, `None` when not stored.
     pub fn get(&self, x: usize, b: usize) -> Option<V> {
         self.get_from(x, b, &mut RunCursor::default())
@@ -458,24 +475,6 @@ pub fn merge_pixel<V: Copy, N: Copy>(
     out.end_pixel();
 }
 
-/// How many of `new`'s bins (pixel `x`'s ending at `new_end[x]`, increasing within a
-/// pixel) `row` does not store: what merging them adds to its values.
-pub fn count_unstored<V: Copy, N: Copy>(
-    row: &SparseRow<V>,
-    new: &[(u32, N)],
-    new_end: &[usize],
-) -> usize {
-    let mut count = 0;
-    let mut start = 0;
-    for (x, &end) in new_end.iter().enumerate() {
-        let bins = new.get(start..end).unwrap_or(&[]);
-        start = end;
-        let (runs, _, _) = row.pixel_parts(x);
-        locate(runs, bins, |i, _| count += usize::from(i.is_none()));
-    }
-    count
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -615,15 +614,6 @@ mod tests {
                 .zip(&dense)
                 .map(|(new, d)| new.iter().filter(|e| d[e.0 as usize] == 0.0).count())
                 .sum::<usize>();
-            let flat: Vec<(u32, f64)> = news.iter().flatten().copied().collect();
-            let ends: Vec<usize> = news
-                .iter()
-                .scan(0, |end, n| {
-                    *end += n.len();
-                    Some(*end)
-                })
-                .collect();
-            assert_eq!(count_unstored(&row, &flat, &ends), unstored);
             let stored_before = row.stored_bins();
             let mut b =
                 RowBuilder::with_capacity(width, row.runs() + added, row.stored_bins() + added);
