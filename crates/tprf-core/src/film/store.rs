@@ -22,6 +22,8 @@ pub struct PassTally {
     /// Mean per pixel of the contributions that arrived outside the window.
     pub outside_per_pixel: f64,
     pub left_out: LeftOutCounts,
+    /// The work the pixels reported, summed (rays, for the renderer).
+    pub work: u64,
 }
 
 /// How much of the dense cube the film stores.
@@ -248,6 +250,7 @@ impl TprfFilm {
         for t in tallies {
             tally.outside_per_pixel += t.outside;
             tally.left_out += t.left_out;
+            tally.work += t.work;
         }
         let pixels = layout.width * self.rows_rendered();
         tally.outside_per_pixel /= (pixels as f64).max(1.0);

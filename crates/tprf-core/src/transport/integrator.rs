@@ -322,7 +322,6 @@ impl Renderer {
         } else {
             None
         };
-        let rays_before = self.rays_traced();
         let tally = film.run_pass_planned(spp, plan.as_deref(), |x, y, pass, sink| {
             let mut rng = Sampler::new(self.settings.seed, half, (y * w + x) as u64)
                 .starting_at(pass.first as u64);
@@ -330,16 +329,18 @@ impl Renderer {
             for _ in 0..pass.samples {
                 rays += self.trace_sample_with(x, y, w, h, strategy, &mut rng, sink);
             }
-            self.rays.fetch_add(rays, Ordering::Relaxed);
             rays
         });
+        // Counted once a pass: an atomic add per pixel made the threads take turns
+        // owning the counter's cache line.
+        self.rays.fetch_add(tally.work, Ordering::Relaxed);
         let paths = match &plan {
             Some(p) => p.iter().map(|&n| n as u64).sum(),
             None => (w * film.rows_rendered()) as u64 * spp as u64,
         };
         PassStats {
             paths,
-            rays: self.rays_traced() - rays_before,
+            rays: tally.work,
             outside_per_pixel: tally.outside_per_pixel,
             left_out: tally.left_out,
         }
