@@ -67,9 +67,16 @@ fn mask_of(hit: [bool; LANES]) -> u32 {
     ((bytes.wrapping_mul(0x0102_0408_1020_4080)) >> 56) as u32
 }
 
+/// `a . b` with fused multiply-adds: `fma(a2, b2, fma(a1, b1, a0 b0))`.
+#[inline(always)]
+fn dot3(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[2].mul_add(b[2], a[1].mul_add(b[1], a[0] * b[0]))
+}
+
 /// The eight lanes of a block against one ray, without branches, written for the
-/// compiler to vectorise (the same IEEE operations on every instruction set, so the
-/// same hits). Cramer's rule on `o + t d = v0 + u e1 + v e2`, with `w = v0 - o` and `r =
+/// compiler to vectorise (the same IEEE operations on every instruction set, fused
+/// multiply-adds included, so the same hits; where the CPU has no FMA, `mul_add` is
+/// computed in software, slowly but exactly). Cramer's rule on `o + t d = v0 + u e1 + v e2`, with `w = v0 - o` and `r =
 /// d x w`: `det = d . n`, `t det = w . n`, `u det = r . e2`, `v det = r . ne1`
 /// (Moller-Trumbore's terms with the normal made once per lane, and no division: the
 /// tests compare against `|det|`, the signs taken from `det`).
@@ -90,16 +97,16 @@ fn intersect_block(b: &Block, o: Vec3A, d: Vec3A, tmax: f32) -> BlockHits {
         let wx = b.v0[0][l] - o.x;
         let wy = b.v0[1][l] - o.y;
         let wz = b.v0[2][l] - o.z;
-        let rx = d.y * wz - d.z * wy;
-        let ry = d.z * wx - d.x * wz;
-        let rz = d.x * wy - d.y * wx;
+        let rx = d.y.mul_add(wz, -(d.z * wy));
+        let ry = d.z.mul_add(wx, -(d.x * wz));
+        let rz = d.x.mul_add(wy, -(d.y * wx));
         let (nx, ny, nz) = (b.n[0][l], b.n[1][l], b.n[2][l]);
-        let det = d.x * nx + d.y * ny + d.z * nz;
+        let det = dot3([d.x, d.y, d.z], [nx, ny, nz]);
         let sign = det.to_bits() & 0x8000_0000;
         let flip = |x: f32| f32::from_bits(x.to_bits() ^ sign);
-        let t = flip(wx * nx + wy * ny + wz * nz);
-        let u = flip(rx * b.e2[0][l] + ry * b.e2[1][l] + rz * b.e2[2][l]);
-        let v = flip(rx * b.ne1[0][l] + ry * b.ne1[1][l] + rz * b.ne1[2][l]);
+        let t = flip(dot3([wx, wy, wz], [nx, ny, nz]));
+        let u = flip(dot3([rx, ry, rz], [b.e2[0][l], b.e2[1][l], b.e2[2][l]]));
+        let v = flip(dot3([rx, ry, rz], [b.ne1[0][l], b.ne1[1][l], b.ne1[2][l]]));
         let abs_det = det.abs();
         // A finite, non-zero determinant (NaN fails every comparison); a triangle's
         // third edge, or a parallelogram's two far edges.
@@ -107,7 +114,7 @@ fn intersect_block(b: &Block, o: Vec3A, d: Vec3A, tmax: f32) -> BlockHits {
             & (abs_det < f32::INFINITY)
             & (u >= 0.0)
             & (v >= 0.0)
-            & (u + v * b.tri[l] <= abs_det)
+            & (v.mul_add(b.tri[l], u) <= abs_det)
             & (v <= abs_det)
             & (t > 0.0)
             & (t < tmax * abs_det);
@@ -190,16 +197,16 @@ pub(super) struct Blocks {
     /// Whether a slab test of the blocks' bounds comes first (else every block is
     /// tested).
     cull: bool,
-    /// Whether the blocks are tested with AVX2 (the CPU has it; never elsewhere).
+    /// Whether the blocks are tested with AVX2 and FMA (the CPU has them; never elsewhere).
     #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     pub(super) wide: bool,
 }
 
-/// Whether this CPU has AVX2, for the eight-lane blocks.
+/// Whether this CPU has AVX2 and FMA, for the eight-lane blocks.
 pub(super) fn cpu_has_avx2() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
-        std::arch::is_x86_feature_detected!("avx2")
+        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
@@ -430,7 +437,7 @@ impl Blocks {
     ) -> bool {
         #[cfg(target_arch = "x86_64")]
         if self.wide {
-            // SAFETY: `wide` is set only where the CPU was found to have AVX2.
+            // SAFETY: `wide` is set only where the CPU was found to have AVX2 and FMA.
             return unsafe { self.hits_avx2(o, d, t_max, visit) };
         }
         self.hits_any(o, d, t_max, visit)
@@ -439,7 +446,7 @@ impl Blocks {
     /// [`Blocks::hits`] in AVX2 intrinsics (`avx2.rs`): the same tests as
     /// [`Blocks::hits_any`], in the same order.
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,fma")]
     fn hits_avx2(
         &self,
         o: Vec3A,
