@@ -76,10 +76,11 @@ fn dot3(a: [f32; 3], b: [f32; 3]) -> f32 {
 /// The eight lanes of a block against one ray, without branches, written for the
 /// compiler to vectorise (the same IEEE operations on every instruction set, fused
 /// multiply-adds included, so the same hits; where the CPU has no FMA, `mul_add` is
-/// computed in software, slowly but exactly). Cramer's rule on `o + t d = v0 + u e1 + v e2`, with `w = v0 - o` and `r =
-/// d x w`: `det = d . n`, `t det = w . n`, `u det = r . e2`, `v det = r . ne1`
-/// (Moller-Trumbore's terms with the normal made once per lane, and no division: the
-/// tests compare against `|det|`, the signs taken from `det`).
+/// computed in software, slowly but exactly). Cramer's rule on `o + t d = v0 + u e1 +
+/// v e2`, with `w = v0 - o` and `r = d x w`: `det = d . n`, `t det = w . n`,
+/// `u det = r . e2`, `v det = r . ne1` (Moller-Trumbore's terms with the normal made
+/// once per lane, and no division: the tests compare against `|det|`, the signs taken
+/// from `det`).
 #[inline(always)]
 // One lane index reads thirteen arrays; the comparisons are joined with `&`, not
 // ranges' short-circuiting `contains`, so every lane computes all of them.

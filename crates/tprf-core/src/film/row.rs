@@ -186,9 +186,11 @@ pub struct PixelPass {
 /// Render row `y` of a pass of `pass_spp` samples per pixel (nominal) into half `half`:
 /// every pixel through `render_pixel`, in order, then the new bins added to the row: in
 /// place where the film holds the row's only reference and every new bin is stored
-/// already, else merged with the old row into a new one. `plan` is the row's samples per pixel (`None`: `pass_spp` each); a pixel's
-/// contributions are weighted `pass_spp / samples` (see `TprfFilm::run_pass_planned`).
-/// `spp_after` is the film's samples per half once the pass is counted.
+/// already, else merged with the old row into a new one. `plan` is the row's samples per
+/// pixel (`None`: `pass_spp` each); a pixel's contributions are weighted `pass_spp /
+/// samples` (see `TprfFilm::run_pass_planned`). `spp_after` is the film's samples per
+/// half once the pass is counted. The tally's `work` is the sum of what `render_pixel`
+/// returned.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn render_row<F>(
     row: &mut Arc<FilmRow>,
