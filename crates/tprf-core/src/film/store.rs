@@ -221,15 +221,14 @@ impl TprfFilm {
             .par_iter_mut()
             .with_max_len(leaf_rows)
             .enumerate()
-            .map_init(
-                || RowWork::new(&layout),
-                |work, (y, row)| {
-                    if rows_rendered
-                        .as_ref()
-                        .is_some_and(|r| !r.get(y).copied().unwrap_or(false))
-                    {
-                        return super::row::RowTally::default();
-                    }
+            .map(|(y, row)| {
+                if rows_rendered
+                    .as_ref()
+                    .is_some_and(|r| !r.get(y).copied().unwrap_or(false))
+                {
+                    return super::row::RowTally::default();
+                }
+                RowWork::with(&layout, |work| {
                     render_row(
                         row,
                         y,
@@ -242,8 +241,8 @@ impl TprfFilm {
                         work,
                         &render_pixel,
                     )
-                },
-            )
+                })
+            })
             .collect();
         // Summed in row order: the same totals for any thread count.
         let mut tally = PassTally::default();
