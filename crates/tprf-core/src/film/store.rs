@@ -221,14 +221,15 @@ impl TprfFilm {
             .par_iter_mut()
             .with_max_len(leaf_rows)
             .enumerate()
-            .map(|(y, row)| {
-                if rows_rendered
-                    .as_ref()
-                    .is_some_and(|r| !r.get(y).copied().unwrap_or(false))
-                {
-                    return super::row::RowTally::default();
-                }
-                RowWork::with(&layout, |work| {
+            .map_init(
+                || RowWork::new(&layout),
+                |work, (y, row)| {
+                    if rows_rendered
+                        .as_ref()
+                        .is_some_and(|r| !r.get(y).copied().unwrap_or(false))
+                    {
+                        return super::row::RowTally::default();
+                    }
                     render_row(
                         row,
                         y,
@@ -241,8 +242,8 @@ impl TprfFilm {
                         work,
                         &render_pixel,
                     )
-                })
-            })
+                },
+            )
             .collect();
         // Summed in row order: the same totals for any thread count.
         let mut tally = PassTally::default();
