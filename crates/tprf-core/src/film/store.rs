@@ -214,8 +214,14 @@ impl TprfFilm {
         // leaf does, the other threads waiting about half a leaf: 1.5 % of the engine
         // bench's render at a 16th of a share (8 rows), 0.4 % at a 64th (2 rows). Small
         // leaves also keep a pass whose plan piles samples into a few rows from leaving
-        // threads idle while one finishes a long stretch of them.
-        let leaf_rows = (layout.height / (rayon::current_num_threads() * 64)).max(1);
+        // threads idle while one finishes a long stretch of them. But each leaf zeroes a
+        // scratch of the axis's length (32 MB at 4 M bins): on a long axis, leaves of
+        // at least one scratch bin per 64 pixels, up to a 16th of a share.
+        let share = layout.height / rayon::current_num_threads();
+        let leaf_rows = (share / 64)
+            .max(layout.axis.bins / (64 * w.max(1)))
+            .min(share / 16)
+            .max(1);
         let tallies: Vec<super::row::RowTally> = self
             .rows
             .par_iter_mut()
