@@ -442,7 +442,10 @@ mod tests {
             Accel::build_with(&scene, usize::MAX),
         );
         narrow.small.as_mut().unwrap().wide = false;
-        assert_eq!(wide.small.as_ref().unwrap().wide, blocks::cpu_has_avx2());
+        assert_eq!(
+            wide.small.as_ref().unwrap().wide,
+            blocks::cpu_has_avx2_fma()
+        );
         for (o, d) in rays(20_000) {
             assert_eq!(
                 wide.closest_hit(o, d, f32::INFINITY),

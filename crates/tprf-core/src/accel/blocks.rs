@@ -204,7 +204,7 @@ pub(super) struct Blocks {
 }
 
 /// Whether this CPU has AVX2 and FMA, for the eight-lane blocks.
-pub(super) fn cpu_has_avx2() -> bool {
+pub(super) fn cpu_has_avx2_fma() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
@@ -395,7 +395,7 @@ impl Blocks {
             lanes,
             triangles: tris.len(),
             cull,
-            wide: cpu_has_avx2(),
+            wide: cpu_has_avx2_fma(),
         })
     }
 

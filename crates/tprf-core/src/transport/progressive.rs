@@ -117,6 +117,13 @@ pub fn doubling_spp(pass: u64, cap: u32) -> u32 {
     (1u32 << doubling).min(cap.max(1))
 }
 
+/// [`doubling_spp`] of the first pass after the pair (even pass, odd pass) that `pass`
+/// belongs to.
+fn doubling_spp_after_pair(pass: u64, cap: u32) -> u32 {
+    let after = pass + if pass.is_multiple_of(2) { 2 } else { 1 };
+    doubling_spp(after, cap)
+}
+
 /// Samples per pixel of pass `pass` of a render with `left` still to draw, where the
 /// schedule's passes are `spp` now and `next` after this pair (0 where not known).
 ///
@@ -191,8 +198,7 @@ pub fn render(
             // What the pass after this pair would be: in a doubling schedule, known now.
             let next = match schedule.pass_size {
                 PassSize::Doubling { cap } => {
-                    let after = pass + if pass.is_multiple_of(2) { 2 } else { 1 };
-                    doubling_spp(after, doubling_cap(cap, pixels))
+                    doubling_spp_after_pair(pass, doubling_cap(cap, pixels))
                 }
                 PassSize::Paced { .. } => 0,
             };
@@ -245,8 +251,8 @@ mod tests {
             if left == 0 {
                 break;
             }
-            let after = pass + if pass % 2 == 0 { 2 } else { 1 };
-            let n = toward_target(pass, doubling_spp(pass, 16), doubling_spp(after, 16), left);
+            let next = doubling_spp_after_pair(pass, 16);
+            let n = toward_target(pass, doubling_spp(pass, 16), next, left);
             sizes.push(n);
             drawn += n as u64;
         }
