@@ -530,6 +530,12 @@ fn a_render_replaces_the_whole_folder_and_leaves_nothing_beside_it() {
     let o = run(&["--t0", "1s"]);
     assert!(!o.status.success(), "{}", stderr(&o));
     assert!(out.join("tprf_bounces.npy").exists() && out.join("mine.txt").exists());
+    // The user's file is never deleted: the render is refused, naming it, until it is
+    // moved out (tests/never_destroy.rs has the other cases).
+    let o = run(&[]);
+    assert!(!o.status.success() && stderr(&o).contains("mine.txt"));
+    assert!(out.join("mine.txt").exists() && out.join("tprf_bounces.npy").exists());
+    std::fs::remove_file(out.join("mine.txt")).unwrap();
     // A new render replaces the folder: nothing of the earlier render is left to be read.
     let o = run(&[]);
     assert!(o.status.success(), "{}", stderr(&o));

@@ -23,4 +23,4 @@ tprf converge --reference analytic:plane --seconds 60 --out $out/plane \
     --setting default --setting "filter=tent,$alt"
 tprf converge --reference analytic:oned --seconds 60 --out $out/oned \
     --setting default --setting "rr_floor=1,$alt"
-tprf stability --out $out
+tprf stability --out $out/stability

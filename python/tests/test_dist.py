@@ -49,6 +49,26 @@ def test_sharded_render_is_the_one_process_render(client, tprf_bin, tmp_path):
     assert not (tmp_path / "merged.parts").exists()
 
 
+def test_a_parts_folder_of_the_users_and_a_user_out_are_never_emptied(client, tprf_bin, tmp_path):
+    args = dict(ARGS, spp=4)
+    parts = tmp_path / "scratch"
+    parts.mkdir()
+    (parts / "keep.txt").write_text("mine")
+    out = tprf_dist.render_sharded("builtin:cornell", str(tmp_path / "merged"), 2,
+                                   client=client, binary=tprf_bin, parts=str(parts), **args)
+    assert (Path(out) / "tprf.npy").is_file()
+    assert (parts / "keep.txt").read_text() == "mine"
+    assert sorted(p.name for p in parts.iterdir()) == ["keep.txt"]
+    # An out holding a user's file is refused by the merge, and the file stays.
+    user = tmp_path / "user"
+    user.mkdir()
+    (user / "thesis.tex").write_text("x")
+    with pytest.raises(tprf_dist.TprfError, match="thesis.tex"):
+        tprf_dist.render_sharded("builtin:cornell", str(user), 2, client=client,
+                                 binary=tprf_bin, retries=0, **args)
+    assert sorted(p.name for p in user.iterdir()) == ["thesis.tex"]
+
+
 def test_sharded_zarr_render_is_the_one_process_store(client, tprf_bin, tmp_path):
     # Bands of 4 rows share each 32-row chunk among the 3 shards.
     args = dict(ARGS, format="zarr", spp=8)

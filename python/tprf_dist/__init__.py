@@ -225,8 +225,22 @@ def render_sharded(
     )
     result = merged.result()
     if not keep_shards:
-        shutil.rmtree(parts_dir, ignore_errors=True)
+        _remove_shards(parts_dir, n_shards)
     return result
+
+
+def _remove_shards(parts_dir: Path, n: int) -> None:
+    """Remove the shard folders of an ``n``-shard render from ``parts_dir`` (each one
+    recognised by its ``tprf.json``), then ``parts_dir`` itself if nothing else is in
+    it: what tprf did not write there (``parts`` may name a user's folder) is kept."""
+    for k in range(n):
+        shard = parts_dir / f"shard-{k}-of-{n}"
+        if _is_shard(shard, k, n) and not shard.is_symlink():
+            shutil.rmtree(shard, ignore_errors=True)
+    try:
+        parts_dir.rmdir()
+    except OSError:
+        pass
 
 
 def list_jobs(manifest: str, binary: Optional[str] = None) -> list:

@@ -19,3 +19,16 @@ pub(super) fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     }
     pool.build().context("cannot start the worker threads")
 }
+
+/// Refuse, before any work, an output folder tprf may not replace
+/// (`tprf_core::export::staging::check_target`): "--out PATH: what is there: what to do".
+/// `inputs` are the folders and files the command reads.
+pub fn check_out(flag: &str, out: &std::path::Path, inputs: &[&std::path::Path]) -> Result<()> {
+    use tprf_core::export::{ExportError, staging::check_target};
+    check_target(out, inputs).map_err(|e| match e {
+        ExportError::OutRefused { path, why } => {
+            anyhow::anyhow!("{flag} {}: {why}", path.display())
+        }
+        e => anyhow::Error::from(e).context(flag.to_string()),
+    })
+}

@@ -28,7 +28,8 @@ pub struct ConvergeArgs {
     /// Seconds of rendering per estimator setting (a setting's own seconds=S wins).
     #[arg(long, default_value_t = 10.0)]
     pub seconds: f64,
-    /// Output folder (created if missing).
+    /// Output folder: a new or empty one, or an earlier tprf output (replaced whole);
+    /// anything else is refused up front.
     #[arg(long)]
     pub out: PathBuf,
     /// An estimator setting to compare (repeat for several on one plot): `default`, or
@@ -65,6 +66,13 @@ pub fn run(a: &ConvergeArgs) -> Result<()> {
     if !(a.seconds.is_finite() && a.seconds > 0.0) {
         bail!("--seconds must be a positive number (got {})", a.seconds);
     }
+    // What the run reads (a reference cube, a scene file) is never replaced by its output.
+    let inputs: Vec<&std::path::Path> = [a.scene.as_deref(), a.reference.as_deref()]
+        .into_iter()
+        .flatten()
+        .map(std::path::Path::new)
+        .collect();
+    super::args::check_out("--out", &a.out, &inputs)?;
     if a.threads == Some(0) {
         bail!("--threads must be at least 1");
     }
@@ -138,7 +146,7 @@ pub fn run(a: &ConvergeArgs) -> Result<()> {
         "{}: {} x {} x {} bins",
         target.label, r.width, r.height, r.axis.bins
     );
-    write_outputs(&a.out, &title, &all, &summaries)?;
+    write_outputs(&a.out, &inputs, &title, &all, &summaries)?;
     eprint!("{}", summary_text(&summaries));
     eprintln!("wrote {}", a.out.display());
     Ok(())

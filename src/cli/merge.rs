@@ -10,7 +10,8 @@ use tprf_core::export::shard;
 
 #[derive(Args, Debug)]
 pub struct MergeArgs {
-    /// The merged cube folder, replaced whole (written beside it and swapped in).
+    /// The merged cube folder: new, empty, or an earlier tprf output, which is replaced
+    /// whole (written beside it and swapped in); anything else is refused.
     pub out: PathBuf,
     /// The shard folders: every K of 0..N exactly once, in any order.
     #[arg(required = true)]
@@ -20,6 +21,8 @@ pub struct MergeArgs {
 /// `tprf merge`.
 pub fn run(a: &MergeArgs) -> Result<()> {
     let start = Instant::now();
+    let inputs: Vec<&std::path::Path> = a.shards.iter().map(PathBuf::as_path).collect();
+    super::args::check_out("OUT", &a.out, &inputs)?;
     let report = shard::merge(&a.shards, &a.out)?;
     let chunks = report.chunks_linked + report.chunks_copied + report.chunks_combined;
     let linked = if chunks > 0 {

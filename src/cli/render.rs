@@ -23,9 +23,10 @@ use super::args::{thread_pool, time_s};
 pub struct RenderArgs {
     /// A .gltf/.glb path or builtin:NAME (builtin:cornell, builtin:canopy).
     pub scene: String,
-    /// Output folder, replaced whole when the render is written: the files are written
-    /// into a new folder beside it and swapped in, so a reader never sees half of a
-    /// render, and nothing of an earlier render (or anything else in it) is kept.
+    /// Output folder: a new or empty one, or an earlier tprf output (replaced whole when
+    /// the render is written: the files go into a new folder beside it and are swapped
+    /// in, so a reader never sees half of a render). A folder holding anything tprf did
+    /// not write, a file, a link, a device or the current folder is refused up front.
     #[arg(long)]
     pub out: PathBuf,
     #[arg(long, default_value_t = 256)]
@@ -146,6 +147,8 @@ fn check_render_args(a: &RenderArgs) -> Result<()> {
 /// `tprf render`.
 pub fn run(a: &RenderArgs) -> Result<()> {
     check_render_args(a)?;
+    let scene_path = std::path::Path::new(&a.scene);
+    super::args::check_out("--out", &a.out, &[scene_path])?;
     let pool = thread_pool(a.threads)?;
     pool.install(|| render_in_pool(a, pool.current_num_threads()))
 }
@@ -268,7 +271,7 @@ fn render_in_pool(a: &RenderArgs, threads: usize) -> Result<()> {
     // old output as it was; checked between files.
     super::interrupt::catch();
     super::interrupt::check()?;
-    let staging = export::staging::Staging::new(&a.out)?;
+    let staging = export::staging::Staging::new(&a.out, &[std::path::Path::new(&a.scene)])?;
     let dir = staging.path();
     let snap = film.snapshot();
     let steady = film.steady();

@@ -57,7 +57,8 @@ pub struct SensorArgs {
     /// top, column from the left). Repeatable.
     #[arg(long = "pixel", value_name = "Y,X", value_parser = parse_pixel)]
     pub pixels: Vec<(usize, usize)>,
-    /// Output folder (created if missing; files in it are replaced).
+    /// Output folder: a new or empty one, or an earlier tprf output (replaced whole: the
+    /// files are written beside it and swapped in); anything else is refused up front.
     #[arg(long)]
     pub out: PathBuf,
 }
@@ -132,6 +133,7 @@ fn sensor_from_args(a: &SensorArgs) -> Result<Sensor> {
 /// `tprf sensor`.
 pub fn run(a: &SensorArgs) -> Result<()> {
     let start = Instant::now();
+    super::args::check_out("--out", &a.out, &[&a.dir])?;
     let sensor = sensor_from_args(a)?;
     let cube = SensorCube::open(&a.dir)?;
     let (w, h, axis) = (cube.width, cube.height, cube.axis);
@@ -152,9 +154,11 @@ pub fn run(a: &SensorArgs) -> Result<()> {
     // ambient image A when it has one (ambient_scale photons_per_unit A photons/s more
     // per pixel, in every TDC bin). Its [B, H, W] arrays are computed and written a
     // band of rows at a time.
+    // Everything is written into a folder beside --out and swapped in at the end.
+    let staging = tprf_core::export::staging::Staging::new(&a.out, &[&a.dir])?;
     let spad = match &measured.steady {
         Some(steady) => Some(write_spad_files(
-            &a.out,
+            staging.path(),
             &model,
             &m,
             steady,
@@ -210,7 +214,7 @@ pub fn run(a: &SensorArgs) -> Result<()> {
     }
 
     let written = write_sensor_outputs(
-        &a.out,
+        staging.path(),
         &SensorRun {
             model: &model,
             measurements: &m,
@@ -229,6 +233,7 @@ pub fn run(a: &SensorArgs) -> Result<()> {
             ambient: ambient_json,
         },
     )?;
+    staging.commit()?;
     if let Some(s) = &spad {
         eprintln!(
             "SPAD: {} TDC bins, {:.3e} expected detections; realisation {}; {:.1} ms{}",

@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use clap::Args;
 use tprf_core::export;
 use tprf_core::report::stability::{Size, cases, markdown};
@@ -12,7 +12,8 @@ use super::args::thread_pool;
 
 #[derive(Args, Debug)]
 pub struct StabilityArgs {
-    /// Output folder (created if missing).
+    /// Output folder for stability.md: a new or empty one, or an earlier tprf output
+    /// (replaced whole); anything else is refused up front.
     #[arg(long)]
     pub out: PathBuf,
     /// Case sizes: full (larger films, more samples) or test (what the tests run).
@@ -38,9 +39,8 @@ pub fn run(a: &StabilityArgs) -> Result<()> {
         StabilitySize::Test => Size::Test,
         StabilitySize::Full => Size::Full,
     };
+    super::args::check_out("--out", &a.out, &[])?;
     let pool = thread_pool(a.threads)?;
-    std::fs::create_dir_all(&a.out)
-        .with_context(|| format!("cannot create {}", a.out.display()))?;
     let start = Instant::now();
     let mut rows = Vec::new();
     for (name, case) in cases() {
@@ -61,12 +61,14 @@ pub fn run(a: &StabilityArgs) -> Result<()> {
         start.elapsed().as_secs_f64(),
         pool.current_num_threads()
     );
-    let path = a.out.join("stability.md");
-    export::write_atomic(&path, |w| {
+    let staging = export::staging::Staging::new(&a.out, &[])?;
+    export::write_atomic(&staging.path().join("stability.md"), |w| {
         use std::io::Write;
         w.write_all(text.as_bytes())?;
         Ok(())
     })?;
+    staging.commit()?;
+    let path = a.out.join("stability.md");
     print!("{table}");
     let failed = rows.iter().filter(|r| !r.passed()).count();
     eprintln!("wrote {}", path.display());

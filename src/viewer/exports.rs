@@ -95,8 +95,22 @@ fn write_png_rgba(path: &Path, w: usize, h: usize, rgba: Vec<u8>) -> anyhow::Res
 }
 
 /// Every bin of `snap` through `tone` and `map` as `dir/NNNN.png` and the animated
-/// `dir/tprf.gif` (looping, [`GIF_FPS`] frames a second).
+/// `dir/tprf.gif` (looping, [`GIF_FPS`] frames a second). `dir` is an output folder as
+/// the CLI's (`export::staging`): new, empty or an earlier tprf output, written beside
+/// its place and swapped in whole; a folder holding anything else is refused.
 fn write_video(
+    dir: &Path,
+    snap: &FilmSnapshot,
+    tone: &colormap::Tone,
+    map: colormap::ColorMap,
+) -> anyhow::Result<()> {
+    let staging = export::staging::Staging::new(dir, &[])?;
+    write_frames_and_gif(staging.path(), snap, tone, map)?;
+    Ok(staging.commit()?)
+}
+
+/// [`write_video`]'s files into `dir`.
+fn write_frames_and_gif(
     dir: &Path,
     snap: &FilmSnapshot,
     tone: &colormap::Tone,
@@ -228,6 +242,27 @@ mod tests {
             assert!(dir.join(name).is_file(), "{name} missing");
         }
         assert!(!dir.join("0004.png").exists());
+        // Into a folder holding a file of the user's, nothing is written and the file
+        // stays: the message names it.
+        std::fs::write(dir.join("notes.txt"), b"mine").unwrap();
+        let (out, s) = (dir.clone(), snap.clone());
+        exports
+            .spawn(&egui::Context::default(), "video".into(), move || {
+                write_video(&out, &s, &tone, colormap::ColorMap::Inferno)
+            })
+            .unwrap();
+        let start = std::time::Instant::now();
+        let refused = loop {
+            let m = exports.finished();
+            if !m.is_empty() {
+                break m;
+            }
+            assert!(start.elapsed().as_secs() < 30, "no message from the writer");
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        };
+        assert!(refused[0].contains("notes.txt"), "{refused:?}");
+        assert_eq!(std::fs::read(dir.join("notes.txt")).unwrap(), b"mine");
+        std::fs::remove_file(dir.join("notes.txt")).unwrap();
         // A failure is a message too.
         exports
             .spawn(&egui::Context::default(), "x".into(), || {

@@ -31,7 +31,9 @@ impl FileAction {
             FileAction::OpenCube => "Open a cube folder (written by tprf render)",
             FileAction::SaveSlicePng => "Save the time slice as PNG",
             FileAction::SaveSteadyPng => "Save the steady image as PNG",
-            FileAction::SaveVideo => "Save every bin as PNG frames + GIF into a folder",
+            FileAction::SaveVideo => {
+                "Save every bin as PNG frames + GIF into a new or empty folder"
+            }
             FileAction::SaveCsv => "Save the plotted curves as CSV",
             FileAction::LoadSensor => "Load a sensor file (TOML)",
             FileAction::SaveSensor => "Save the sensor as TOML",

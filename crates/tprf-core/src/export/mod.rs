@@ -44,6 +44,19 @@ pub enum ExportError {
         #[source]
         source: std::io::Error,
     },
+    /// An output folder tprf may not replace ([`staging::check_target`]): `why` says
+    /// what is there and how to proceed.
+    #[error("{path}: {why}")]
+    OutRefused { path: PathBuf, why: String },
+    /// The output folder changed while the command ran so that it may no longer be
+    /// replaced; the new output was kept beside it, at `kept`.
+    #[error("the new output is kept in {kept} instead of {path}")]
+    OutChanged {
+        path: PathBuf,
+        kept: PathBuf,
+        #[source]
+        source: Box<ExportError>,
+    },
     #[error("cannot read {path}")]
     Read {
         path: PathBuf,
@@ -299,6 +312,23 @@ fn through_temp<F>(
     create: impl FnOnce(&Path) -> std::io::Result<F>,
     fill: impl FnOnce(F) -> Result<(), WriteError>,
 ) -> Result<(), ExportError> {
+    // A file is replaced only by a file: never a folder, a device, a FIFO, a socket, nor
+    // a symbolic link (the rename would replace the link, not what it points to).
+    if let Ok(meta) = std::fs::symlink_metadata(path)
+        && !meta.is_file()
+    {
+        let what = if meta.is_dir() {
+            "a folder"
+        } else if meta.file_type().is_symlink() {
+            "a symbolic link"
+        } else {
+            "not a regular file (a device, FIFO or socket)"
+        };
+        return Err(ExportError::OutRefused {
+            path: path.to_path_buf(),
+            why: format!("is {what}: tprf replaces only a regular file here; choose another name"),
+        });
+    }
     let tmp = temp_path(path);
     let result = (|| {
         let file = create(&tmp).map_err(|source| ExportError::Create {

@@ -492,7 +492,8 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeReport> {
     let (w, h) = (meta.width, meta.height);
     // Everything is checked before anything is written.
     let steady = read_steady(&shards, &spec, w, h)?;
-    let staging = super::staging::Staging::new(out)?;
+    let staging =
+        super::staging::Staging::new(out, &dirs.iter().map(PathBuf::as_path).collect::<Vec<_>>())?;
     let dir = staging.path();
     let mut report = MergeReport {
         shards: shards.len(),

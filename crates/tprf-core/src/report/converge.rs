@@ -628,29 +628,34 @@ fn check_film(width: usize, height: usize) -> Result<(), ReportError> {
 }
 
 /// Write `converge.csv`, `converge.png` (log-log, fitted slopes, `t^-1/2` guide) and
-/// `summary.md` (the figures per setting) into `dir`.
+/// `summary.md` (the figures per setting) as the folder `dir`: written beside it and
+/// swapped in whole ([`export::staging`]: `dir` must be new, empty, or an earlier tprf
+/// output); `inputs` are what the run read (a reference cube), never replaced.
 pub fn write_outputs(
     dir: &Path,
+    inputs: &[&Path],
     title: &str,
     checkpoints: &[Checkpoint],
     summaries: &[Summary],
 ) -> Result<(), ReportError> {
-    export::create_dir(dir)?;
+    let staging = export::staging::Staging::new(dir, inputs)?;
+    let out = staging.path();
     let text = csv(checkpoints);
-    write_atomic(&dir.join("converge.csv"), |w| {
+    write_atomic(&out.join("converge.csv"), |w| {
         w.write_all(text.as_bytes())?;
         Ok(())
     })?;
     plot::write_convergence_png(
-        &dir.join("converge.png"),
+        &out.join("converge.png"),
         title,
         &plot_curves(checkpoints, summaries),
     )?;
     let md = format!("# {title}\n\n{}", summary_text(summaries));
-    write_atomic(&dir.join("summary.md"), |w| {
+    write_atomic(&out.join("summary.md"), |w| {
         w.write_all(md.as_bytes())?;
         Ok(())
     })?;
+    staging.commit()?;
     Ok(())
 }
 
