@@ -15,7 +15,7 @@ import tempfile
 import time
 from pathlib import Path
 
-import tprf_dist
+from tprf import dist
 
 
 def best(f, repeat):
@@ -36,12 +36,12 @@ def main():
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--quick", action="store_true")
     a = ap.parse_args()
-    binary = tprf_dist.find_tprf()
+    binary = dist.find_tprf()
     tmp = Path(tempfile.mkdtemp(prefix="tprf-bench-"))
     side, spp = (64, 64) if a.quick else (128, 256)
     args = dict(width=side, height=side, spp=spp, bins=256, seed=1, format="npy", band_rows=4,
                 t0="3m", dt="2.5cm")
-    flags = tprf_dist.render_args_to_flags({k: v for k, v in args.items() if k != "band_rows"})
+    flags = dist.render_args_to_flags({k: v for k, v in args.items() if k != "band_rows"})
     from distributed import Client, LocalCluster
 
     print(f"render: builtin:cornell {side}x{side}, {spp} spp, 256 bins (fixed window); "
@@ -60,7 +60,7 @@ def main():
                                 str(tmp / "one"), "--threads", str(threads), *flags])
 
         def dist(client, n):
-            return lambda: tprf_dist.render_sharded(
+            return lambda: dist.render_sharded(
                 "builtin:cornell", str(tmp / "dist"), n, client=client, binary=binary,
                 threads=1, **args)
 
@@ -114,7 +114,7 @@ def main():
         client.run(lambda: None)
         noop = best(lambda: client.submit(lambda: None, pure=False).result(), 20)
         task = best(lambda: client.submit(
-            tprf_dist.render_shard, binary, "builtin:cornell", str(tmp / "tinyparts"), 0, 1,
+            dist.render_shard, binary, "builtin:cornell", str(tmp / "tinyparts"), 0, 1,
             tiny[1:], pure=False).result() and shutil.rmtree(tmp / "tinyparts"), 10)
     print("\n| per task | ms |")
     print("| --- | --- |")

@@ -1,4 +1,4 @@
-"""tprf_dist on a local cluster (two worker processes): a sharded render merged
+"""tprf.dist on a local cluster (two worker processes): a sharded render merged
 through Dask is the one-process render bit for bit, also when a worker is killed in
 the middle of a shard; a batch runs, and a re-run skips what is complete."""
 
@@ -13,7 +13,7 @@ from pathlib import Path
 import psutil
 import pytest
 
-import tprf_dist
+from tprf import dist
 
 # Small enough for CI, long enough (about a second a shard) to be caught running.
 ARGS = dict(width=48, height=48, spp=96, bins=64, seed=5, band_rows=4, format="npy",
@@ -23,7 +23,7 @@ TIMINGS = ("wall_seconds", "render_seconds", "threads")
 
 def one_process(tprf_bin, out, args):
     """The reference: one tprf render of the whole image, sampled uniformly as shards are."""
-    flags = tprf_dist.render_args_to_flags({k: v for k, v in args.items() if k != "band_rows"})
+    flags = dist.render_args_to_flags({k: v for k, v in args.items() if k != "band_rows"})
     subprocess.run([tprf_bin, "render", "builtin:cornell", "--out", str(out), "--uniform", *flags],
                    check=True, capture_output=True)
 
@@ -43,7 +43,7 @@ def assert_same_cube(a, b):
 
 def test_sharded_render_is_the_one_process_render(client, tprf_bin, tmp_path):
     one_process(tprf_bin, tmp_path / "one", ARGS)
-    out = tprf_dist.render_sharded("builtin:cornell", str(tmp_path / "merged"), 3,
+    out = dist.render_sharded("builtin:cornell", str(tmp_path / "merged"), 3,
                                    client=client, binary=tprf_bin, **ARGS)
     assert_same_cube(tmp_path / "one", out)
     assert not (tmp_path / "merged.parts").exists()
@@ -54,7 +54,7 @@ def test_a_parts_folder_of_the_users_and_a_user_out_are_never_emptied(client, tp
     parts = tmp_path / "scratch"
     parts.mkdir()
     (parts / "keep.txt").write_text("mine")
-    out = tprf_dist.render_sharded("builtin:cornell", str(tmp_path / "merged"), 2,
+    out = dist.render_sharded("builtin:cornell", str(tmp_path / "merged"), 2,
                                    client=client, binary=tprf_bin, parts=str(parts), **args)
     assert (Path(out) / "tprf.npy").is_file()
     assert (parts / "keep.txt").read_text() == "mine"
@@ -63,8 +63,8 @@ def test_a_parts_folder_of_the_users_and_a_user_out_are_never_emptied(client, tp
     user = tmp_path / "user"
     user.mkdir()
     (user / "thesis.tex").write_text("x")
-    with pytest.raises(tprf_dist.TprfError, match="thesis.tex"):
-        tprf_dist.render_sharded("builtin:cornell", str(user), 2, client=client,
+    with pytest.raises(dist.TprfError, match="thesis.tex"):
+        dist.render_sharded("builtin:cornell", str(user), 2, client=client,
                                  binary=tprf_bin, retries=0, **args)
     assert sorted(p.name for p in user.iterdir()) == ["thesis.tex"]
 
@@ -73,7 +73,7 @@ def test_sharded_zarr_render_is_the_one_process_store(client, tprf_bin, tmp_path
     # Bands of 4 rows share each 32-row chunk among the 3 shards.
     args = dict(ARGS, format="zarr", spp=8)
     one_process(tprf_bin, tmp_path / "one", args)
-    out = tprf_dist.render_sharded("builtin:cornell", str(tmp_path / "merged"), 3,
+    out = dist.render_sharded("builtin:cornell", str(tmp_path / "merged"), 3,
                                    client=client, binary=tprf_bin, **args)
     one = tmp_path / "one" / "tprf.zarr"
     files = sorted(p.relative_to(one) for p in one.rglob("*") if p.is_file())
@@ -89,7 +89,7 @@ def test_sharded_zarr_render_is_the_one_process_store(client, tprf_bin, tmp_path
 
 def test_a_split_without_enough_bands_is_refused_before_any_task(client, tprf_bin, tmp_path):
     with pytest.raises(ValueError, match="fewer than the 16 shards"):
-        tprf_dist.render_sharded("builtin:cornell", str(tmp_path / "x"), 16, client=client,
+        dist.render_sharded("builtin:cornell", str(tmp_path / "x"), 16, client=client,
                                  binary=tprf_bin, **ARGS)
 
 
@@ -121,7 +121,7 @@ def test_a_worker_killed_mid_shard_is_retried_and_the_cube_is_still_exact(
 
     killer = threading.Thread(target=kill_a_worker_running_tprf)
     killer.start()
-    out = tprf_dist.render_sharded("builtin:cornell", str(tmp_path / "merged"), 4,
+    out = dist.render_sharded("builtin:cornell", str(tmp_path / "merged"), 4,
                                    client=client, binary=tprf_bin, retries=2, **ARGS)
     killer.join()
     assert killed, "no worker was seen running a shard"
@@ -150,8 +150,8 @@ scene = "builtin:nosuchscene"
 out = "out/broken"
 """
     )
-    with pytest.raises(tprf_dist.BatchFailed) as failed:
-        tprf_dist.run_batch(str(manifest), client=client, binary=tprf_bin, retries=0)
+    with pytest.raises(dist.BatchFailed) as failed:
+        dist.run_batch(str(manifest), client=client, binary=tprf_bin, retries=0)
     r = failed.value.result
     assert sorted(r.done) == ["cornell-a", "cornell-b"]
     assert list(r.failed) == ["broken"] and "nosuchscene" in r.failed["broken"]
@@ -159,5 +159,5 @@ out = "out/broken"
         assert (tmp_path / "out" / name / "tprf.npy").exists()
     # Re-run without the broken job: all complete, nothing rendered.
     manifest.write_text(manifest.read_text().split("[[job]]")[0])
-    r = tprf_dist.run_batch(str(manifest), client=client, binary=tprf_bin)
+    r = dist.run_batch(str(manifest), client=client, binary=tprf_bin)
     assert r.done == [] and sorted(r.skipped) == ["cornell-a", "cornell-b"]

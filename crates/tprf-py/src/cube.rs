@@ -1,0 +1,180 @@
+//! `tprf.Cube`: a transient cube as numpy arrays, and `tprf.load`.
+
+use numpy::{PyArray1, PyArray2, PyArray3, PyArray4, PyArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::path::PathBuf;
+use tprf_core::export::{self, CubeMetadata};
+use tprf_core::film::FilmSnapshot;
+
+use crate::errors::IntoPy;
+
+/// A transient cube: per pixel the radiance against arrival time for a unit-energy pulse
+/// leaving the light at t = 0. Bin ``b`` covers ``[t0_s + b dt_s, t0_s + (b + 1) dt_s)``
+/// and holds the integral over the bin of the pixel's radiance (W m^-2 sr^-1 s per unit
+/// pulse energy): summed over bins it is the steady radiance (W m^-2 sr^-1).
+#[pyclass(module = "tprf._tprf", name = "Cube", frozen)]
+pub struct Cube {
+    data: Py<PyArray3<f32>>,
+    steady: Py<PyArray2<f32>>,
+    bounces: Option<Py<PyArray4<f32>>>,
+    meta: CubeMetadata,
+}
+
+impl Cube {
+    /// The cube of `snap` with its metadata `meta`: the dense arrays built once, held as
+    /// numpy arrays that `.data` and the others hand out without copying. The values are
+    /// those `tprf render` writes to `tprf.npy` (the same rows, [`FilmSnapshot::dense`]).
+    pub fn from_snapshot(
+        py: Python<'_>,
+        snap: &FilmSnapshot,
+        meta: CubeMetadata,
+    ) -> PyResult<Cube> {
+        let (h, w, t) = (snap.height(), snap.width(), snap.axis().bins);
+        let layers = snap.layers();
+        let (data, steady, bounces) = py.detach(|| {
+            let data = snap.dense(None);
+            let steady = snap.steady().to_vec();
+            let bounces: Vec<f32> = (0..layers).flat_map(|l| snap.dense(Some(l))).collect();
+            (data, steady, bounces)
+        });
+        let data = PyArray1::from_vec(py, data).reshape([h, w, t])?.unbind();
+        let steady = PyArray1::from_vec(py, steady).reshape([h, w])?.unbind();
+        let bounces = if layers > 0 {
+            Some(
+                PyArray1::from_vec(py, bounces)
+                    .reshape([layers, h, w, t])?
+                    .unbind(),
+            )
+        } else {
+            None
+        };
+        Ok(Cube {
+            data,
+            steady,
+            bounces,
+            meta,
+        })
+    }
+
+    pub fn meta(&self) -> &CubeMetadata {
+        &self.meta
+    }
+}
+
+#[pymethods]
+impl Cube {
+    /// The cube, float32 ``[H, W, T]``, row 0 = the top of the image (no copy).
+    #[getter]
+    fn data<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray3<f32>> {
+        self.data.bind(py).clone()
+    }
+
+    /// The steady image, float32 ``[H, W]`` (W m^-2 sr^-1): each pixel's sum over time.
+    #[getter]
+    fn steady<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f32>> {
+        self.steady.bind(py).clone()
+    }
+
+    /// The per-bounce layers, float32 ``[K + 2, H, W, T]`` (layer 0: light seen directly,
+    /// 1..K: that many scattering events, K + 1: more), or None when not rendered
+    /// (``bounces_separate=0``).
+    #[getter]
+    fn bounces<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray4<f32>>> {
+        self.bounces.as_ref().map(|b| b.bind(py).clone())
+    }
+
+    /// Start of the time window, seconds.
+    #[getter]
+    fn t0_s(&self) -> f64 {
+        self.meta.t0_s
+    }
+
+    /// Bin width, seconds.
+    #[getter]
+    fn dt_s(&self) -> f64 {
+        self.meta.dt_s
+    }
+
+    /// The centre of every bin, seconds, float64 ``[T]``.
+    #[getter]
+    fn times_s<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        let m = &self.meta;
+        PyArray1::from_vec(
+            py,
+            (0..m.bins)
+                .map(|b| m.t0_s + (b as f64 + 0.5) * m.dt_s)
+                .collect(),
+        )
+    }
+
+    /// The cube's relative RMS error estimated from two independent halves of its
+    /// samples, or None.
+    #[getter]
+    fn error_estimate(&self) -> Option<f64> {
+        self.meta.error_estimate
+    }
+
+    /// The cube's metadata: the ``tprf.json`` a render writes, as a dict.
+    #[getter]
+    fn metadata<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let text = serde_json::to_string(&self.meta)
+            .map_err(|e| pyo3::exceptions::PyValueError::new_err(e.to_string()))?;
+        py.import("json")?.call_method1("loads", (text,))
+    }
+
+    /// ``(H, W, T)``.
+    #[getter]
+    fn shape(&self) -> (usize, usize, usize) {
+        (self.meta.height, self.meta.width, self.meta.bins)
+    }
+
+    /// numpy's array protocol: ``np.asarray(cube)`` is ``cube.data`` (no copy, unless a
+    /// dtype or ``copy=True`` asks for one).
+    #[pyo3(signature = (dtype=None, copy=None))]
+    fn __array__<'py>(
+        &self,
+        py: Python<'py>,
+        dtype: Option<Bound<'py, PyAny>>,
+        copy: Option<bool>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let data = self.data.bind(py).clone().into_any();
+        let kwargs = PyDict::new(py);
+        if let Some(d) = dtype {
+            kwargs.set_item("dtype", d)?;
+        }
+        if copy == Some(true) {
+            kwargs.set_item("copy", true)?;
+        }
+        if kwargs.is_empty() {
+            return Ok(data);
+        }
+        py.import("numpy")?
+            .getattr("array")?
+            .call((data,), Some(&kwargs))
+    }
+
+    fn __repr__(&self) -> String {
+        let m = &self.meta;
+        format!(
+            "<tprf.Cube {} x {} pixels x {} bins of {} from {}, {} spp, {}>",
+            m.height,
+            m.width,
+            m.bins,
+            tprf_core::units::format_time(m.dt_s),
+            tprf_core::units::format_time(m.t0_s),
+            m.spp,
+            m.scene
+        )
+    }
+}
+
+/// load(dir) -> Cube
+///
+/// Read a cube folder written by ``tprf render`` (``tprf.npy`` or ``tprf.zarr``, with
+/// ``tprf.json`` and, where present, the per-bounce layers), or by ``Cube.save``.
+#[pyfunction]
+pub fn load(py: Python<'_>, dir: PathBuf) -> PyResult<Cube> {
+    let (meta, snap) = py.detach(|| export::load_snapshot(&dir)).py_err()?;
+    Cube::from_snapshot(py, &snap, meta)
+}

@@ -1,0 +1,17 @@
+//! The `tprf` Python package's native module (`tprf._tprf`): tprf-core's renders, cubes
+//! and sensors as Python objects and numpy arrays. The Python layer (`python/tprf/`)
+//! adds the progress bar, unit strings and the Dask driver; everything that computes is
+//! here, in the core's own functions, with the GIL released.
+
+mod cube;
+mod errors;
+
+use pyo3::prelude::*;
+
+#[pymodule]
+fn _tprf(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<cube::Cube>()?;
+    m.add_function(wrap_pyfunction!(cube::load, m)?)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}
