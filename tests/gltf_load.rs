@@ -950,9 +950,214 @@ fn garbage_bytes() {
     let err = load_gltf(&write_file("not-gltf.gltf", b"{\"hello\": 1}"))
         .unwrap_err()
         .to_string();
+    assert!(err.contains("it has no asset object"), "{err}");
+}
+
+#[test]
+fn gltf_1_0_and_garbled_versions_are_refused_by_asset_version() {
+    // A glTF 1.0 file as the 1.0 specification writes it: objects are maps by id. Before,
+    // it was read as 2.0 and failed later with "no light reaches the camera".
+    let gltf_1 = json!({
+        "asset": {"version": "1.0"},
+        "scene": "defaultScene",
+        "scenes": {"defaultScene": {"nodes": ["node_1"]}},
+        "nodes": {"node_1": {"meshes": ["mesh_1"]}},
+        "meshes": {"mesh_1": {"primitives": [{"attributes": {"POSITION": "acc_0"}}]}},
+    });
+    let err = load_err("gltf-1.0", &gltf_1);
     assert!(
-        err.contains("invalid glTF JSON") && err.contains("asset"),
+        err.contains("it is glTF 1.0 (asset.version \"1.0\")") && err.contains("reads glTF 2.0"),
         "{err}"
+    );
+    // A document that would otherwise load as 2.0 is refused all the same.
+    let with_version = |asset: Value| {
+        let mut doc = good_doc();
+        doc["asset"] = asset;
+        doc
+    };
+    let refused = [
+        (json!({"version": "1.0"}), "it is glTF 1.0"),
+        (json!({"version": "1.0.1"}), "it is glTF 1.0.1"),
+        (
+            json!({"version": 2.0}),
+            "asset.version is 2.0, not a string",
+        ),
+        (
+            json!({"version": "two"}),
+            "asset.version \"two\" is not a glTF version",
+        ),
+        (
+            json!({"version": "2."}),
+            "asset.version \"2.\" is not a glTF version",
+        ),
+        (json!({"generator": "x"}), "asset has no version"),
+        (json!("2.0"), "asset is \"2.0\", not an object"),
+        (
+            json!({"version": "3.0"}),
+            "it is glTF 3.0 (asset.version), and states no",
+        ),
+        (
+            json!({"version": "2.1", "minVersion": "2.1"}),
+            "it needs a glTF 2.1 reader",
+        ),
+        (
+            json!({"version": "2.0", "minVersion": "2"}),
+            "asset.minVersion \"2\" is not a glTF version",
+        ),
+    ];
+    for (i, (asset, expected)) in refused.into_iter().enumerate() {
+        let err = load_err(&format!("version-{i}"), &with_version(asset));
+        assert!(err.contains(expected), "expected '{expected}': {err}");
+    }
+    let mut no_asset = good_doc();
+    no_asset.as_object_mut().unwrap().remove("asset");
+    let err = load_err("version-none", &no_asset);
+    assert!(err.contains("it has no asset object"), "{err}");
+    // What a 2.0 reader may load: a later minor version, a later major one that allows
+    // 2.0 readers by its minVersion.
+    for (i, asset) in [
+        json!({"version": "2.0", "minVersion": "2.0"}),
+        json!({"version": "2.1"}),
+        json!({"version": "3.0", "minVersion": "2.0"}),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let scene = load_doc(&format!("version-ok-{i}"), &with_version(asset));
+        assert_eq!(scene.triangles.len(), 1);
+    }
+}
+
+/// The .glb of [`good_doc`]'s triangle (its buffer as the BIN chunk), loadable as it is.
+fn good_glb() -> Vec<u8> {
+    let mut bin = Bin::default();
+    let mesh = triangle_mesh(&mut bin, TRI, [0.0, 0.0, 1.0], None);
+    let bytes = bin.bytes.clone();
+    let mut doc = doc_with_nodes(bin, json!([mesh]), json!([{"mesh": 0}]));
+    doc["buffers"] = json!([{"byteLength": bytes.len()}]);
+    glb(&doc, &bytes)
+}
+
+#[test]
+fn glb_headers_that_contradict_the_file_are_refused() {
+    let good = good_glb();
+    let scene = load_gltf(&write_file("good.glb", &good)).unwrap();
+    assert_eq!(scene.triangles.len(), 1);
+    let set_u32 = |bytes: &mut Vec<u8>, at: usize, v: u32| {
+        bytes[at..at + 4].copy_from_slice(&v.to_le_bytes());
+    };
+    let n = good.len() as u32;
+    let json_len = u32::from_le_bytes(good[12..16].try_into().unwrap());
+    let bin_at = 20 + json_len as usize;
+    let cases: Vec<(&str, Vec<u8>, String)> = vec![
+        (
+            // The case: the header says the file is shorter than it is.
+            "header-smaller",
+            {
+                let mut b = good.clone();
+                set_u32(&mut b, 8, n - 8);
+                b
+            },
+            format!(
+                "corrupt .glb: its header announces {} bytes, but the file has {n}",
+                n - 8
+            ),
+        ),
+        (
+            "bytes-appended",
+            {
+                let mut b = good.clone();
+                b.extend([0; 16]);
+                b
+            },
+            format!(
+                "announces {n} bytes, but the file has {}: 16 bytes after",
+                n + 16
+            ),
+        ),
+        (
+            "header-larger",
+            {
+                let mut b = good.clone();
+                set_u32(&mut b, 8, n + 4);
+                b
+            },
+            format!(
+                "truncated .glb: its header announces {} bytes, the file has {n}",
+                n + 4
+            ),
+        ),
+        (
+            "json-unaligned",
+            {
+                // JSON one byte shorter, the chunk one byte longer than the file's bytes
+                // would allow: the BIN chunk header then starts off its 4-byte boundary.
+                let mut b = good.clone();
+                set_u32(&mut b, 12, json_len - 1);
+                b.remove(20 + json_len as usize - 1);
+                set_u32(&mut b, 8, n - 1);
+                b
+            },
+            format!(
+                "its JSON chunk (chunk 0, at byte 12) is {} bytes long, not a multiple of 4",
+                json_len - 1
+            ),
+        ),
+        (
+            "bin-overruns",
+            {
+                let mut b = good.clone();
+                let bin_len = u32::from_le_bytes(b[bin_at..bin_at + 4].try_into().unwrap());
+                set_u32(&mut b, bin_at, bin_len + 4);
+                b
+            },
+            "truncated .glb: its BIN chunk (chunk 1".into(),
+        ),
+        (
+            "bin-first",
+            {
+                let mut b = good.clone();
+                b[16..20].copy_from_slice(b"BIN\0");
+                b
+            },
+            "its first chunk is BIN, not JSON".into(),
+        ),
+        (
+            "glb-version-1",
+            {
+                let mut b = good.clone();
+                set_u32(&mut b, 4, 1);
+                b
+            },
+            "glTF 1.0 binary".into(),
+        ),
+    ];
+    for (name, bytes, expected) in cases {
+        let err = load_gltf(&write_file(&format!("{name}.glb"), &bytes))
+            .map(|_| "loaded".to_string())
+            .unwrap_or_else(|e| e.to_string());
+        assert!(
+            err.contains(&expected),
+            "{name}: expected '{expected}': {err}"
+        );
+    }
+    // A chunk of a type tprf does not know is skipped, as the specification asks, and
+    // noted.
+    let mut extra = good.clone();
+    extra.extend(8u32.to_le_bytes());
+    extra.extend(b"XTRA");
+    extra.extend([7; 8]);
+    let total = extra.len() as u32;
+    set_u32(&mut extra, 8, total);
+    let scene = load_gltf(&write_file("extra-chunk.glb", &extra)).unwrap();
+    assert_eq!(scene.triangles.len(), 1);
+    assert!(
+        has_note(
+            &scene,
+            "skipped .glb chunk 2 of unknown type 0x41525458 (8 bytes)"
+        ),
+        "{:?}",
+        scene.notes
     );
 }
 

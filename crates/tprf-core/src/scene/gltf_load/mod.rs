@@ -24,14 +24,20 @@
 //! morph targets, samplers (wrap and filter modes), occlusion textures (a path tracer
 //! computes occlusion itself).
 //!
-//! In four files: `validate` reads the bytes and the buffers and checks what the gltf
-//! crate would otherwise panic on, before it sees them; `resource` reads buffers and
+//! A file is glTF 2.0 by its `asset.version` (glTF 1.0 is refused by name, as is a
+//! missing or garbled version), and a .glb's container is checked as glTF-Validator
+//! checks it (header length equal to the file's, chunk lengths, alignment, order).
+//!
+//! In five files: `glb` splits and checks the .glb container; `validate` reads the
+//! version, the JSON and the buffers and checks what the gltf crate would otherwise
+//! panic on, before it sees them; `resource` reads buffers and
 //! images by URI (regular files only, bounded) and decodes images under a memory budget;
 //! `build` counts the triangles after instancing against the memory budget, then walks
 //! the node trees into triangles, lights and a camera; `material` converts materials and
 //! their textures.
 
 mod build;
+mod glb;
 mod material;
 mod resource;
 mod validate;
@@ -53,13 +59,20 @@ pub fn load_gltf(path: &Path) -> Result<Scene, SceneError> {
         },
         e => SceneError::Budget(e),
     })?;
-    let (doc, blob) = validate::parse(&file, &bytes)?;
+    let validate::Parsed {
+        document: doc,
+        blob,
+        notes,
+    } = validate::parse(&file, &bytes)?;
     drop(bytes);
     let base = path.parent().unwrap_or(Path::new("."));
     validate::check_buffer_budget(&file, &doc)?;
     let buffers = validate::load_buffers(&file, &doc, base, blob)?;
     validate::check_views(&file, &doc, &buffers)?;
     let mut builder = Builder::new(&file, &doc, &buffers, base);
+    for note in notes {
+        builder.note_once(format!("{file}: {note}"));
+    }
     builder.note_ignored_extensions();
     builder.add_scene()?;
     builder.read_scene_extras()?;

@@ -26,10 +26,25 @@ pub(super) fn invalid(file: &str, message: impl Into<String>) -> SceneError {
     }
 }
 
-/// Parse the JSON (and the .glb container), refuse unsupported required extensions, then let
-/// the gltf crate validate the document.
-pub(super) fn parse(file: &str, bytes: &[u8]) -> Result<(Document, Option<Vec<u8>>), SceneError> {
-    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(bytes)
+/// What [`parse`] gives: the document, the .glb BIN chunk, and notes on what was skipped.
+pub(super) struct Parsed {
+    pub document: Document,
+    pub blob: Option<Vec<u8>>,
+    pub notes: Vec<String>,
+}
+
+/// Parse the JSON (and the .glb container, checked by [`super::glb::split`]), refuse a
+/// file that is not glTF 2.0 by its `asset.version` and unsupported required extensions,
+/// then let the gltf crate validate the document.
+pub(super) fn parse(file: &str, bytes: &[u8]) -> Result<Parsed, SceneError> {
+    let (json, bin, notes) = if super::glb::is_glb(bytes) {
+        let glb = super::glb::split(bytes).map_err(|m| invalid(file, m))?;
+        (glb.json, glb.bin, glb.notes)
+    } else {
+        (bytes, None, Vec::new())
+    };
+    check_asset_version(json).map_err(|m| invalid(file, m))?;
+    let gltf::Gltf { document, .. } = gltf::Gltf::from_slice_without_validation(json)
         .map_err(|e| invalid(file, describe_parse_error(e)))?;
     let mut root = document.into_json();
     check_required_extensions(file, &root)?;
@@ -38,29 +53,95 @@ pub(super) fn parse(file: &str, bytes: &[u8]) -> Result<(Document, Option<Vec<u8
     root.extensions_required.clear();
     check_crate_preconditions(&root).map_err(|m| invalid(file, m))?;
     let document = Document::from_json(root).map_err(|e| invalid(file, e.to_string()))?;
-    Ok((document, blob))
+    Ok(Parsed {
+        document,
+        blob: bin.map(<[u8]>::to_vec),
+        notes,
+    })
 }
 
-/// A parse error in words: truncated .glb files and bad JSON say so.
+/// The glTF version `asset.version` (or `asset.minVersion`) states: `MAJOR.MINOR`, both
+/// decimal integers (the schema's pattern `^[0-9]+\.[0-9]+$`).
+fn parse_version(text: &str) -> Option<(u64, u64)> {
+    let (major, minor) = text.split_once('.')?;
+    let number = |s: &str| {
+        (!s.is_empty() && s.bytes().all(|b| b.is_ascii_digit()))
+            .then(|| s.parse().ok())
+            .flatten()
+    };
+    Some((number(major)?, number(minor)?))
+}
+
+/// Refuse JSON that does not declare glTF 2.0: a missing or garbled `asset.version`,
+/// glTF 1.0 (whose objects are maps, which the 2.0 reader would misread or half-read),
+/// or a later major version that does not allow 2.0 readers by `asset.minVersion` (glTF
+/// 2.0 section 3.2: a reader loads a file when `minVersion`, or without it the major
+/// version, is one it supports). JSON that does not parse is left to the gltf crate,
+/// whose message says where.
+fn check_asset_version(json: &[u8]) -> Result<(), String> {
+    #[derive(serde::Deserialize)]
+    struct Head {
+        asset: Option<serde_json::Value>,
+    }
+    let Ok(head) = serde_json::from_slice::<Head>(json) else {
+        return Ok(());
+    };
+    const HINT: &str = "a glTF 2.0 file has \"asset\": {\"version\": \"2.0\"}";
+    let Some(asset) = head.asset else {
+        return Err(format!("it has no asset object ({HINT})"));
+    };
+    let version = match asset.get("version") {
+        Some(serde_json::Value::String(v)) => v.as_str(),
+        Some(other) => return Err(format!("asset.version is {other}, not a string ({HINT})")),
+        None if asset.is_object() => return Err(format!("asset has no version ({HINT})")),
+        None => return Err(format!("asset is {asset}, not an object ({HINT})")),
+    };
+    let gltf_1_refusal = |v: &str| {
+        format!(
+            "it is glTF {v} (asset.version \"{v}\"), which tprf does not read: tprf reads \
+             glTF 2.0; convert the file to glTF 2.0 first (for example with gltf-pipeline)"
+        )
+    };
+    let Some((major, _)) = parse_version(version) else {
+        if version.starts_with("1.") || version.starts_with("0.") {
+            return Err(gltf_1_refusal(version));
+        }
+        return Err(format!(
+            "asset.version \"{version}\" is not a glTF version (MAJOR.MINOR; {HINT})"
+        ));
+    };
+    let min_version = match asset.get("minVersion") {
+        None => None,
+        Some(serde_json::Value::String(v)) => match parse_version(v) {
+            Some(min) => Some((v.as_str(), min)),
+            None => {
+                return Err(format!(
+                    "asset.minVersion \"{v}\" is not a glTF version (MAJOR.MINOR)"
+                ));
+            }
+        },
+        Some(other) => return Err(format!("asset.minVersion is {other}, not a string")),
+    };
+    match (major, min_version) {
+        (0 | 1, _) => Err(gltf_1_refusal(version)),
+        (_, Some((text, min))) if min > (2, 0) => Err(format!(
+            "it needs a glTF {text} reader (asset.minVersion \"{text}\"); tprf reads glTF 2.0"
+        )),
+        (_, Some(_)) => Ok(()),
+        (2, None) => Ok(()),
+        (_, None) => Err(format!(
+            "it is glTF {version} (asset.version), and states no asset.minVersion that a \
+             glTF 2.0 reader may load it with; tprf reads glTF 2.0"
+        )),
+    }
+}
+
+/// A parse error in words: bad JSON says so. (The .glb container was split and checked
+/// before: the crate sees JSON only.)
 fn describe_parse_error(e: gltf::Error) -> String {
-    use gltf::binary::Error as Glb;
     match e {
-        gltf::Error::Binary(Glb::Length {
-            length,
-            length_read,
-        }) => format!(
-            "truncated .glb: its header announces {length} bytes of chunks, the file has {length_read}"
-        ),
-        gltf::Error::Binary(Glb::ChunkLength {
-            ty,
-            length,
-            length_read,
-        }) => format!(
-            "truncated .glb: its {ty:?} chunk announces {length} bytes, {length_read} remain"
-        ),
-        gltf::Error::Binary(Glb::Io(e)) => format!("truncated .glb: {e}"),
-        gltf::Error::Binary(e) => format!("corrupt .glb: {e}"),
         gltf::Error::Deserialize(e) => format!("invalid glTF JSON: {e}"),
+        gltf::Error::Binary(e) => format!("corrupt .glb: {e}"),
         e => e.to_string(),
     }
 }
@@ -165,6 +246,13 @@ fn load_buffer(
         }
         buffer::Source::Bin => {
             let what = format!("buffer {} (the .glb BIN chunk)", buffer.index());
+            if buffer.index() != 0 {
+                // glTF 2.0 section 4.4.3.3: the BIN chunk is buffer 0's.
+                return Err(invalid(
+                    file,
+                    format!("{what}: it has no uri, and only buffer 0 may be the BIN chunk"),
+                ));
+            }
             let data = blob
                 .take()
                 .ok_or_else(|| invalid(file, format!("{what}: the file has no BIN chunk")))?;
