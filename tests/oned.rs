@@ -796,3 +796,62 @@ fn bad_files_give_errors_not_panics() {
     assert!(print_oned(&figure4, Some((0.0, 0.0, 10)), &mut out).is_err());
     assert!(print_oned(&figure4, Some((f64::NAN, 1e-9, 10)), &mut out).is_err());
 }
+
+#[test]
+fn inputs_that_make_times_overflow_are_refused_by_name() {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("oned-overflow");
+    std::fs::create_dir_all(&dir).unwrap();
+    let figure4 = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/oned/figure4.json");
+    let text = std::fs::read_to_string(&figure4).unwrap();
+    let error = |path: &Path, bins: Option<(f64, f64, usize)>| {
+        let mut out = Vec::new();
+        match print_oned(path, bins, &mut out) {
+            Ok(()) => "accepted".to_string(),
+            Err(e) => format!("{e:#}"),
+        }
+    };
+    // The case: an index of 1e308 between A and B gave infinite times and
+    // "everything absorbed". Figure 4's segments: Z | E L | A | B |.
+    let write = |name: &str, text: String| {
+        let path = dir.join(name);
+        std::fs::write(&path, text).unwrap();
+        path
+    };
+    let huge_ior = write(
+        "huge-ior.json",
+        text.replace(
+            "\"segment_ior\": [1.0, 1.0, 1.0, 1.0]",
+            "\"segment_ior\": [1.0, 1.0, 1e308, 1.0]",
+        ),
+    );
+    let e = error(&huge_ior, None);
+    assert!(
+        e.contains("huge-ior.json")
+            && e.contains("segment_ior[2] = 1e308 over the 15 m from interface 'A' (x_m = 10)")
+            && e.contains("arrival times would overflow"),
+        "{e}"
+    );
+    // Positions 2e300 m apart, each finite.
+    let far = write("far.json", text.replace("\"x_m\": 25.0", "\"x_m\": 2e300"));
+    let e = error(&far, None);
+    assert!(
+        e.contains("interface 'B' (x_m = 2e300) are 2e300 m apart"),
+        "{e}"
+    );
+
+    // The window: every edge finite in the nanoseconds printed, edges distinct.
+    let e = error(&figure4, Some((1e300, 1e-9, 10)));
+    assert!(e.contains("--t0 1e300 s: times overflow"), "{e}");
+    let e = error(&figure4, Some((0.0, 1e299, 100)));
+    assert!(
+        e.contains("--dt 1e299 s x --bins 100 from --t0 0e0 s ends the window at 1e301 s"),
+        "{e}"
+    );
+    let e = error(&figure4, Some((1.0, 1e-20, 10)));
+    assert!(
+        e.contains("--dt 1e-20 s is below double precision's resolution at 1e0 s"),
+        "{e}"
+    );
+    // 2^-49 s bins at 1 s are 8 units in the last place: distinct edges.
+    assert_eq!(error(&figure4, Some((1.0, 2f64.powi(-49), 10))), "accepted");
+}

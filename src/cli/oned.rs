@@ -34,6 +34,48 @@ pub fn run(a: &OnedArgs) -> Result<()> {
     print_oned(&a.world, bins, &mut std::io::stdout().lock())
 }
 
+/// Nanoseconds per second: `tprf oned` prints times in ns.
+const NS_PER_S: f64 = 1e9;
+
+/// Refuse a binning window (`--t0`, `--dt`, `--bins`; seconds) whose times overflow or
+/// collapse: every bin edge `t0 + b dt` must be finite also in the nanoseconds printed,
+/// and neighbouring edges must differ in double precision (`dt` at least 4 units in the
+/// last place of the largest edge: each edge is rounded twice, by less than 1.5 units,
+/// so computed edges then still increase).
+fn check_window(t0_s: f64, dt_s: f64, count: usize) -> Result<()> {
+    anyhow::ensure!(
+        (1..=tprf_core::film::MAX_BINS).contains(&count),
+        "--bins {count} must be in 1..={}",
+        tprf_core::film::MAX_BINS
+    );
+    anyhow::ensure!(
+        (t0_s * NS_PER_S).is_finite(),
+        "--t0 {t0_s:e} s: times overflow (the window must start and end within {:e} s of 0, \
+         finite in the nanoseconds printed)",
+        f64::MAX / NS_PER_S
+    );
+    anyhow::ensure!(
+        dt_s > 0.0 && dt_s.is_finite(),
+        "--dt {dt_s:e} s must be a positive finite bin width"
+    );
+    let end_s = t0_s + dt_s * count as f64;
+    anyhow::ensure!(
+        (end_s * NS_PER_S).is_finite(),
+        "--dt {dt_s:e} s x --bins {count} from --t0 {t0_s:e} s ends the window at {end_s:e} s: \
+         times overflow (the window must end within {:e} s of 0, finite in the nanoseconds \
+         printed); use fewer or narrower bins",
+        f64::MAX / NS_PER_S
+    );
+    let largest_s = t0_s.abs().max(end_s.abs());
+    anyhow::ensure!(
+        dt_s >= 4.0 * f64::EPSILON * largest_s,
+        "--dt {dt_s:e} s is below double precision's resolution at {largest_s:e} s (the \
+         window --t0 {t0_s:e} s + --bins {count} bins): neighbouring bin edges would be \
+         equal; use a wider --dt or a --t0 nearer 0"
+    );
+    Ok(())
+}
+
 /// `tprf oned`'s output: reads the world file at `path`, prints its impulse train (time in
 /// ns, optical path length in m, weight, order) and, with `bins = Some((t0_s, dt_s,
 /// count))`, the binned TPRF (bin index, bin start in ns, integrated weight). Lines
@@ -44,16 +86,7 @@ pub fn print_oned(
     out: &mut impl Write,
 ) -> Result<()> {
     if let Some((t0_s, dt_s, count)) = bins {
-        anyhow::ensure!(
-            (1..=tprf_core::film::MAX_BINS).contains(&count),
-            "--bins {count} must be in 1..={}",
-            tprf_core::film::MAX_BINS
-        );
-        anyhow::ensure!(t0_s.is_finite(), "bin start t0 = {t0_s} s is not finite");
-        anyhow::ensure!(
-            dt_s > 0.0 && dt_s.is_finite(),
-            "bin width dt = {dt_s} s must be a positive finite number"
-        );
+        check_window(t0_s, dt_s, count)?;
     }
     let world = World::from_path(path).map_err(|e| match e {
         WorldError::Io { .. } => anyhow::Error::new(e),

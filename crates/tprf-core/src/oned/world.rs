@@ -268,7 +268,28 @@ pub enum WorldError {
     },
     #[error("cannot scale a world by {scale}: the factor must be positive and finite")]
     BadScale { scale: f64 },
+    #[error(
+        "{culprit}: the world's optical extent (the sum of n d from the leftmost to the \
+         rightmost of the eye, the light and the interfaces) would be {extent_m:e} m, and \
+         arrival times would overflow; it must stay below {max_m:e} m (so that a path of \
+         up to 2^32 reflections arrives at a finite time): use a smaller index or distance"
+    )]
+    TimeOverflow {
+        culprit: String,
+        extent_m: f64,
+        max_m: f64,
+    },
 }
+
+/// The longest optical extent a world may have, metres: the sum of `n d` over the
+/// stretch from the leftmost to the rightmost of the eye, the light and the interfaces.
+/// Every straight run of light between two events lies inside that stretch, and a path
+/// with `k` reflections has `k + 1` runs, so its optical path length is at most
+/// `(k + 1)` times the extent. At 1e288 m a path of 2^32 reflections (more than
+/// [`super::ImpulseOptions::max_order`] can ask for) is shorter than 4.3e297 m and
+/// arrives in under 1.5e298 ns: finite in seconds and in the nanoseconds `tprf oned`
+/// prints, with ten orders of magnitude to spare for the sums.
+pub const MAX_OPTICAL_EXTENT_M: f64 = 1e288;
 
 /// Slack on `reflectance + transmittance <= 1` for decimal inputs such as 0.6 + 0.4.
 const ENERGY_SLACK: f64 = 1e-12;
@@ -315,6 +336,16 @@ impl From<World> for WorldFile {
             light_m: world.light_m,
             segment_ior: Some(world.segment_ior),
         }
+    }
+}
+
+/// `x` in messages: as written for everyday magnitudes, in exponent form otherwise
+/// (`1e300`, not three hundred digits).
+fn short(x: f64) -> String {
+    if x == 0.0 || (1e-4..1e15).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
     }
 }
 
@@ -472,13 +503,90 @@ impl World {
             });
         }
 
-        Ok(World {
+        let world = World {
             interfaces,
             eye_m: file.eye_m,
             look: file.look,
             light_m: file.light_m,
             segment_ior,
-        })
+        };
+        world.check_optical_extent()?;
+        Ok(world)
+    }
+
+    /// Refuse a world whose times could overflow: its optical extent (see
+    /// [`MAX_OPTICAL_EXTENT_M`]) summed piece by piece between consecutive points (the
+    /// interfaces, the eye and the light, sorted), each piece `n (x_b - x_a)` metres with
+    /// `n` the index of the segment it lies in. The error names the field to blame: two
+    /// positions too far apart, or the index that makes a piece too long in time.
+    fn check_optical_extent(&self) -> Result<(), WorldError> {
+        let mut points: Vec<(f64, String)> = self
+            .interfaces
+            .iter()
+            .map(|i| {
+                (
+                    i.x_m,
+                    format!("interface '{}' (x_m = {})", i.name, short(i.x_m)),
+                )
+            })
+            .collect();
+        points.push((
+            self.eye_m,
+            format!("the eye (eye_m = {})", short(self.eye_m)),
+        ));
+        points.push((
+            self.light_m,
+            format!("the light (light_m = {})", short(self.light_m)),
+        ));
+        points.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // Consecutive points in one segment make one stretch: (segment, from, to).
+        let mut stretches: Vec<(usize, usize, usize)> = Vec::new();
+        for (k, pair) in points.windows(2).enumerate() {
+            let [(xa, _), (xb, _)] = pair else { continue };
+            if xa == xb {
+                continue; // the eye and the light at one point
+            }
+            // The segment holding the open interval (xa, xb): interfaces at or left of xa.
+            let segment = self.interfaces.partition_point(|i| i.x_m <= *xa);
+            match stretches.last_mut() {
+                Some((s, _, to)) if *s == segment => *to = k + 1,
+                _ => stretches.push((segment, k, k + 1)),
+            }
+        }
+        let mut extent_m = 0.0;
+        // The stretch with the longest optical length, and what to blame for it.
+        let mut worst: Option<(f64, String)> = None;
+        for (segment, from, to) in stretches {
+            let (Some((xa, a)), Some((xb, b))) = (points.get(from), points.get(to)) else {
+                continue;
+            };
+            let length_m = xb - xa;
+            let ior = self.segment_ior.get(segment).copied().unwrap_or(1.0);
+            let opl_m = ior * length_m;
+            extent_m += opl_m;
+            let culprit = if !(length_m <= MAX_OPTICAL_EXTENT_M) || ior == 1.0 {
+                format!("{a} and {b} are {length_m:e} m apart")
+            } else {
+                format!(
+                    "segment_ior[{segment}] = {ior:e} over the {} m from {a} to {b} \
+                     makes {opl_m:e} m of optical path",
+                    short(length_m)
+                )
+            };
+            if worst.as_ref().is_none_or(|(w, _)| !(opl_m <= *w)) {
+                worst = Some((opl_m, culprit));
+            }
+        }
+        match worst {
+            Some((_, culprit)) if !(extent_m <= MAX_OPTICAL_EXTENT_M) => {
+                Err(WorldError::TimeOverflow {
+                    culprit,
+                    extent_m,
+                    max_m: MAX_OPTICAL_EXTENT_M,
+                })
+            }
+            _ => Ok(()),
+        }
     }
 
     /// Parses and validates a world from JSON text.
@@ -547,6 +655,69 @@ impl World {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A world of interfaces A at 10 m and B at 25 m, the eye at 0 and the light at -0.5,
+    /// with `segment_ior` and B moved to `b_m`.
+    fn world(segment_ior: [f64; 3], b_m: f64) -> Result<World, WorldError> {
+        World::from_json_str(&format!(
+            r#"{{"interfaces": [
+                {{"name": "A", "x_m": 10.0, "left": {{"reflectance": 0.3, "transmittance": 0.6}}}},
+                {{"name": "B", "x_m": {b_m:e}, "left": {{"reflectance": 0.8}}}}],
+              "eye_m": 0.0, "look": "right", "light_m": -0.5,
+              "segment_ior": [{}, {}, {}]}}"#,
+            segment_ior[0], segment_ior[1], segment_ior[2]
+        ))
+    }
+
+    fn overflow(r: Result<World, WorldError>) -> String {
+        match r {
+            Err(e @ WorldError::TimeOverflow { .. }) => e.to_string(),
+            Err(e) => format!("another error: {e}"),
+            Ok(_) => "accepted".into(),
+        }
+    }
+
+    #[test]
+    fn what_makes_times_overflow_is_refused_by_name() {
+        // The issue's case: an index of 1e308 made every time infinite.
+        let e = overflow(world([1.0, 1e308, 1.0], 25.0));
+        assert!(
+            e.contains(
+                "segment_ior[1] = 1e308 over the 15 m from interface 'A' (x_m = 10) \
+                 to interface 'B' (x_m = 25) makes inf m"
+            ),
+            "{e}"
+        );
+        // Finite, but a path of many reflections would not be.
+        let e = overflow(world([1.0, 1e290, 1.0], 25.0));
+        assert!(e.contains("segment_ior[1] = 1e290"), "{e}");
+        // The eye and the light's segment counts (the first leg), by its index...
+        let e = overflow(world([1e300, 1.0, 1.0], 25.0));
+        assert!(
+            e.contains(
+                "segment_ior[0] = 1e300 over the 10.5 m from the light (light_m = -0.5) \
+                 to interface 'A'"
+            ),
+            "{e}"
+        );
+        // ...and positions too far apart, whatever the index.
+        let e = overflow(world([1.0, 1.0, 1.0], 1e300));
+        assert!(
+            e.contains(
+                "interface 'A' (x_m = 10) and interface 'B' (x_m = 1e300) are 1e300 m apart"
+            ),
+            "{e}"
+        );
+        // Nothing crosses the segment right of B, so its index scales no time.
+        assert!(world([1.0, 1.0, 1e308], 25.0).is_ok());
+        // Large but safe: 1e280 m of extent.
+        assert!(world([1.0, 1e279, 1.0], 25.0).is_ok());
+        // A scale that pushes the world past the limit is refused the same way.
+        let Ok(w) = world([1.0, 1e279, 1.0], 25.0) else {
+            panic!("valid world");
+        };
+        assert!(overflow(w.scaled(1e10)).contains("segment_ior[1]"));
+    }
 
     #[test]
     fn direction_parses_names_and_signs() {
