@@ -53,6 +53,7 @@ fn edge_lights() -> Scene {
             yfov_rad: YFOV_DEG.to_radians(),
         },
         ambient: Default::default(),
+        objects: Vec::new(),
         notes: Vec::new(),
     }
 }

@@ -22,6 +22,7 @@ pub fn empty_scene(camera: Camera) -> Scene {
         lights: vec![],
         camera,
         ambient: Default::default(),
+        objects: Vec::new(),
         notes: vec![],
     }
 }

@@ -206,6 +206,7 @@ impl Furnace {
             lights,
             camera: Camera::look_at(Vec3::ZERO, Vec3::new(0.0, 0.0, -1.0), 60f32.to_radians()),
             ambient: Default::default(),
+            objects: Vec::new(),
             notes: Vec::new(),
         }
     }

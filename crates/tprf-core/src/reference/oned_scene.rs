@@ -187,6 +187,7 @@ impl OnedScene {
             lights: Vec::new(),
             camera: Camera::look_at(Vec3::ZERO, Vec3::NEG_Z, self.fov_deg.to_radians() as f32),
             ambient: Default::default(),
+            objects: Vec::new(),
             notes: Vec::new(),
         };
         let quad = |s: &mut Scene, z: f64, m: Material| {

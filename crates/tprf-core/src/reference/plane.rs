@@ -236,6 +236,7 @@ impl Plane {
                 yfov_rad: self.fov_deg.to_radians() as f32,
             },
             ambient: Default::default(),
+            objects: Vec::new(),
             notes: Vec::new(),
         }
     }

@@ -184,6 +184,7 @@ fn cornell() -> Scene {
         }],
         camera: Camera::look_at(eye, v(0.0, h, 0.0), 2.0 * (12.5f32 / 35.0).atan()),
         ambient: Default::default(),
+        objects: Vec::new(),
         notes: Vec::new(),
     }
 }
@@ -435,6 +436,7 @@ fn canopy() -> Scene {
             }],
             ..Default::default()
         },
+        objects: Vec::new(),
         notes: Vec::new(),
     }
 }

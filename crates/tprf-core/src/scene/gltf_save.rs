@@ -654,6 +654,7 @@ mod tests {
             }],
             camera: Camera::look_at(Vec3::new(0.5, 0.5, 5.0), Vec3::new(0.5, 0.5, 0.0), 0.7),
             ambient: Default::default(),
+            objects: Vec::new(),
             notes: Vec::new(),
         }
     }

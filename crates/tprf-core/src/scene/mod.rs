@@ -304,6 +304,15 @@ impl Camera {
     }
 }
 
+/// A named part of the scene: the triangles of one glTF node (its name, else its mesh's),
+/// or a named part of a built-in scene. NLOS captures find their relay wall by it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SceneObject {
+    pub name: String,
+    /// Indices into [`Scene::triangles`] (after instancing and dropped degenerate ones).
+    pub triangles: std::ops::Range<usize>,
+}
+
 /// The world: triangles, their materials, punctual lights and the camera.
 #[derive(Clone, Debug)]
 pub struct Scene {
@@ -319,6 +328,8 @@ pub struct Scene {
     /// The ambient group: steady light, not pulsed (empty for most scenes).
     pub ambient: AmbientLights,
     pub camera: Camera,
+    /// Named parts (glTF nodes with meshes), in file order; may be empty.
+    pub objects: Vec<SceneObject>,
     /// What the loader decided on its own (a framed camera, a co-located light, dropped
     /// degenerate triangles...). Front ends print these.
     pub notes: Vec<String>,
@@ -417,6 +428,17 @@ impl Scene {
         self
     }
 
+    /// The triangle indices of every object named `name` (a node instanced twice, or
+    /// two nodes of one name, give all their triangles), in order; empty when none is.
+    pub fn object_triangles(&self, name: &str) -> Vec<usize> {
+        self.objects
+            .iter()
+            .filter(|o| o.name == name)
+            .flat_map(|o| o.triangles.clone())
+            .filter(|&i| i < self.triangles.len())
+            .collect()
+    }
+
     /// Check the invariants the transport relies on; loaders call this last.
     pub fn validate(&self) -> Result<(), SceneError> {
         if self.triangles.len() != self.attrs.len() {
@@ -441,6 +463,18 @@ impl Scene {
                     self.materials.len()
                 )));
             }
+        }
+        if let Some(o) = self
+            .objects
+            .iter()
+            .find(|o| o.triangles.start > o.triangles.end || o.triangles.end > self.triangles.len())
+        {
+            return Err(SceneError::Invalid(format!(
+                "object '{}' names triangles {:?} of {}",
+                o.name,
+                o.triangles,
+                self.triangles.len()
+            )));
         }
         for m in &self.materials {
             let bad = |v: &[f32]| v.iter().any(|x| !x.is_finite() || *x < 0.0);

@@ -7,7 +7,7 @@ use super::validate::{SUPPORTED_EXTENSIONS, check_accessor, check_count, invalid
 use crate::budget::{self, format_count};
 use crate::scene::{
     AmbientLights, BYTES_PER_TRIANGLE, Camera, DirectionalLight, Material, PunctualLight, Scene,
-    SceneError, Spot, Texture, Triangle, TriangleAttrs,
+    SceneError, SceneObject, Spot, Texture, Triangle, TriangleAttrs,
 };
 use glam::{Affine3A, Mat3, Mat4, Vec2, Vec3};
 use gltf::accessor::{DataType, Dimensions};
@@ -221,6 +221,8 @@ pub(super) struct Builder<'a> {
     pub(super) notes: Vec<String>,
     pub(super) degenerate: usize,
     pub(super) bad_normals: usize,
+    /// Named nodes with meshes and their triangles.
+    pub(super) objects: Vec<SceneObject>,
 }
 
 impl<'a> Builder<'a> {
@@ -247,6 +249,7 @@ impl<'a> Builder<'a> {
             notes: Vec::new(),
             degenerate: 0,
             bad_normals: 0,
+            objects: Vec::new(),
         }
     }
 
@@ -381,8 +384,16 @@ impl<'a> Builder<'a> {
             );
         }
         if let Some(mesh) = node.mesh() {
+            let first = self.triangles.len();
             for prim in mesh.primitives() {
                 self.add_primitive(&mesh, &prim, world)?;
+            }
+            // The node's name, else its mesh's: what NLOS captures find a relay wall by.
+            if let Some(name) = node.name().or(mesh.name()) {
+                self.objects.push(SceneObject {
+                    name: name.to_string(),
+                    triangles: first..self.triangles.len(),
+                });
             }
         }
         if let Some(camera) = node.camera() {
@@ -664,6 +675,7 @@ impl<'a> Builder<'a> {
             lights: self.lights,
             camera: Camera::look_at(Vec3::Z, Vec3::ZERO, FRAMED_YFOV_RAD),
             ambient: self.ambient,
+            objects: self.objects,
             notes: self.notes,
         };
         if scene.triangles.is_empty() {
