@@ -9,6 +9,7 @@ pub mod batch;
 pub mod converge;
 mod interrupt;
 pub mod merge;
+pub mod nlos;
 pub mod oned;
 pub mod render;
 pub mod sensor;
@@ -62,6 +63,9 @@ pub enum Command {
     /// writes stability.md (case, setting, expected, got, relative error, NaN/Inf,
     /// verdict, kind).
     Stability(StabilityArgs),
+    /// Non-line-of-sight imaging: `tprf nlos SCENE --out DIR` captures the transients of a
+    /// grid of relay-wall points (tal's nlos.hdf5, H.npy, nlos.json).
+    Nlos(nlos::NlosArgs),
     /// Open the viewer on a cube folder written by `tprf render` (no rendering), or on a
     /// scene to render (a .gltf/.glb path or builtin:NAME). No argument: the last scene.
     View(ViewArgs),
@@ -79,6 +83,7 @@ pub fn main() -> std::process::ExitCode {
         Some(Command::Stability(a)) => stability::run(a),
         Some(Command::View(a)) => view::run(a),
         Some(Command::Sensor(a)) => sensor::run(a),
+        Some(Command::Nlos(a)) => nlos::run(a),
         None => view::run(&ViewArgs { what: None }),
     };
     match result {

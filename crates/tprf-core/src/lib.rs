@@ -16,6 +16,7 @@
 //! | [`reference`] | exact answers (transient furnace, lit plane, 1-D world in 3-D) |
 //! | [`export`] | `.npy` cubes with `tprf.json`, PNG images and frames, CSV |
 //! | [`report`] | error against run time, stiff and extreme cases |
+//! | [`nlos`] | non-line-of-sight captures (relay wall, wall-point integrator), tal's HDF5 capture format, reconstruction |
 //!
 //! A render from scene to one pixel's TPRF (radiance per bin against arrival time):
 //!
@@ -59,6 +60,7 @@ pub mod accel;
 pub mod budget;
 pub mod export;
 pub mod film;
+pub mod nlos;
 pub mod oned;
 pub mod reference;
 pub mod report;

@@ -8,25 +8,35 @@
 //!   100 m above by a camera with a co-located point light (the laser), under a sun
 //!   (an ambient directional light, [`CANOPY_SUN_W_PER_M2`], 60 degrees high: never in
 //!   the TPRF, rendered as the cube's ambient image).
+//! - `nlos-z`: tal's NLOS quickstart: a 2 m x 2 m relay wall (the plane z = 0, facing
+//!   +z; object and material `relay_wall`) and a Z-shaped planar object, 0.8 m across,
+//!   1 m in front of it (object `Z`), both white Lambertians of albedo 1 (tal's `white`).
+//! - `nlos-shapes`: the same wall with three shapes at different depths: a 0.3 m box
+//!   (0.8 m away), a sphere of radius 0.15 m (1.1 m) and a tilted 0.4 m square (1.3 m).
+//!
+//!   Both NLOS scenes have a point light at tal's device position and a camera looking at
+//!   the setup from the side, so a camera render shows it.
 //!
 //! World space is glTF's: metres, +Y up; the scenes are deterministic (a fixed-seed
 //! PRNG), so a render of them is reproducible. Triangles are stored grouped by material,
 //! in material order, so a glTF export (one mesh per material) keeps their order.
 
 use super::{
-    AmbientLights, Camera, DirectionalLight, Material, PunctualLight, Scene, SceneError, Triangle,
-    TriangleAttrs,
+    AmbientLights, Camera, DirectionalLight, Material, PunctualLight, Scene, SceneError,
+    SceneObject, Triangle, TriangleAttrs,
 };
 use glam::{Affine3A, Vec2, Vec3, Vec3A};
 
 /// Names accepted after `builtin:`.
-pub const NAMES: &[&str] = &["cornell", "canopy"];
+pub const NAMES: &[&str] = &["cornell", "canopy", "nlos-z", "nlos-shapes"];
 
 /// Build a built-in scene.
 pub fn load(name: &str) -> Result<Scene, SceneError> {
     let scene = match name {
         "cornell" => cornell(),
         "canopy" => canopy(),
+        "nlos-z" => nlos_z(),
+        "nlos-shapes" => nlos_shapes(),
         _ => return Err(SceneError::UnknownBuiltin(name.to_string())),
     };
     scene.validate()?;
@@ -439,6 +449,160 @@ fn canopy() -> Scene {
         objects: Vec::new(),
         notes: Vec::new(),
     }
+}
+
+/// Half the side of the NLOS scenes' relay wall, metres (the wall is 2 m x 2 m).
+pub const NLOS_WALL_HALF_M: f32 = 1.0;
+/// Distance of `nlos-z`'s Z from the relay wall, metres.
+pub const NLOS_Z_DEPTH_M: f32 = 1.0;
+
+/// The outline of tal's Z (`examples/render/meshes/Z.obj`), metres, in the plane
+/// z = const: 0.8 m square, bars 0.103 m thick, as its six triangles.
+const Z_TRIANGLES: [[(f32, f32); 3]; 6] = [
+    [(0.364_878, 0.296_774), (-0.4, 0.4), (0.364_878, 0.4)],
+    [(0.364_878, 0.296_774), (-0.164_553, 0.296_774), (-0.4, 0.4)],
+    [
+        (-0.164_553, 0.296_774),
+        (0.164_553, -0.296_774),
+        (-0.4, 0.4),
+    ],
+    [
+        (0.4, -0.4),
+        (0.164_553, -0.296_774),
+        (-0.164_553, 0.296_774),
+    ],
+    [(0.4, -0.4), (-0.4, -0.296_774), (0.164_553, -0.296_774)],
+    [(0.4, -0.4), (-0.4, -0.4), (-0.4, -0.296_774)],
+];
+
+/// The relay wall, the NLOS scenes' light and camera; `hidden` adds the hidden geometry
+/// (material 1, `white`) and returns its named parts.
+fn nlos_scene(name: &str, hidden: impl FnOnce(&mut Builder) -> Vec<(String, usize)>) -> Scene {
+    let h = NLOS_WALL_HALF_M;
+    let v = Vec3::new;
+    let mut b = Builder::default();
+    b.quad(
+        [v(-h, -h, 0.0), v(h, -h, 0.0), v(h, h, 0.0), v(-h, h, 0.0)],
+        Vec3::Z,
+        0,
+    );
+    let mut objects = vec![SceneObject {
+        name: "relay_wall".into(),
+        triangles: 0..b.triangles.len(),
+    }];
+    let mut start = b.triangles.len();
+    for (name, end) in hidden(&mut b) {
+        objects.push(SceneObject {
+            name,
+            triangles: start..end,
+        });
+        start = end;
+    }
+    // tal's default device position.
+    let device = v(-0.5, 0.0, 0.25);
+    Scene {
+        name: format!("builtin:{name}"),
+        triangles: b.triangles,
+        attrs: b.attrs,
+        materials: vec![
+            Material::lambertian("relay_wall", [1.0; 3]),
+            Material::lambertian("white", [1.0; 3]),
+        ],
+        textures: Vec::new(),
+        lights: vec![PunctualLight {
+            name: "laser".into(),
+            position: device,
+            intensity_w_per_sr: [1.0; 3],
+            spot: None,
+        }],
+        camera: Camera::look_at(v(2.6, 1.4, 2.4), v(0.0, 0.0, 0.6), 40f32.to_radians()),
+        ambient: AmbientLights::default(),
+        objects,
+        notes: Vec::new(),
+    }
+}
+
+/// tal's quickstart scene (see the module doc).
+fn nlos_z() -> Scene {
+    nlos_scene("nlos-z", |b| {
+        let z = NLOS_Z_DEPTH_M;
+        for t in Z_TRIANGLES {
+            let p = t.map(|(x, y)| Vec3::new(x, y, z));
+            // Wound to face the wall (-z).
+            let n = (p[1] - p[0]).cross(p[2] - p[0]);
+            let p = if n.z > 0.0 { [p[0], p[2], p[1]] } else { p };
+            b.triangle(p, None, 1);
+        }
+        vec![("Z".into(), b.triangles.len())]
+    })
+}
+
+/// Three shapes at different depths (see the module doc).
+fn nlos_shapes() -> Scene {
+    nlos_scene("nlos-shapes", |b| {
+        let v = Vec3::new;
+        let mut parts = Vec::new();
+        // A 0.3 m box centred at (-0.35, -0.25, 0.8 + 0.15).
+        let (c, r) = (v(-0.35, -0.25, 0.95), 0.15);
+        for axis in 0..3 {
+            for sign in [-1.0f32, 1.0] {
+                let unit = |k: usize| {
+                    let mut e = Vec3::ZERO;
+                    e[k % 3] = 1.0;
+                    e
+                };
+                let n = unit(axis) * sign;
+                let (e1, e2) = (unit(axis + 1) * r, unit(axis + 2) * r);
+                let f = c + n * r;
+                b.quad([f - e1 - e2, f + e1 - e2, f + e1 + e2, f - e1 + e2], n, 1);
+            }
+        }
+        parts.push(("box".to_string(), b.triangles.len()));
+        // A sphere of radius 0.15 m at (0.35, 0.3, 1.1): 12 x 24 latitude-longitude cells.
+        let (c, r) = (v(0.35, 0.3, 1.1), 0.15f32);
+        let (rows, cols) = (12, 24);
+        let at = |i: usize, j: usize| {
+            let th = std::f32::consts::PI * i as f32 / rows as f32;
+            let ph = std::f32::consts::TAU * j as f32 / cols as f32;
+            c + r * v(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin())
+        };
+        for i in 0..rows {
+            for j in 0..cols {
+                let (p00, p01, p10, p11) = (at(i, j), at(i, j + 1), at(i + 1, j), at(i + 1, j + 1));
+                let out = (p00 + p11) * 0.5 - c;
+                if i > 0 {
+                    let n = (p01 - p00).cross(p10 - p00);
+                    let t = if n.dot(out) < 0.0 {
+                        [p00, p10, p01]
+                    } else {
+                        [p00, p01, p10]
+                    };
+                    b.triangle(t, None, 1);
+                }
+                if i + 1 < rows {
+                    let n = (p11 - p01).cross(p10 - p01);
+                    let t = if n.dot(out) < 0.0 {
+                        [p01, p10, p11]
+                    } else {
+                        [p01, p11, p10]
+                    };
+                    b.triangle(t, None, 1);
+                }
+            }
+        }
+        parts.push(("sphere".to_string(), b.triangles.len()));
+        // A 0.4 m square tilted 30 degrees about x, centred at (0.3, -0.4, 1.3).
+        let (c, hs) = (v(0.3, -0.4, 1.3), 0.2f32);
+        let (s30, c30) = (0.5f32, 0.75f32.sqrt());
+        let (e1, e2) = (v(hs, 0.0, 0.0), v(0.0, hs * c30, hs * s30));
+        b.quad(
+            [c - e1 - e2, c + e1 - e2, c + e1 + e2, c - e1 + e2],
+            Vec3::NEG_Z,
+            1,
+        );
+        parts.push(("plate".to_string(), b.triangles.len()));
+        parts
+    })
 }
 
 #[cfg(test)]

@@ -1,0 +1,342 @@
+//! `tprf nlos SCENE --out DIR`: a non-line-of-sight capture (the transients a SPAD
+//! focused on a grid of relay-wall points records), written as tal's `nlos.hdf5`,
+//! `H.npy` and `nlos.json`.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::time::Duration;
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use tprf_core::nlos::capture::{Progress, render_capture};
+use tprf_core::nlos::files::write_capture_folder;
+use tprf_core::nlos::{CaptureSettings, Scan};
+use tprf_core::scene::{self, Channel};
+use tprf_core::units::{C_M_PER_S, format_time};
+
+use super::args::{thread_pool, time_s};
+
+#[derive(Args, Debug)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+pub struct NlosArgs {
+    #[command(subcommand)]
+    pub command: Option<NlosCommand>,
+    #[command(flatten)]
+    pub capture: CaptureArgs,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum NlosCommand {
+    /// Reconstruct the hidden scene of a capture (a folder of `tprf nlos`, or any tal
+    /// HDF5 capture file) onto a voxel volume: volume.npy [Z, Y, X] f32, volume.json and
+    /// max-intensity projections (mip_front.png, mip_top.png, mip_side.png).
+    Reconstruct(ReconstructArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct ReconstructArgs {
+    /// The capture: a `tprf nlos` output folder, or an HDF5 file in tal's format.
+    pub capture: PathBuf,
+    /// bp (back-projection), fbp (filtered back-projection), fk (f-k migration,
+    /// confocal captures) or pf (phasor fields).
+    #[arg(long, default_value = "fbp")]
+    pub method: String,
+    /// Output folder (a new or empty one, or an earlier tprf output).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// The voxel volume, CX,CY,CZ:SX,SY,SZ:NX,NY,NZ: centre (world, metres), size along
+    /// the wall's u, v and normal (metres), voxels along them. Default: the sensor
+    /// grid's extent and lattice, from the wall to the farthest depth the time axis
+    /// reaches.
+    #[arg(long)]
+    pub volume: Option<String>,
+    /// Central wavelength of the phasor-field kernel (fbp, pf), with a length unit
+    /// (m cm mm); default four grid spacings. Its Gaussian's sigma is it over sqrt(2).
+    #[arg(long)]
+    pub wavelength: Option<String>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+#[derive(Args, Debug)]
+pub struct CaptureArgs {
+    /// A .gltf/.glb path or builtin:NAME (builtin:nlos-z, builtin:nlos-shapes) holding a
+    /// planar relay wall and the hidden geometry.
+    pub scene: Option<String>,
+    /// Output folder (nlos.hdf5, H.npy, nlos.json): a new or empty one, or an earlier
+    /// tprf output (replaced whole); anything else is refused up front.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Name of the relay wall's object (its glTF node, else its mesh).
+    #[arg(long, default_value = "relay_wall")]
+    pub relay_wall: String,
+    /// Sensor points on the wall, along its u and v axes: NXxNY.
+    #[arg(long, default_value = "64x64")]
+    pub grid: String,
+    /// The laser at each sensor point in turn (the default is one fixed laser point).
+    #[arg(long, conflicts_with_all = ["exhaustive", "laser_point"])]
+    pub confocal: bool,
+    /// Every point of --laser-grid with every sensor point.
+    #[arg(long, conflicts_with = "laser_point")]
+    pub exhaustive: bool,
+    /// Laser points of an exhaustive scan: NXxNY.
+    #[arg(long, default_value = "8x8", requires = "exhaustive")]
+    pub laser_grid: String,
+    /// The one laser point, X,Y,Z metres (projected onto the wall); default the wall's centre.
+    #[arg(long)]
+    pub laser_point: Option<String>,
+    /// Laser device position X,Y,Z metres (default: tal's, 0.5 m left of the wall's
+    /// centre and 0.25 m in front).
+    #[arg(long)]
+    pub laser_origin: Option<String>,
+    /// SPAD device position X,Y,Z metres (default as --laser-origin).
+    #[arg(long)]
+    pub sensor_origin: Option<String>,
+    /// Number of time bins (default: up to the longest three-bounce path).
+    #[arg(long)]
+    pub bins: Option<usize>,
+    /// Bin width, with a unit: s ms us ns ps fs, or m cm mm km of optical path.
+    #[arg(long, default_value = "3mm")]
+    pub dt: String,
+    /// Start of the time axis, with a unit as --dt.
+    #[arg(long, default_value = "0m")]
+    pub t0: String,
+    /// Times start when the pulse hits the wall and end when light returns to it (tal's
+    /// default): the device-to-wall legs are left out. Without it they count.
+    #[arg(long)]
+    pub unwarped: bool,
+    /// Samples per sensor point (an exhaustive scan's samples serve every laser point).
+    #[arg(long, default_value_t = 256)]
+    pub spp: u32,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Largest number of scattering events in the hidden scene (the two on the wall not counted).
+    #[arg(long, default_value_t = 1024)]
+    pub max_bounces: u32,
+    /// The spectral band: red, green, blue or gray.
+    #[arg(long, default_value_t = Channel::Gray, value_parser = parse_channel)]
+    pub channel: Channel,
+    /// Worker threads (default: all cores). The output does not depend on it.
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+fn parse_channel(s: &str) -> Result<Channel, String> {
+    s.parse()
+        .map_err(|e: tprf_core::scene::UnknownChannel| e.to_string())
+}
+
+/// `NXxNY` as two counts; the error names `flag`.
+fn parse_grid(text: &str, flag: &str) -> Result<[usize; 2]> {
+    let parts: Vec<&str> = text.split(['x', 'X']).collect();
+    let [a, b] = parts.as_slice() else {
+        bail!("{flag} {text}: expected NXxNY, e.g. 64x64");
+    };
+    let n = |s: &str| {
+        s.trim()
+            .parse::<usize>()
+            .with_context(|| format!("{flag} {text}: '{s}' is not a whole number"))
+    };
+    Ok([n(a)?, n(b)?])
+}
+
+/// `X,Y,Z` metres; the error names `flag`.
+fn parse_point(text: &str, flag: &str) -> Result<[f32; 3]> {
+    let v: Vec<f32> = text
+        .split(',')
+        .map(|s| s.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("{flag} {text}: expected X,Y,Z in metres"))?;
+    match v.as_slice() {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([*x, *y, *z]),
+        _ => bail!("{flag} {text}: expected three finite numbers X,Y,Z in metres"),
+    }
+}
+
+pub fn run(a: &NlosArgs) -> Result<()> {
+    match &a.command {
+        Some(NlosCommand::Reconstruct(r)) => reconstruct(r),
+        None => capture(&a.capture),
+    }
+}
+
+fn settings_of(a: &CaptureArgs) -> Result<CaptureSettings> {
+    let grid = parse_grid(&a.grid, "--grid")?;
+    let scan = if a.confocal {
+        Scan::Confocal
+    } else if a.exhaustive {
+        let [lx, ly] = parse_grid(&a.laser_grid, "--laser-grid")?;
+        Scan::Exhaustive { lx, ly }
+    } else {
+        Scan::Single {
+            laser_point: a
+                .laser_point
+                .as_deref()
+                .map(|p| parse_point(p, "--laser-point"))
+                .transpose()?,
+        }
+    };
+    let point = |p: &Option<String>, flag| p.as_deref().map(|p| parse_point(p, flag)).transpose();
+    if a.bins == Some(0) {
+        bail!("--bins 0: a capture needs at least one time bin");
+    }
+    Ok(CaptureSettings {
+        relay_wall: a.relay_wall.clone(),
+        grid,
+        scan,
+        laser_origin: point(&a.laser_origin, "--laser-origin")?,
+        sensor_origin: point(&a.sensor_origin, "--sensor-origin")?,
+        bins: a.bins,
+        dt_s: time_s(&a.dt, "--dt")?,
+        t0_s: time_s(&a.t0, "--t0")?,
+        device_legs: !a.unwarped,
+        spp: a.spp,
+        seed: a.seed,
+        max_bounces: a.max_bounces,
+        channel: a.channel,
+    })
+}
+
+fn capture(a: &CaptureArgs) -> Result<()> {
+    let Some(scene_name) = a.scene.as_deref() else {
+        bail!("tprf nlos: give a SCENE to capture, e.g. tprf nlos builtin:nlos-z --out capture");
+    };
+    let Some(out) = a.out.as_deref() else {
+        bail!("tprf nlos {scene_name}: give the output folder with --out DIR");
+    };
+    let settings = settings_of(a)?;
+    let scene_path = std::path::Path::new(scene_name);
+    super::args::check_out("--out", out, &[scene_path])?;
+    let scene = scene::load(scene_name)?;
+    for note in &scene.notes {
+        eprintln!("note: {note}");
+    }
+    let scene = Arc::new(scene);
+    // The geometry first, so a bad wall or grid is refused before any work.
+    let geometry = tprf_core::nlos::setup::resolve(&scene, &settings)?;
+    eprintln!(
+        "relay wall '{}': {:.3} m x {:.3} m; {} sensor points, {} laser point{}; {} bins of {} ({:.4} m) from {}{}",
+        geometry.wall.name,
+        geometry.wall.width_m,
+        geometry.wall.height_m,
+        geometry.sensors.len(),
+        geometry.lasers.len(),
+        if geometry.lasers.len() == 1 { "" } else { "s" },
+        geometry.axis.bins,
+        format_time(geometry.axis.dt_s),
+        geometry.axis.dt_s * C_M_PER_S,
+        format_time(geometry.axis.t0_s),
+        if geometry.device_legs {
+            ", device legs included"
+        } else {
+            ", unwarped"
+        },
+    );
+    let pool = thread_pool(a.threads)?;
+    let progress = Progress::default();
+    let bar = ProgressBar::new(geometry.sensors.len() as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} sensor points, {elapsed} ({eta} left)")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let capture = std::thread::scope(|s| {
+        let worker =
+            s.spawn(|| pool.install(|| render_capture(scene.clone(), &settings, &progress)));
+        while !worker.is_finished() {
+            bar.set_position(progress.points_done.load(Ordering::Relaxed));
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        worker.join()
+    })
+    .map_err(|_| anyhow::anyhow!("the capture's worker thread panicked"))??;
+    bar.finish_and_clear();
+    eprintln!(
+        "rendered in {:.2} s ({:.1} M rays)",
+        capture.render_s,
+        capture.rays as f64 / 1e6
+    );
+    super::interrupt::catch();
+    super::interrupt::check()?;
+    write_capture_folder(&capture, out, &[scene_path])
+        .with_context(|| format!("writing {}", out.display()))?;
+    super::interrupt::check()?;
+    println!("{}", out.display());
+    Ok(())
+}
+
+/// Three comma-separated values of `T`; the error names the part of --volume.
+fn triple<T: std::str::FromStr>(text: &str, what: &str) -> Result<[T; 3]> {
+    let v: Vec<T> = text
+        .split(',')
+        .map(|s| s.trim().parse::<T>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| anyhow::anyhow!("--volume: {what} '{text}' is not three numbers X,Y,Z"))?;
+    v.try_into()
+        .map_err(|_| anyhow::anyhow!("--volume: {what} '{text}' is not three numbers X,Y,Z"))
+}
+
+fn reconstruct(a: &ReconstructArgs) -> Result<()> {
+    use tprf_core::nlos::files::{read_capture, write_reconstruction_folder};
+    use tprf_core::nlos::reconstruct::{self as rec, GridFrame, Method, Volume, Wave};
+    let method: Method = a
+        .method
+        .parse()
+        .map_err(|e: String| anyhow::anyhow!("--method: {e}"))?;
+    super::args::check_out("--out", &a.out, &[&a.capture])?;
+    let capture = read_capture(&a.capture)?;
+    let frame = GridFrame::of(&capture)?;
+    let volume = match &a.volume {
+        None => Volume::default_for(&capture, &frame)?,
+        Some(text) => {
+            let parts: Vec<&str> = text.split(':').collect();
+            let [c, s, n] = parts.as_slice() else {
+                bail!(
+                    "--volume {text}: expected CX,CY,CZ:SX,SY,SZ:NX,NY,NZ (centre, size, voxels)"
+                );
+            };
+            let center: [f32; 3] = triple(c, "centre")?;
+            Volume::new(
+                &frame,
+                glam::Vec3::from(center),
+                triple(s, "size")?,
+                triple(n, "voxels")?,
+            )?
+        }
+    };
+    let wave = a
+        .wavelength
+        .as_deref()
+        .map(|w| -> Result<Wave> {
+            let m = time_s(w, "--wavelength")? * C_M_PER_S;
+            Ok(Wave {
+                wavelength_m: m,
+                sigma_m: m / std::f64::consts::SQRT_2,
+            })
+        })
+        .transpose()?;
+    let pool = thread_pool(a.threads)?;
+    let r = pool.install(|| rec::reconstruct(&capture, method, &volume, wave))?;
+    let peak = r.peak();
+    let p = r.volume.voxel_center(peak[0], peak[1], peak[2]);
+    eprintln!(
+        "{}: {} x {} x {} voxels in {:.3} s; peak at voxel {:?}, ({:.3}, {:.3}, {:.3}) m",
+        method.name(),
+        r.volume.voxels[0],
+        r.volume.voxels[1],
+        r.volume.voxels[2],
+        r.seconds,
+        peak,
+        p.x,
+        p.y,
+        p.z
+    );
+    super::interrupt::catch();
+    write_reconstruction_folder(&r, &a.capture, &a.out)
+        .with_context(|| format!("writing {}", a.out.display()))?;
+    super::interrupt::check()?;
+    println!("{}", a.out.display());
+    Ok(())
+}
