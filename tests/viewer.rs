@@ -137,8 +137,8 @@ fn scrub_click_and_plot_a_pixel() {
 
     // The plot's first curve is that pixel's TPRF, bin by bin.
     let curves = h.state().plotted_curves(&snap);
-    let (name, _, values) = &curves[0];
-    assert_eq!(name, &format!("pixel ({px}, {py})"));
+    let (name, values) = (&curves[0].name, &curves[0].values);
+    assert_eq!(name, &format!("pixel (row {py}, column {px})"));
     let expected: Vec<f64> = snap.pixel(px, py).iter().map(|&v| v as f64).collect();
     assert_eq!(values.len(), bins);
     for (b, (got, want)) in values.iter().zip(&expected).enumerate() {
@@ -176,10 +176,10 @@ fn scrub_click_and_plot_a_pixel() {
         .state()
         .plotted_curves(&snap)
         .into_iter()
-        .map(|c| c.0)
+        .map(|c| c.name)
         .collect();
     assert!(
-        names.contains(&format!("pin: pixel ({px}, {py})")),
+        names.contains(&format!("pin: pixel (row {py}, column {px})")),
         "pinned curve kept: {names:?}"
     );
 }
@@ -237,7 +237,7 @@ fn images_have_colour_bars_and_a_readout_under_the_cursor() {
     let pos = pixel_pos(&h, "time slice", px, py, side, side);
     h.hover_at(pos);
     h.run_steps(2);
-    let readout = label_with(&h, &format!("pixel ({px}, {py}) · bin {peak}:"));
+    let readout = label_with(&h, &format!("row {py}, column {px} · bin {peak}:"));
     let shown = number_after(&readout, &format!("bin {peak}:"));
     let want = f64::from(tprf[peak]);
     assert!(want > 0.0);
@@ -285,7 +285,22 @@ fn the_selection_follows_a_resolution_change() {
     h.state_mut().pending.height = 48;
     h.step();
     h.get_by_label("Apply & restart").click();
-    wait_done(&mut h, Duration::from_secs(60));
+    // Every frame until the new film is done: no note that an image was shrunk to the
+    // GPU's texture limit (the steady and rainbow images keep the old film's picture for
+    // a frame or two, which once read as a texture too small for the new film).
+    let start = Instant::now();
+    while h.state().status().map(|s| s.state) != Some(WorkerState::Done)
+        || h.state().snapshot().is_none_or(|s| s.width() != 48)
+    {
+        h.step();
+        assert!(
+            h.query_by_label_contains("shown as").is_none(),
+            "a texture-limit note on a film within the limit"
+        );
+        assert!(start.elapsed() < Duration::from_secs(60), "no new film");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    h.run_steps(2);
     let snap = h.state().snapshot().unwrap();
     assert_eq!((snap.width(), snap.height()), (48, 48));
     // Pixel (x, y) of 24 holds [x/24, (x+1)/24): its centre is in pixel 2x + 1 of 48.
@@ -1142,6 +1157,61 @@ fn spad_preview_follows_an_edit_and_matches_the_full_image_at_its_pixels() {
     }
 }
 
+/// While the renderer runs, the SPAD's full image (every pixel, realisation drawn: not
+/// the preview) comes and then follows the film: newer passes are measured in their
+/// turn, the full image stays on screen meanwhile (never the preview again), and the
+/// render goes on. (It used to stay on the preview for as long as the render ran: each
+/// new snapshot restarted the full measurement, and cancelled its realisation.)
+#[test]
+fn spad_full_image_follows_a_running_render() {
+    let side = 64;
+    let mut h = harness(ViewerSettings {
+        mode: Mode::Sensor,
+        sensor: Sensor::builtin("spad").unwrap(),
+        ..small_settings("builtin:cornell", side, 64, 0)
+    });
+    let start = Instant::now();
+    // (film generation, spp) of each full image seen, in order.
+    let mut seen: Vec<(u64, u64)> = Vec::new();
+    while seen.len() < 3 {
+        assert!(
+            start.elapsed() < Duration::from_secs(150),
+            "full SPAD images of {} passes in 150 s: {seen:?}",
+            seen.len()
+        );
+        h.step();
+        std::thread::sleep(Duration::from_millis(10));
+        let Some(snap) = h.state().snapshot() else {
+            continue;
+        };
+        let sensor = &h.state().sensor;
+        match sensor.spad_image(&snap) {
+            Some(img) if img.is_sampled() => {
+                assert_eq!((img.width, img.height), (side, side));
+                let (g, spp) = sensor.shown_film(&snap).expect("the film it is of");
+                assert!(g <= snap.generation());
+                if seen.last().map(|s| s.0) != Some(g) {
+                    assert!(seen.last().is_none_or(|s| s.0 < g), "{seen:?} then {g}");
+                    seen.push((g, spp));
+                }
+            }
+            _ => assert!(
+                seen.is_empty(),
+                "after full images of {seen:?}, the window went back to the preview or to \
+                 the expected histogram alone"
+            ),
+        }
+    }
+    let status = h.state().status().expect("a render");
+    assert_eq!(status.state, WorkerState::Rendering);
+    let snap = h.state().snapshot().unwrap();
+    assert!(
+        snap.spp > seen[0].1,
+        "the render stalled: {} spp, {seen:?}",
+        snap.spp
+    );
+}
+
 /// A new resolution in SPAD mode: the histograms of the old film (another size) are
 /// never drawn over the new one; every frame until the new film's are measured shows
 /// histograms of the new film's size or none, and they come.
@@ -1324,11 +1394,18 @@ fn spad_preset_shows_the_first_photon_histogram_of_the_cached_film() {
 
 /// A cube folder rendered by `tprf render` at `w x h` pixels (4 bins, 2 spp).
 fn rendered_cube(name: &str, w: usize, h: usize) -> std::path::PathBuf {
+    rendered_cube_with(name, w, h, &["--bins", "4"])
+}
+
+/// A cube folder rendered by `tprf render builtin:cornell --spp 2` at `w x h` pixels
+/// with the further arguments `more`.
+fn rendered_cube_with(name: &str, w: usize, h: usize, more: &[&str]) -> std::path::PathBuf {
     let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
         .join(format!("viewer-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_tprf"))
-        .args(["render", "builtin:cornell", "--spp", "2", "--bins", "4"])
+        .args(["render", "builtin:cornell", "--spp", "2"])
+        .args(more)
         .args([
             "--width",
             &w.to_string(),
@@ -1345,6 +1422,110 @@ fn rendered_cube(name: &str, w: usize, h: usize) -> std::path::PathBuf {
         String::from_utf8_lossy(&out.stderr)
     );
     dir
+}
+
+/// A cube rendered with `--bounces-separate K` keeps `K + 2` bounce layers (the light
+/// seen directly, 1 ... K scattering events, more than K): the window plots a curve for
+/// each (a checkbox each, the direct one off at first), named by what it holds, and
+/// together they are the pixel's TPRF. (Only a film with exactly the window's own 3
+/// used to get curves; `--bounces-separate 2` read "no bounce layers in this film".)
+#[test]
+fn bounce_curves_follow_the_films_layers() {
+    for k in [1usize, 2, 3, 5] {
+        let dir = rendered_cube_with(
+            &format!("bounces-{k}"),
+            12,
+            12,
+            &["--bins", "48", "--bounces-separate", &k.to_string()],
+        );
+        let mut h = Harness::builder()
+            .with_size(Vec2::new(1280.0, 800.0))
+            .build_eframe(move |cc| {
+                TprfApp::with_settings(cc, ViewerSettings::default(), Start::Cube(dir))
+            });
+        h.run_steps(3);
+        let snap = h.state().snapshot().expect("the cube is shown");
+        assert_eq!(snap.layers(), k + 2);
+        h.state_mut().selection = Some(Selection::pixel(6, 4));
+        h.step();
+        // A checkbox per layer, the last "more than K".
+        for name in ["direct", "1", &format!(">{k}")] {
+            assert!(
+                h.query_all_by_label(name).next().is_some(),
+                "K = {k}: no checkbox {name}"
+            );
+        }
+        // Direct is off at first: K + 1 dashed curves; with it on, K + 2.
+        let dashed = |h: &Harness<'static, TprfApp>| -> Vec<String> {
+            h.state()
+                .plotted_curves(&snap)
+                .into_iter()
+                .filter(|c| c.dashed)
+                .map(|c| c.name)
+                .collect()
+        };
+        let names = dashed(&h);
+        assert_eq!(names.len(), k + 1, "K = {k}: {names:?}");
+        assert_eq!(names.first().map(String::as_str), Some("1 bounce"));
+        assert_eq!(names.last(), Some(&format!(">{k} bounces")));
+        h.get_by_label("direct").click();
+        h.step();
+        let curves = h.state().plotted_curves(&snap);
+        let names = dashed(&h);
+        assert_eq!(names.len(), k + 2, "K = {k}: {names:?}");
+        // The layers partition the paths: their curves sum to the pixel's TPRF.
+        let total = &curves[0].values;
+        for (b, t) in total.iter().enumerate() {
+            let sum: f64 = curves
+                .iter()
+                .filter(|c| c.dashed)
+                .map(|c| c.values[b])
+                .sum();
+            assert!(
+                (sum - t).abs() <= 1e-4 * t.abs().max(1e-9),
+                "K = {k}, bin {b}: layers {sum}, total {t}"
+            );
+        }
+        assert!(total.iter().sum::<f64>() > 0.0, "K = {k}: a dark pixel");
+    }
+}
+
+/// A new scene opens where its light is (the scrubber was left on a late bin, after
+/// the light had passed: a black image); a restart of the same scene keeps the bin.
+#[test]
+fn a_new_scene_opens_where_its_light_is() {
+    let bins = 64;
+    let mut h = harness(small_settings("builtin:cornell", 24, bins, 2));
+    wait_done(&mut h, Duration::from_secs(60));
+    h.state_mut().playing = false;
+    h.state_mut().bin = 40;
+    h.get_by_label("⟲ Restart").click();
+    wait_done(&mut h, Duration::from_secs(60));
+    assert_eq!(
+        h.state().bin,
+        40,
+        "a restart of the same scene keeps its bin"
+    );
+    h.state_mut().bin = bins - 1;
+    h.get_by_label("builtin:canopy").click();
+    let start = Instant::now();
+    while h.state().status().map(|s| s.state) != Some(WorkerState::Done)
+        || h.state().settings.scene != "builtin:canopy"
+    {
+        h.step();
+        assert!(start.elapsed() < Duration::from_secs(120), "no canopy");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    h.run_steps(2);
+    let snap = h.state().snapshot().unwrap();
+    let energy = |b: usize| snap.slice(b).iter().map(|&v| f64::from(v)).sum::<f64>();
+    let brightest = (0..snap.axis().bins).map(energy).fold(0.0, f64::max);
+    let bin = h.state().bin;
+    assert!(
+        energy(bin) >= 0.1 * brightest && brightest > 0.0,
+        "the new scene opens on bin {bin}: {} of the brightest slice's {brightest}",
+        energy(bin)
+    );
 }
 
 /// A cube wider than the GPU's largest texture (`tprf render --width 9000 --height 2`,

@@ -25,6 +25,11 @@ pub struct TprfApp {
     pub(super) source: Source,
     /// The scrubber's bin.
     pub bin: usize,
+    /// Whether the scrubber goes to where the light is ([`super::timeline::light_bin`])
+    /// on the next film: a new scene, window or cube, not a restart of the same one.
+    pub(super) seek_light: bool,
+    /// The scene and window the scrubber's bin was chosen for.
+    pub(super) light_key: Option<String>,
     pub playing: bool,
     /// Bins of playback not yet stepped (a fraction of one).
     pub(super) play_accum: f32,
@@ -94,6 +99,8 @@ impl TprfApp {
             settings,
             source: Source::None,
             bin: 0,
+            seek_light: true,
+            light_key: None,
             // Light starts to move at once.
             playing: true,
             play_accum: 0.0,
@@ -116,6 +123,7 @@ impl TprfApp {
             path_prompt: None,
             ctx: cc.egui_ctx.clone(),
         };
+        app.sensor.set_waker(cc.egui_ctx.clone());
         match start {
             Start::Default => app.restart(),
             Start::Scene(s) => {
@@ -236,6 +244,12 @@ impl eframe::App for TprfApp {
         }
         if let Some(s) = &snap {
             self.follow_film_size(s.width(), s.height());
+            if self.seek_light
+                && let Some(b) = super::timeline::light_bin(s.peak_bins())
+            {
+                self.bin = b.min(bins.saturating_sub(1));
+                self.seek_light = false;
+            }
         }
         self.handle_keys(&ctx, bins);
         self.advance_playback(&ctx, bins);

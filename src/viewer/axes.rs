@@ -6,6 +6,8 @@
 /// Unit of a bin of the cube: the integral over the bin of the radiance, for a pulse of
 /// unit energy.
 pub const BIN_UNIT: &str = "W m⁻² sr⁻¹ s";
+/// [`BIN_UNIT`] in ASCII, for file headers.
+pub const BIN_UNIT_ASCII: &str = "W m^-2 sr^-1 s";
 /// Unit of the steady image (the sum over bins).
 pub const STEADY_UNIT: &str = "W m⁻² sr⁻¹";
 

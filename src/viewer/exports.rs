@@ -170,26 +170,29 @@ impl TprfApp {
         }
     }
 
-    /// Write the plotted curves to `path`: one row per bin with its start (s), centre
-    /// (ns) and optical path length (m), one column per curve.
+    /// Write the plotted curves to `path`: one row per bin with its start and centre
+    /// (s) and the optical path length at its centre (m), then one column per curve
+    /// named with its unit (radiance per bin, W m^-2 sr^-1 s per unit pulse energy).
     pub(super) fn export_csv(&mut self, snap: &FilmSnapshot, path: &Path) {
         let curves = self.plotted_curves(snap);
         let axis = *snap.axis();
-        let mut header: Vec<String> = ["bin", "t_start_s", "t_center_ns", "opl_m"]
+        let mut header: Vec<String> = ["bin", "t_start_s", "t_centre_s", "opl_centre_m"]
             .map(String::from)
             .into();
-        header.extend(
-            curves
-                .iter()
-                .map(|(name, _, _)| format!("\"{}\"", name.replace('"', "'"))),
-        );
+        header.extend(curves.iter().map(|c| {
+            format!(
+                "\"{} [{}]\"",
+                c.name.replace('"', "'"),
+                super::axes::BIN_UNIT_ASCII
+            )
+        }));
         let rows = (0..axis.bins).map(|b| {
             let t_s = axis.bin_center_s(b);
-            let mut row = vec![b as f64, axis.bin_start_s(b), t_s * 1e9, t_s * C_M_PER_S];
+            let mut row = vec![b as f64, axis.bin_start_s(b), t_s, t_s * C_M_PER_S];
             row.extend(
                 curves
                     .iter()
-                    .map(|(_, _, v)| v.get(b).copied().unwrap_or(0.0)),
+                    .map(|c| c.values.get(b).copied().unwrap_or(0.0)),
             );
             row
         });

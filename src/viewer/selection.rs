@@ -68,13 +68,15 @@ impl Selection {
         out.clamped(to.0, to.1)
     }
 
-    /// "pixel (x, y)" or "box (x0, y0)–(x1, y1)": the name of its curve.
+    /// "pixel (row y, column x)" or "box (rows y0–y1, columns x0–x1)": the name of its
+    /// curve. Rows count from the top, columns from the left, both from 0, as
+    /// `tprf sensor --pixel ROW,COLUMN` takes them.
     pub(super) fn label(&self) -> String {
         let s = self.normalized();
         if s.x0 == s.x1 && s.y0 == s.y1 {
-            format!("pixel ({}, {})", s.x0, s.y0)
+            format!("pixel (row {}, column {})", s.y0, s.x0)
         } else {
-            format!("box ({}, {})–({}, {})", s.x0, s.y0, s.x1, s.y1)
+            format!("box (rows {}–{}, columns {}–{})", s.y0, s.y1, s.x0, s.x1)
         }
     }
 

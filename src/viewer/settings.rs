@@ -43,8 +43,9 @@ pub struct ViewerSettings {
     pub log_image: bool,
     pub colormap: ColorMap,
     pub plot_log: bool,
-    /// Per-bounce curves shown: 1, 2, 3, >3 scattering events.
-    pub show_bounces: [bool; 4],
+    /// Per-bounce curves shown, by bounce layer (0: the light seen directly, off by
+    /// default; the others on); a layer past the end takes its default.
+    pub bounces_shown: Vec<bool>,
     /// What the steady block shows: the steady image, or the scene's ambient image
     /// (W m^-2 sr^-1) when it has one, or the samples each pixel drew.
     pub steady_block: SteadyBlock,
@@ -98,7 +99,7 @@ impl Default for ViewerSettings {
             log_image: false,
             colormap: ColorMap::Inferno,
             plot_log: false,
-            show_bounces: [true, true, true, true],
+            bounces_shown: Vec::new(),
             steady_block: SteadyBlock::Steady,
             mode: Mode::Transient,
             sensor: Sensor::builtin("lidar").expect("the built-in LiDAR preset parses"),
@@ -127,6 +128,8 @@ impl ViewerSettings {
         {
             self.sky_radiance_w_m2_sr = None;
         }
+        // No film has more bounce layers than bounces, nor the window more than this.
+        self.bounces_shown.truncate(1024);
         if !self.ev.is_finite() {
             self.ev = 0.0;
         }
@@ -134,6 +137,20 @@ impl ViewerSettings {
             self.error_target_pct = 0.0;
         }
         self
+    }
+
+    /// Whether the curve of bounce layer `l` is shown (see [`Self::bounces_shown`]).
+    pub fn bounce_shown(&self, l: usize) -> bool {
+        self.bounces_shown.get(l).copied().unwrap_or(l > 0)
+    }
+
+    /// Show or hide the curve of bounce layer `l`.
+    pub fn set_bounce_shown(&mut self, l: usize, on: bool) {
+        while self.bounces_shown.len() <= l {
+            let k = self.bounces_shown.len();
+            self.bounces_shown.push(k > 0);
+        }
+        self.bounces_shown[l] = on;
     }
 
     /// These settings with the render ones (scene, size, window, spp, bounces, band,

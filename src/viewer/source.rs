@@ -71,6 +71,14 @@ impl TprfApp {
     pub(super) fn restart(&mut self) {
         match self.settings.job() {
             Ok(job) => {
+                // A new scene or window opens where its light is; a restart of the same
+                // keeps the scrubber's bin.
+                let s = &self.settings;
+                let key = format!("{}|{}|{}|{}", s.scene, s.t0, s.dt, s.bins);
+                if self.light_key.as_ref() != Some(&key) {
+                    self.seek_light = true;
+                    self.light_key = Some(key);
+                }
                 let ctx = self.ctx.clone();
                 self.source = Source::Live(RenderWorker::spawn(job, move || ctx.request_repaint()));
             }
@@ -96,6 +104,8 @@ impl TprfApp {
         match loaded {
             Ok((meta, snapshot, ambient)) => {
                 self.bin = self.bin.min(snapshot.axis().bins.saturating_sub(1));
+                self.seek_light = true;
+                self.light_key = None;
                 self.source = Source::Cube {
                     dir: dir.to_path_buf(),
                     snapshot: Arc::new(snapshot),

@@ -59,16 +59,20 @@ pub(crate) fn fit_texture(image: egui::ColorImage, max_side: usize) -> egui::Col
     egui::ColorImage::new([nw, nh], pixels)
 }
 
-/// Under an image of `w x h` film pixels drawn from `tex`: a note when the texture had
-/// to be shrunk to the GPU's limit (see [`fit_texture`]).
-pub(crate) fn shrunk_note_ui(ui: &mut egui::Ui, tex: &TextureHandle, w: usize, h: usize) {
-    let [tw, th] = tex.size();
-    if tw < w || th < h {
+/// Under an image of `w x h` film pixels: a note when its texture had to be shrunk to
+/// the GPU's limit (see [`fit_texture`]), which happens exactly when a side of the
+/// film exceeds it. (Not from the texture's own size: the steady and rainbow images
+/// keep the last film's picture for a frame or two after a restart at another size.)
+pub(crate) fn shrunk_note_ui(ui: &mut egui::Ui, w: usize, h: usize) {
+    let max_side = ui.ctx().input(|i| i.max_texture_side).max(1);
+    if w > max_side || h > max_side {
+        let k = w.div_ceil(max_side).max(h.div_ceil(max_side));
         ui.label(
             egui::RichText::new(format!(
-                "{w} x {h} pixels shown as {tw} x {th}: the GPU's largest texture is {} \
-                 texels a side (picking and the plots use every pixel)",
-                ui.ctx().input(|i| i.max_texture_side)
+                "{w} x {h} pixels shown as {} x {}: the GPU's largest texture is \
+                 {max_side} texels a side (picking and the plots use every pixel)",
+                w.div_ceil(k),
+                h.div_ceil(k)
             ))
             .small()
             .color(ui.visuals().warn_fg_color),

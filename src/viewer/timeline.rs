@@ -55,6 +55,20 @@ pub fn nice_ticks_s(t0_s: f64, t1_s: f64, max_ticks: usize) -> (Vec<f64>, usize)
     (ticks, decimals)
 }
 
+/// The bin a new film opens on, "where its light is": the median of the lit pixels'
+/// peak bins (`peaks`, per pixel, `None` for a dark pixel). Half the image has had its
+/// brightest moment by then, so the slice shows the scene lit, neither before the light
+/// has come nor after it has passed. `None` when no pixel is lit.
+pub fn light_bin(peaks: &[Option<u32>]) -> Option<usize> {
+    let mut lit: Vec<u32> = peaks.iter().flatten().copied().collect();
+    if lit.is_empty() {
+        return None;
+    }
+    let mid = lit.len() / 2;
+    let (_, median, _) = lit.select_nth_unstable(mid);
+    Some(*median as usize)
+}
+
 /// Bin centre time in ns and optical path length in m, for labels.
 pub fn bin_label(axis: &TimeAxis, b: usize) -> String {
     let t = axis.bin_center_s(b);
@@ -79,6 +93,16 @@ mod tests {
         assert_eq!(d, 4);
         assert!(nice_ticks_s(1.0, 1.0, 5).0.is_empty());
         assert!(nice_ticks_s(0.0, f64::NAN, 5).0.is_empty());
+    }
+
+    #[test]
+    fn a_new_film_opens_where_most_pixels_have_peaked() {
+        // Peaks at 3, 5, 9, 40 and two dark pixels: the median of the lit is 9.
+        let peaks = [Some(40), None, Some(3), Some(9), None, Some(5)];
+        assert_eq!(light_bin(&peaks), Some(9));
+        assert_eq!(light_bin(&[Some(7)]), Some(7));
+        assert_eq!(light_bin(&[None, None]), None);
+        assert_eq!(light_bin(&[]), None);
     }
 
     #[test]

@@ -75,7 +75,7 @@ impl TprfApp {
         let scale = size.x / snap.width().max(1) as f32;
         let response = ui.add(egui::Image::new((tex.id(), size)).sense(Sense::click_and_drag()));
         response.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Image, true, label));
-        crate::viewer::textures::shrunk_note_ui(ui, &tex, snap.width(), snap.height());
+        crate::viewer::textures::shrunk_note_ui(ui, snap.width(), snap.height());
         let to_pixel = |pos: egui::Pos2| -> (usize, usize) {
             let p = (pos - response.rect.min) / scale;
             (
@@ -163,7 +163,7 @@ impl TprfApp {
             _ => String::new(),
         };
         format!(
-            "pixel ({x}, {y}) · bin {}: {} · steady {} · {peak}{samples}",
+            "row {y}, column {x} · bin {}: {} · steady {} · {peak}{samples}",
             self.bin,
             axes::format_value(f64::from(v), BIN_UNIT),
             axes::format_value(steady, STEADY_UNIT),

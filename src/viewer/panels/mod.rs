@@ -32,13 +32,29 @@ const PIN_COLORS: [Color32; 6] = [
     Color32::from_rgb(0x30, 0x50, 0xff),
 ];
 
-/// The per-bounce curves (drawn dashed): 1, 2, 3, more than 3 scattering events.
-const BOUNCE_COLORS: [Color32; 4] = [
+/// The per-bounce curves (drawn dashed): the light seen directly, ...
+const DIRECT_COLOR: Color32 = Color32::from_rgb(0xa0, 0xf8, 0xf8);
+/// ... 1, 2, 3 ... scattering events (round again past the sixth) ...
+const BOUNCE_COLORS: [Color32; 6] = [
     Color32::from_rgb(0xff, 0x50, 0x50),
     Color32::from_rgb(0x6c, 0xe0, 0x4c),
     Color32::from_rgb(0xa8, 0x78, 0xff),
-    Color32::from_rgb(0xb4, 0xb4, 0xb4),
+    Color32::from_rgb(0xb8, 0x00, 0xc8),
+    Color32::from_rgb(0xb8, 0xc8, 0x00),
+    Color32::from_rgb(0x00, 0xa0, 0xe0),
 ];
+/// ... and more than the film keeps apart (its last layer).
+const REST_COLOR: Color32 = Color32::from_rgb(0xb4, 0xb4, 0xb4);
+
+/// The colour of bounce layer `l` of a film with `layers` of them (layer 0 direct, the
+/// last "more than K"; see [`plot::bounce_layer_name`]).
+fn bounce_color(l: usize, layers: usize) -> Color32 {
+    match l {
+        0 => DIRECT_COLOR,
+        l if l + 1 == layers => REST_COLOR,
+        l => BOUNCE_COLORS[(l - 1) % BOUNCE_COLORS.len()],
+    }
+}
 
 /// The scrubber's bin, on the ruler and on the plot: white, like no curve.
 const SCRUBBER_COLOR: Color32 = Color32::from_rgb(0xff, 0xff, 0xff);
@@ -54,6 +70,7 @@ mod tests {
         let all: Vec<Color32> = PIN_COLORS
             .iter()
             .chain(&BOUNCE_COLORS)
+            .chain([&DIRECT_COLOR, &REST_COLOR])
             .chain(std::iter::once(&SCRUBBER_COLOR))
             .copied()
             .collect();

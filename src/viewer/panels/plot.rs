@@ -2,7 +2,7 @@
 //! curves and the pins (drag on it to scrub); in sensor mode the envelope editor and the
 //! selected pixel's TPRF * Light and M_i.
 
-use super::{BOUNCE_COLORS, PIN_COLORS, SCRUBBER_COLOR};
+use super::{PIN_COLORS, SCRUBBER_COLOR, bounce_color};
 use crate::viewer::app::TprfApp;
 use crate::viewer::axes::{self, BIN_UNIT};
 use crate::viewer::files::FileAction;
@@ -14,35 +14,63 @@ use egui_plot::{Legend, Line, Plot, PlotPoints, VLine};
 use tprf_core::film::{FilmSnapshot, TimeAxis};
 use tprf_core::units::C_M_PER_S;
 
-/// Layers a film needs for the per-bounce curves: direct, 1, 2, 3, more than 3.
-const BOUNCE_LAYERS: usize = 5;
+/// One curve of the TPRF plot: its legend name, colour, value per bin, and whether it
+/// is a bounce layer's (drawn dashed, thinner).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Curve {
+    pub name: String,
+    pub color: Color32,
+    pub values: Vec<f64>,
+    pub dashed: bool,
+}
+
+/// The name of bounce layer `l` of a film with `layers` of them ([`FilmLayout`]:
+/// layer 0 the emitter seen directly, `1..=K` that many scattering events, `K + 1`
+/// more than `K`, for `K = layers - 2`), long (a legend's) or short (a checkbox's).
+///
+/// [`FilmLayout`]: tprf_core::film::FilmLayout
+pub fn bounce_layer_name(l: usize, layers: usize, long: bool) -> String {
+    let k = layers.saturating_sub(2);
+    match (l, long) {
+        (0, true) => "direct (0 bounces)".into(),
+        (0, false) => "direct".into(),
+        (l, true) if l > k => format!(">{k} bounces"),
+        (l, false) if l > k => format!(">{k}"),
+        (1, true) => "1 bounce".into(),
+        (l, true) => format!("{l} bounces"),
+        (l, false) => l.to_string(),
+    }
+}
 
 impl TprfApp {
-    /// The curves the TPRF plot shows: (name, colour, values per bin).
-    pub fn plotted_curves(&self, snap: &FilmSnapshot) -> Vec<(String, Color32, Vec<f64>)> {
+    /// The curves the TPRF plot shows: the selection's, its bounce layers' (those the
+    /// film has and the plot shows), the pins'.
+    pub fn plotted_curves(&self, snap: &FilmSnapshot) -> Vec<Curve> {
         let mut curves = Vec::new();
         if let Some(sel) = &self.selection {
-            curves.push((sel.label(), PIN_COLORS[0], sel.tprf(snap, None)));
-            if snap.layers() >= BOUNCE_LAYERS {
-                // Layers: 0 direct, 1, 2, 3, 4 = more than 3.
-                for (k, show) in self.settings.show_bounces.iter().enumerate() {
-                    if *show {
-                        let name = if k == 3 {
-                            ">3 bounces".to_string()
-                        } else {
-                            format!("{} bounce{}", k + 1, if k == 0 { "" } else { "s" })
-                        };
-                        curves.push((name, BOUNCE_COLORS[k], sel.tprf(snap, Some(k + 1))));
-                    }
-                }
+            curves.push(Curve {
+                name: sel.label(),
+                color: PIN_COLORS[0],
+                values: sel.tprf(snap, None),
+                dashed: false,
+            });
+            let layers = snap.layers();
+            for l in (0..layers).filter(|&l| self.settings.bounce_shown(l)) {
+                curves.push(Curve {
+                    name: bounce_layer_name(l, layers, true),
+                    color: bounce_color(l, layers),
+                    values: sel.tprf(snap, Some(l)),
+                    dashed: true,
+                });
             }
         }
         for (i, p) in self.pins.iter().enumerate() {
-            curves.push((
-                format!("pin: {}", p.label()),
-                PIN_COLORS[(i + 1) % PIN_COLORS.len()],
-                p.tprf(snap, None),
-            ));
+            curves.push(Curve {
+                name: format!("pin: {}", p.label()),
+                color: PIN_COLORS[(i + 1) % PIN_COLORS.len()],
+                values: p.tprf(snap, None),
+                dashed: false,
+            });
         }
         curves
     }
@@ -52,14 +80,23 @@ impl TprfApp {
         ui.heading("TPRF");
         ui.horizontal_wrapped(|ui| {
             ui.checkbox(&mut self.settings.plot_log, "log");
-            // Bounce curves only where the film has the layers.
-            if snap.layers() >= BOUNCE_LAYERS {
-                ui.label("bounces:");
-                for (k, name) in ["1", "2", "3", ">3"].iter().enumerate() {
-                    ui.checkbox(
-                        &mut self.settings.show_bounces[k],
-                        RichText::new(*name).color(BOUNCE_COLORS[k]),
-                    );
+            // A curve per bounce layer the film has (none without layers).
+            let layers = snap.layers();
+            if layers > 0 {
+                ui.label("bounces:").on_hover_text(
+                    "the selection's TPRF split by scattering events (the film's bounce \
+                     layers): direct is the light seen straight from an emitter",
+                );
+                for l in 0..layers {
+                    let mut on = self.settings.bounce_shown(l);
+                    let name = bounce_layer_name(l, layers, false);
+                    if ui
+                        .checkbox(&mut on, RichText::new(name).color(bounce_color(l, layers)))
+                        .changed()
+                    {
+                        self.settings.set_bounce_shown(l, on);
+                        self.pending.bounces_shown = self.settings.bounces_shown.clone();
+                    }
                 }
             } else {
                 ui.label(RichText::new("no bounce layers in this film").weak());
@@ -103,7 +140,7 @@ impl TprfApp {
         let log_floor = log.then(|| {
             let max = curves
                 .iter()
-                .flat_map(|c| c.2.iter())
+                .flat_map(|c| c.values.iter())
                 .fold(0.0f64, |m, &v| m.max(v));
             if max > 0.0 { max * 1e-6 } else { 1e-30 }
         });
@@ -138,11 +175,12 @@ impl TprfApp {
             .include_x(axis.end_s() * 1e9);
         let width_px = ui.available_width();
         let response = plotting::time_plot(plot, &y_label, log).show(ui, |plot_ui| {
-            for (name, color, values) in &curves {
-                let bounce = BOUNCE_COLORS.contains(color);
-                let pts = step_points(&axis, values, log_floor, width_px);
-                let line = Line::new(name.clone(), pts).color(*color).allow_band(false);
-                plot_ui.line(if bounce {
+            for c in &curves {
+                let pts = step_points(&axis, &c.values, log_floor, width_px);
+                let line = Line::new(c.name.clone(), pts)
+                    .color(c.color)
+                    .allow_band(false);
+                plot_ui.line(if c.dashed {
                     line.style(egui_plot::LineStyle::dashed_dense()).width(1.2)
                 } else {
                     line.width(1.8)
@@ -179,7 +217,7 @@ impl TprfApp {
         let tprf: Vec<f32> = sel.tprf(snap, None).into_iter().map(|v| v as f32).collect();
         // With noise once all gates are measured; until then the clean values.
         let m_pixel = match self.sensor.measurements() {
-            Some(m) if self.sensor.is_current(snap) => m.pixel(sel.y0, sel.x0),
+            Some(m) if self.sensor.shows_full(snap) => m.pixel(sel.y0, sel.x0),
             _ => Vec::new(),
         };
         let h = ui.available_height();

@@ -118,10 +118,18 @@ fn spad_images(
         None => ui.label(
             RichText::new(format!(
                 "{:.3e} detections expected; realisation: {} ({sampled}); expected histogram \
-                 and depth measured in {:.0} ms",
+                 and depth measured in {:.0} ms{}",
                 img.expected_detections,
                 img.sampler.name(),
-                state.measured.as_ref().map_or(0.0, |m| m.millis)
+                state.measured.as_ref().map_or(0.0, |m| m.millis),
+                match state.shown_film(snap) {
+                    Some((g, spp)) if g != snap.generation() => format!(
+                        ", of the film at {spp} spp (it is at {} now: the next measurement \
+                         follows)",
+                        snap.spp
+                    ),
+                    _ => String::new(),
+                }
             ))
             .weak(),
         ),
@@ -249,7 +257,7 @@ fn spad_images(
         Some((x, y)) => {
             let i = y * w + x;
             let mut s = format!(
-                "pixel ({x}, {y}) · bin {bin}: {} counts",
+                "row {y}, column {x} · bin {bin}: {} counts",
                 axes::format_value(f64::from(plane.get(i).copied().unwrap_or(0.0)), "")
             );
             match depth.get(i) {
@@ -395,7 +403,7 @@ fn measurement_images(
         ui.label(state.error.clone().unwrap_or_else(|| "Measuring…".into()));
         return out;
     };
-    let current = state.is_current(snap);
+    let current = state.shows_full(snap);
     let gates = model.gate_count();
     let gate = state.gate.min(gates.saturating_sub(1));
     // Keys on the snapshot's generation (never its address) and the sensor.
@@ -412,7 +420,14 @@ fn measurement_images(
         .or_else(|| colormap::quantile_positive(plane.iter().copied(), 0.999));
     let plane_key = hash(&(snap.generation(), model.sensor(), gate, current, white));
     let status = match measured {
-        Some(m) if current => format!("all {gates} gates measured in {:.0} ms", m.millis),
+        Some(m) if current && m.snapshot == snap.generation() => {
+            format!("all {gates} gates measured in {:.0} ms", m.millis)
+        }
+        Some(m) if current => format!(
+            "all {gates} gates measured in {:.0} ms, of the film at {} spp (it is at {} now: \
+             the next measurement follows)",
+            m.millis, m.spp, snap.spp
+        ),
         _ => {
             let plane_ms = state.plane.as_ref().map_or(0.0, |p| p.millis);
             format!("gate {gate} measured in {plane_ms:.1} ms; all gates updating…")
@@ -744,7 +759,7 @@ fn readout(
 ) -> String {
     let i = y * snap.width() + x;
     let mut s = format!(
-        "pixel ({x}, {y}) · M_{gate} = {}",
+        "row {y}, column {x} · M_{gate} = {}",
         axes::format_value(f64::from(plane.get(i).copied().unwrap_or(0.0)), BIN_UNIT)
     );
     // The depth images on screen are the latest full measurement's (a pass behind
@@ -839,7 +854,7 @@ fn pick(
             (p.y.max(0.0) as usize).min(h.saturating_sub(1)),
         )
     };
-    crate::viewer::textures::shrunk_note_ui(ui, tex, w, h);
+    crate::viewer::textures::shrunk_note_ui(ui, w, h);
     let clicked = r
         .interact_pointer_pos()
         .filter(|_| r.clicked())

@@ -157,8 +157,9 @@ fn spad_depth(image: &SpadImage, view: SpadView) -> &[f32] {
 
 /// The measurements of one (snapshot, sensor) pair and what is derived from them.
 pub(super) struct Measured {
-    /// The film's [`FilmSnapshot::generation`].
+    /// The film's [`FilmSnapshot::generation`], and its samples per pixel.
     pub(super) snapshot: u64,
+    pub(super) spp: u64,
     pub(super) sensor: Sensor,
     /// The ambient image it was measured with (compared by identity).
     pub(super) ambient: Option<Arc<AmbientImage>>,
@@ -226,6 +227,8 @@ pub(super) fn preview_step(w: usize, h: usize, bins: usize) -> usize {
 /// A SPAD's preview for (snapshot, sensor, ambient): [`preview_spad`].
 pub(super) struct SpadPreview {
     pub(super) snapshot: u64,
+    /// The film's width and height.
+    pub(super) film_size: (usize, usize),
     pub(super) sensor: Sensor,
     pub(super) ambient: Option<Arc<AmbientImage>>,
     pub(super) spad: SpadMeasured,
@@ -275,6 +278,7 @@ pub(super) fn preview_spad(
     spad.step = s;
     Ok(SpadPreview {
         snapshot: snap.generation(),
+        film_size: (w, h),
         sensor: model.sensor().clone(),
         ambient: ambient_image,
         spad,
@@ -363,20 +367,28 @@ pub(super) fn brightest_gate(model: &SensorModel, snap: &FilmSnapshot) -> Option
 
 /// Nice value of [`background_pool`]'s threads: the UI thread and the SPAD preview
 /// (nice 0) are scheduled before them when both want a core (Linux's fair scheduler
-/// weighs nice 5 at a third of nice 0), the renderer's threads (nice 10) after them.
+/// weighs nice 5 at a third of nice 0), the renderer's threads (nice 10) after them:
+/// what an edit asks for comes first.
 const BACKGROUND_NICE: i32 = 5;
 
-/// Lower the calling thread's priority to [`BACKGROUND_NICE`] (Linux, where a nice
-/// value is per thread; elsewhere nothing). Lowering needs no privilege.
-fn below_the_preview() {
+/// Nice value of [`follow_pool`]'s threads: below the renderer's (nice 10, which
+/// Linux weighs at three times nice 15), so measuring each new pass of the film does
+/// not slow the render that makes it.
+const FOLLOW_NICE: i32 = 15;
+
+/// Lower the calling thread's priority to `nice` (Linux, where a nice value is per
+/// thread; elsewhere nothing). Lowering needs no privilege; raising it back would.
+fn lower_priority(nice: i32) {
     #[cfg(target_os = "linux")]
     // SAFETY: setpriority with `who = 0` changes only the calling thread's nice value.
     unsafe {
-        libc::setpriority(libc::PRIO_PROCESS, 0, BACKGROUND_NICE);
+        libc::setpriority(libc::PRIO_PROCESS, 0, nice);
     }
+    #[cfg(not(target_os = "linux"))]
+    let _ = nice;
 }
 
-/// Threads for the background measurements: half the cores, at [`BACKGROUND_NICE`].
+/// Threads for the measurements after an edit: half the cores, at [`BACKGROUND_NICE`].
 pub(super) fn background_pool() -> Option<&'static rayon::ThreadPool> {
     static POOL: std::sync::OnceLock<Option<rayon::ThreadPool>> = std::sync::OnceLock::new();
     POOL.get_or_init(|| {
@@ -384,7 +396,23 @@ pub(super) fn background_pool() -> Option<&'static rayon::ThreadPool> {
         rayon::ThreadPoolBuilder::new()
             .num_threads((n / 2).max(1))
             .thread_name(|i| format!("tprf-sensor-{i}"))
-            .start_handler(|_| below_the_preview())
+            .start_handler(|_| lower_priority(BACKGROUND_NICE))
+            .build()
+            .ok()
+    })
+    .as_ref()
+}
+
+/// Threads for measuring a newer pass of the film with an unchanged sensor: half the
+/// cores, at [`FOLLOW_NICE`].
+pub(super) fn follow_pool() -> Option<&'static rayon::ThreadPool> {
+    static POOL: std::sync::OnceLock<Option<rayon::ThreadPool>> = std::sync::OnceLock::new();
+    POOL.get_or_init(|| {
+        let n = std::thread::available_parallelism().map_or(1, |n| n.get());
+        rayon::ThreadPoolBuilder::new()
+            .num_threads((n / 2).max(1))
+            .thread_name(|i| format!("tprf-follow-{i}"))
+            .start_handler(|_| lower_priority(FOLLOW_NICE))
             .build()
             .ok()
     })
@@ -449,6 +477,7 @@ pub(super) fn measure_all(
     });
     let mut measured = Measured {
         snapshot: snap.generation(),
+        spp: snap.spp,
         sensor: model.sensor().clone(),
         ambient: ambient_image.clone(),
         m,

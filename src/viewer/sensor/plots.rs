@@ -174,7 +174,7 @@ fn spad_plot_ui(
     let curve = |v: &[f32]| bin_steps(centres, width_s, v.iter().map(|&v| f64::from(v)));
     let shown = centres.get(state.gate).copied();
     ui.label(RichText::new(format!(
-        "SPAD histogram of pixel ({y}, {x}) over {} cycles: expected (piled up), one \
+        "SPAD histogram of pixel (row {y}, column {x}) over {} cycles: expected (piled up), one \
              realisation, its Coates estimate, and N r_k without pile-up",
         model.sensor().spad.as_ref().map_or(0, |s| s.cycles)
     )));

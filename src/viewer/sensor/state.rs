@@ -5,14 +5,15 @@
 use super::handles::Handle;
 use super::measure::{
     Measured, SpadMeasured, SpadPreview, SpadView, Stage, background_pool, brightest_gate,
-    measure_all, preview_pool, preview_spad, sample_spad, shared_white,
+    follow_pool, measure_all, preview_pool, preview_spad, sample_spad, shared_white,
 };
 use super::view::TimeView;
 use crate::viewer::textures::TextureCache;
+use eframe::egui;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, TryRecvError, channel};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 use tprf_core::film::FilmSnapshot;
 use tprf_core::sensor::{Measurements, NoiseField, PixelTrace, Sensor, SensorModel};
 use tprf_core::transport::ambient::AmbientImage;
@@ -38,6 +39,19 @@ pub(super) struct Plane {
     pub(super) millis: f64,
 }
 
+/// A measurement of all gates running on a background thread: what it sends back, how
+/// to cancel it, the sensor it measures and when it started.
+struct Job {
+    rx: Receiver<Stage>,
+    cancel: Arc<AtomicBool>,
+    sensor: Sensor,
+    started: Instant,
+    /// Whether it measures a newer pass of the film for the sensor already shown: then
+    /// its first stage waits for its realisation ([`SensorState::pending`]), so the
+    /// shown image never falls back from a realisation to the expected histogram.
+    follow: bool,
+}
+
 /// What the sensor tab keeps between frames: the model with its kernels, the latest
 /// measurements and their textures. The sensor being edited lives in the settings.
 ///
@@ -51,16 +65,26 @@ pub(super) struct Plane {
 /// Until the SPAD's histograms are those of the current sensor, a preview of them on
 /// a coarse grid of pixels ([`preview_spad`], on a thread of its own) is shown, marked
 /// as one: it follows an edit within a frame or two.
+///
+/// While the renderer adds passes, the measurement of the current sensor stays on
+/// screen (said to be of an earlier pass) and follows the film: a new snapshot never
+/// cancels a measurement or a realisation under way; once both are done, and after a
+/// pause as long as they took (so the sensor takes at most half of a core from the
+/// renderer), the newest snapshot is measured, on threads below the renderer's
+/// priority ([`follow_pool`]).
 #[derive(Default)]
 pub struct SensorState {
     pub(super) model: Option<SensorModel>,
     pub(super) measured: Option<Measured>,
     pub(super) plane: Option<Plane>,
-    job: Option<(Receiver<Stage>, Arc<AtomicBool>)>,
-    /// The sensor `job` measures.
-    job_sensor: Option<Sensor>,
+    job: Option<Job>,
     /// The job drawing the SPAD's realisation after its first stage came back.
-    sampling: Option<(Receiver<Stage>, Arc<AtomicBool>)>,
+    sampling: Option<Job>,
+    /// The first stage of a follow-up job, kept until its realisation is drawn.
+    pending: Option<Box<Measured>>,
+    /// When the last measurement of all gates (a SPAD's realisation included) ended,
+    /// and how long it took: the next one for a newer film waits as long again.
+    last_full: Option<(Instant, Duration)>,
     /// The latest SPAD preview, and the job making the next.
     preview: Option<SpadPreview>,
     preview_job: Option<Receiver<Result<SpadPreview, String>>>,
@@ -90,20 +114,23 @@ pub struct SensorState {
     /// The scene's ambient image (from the render worker, or `ambient.npy` beside a
     /// cube), added to every gate; set by [`SensorState::set_ambient`].
     pub(super) ambient: Option<Arc<AmbientImage>>,
+    /// Wakes the window when a background result is ready or a follow-up is due.
+    waker: Option<egui::Context>,
 }
 
 impl SensorState {
     /// The ambient image the measurements use (`None`: the scene has none, or it is not
     /// rendered yet). A new one is measured with on the next update.
     pub fn set_ambient(&mut self, ambient: Option<Arc<AmbientImage>>) {
-        let same = match (&self.ambient, &ambient) {
-            (Some(a), Some(b)) => Arc::ptr_eq(a, b),
-            (None, None) => true,
-            _ => false,
-        };
-        if !same {
+        if !same_ambient(&self.ambient, &ambient) {
             self.ambient = ambient;
         }
+    }
+
+    /// The context to wake when a background measurement is back or a follow-up of the
+    /// film is due (without one the window sees them at its next frame).
+    pub fn set_waker(&mut self, ctx: egui::Context) {
+        self.waker = Some(ctx);
     }
 
     /// The ambient radiance of pixel `(y, x)`, W m^-2 sr^-1 (0 without an image).
@@ -112,6 +139,65 @@ impl SensorState {
             .as_ref()
             .filter(|a| y < a.height && x < a.width)
             .map_or(0.0, |a| f64::from(a.radiance[y * a.width + x]))
+    }
+
+    /// Take in what the background jobs sent since the last frame.
+    fn receive(&mut self) {
+        if let Some(job) = &self.job {
+            match job.rx.try_recv() {
+                Ok(Stage::Measured(mut done)) => {
+                    self.noise_field = Some(std::mem::take(&mut done.noise_field));
+                    let sampling = done.spad.as_ref().is_some_and(|s| !s.is_sampled());
+                    let job = self.job.take();
+                    if sampling && job.as_ref().is_some_and(|j| j.follow) {
+                        self.pending = Some(done);
+                    } else {
+                        self.replace_measured(*done);
+                    }
+                    if sampling {
+                        self.sampling = job;
+                    } else if let Some(j) = job {
+                        self.last_full = Some((Instant::now(), j.started.elapsed()));
+                    }
+                }
+                Ok(Stage::Sampled(_)) | Err(TryRecvError::Disconnected) => self.job = None,
+                Err(TryRecvError::Empty) => {}
+            }
+        }
+        if let Some(job) = &self.sampling {
+            match job.rx.try_recv() {
+                Ok(Stage::Sampled(s)) => {
+                    self.last_full = Some((Instant::now(), job.started.elapsed()));
+                    self.sampling = None;
+                    if let Some(p) = self.pending.take() {
+                        self.replace_measured(*p);
+                    }
+                    if let Some(m) = self.measured.as_mut() {
+                        m.take_sampled(*s);
+                    }
+                }
+                Ok(Stage::Measured(_)) | Err(TryRecvError::Disconnected) => {
+                    self.sampling = None;
+                    self.pending = None;
+                }
+                Err(TryRecvError::Empty) => {}
+            }
+        }
+        if let Some(rx) = &self.preview_job {
+            match rx.try_recv() {
+                Ok(Ok(p)) => {
+                    self.preview = Some(p);
+                    self.preview_job = None;
+                }
+                Ok(Err(e)) => {
+                    self.error = Some(e);
+                    self.preview_job = None;
+                    self.preview_failed = true;
+                }
+                Err(TryRecvError::Disconnected) => self.preview_job = None,
+                Err(TryRecvError::Empty) => {}
+            }
+        }
     }
 
     /// Bring the model and the measurements up to date with `sensor` and `snap`; an
@@ -147,132 +233,134 @@ impl SensorState {
             }
         }
         let key = snap.generation();
-        // A finished background measurement; then, for a SPAD, its realisation.
-        if let Some((rx, _)) = &self.job {
-            match rx.try_recv() {
-                Ok(Stage::Measured(mut done)) => {
-                    self.noise_field = Some(std::mem::take(&mut done.noise_field));
-                    let sampling = done.spad.as_ref().is_some_and(|s| !s.is_sampled());
-                    // The measurement replaced (all gates of every pixel: 64 MiB for
-                    // 256 gates at 256^2) is freed off the UI thread: unmapping it took
-                    // a frame milliseconds.
-                    if let Some(old) = self.measured.replace(*done) {
-                        free_elsewhere(old);
-                    }
-                    let job = self.job.take();
-                    if sampling {
-                        self.sampling = job;
-                    }
-                }
-                Ok(Stage::Sampled(_)) | Err(TryRecvError::Disconnected) => self.job = None,
-                Err(TryRecvError::Empty) => {}
+        self.receive();
+        let full = self
+            .full_for(model.sensor(), snap)
+            .map(|m| (m.snapshot, m.robust_max));
+        // The shared exposure: from the full measurement once there is one of this
+        // sensor; measured now on a small grid of pixels when the layout changed (a
+        // preset picked), so the images never show another sensor's exposure.
+        match full {
+            Some((_, white)) => self.white = Some((layout.clone(), white)),
+            None if self.white.as_ref().is_none_or(|w| w.0 != layout) => {
+                self.white = Some((layout.clone(), shared_white(&model, snap)));
             }
+            None => {}
         }
-        if let Some((rx, _)) = &self.sampling {
-            match rx.try_recv() {
-                Ok(Stage::Sampled(s)) => {
-                    if let Some(m) = self.measured.as_mut() {
-                        m.take_sampled(*s);
-                    }
-                    self.sampling = None;
-                }
-                Ok(Stage::Measured(_)) | Err(TryRecvError::Disconnected) => self.sampling = None,
-                Err(TryRecvError::Empty) => {}
-            }
-        }
-        if let Some(rx) = &self.preview_job {
-            match rx.try_recv() {
-                Ok(Ok(p)) => {
-                    self.preview = Some(p);
-                    self.preview_job = None;
-                }
-                Ok(Err(e)) => {
-                    self.error = Some(e);
-                    self.preview_job = None;
-                    self.preview_failed = true;
-                }
-                Err(TryRecvError::Disconnected) => self.preview_job = None,
-                Err(TryRecvError::Empty) => {}
-            }
-        }
-        // The shared exposure: from the full measurement once current; measured now on
-        // a small grid of pixels when the layout changed (a preset picked), so the
-        // images never show another sensor's exposure.
-        if self.is_current_for(key, model.sensor()) {
-            if let Some(m) = &self.measured {
-                self.white = Some((layout.clone(), m.robust_max));
-            }
-        } else if self.white.as_ref().is_none_or(|w| w.0 != layout) {
-            self.white = Some((layout.clone(), shared_white(&model, snap)));
-        }
-        if !self.is_current_for(key, model.sensor()) {
-            // The gate on screen, now; then all gates in the background (started after
-            // it, so the frame's gate has the cores to itself: the LiDAR's frame after
-            // an edit waited for it behind the background job).
-            let gate = self.gate;
-            let stale = self
-                .plane
-                .as_ref()
-                .is_none_or(|p| p.snapshot != key || p.gate != gate || p.sensor != *model.sensor());
-            // A SPAD shows its histograms, or the last ones until an edit's preview:
-            // the bin's plain image is measured only before there are any.
-            let spad_shown = self.spad_shown_for(model.sensor(), snap).is_some();
-            if stale
-                && !spad_shown
-                && let Some(k) = model.kernels().get(gate)
-            {
-                let started = Instant::now();
-                let packed =
-                    tprf_core::sensor::PackedKernels::new(std::slice::from_ref(k), axis.bins);
-                {
-                    let mut m = tprf_core::sensor::measure::measure_clean_film(&packed, snap);
-                    // The ambient light in this gate too (as the full measurement adds it).
-                    if let (Some(a), Ok(w)) = (&self.ambient, model.ambient_weights_s())
-                        && let Some(&w) = w.get(gate)
-                        && a.radiance.len() == m.values.len()
-                    {
-                        for (v, &r) in m.values.iter_mut().zip(&a.radiance) {
-                            *v += (w * f64::from(r.max(0.0))) as f32;
+        match full {
+            // The film moved on: its newest snapshot is measured once the last
+            // measurement (and realisation) is done and as long again has passed.
+            Some((measured_for, _)) if measured_for != key => {
+                if self.job.is_none() && self.sampling.is_none() {
+                    match self.follow_wait() {
+                        None => self.spawn_measurement(&model, snap, true),
+                        Some(wait) => {
+                            if let Some(ctx) = &self.waker {
+                                ctx.request_repaint_after(wait);
+                            }
                         }
                     }
-                    self.plane = Some(Plane {
-                        snapshot: key,
-                        sensor: model.sensor().clone(),
-                        gate,
-                        values: m.values,
-                        millis: started.elapsed().as_secs_f64() * 1e3,
-                    });
                 }
             }
-            // A SPAD's preview, one at a time (each takes a frame or two; the one after
-            // an edit made during it starts when it is back).
-            if model.sensor().spad.is_some()
-                && self.preview_job.is_none()
-                && !self.preview_is_current_for(key, model.sensor())
-                && !(self.preview_failed
-                    && self
-                        .preview_for
-                        .as_ref()
-                        .is_some_and(|(g, s)| *g == key && s == model.sensor()))
-            {
-                self.preview_for = Some((key, model.sensor().clone()));
-                self.preview_failed = false;
-                self.spawn_preview(&model, snap);
-            }
-            // A SPAD's first stage for a sensor edited since is given up (the preview
-            // stands in meanwhile), so that the current sensor's starts at once rather
-            // than after it; a new film alone lets it finish.
-            if model.sensor().spad.is_some()
-                && let (Some((_, cancel)), Some(s)) = (&self.job, &self.job_sensor)
-                && s != model.sensor()
-            {
-                cancel.store(true, Ordering::Relaxed);
-            }
-            if self.job.is_none() {
-                self.spawn_measurement(&model, snap);
-            }
+            Some(_) => {}
+            // An edit (or a new film size, or ambient image): shown at once, measured
+            // in full at the editing priority.
+            None => self.after_edit(&model, snap),
         }
         self.model = Some(model);
+    }
+
+    /// Show `done` in place of the measurement shown. The one replaced (all gates of
+    /// every pixel: 64 MiB for 256 gates at 256^2) is freed off the UI thread:
+    /// unmapping it took a frame milliseconds.
+    fn replace_measured(&mut self, done: Measured) {
+        if let Some(old) = self.measured.replace(done) {
+            free_elsewhere(old);
+        }
+    }
+
+    /// How long the next measurement of a newer film must still wait: until the last
+    /// one ended as long ago as it took. `None`: it may start now.
+    fn follow_wait(&self) -> Option<Duration> {
+        let (ended, took) = self.last_full?;
+        took.checked_sub(ended.elapsed()).filter(|w| !w.is_zero())
+    }
+
+    /// After an edit: the gate on screen measured now, a SPAD's preview, and all gates
+    /// in the background (a job or realisation of an earlier sensor given up).
+    fn after_edit(&mut self, model: &SensorModel, snap: &Arc<FilmSnapshot>) {
+        let key = snap.generation();
+        let axis = *snap.axis();
+        // The gate on screen, now; then all gates in the background (started after
+        // it, so the frame's gate has the cores to itself: the LiDAR's frame after an
+        // edit waited for it behind the background job).
+        let gate = self.gate;
+        let stale = self
+            .plane
+            .as_ref()
+            .is_none_or(|p| p.snapshot != key || p.gate != gate || p.sensor != *model.sensor());
+        // A SPAD shows its histograms, or the last ones until an edit's preview: the
+        // bin's plain image is measured only before there are any.
+        let spad_shown = self.spad_shown_for(model.sensor(), snap).is_some();
+        if stale
+            && !spad_shown
+            && let Some(k) = model.kernels().get(gate)
+        {
+            let started = Instant::now();
+            let packed = tprf_core::sensor::PackedKernels::new(std::slice::from_ref(k), axis.bins);
+            let mut m = tprf_core::sensor::measure::measure_clean_film(&packed, snap);
+            // The ambient light in this gate too (as the full measurement adds it).
+            if let (Some(a), Ok(w)) = (&self.ambient, model.ambient_weights_s())
+                && let Some(&w) = w.get(gate)
+                && a.radiance.len() == m.values.len()
+            {
+                for (v, &r) in m.values.iter_mut().zip(&a.radiance) {
+                    *v += (w * f64::from(r.max(0.0))) as f32;
+                }
+            }
+            self.plane = Some(Plane {
+                snapshot: key,
+                sensor: model.sensor().clone(),
+                gate,
+                values: m.values,
+                millis: started.elapsed().as_secs_f64() * 1e3,
+            });
+        }
+        // A SPAD's preview, one at a time (each takes a frame or two; the one after an
+        // edit made during it starts when it is back).
+        if model.sensor().spad.is_some()
+            && self.preview_job.is_none()
+            && !self.preview_is_current_for(snap, model.sensor())
+            && !(self.preview_failed
+                && self
+                    .preview_for
+                    .as_ref()
+                    .is_some_and(|(g, s)| *g == key && s == model.sensor()))
+        {
+            self.preview_for = Some((key, model.sensor().clone()));
+            self.preview_failed = false;
+            self.spawn_preview(model, snap);
+        }
+        // A SPAD's first stage for a sensor edited since is given up (the preview
+        // stands in meanwhile), so that the current sensor's starts at once rather than
+        // after it. (Other sensors' jobs are short: they finish, then the edit's runs.)
+        if model.sensor().spad.is_some()
+            && let Some(job) = &self.job
+            && job.sensor != *model.sensor()
+        {
+            job.cancel.store(true, Ordering::Relaxed);
+        }
+        // A realisation being drawn for an earlier sensor.
+        if let Some(s) = &self.sampling
+            && s.sensor != *model.sensor()
+        {
+            s.cancel.store(true, Ordering::Relaxed);
+            self.sampling = None;
+            self.pending = None;
+        }
+        if self.job.is_none() && self.sampling.is_none() {
+            self.spawn_measurement(model, snap, false);
+        }
     }
 
     /// Make the SPAD preview of `snap` through `model` on [`preview_pool`]; it comes back
@@ -281,10 +369,14 @@ impl SensorState {
         let (tx, rx) = channel();
         let (job_model, job_snap) = (model.clone(), snap.clone());
         let job_ambient = self.ambient.clone();
+        let waker = self.waker.clone();
         let spawned = spawn_on("tprf-spad-preview", preview_pool, move || {
             let done = preview_spad(&job_model, &job_snap, job_ambient);
             // The window may have gone on (or closed) meanwhile.
             let _ = tx.send(done);
+            if let Some(ctx) = waker {
+                ctx.request_repaint();
+            }
         });
         match spawned {
             Ok(_) => self.preview_job = Some(rx),
@@ -292,23 +384,21 @@ impl SensorState {
         }
     }
 
-    /// Whether the SPAD preview is that of film `generation`, `sensor` and the ambient
-    /// image.
-    fn preview_is_current_for(&self, generation: u64, sensor: &Sensor) -> bool {
+    /// Whether the SPAD preview is that of `sensor`, the ambient image and a film of
+    /// `snap`'s size (a pass behind is fine: it stands in until the full image).
+    fn preview_is_current_for(&self, snap: &FilmSnapshot, sensor: &Sensor) -> bool {
         self.preview.as_ref().is_some_and(|p| {
-            p.snapshot == generation
-                && p.sensor == *sensor
+            p.sensor == *sensor
+                && p.film_size == (snap.width(), snap.height())
                 && same_ambient(&p.ambient, &self.ambient)
         })
     }
 
     /// Measure all gates of `snap` through `model` on a thread named `tprf-sensor`
-    /// (the work itself on [`background_pool`]); the result comes back through `job`.
-    fn spawn_measurement(&mut self, model: &SensorModel, snap: &Arc<FilmSnapshot>) {
-        // A realisation still being drawn is for an older sensor or film.
-        if let Some((_, cancel)) = self.sampling.take() {
-            cancel.store(true, Ordering::Relaxed);
-        }
+    /// (the work itself on [`follow_pool`] when it `follow`s the film with the sensor
+    /// shown, else on [`background_pool`]); the result comes back through `job`.
+    fn spawn_measurement(&mut self, model: &SensorModel, snap: &Arc<FilmSnapshot>, follow: bool) {
+        let pool = if follow { follow_pool } else { background_pool };
         let (tx, rx) = channel();
         let (job_model, job_snap) = (model.clone(), snap.clone());
         let job_ambient = self.ambient.clone();
@@ -316,9 +406,15 @@ impl SensorState {
         let clean = self.measured.as_ref().map(|m| m.clean.clone());
         let cancel = Arc::new(AtomicBool::new(false));
         let job_cancel = cancel.clone();
+        let waker = self.waker.clone();
+        let wake = move || {
+            if let Some(ctx) = &waker {
+                ctx.request_repaint();
+            }
+        };
         // On pool threads of its own, so the gate measured for the frame does not queue
         // behind it on the global pool.
-        let spawned = spawn_on("tprf-sensor", background_pool, move || {
+        let spawned = spawn_on("tprf-sensor", pool, move || {
             let run = || {
                 let measured = measure_all(
                     &job_model,
@@ -337,6 +433,7 @@ impl SensorState {
                 let (snapshot, sensor) = (measured.snapshot, measured.sensor.clone());
                 let first = measured.spad.as_ref().map(|s| s.image.clone());
                 tx.send(Stage::Measured(Box::new(measured))).ok()?;
+                wake();
                 if sample {
                     let stub = super::measure::SampleInput {
                         snapshot,
@@ -347,6 +444,7 @@ impl SensorState {
                     };
                     let s = sample_spad(&m_model, &job_snap, &stub, &job_cancel)?;
                     tx.send(Stage::Sampled(Box::new(s))).ok()?;
+                    wake();
                 }
                 Some(())
             };
@@ -354,11 +452,33 @@ impl SensorState {
         });
         match spawned {
             Ok(_) => {
-                self.job = Some((rx, cancel));
-                self.job_sensor = Some(model.sensor().clone());
+                self.job = Some(Job {
+                    rx,
+                    cancel,
+                    sensor: model.sensor().clone(),
+                    started: Instant::now(),
+                    follow,
+                });
             }
             Err(e) => self.error = Some(format!("cannot start the measurement thread: {e}")),
         }
+    }
+
+    /// The latest measurement of all gates when it is of `sensor` (and the ambient
+    /// image) on a film of `snap`'s size: while the renderer runs it may be of an
+    /// earlier pass ([`Measured::snapshot`]); it stays on screen until the next one.
+    fn full_for(&self, sensor: &Sensor, snap: &FilmSnapshot) -> Option<&Measured> {
+        self.measured.as_ref().filter(|m| {
+            m.sensor == *sensor
+                && (m.m.width, m.m.height) == (snap.width(), snap.height())
+                && same_ambient(&m.ambient, &self.ambient)
+        })
+    }
+
+    /// The measurement of all gates shown with the current sensor (see
+    /// [`Self::full_for`]): of this film or an earlier pass of it.
+    pub(super) fn full(&self, snap: &FilmSnapshot) -> Option<&Measured> {
+        self.full_for(self.model.as_ref()?.sensor(), snap)
     }
 
     /// Whether the measurement of all gates is that of film `generation` and `sensor`.
@@ -370,18 +490,32 @@ impl SensorState {
         })
     }
 
-    /// Whether the measurements of all gates are those of the current sensor and film.
+    /// Whether the measurements of all gates are those of the current sensor and of
+    /// this very snapshot.
     pub fn is_current(&self, snap: &FilmSnapshot) -> bool {
         self.model
             .as_ref()
             .is_some_and(|m| self.is_current_for(snap.generation(), m.sensor()))
     }
 
+    /// Whether the window shows a measurement of all gates through the current sensor
+    /// (of this snapshot or, while the renderer runs, an earlier one of the same film).
+    pub fn shows_full(&self, snap: &FilmSnapshot) -> bool {
+        self.full(snap).is_some()
+    }
+
+    /// The film generation and samples per pixel of the measurement shown, when it is
+    /// of the current sensor.
+    pub fn shown_film(&self, snap: &FilmSnapshot) -> Option<(u64, u64)> {
+        self.full(snap).map(|m| (m.snapshot, m.spp))
+    }
+
     /// The image of the gate on screen, `[H, W]`, as the window shows it now: from the
-    /// full measurement when it is current, else measured for this frame (no noise).
+    /// full measurement when there is one of the current sensor, else measured for this
+    /// frame (no noise).
     pub fn shown_plane(&self, snap: &FilmSnapshot) -> Option<&[f32]> {
-        if self.is_current(snap) {
-            return self.measured.as_ref().map(|m| m.m.plane(self.gate));
+        if let Some(m) = self.full(snap) {
+            return Some(m.m.plane(self.gate));
         }
         let model = self.model.as_ref()?;
         self.plane
@@ -409,20 +543,18 @@ impl SensorState {
         self.model.as_ref()
     }
 
-    /// The SPAD's latest histograms, when they are those of the current sensor and film.
+    /// The SPAD's latest full histograms, when they are those of the current sensor
+    /// (of this film or an earlier pass of it).
     pub(super) fn spad(&self, snap: &FilmSnapshot) -> Option<&SpadMeasured> {
-        if !self.is_current(snap) {
-            return None;
-        }
-        self.measured.as_ref()?.spad.as_ref()
+        self.full(snap)?.spad.as_ref()
     }
 
-    /// The SPAD's histograms to show: the latest ones when current, else the preview
-    /// when it is that of the current sensor and film (see [`SpadMeasured::step`]),
-    /// else, in the frames between an edit and its preview, the latest preview or
-    /// histograms of an earlier sensor or film, marked stale ([`SpadShown::current`]):
-    /// the view keeps its images and layout while a drag goes on rather than falling
-    /// back to the bin's plain measurement for a frame or two.
+    /// The SPAD's histograms to show: the latest full ones when of the current sensor,
+    /// else the preview when it is that of the current sensor (see
+    /// [`SpadMeasured::step`]), else, in the frames between an edit and its preview,
+    /// the latest preview or histograms of an earlier sensor or film, marked stale
+    /// ([`SpadShown::current`]): the view keeps its images and layout while a drag goes
+    /// on rather than falling back to the bin's plain measurement for a frame or two.
     pub(super) fn spad_shown(&self, snap: &FilmSnapshot) -> Option<SpadShown<'_>> {
         self.spad_shown_for(self.model.as_ref()?.sensor(), snap)
     }
@@ -430,6 +562,16 @@ impl SensorState {
     /// [`Self::spad_shown`] with `sensor` the current one.
     fn spad_shown_for(&self, sensor: &Sensor, snap: &FilmSnapshot) -> Option<SpadShown<'_>> {
         sensor.spad.as_ref()?;
+        if let Some(m) = self.full_for(sensor, snap)
+            && let Some(sp) = &m.spad
+        {
+            return Some(SpadShown {
+                sp,
+                snapshot: m.snapshot,
+                sensor: &m.sensor,
+                current: true,
+            });
+        }
         let full = self.measured.as_ref().and_then(|m| {
             m.spad.as_ref().map(|sp| SpadShown {
                 sp,
@@ -444,10 +586,7 @@ impl SensorState {
             sensor: &p.sensor,
             current: false,
         });
-        if self.is_current_for(snap.generation(), sensor) {
-            return full.map(|f| SpadShown { current: true, ..f });
-        }
-        if self.preview_is_current_for(snap.generation(), sensor) {
+        if self.preview_is_current_for(snap, sensor) {
             return preview.map(|p| SpadShown { current: true, ..p });
         }
         // The newer of the two: a preview is started after every edit, so it is of a
@@ -468,21 +607,20 @@ impl SensorState {
     /// Milliseconds the shown SPAD preview took, when one is shown.
     pub fn preview_millis(&self, snap: &FilmSnapshot) -> Option<f64> {
         let model = self.model.as_ref()?;
-        (self.spad(snap).is_none()
-            && self.preview_is_current_for(snap.generation(), model.sensor()))
-        .then(|| self.preview.as_ref().map(|p| p.millis))
-        .flatten()
+        (self.spad(snap).is_none() && self.preview_is_current_for(snap, model.sensor()))
+            .then(|| self.preview.as_ref().map(|p| p.millis))
+            .flatten()
     }
 
-    /// The latest SPAD preview when it is that of the current sensor and film (shown
-    /// until the full histograms are), with its grid step: its pixel `(i, j)` is the
-    /// film's `(i s + s / 2, j s + s / 2)`, clamped to the film.
+    /// The latest SPAD preview when it is that of the current sensor on a film of this
+    /// size (shown until the full histograms are), with its grid step: its pixel
+    /// `(i, j)` is the film's `(i s + s / 2, j s + s / 2)`, clamped to the film.
     pub fn spad_preview(
         &self,
         snap: &FilmSnapshot,
     ) -> Option<(&tprf_core::sensor::SpadImage, usize)> {
         let model = self.model.as_ref()?;
-        if !self.preview_is_current_for(snap.generation(), model.sensor()) {
+        if !self.preview_is_current_for(snap, model.sensor()) {
             return None;
         }
         self.preview.as_ref().map(|p| (&p.spad.image, p.spad.step))
@@ -495,8 +633,8 @@ impl SensorState {
             .is_some_and(|s| s.current && s.sp.is_preview())
     }
 
-    /// The SPAD's latest histograms and depths (sensors with a `[spad]` section), when
-    /// they are those of the current sensor and film.
+    /// The SPAD's latest full histograms and depths (sensors with a `[spad]` section),
+    /// when they are those of the current sensor (of this film or an earlier pass).
     pub fn spad_image(&self, snap: &FilmSnapshot) -> Option<&tprf_core::sensor::SpadImage> {
         self.spad(snap).map(|s| &s.image)
     }
