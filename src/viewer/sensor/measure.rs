@@ -157,8 +157,10 @@ fn spad_depth(image: &SpadImage, view: SpadView) -> &[f32] {
 
 /// The measurements of one (snapshot, sensor) pair and what is derived from them.
 pub(super) struct Measured {
-    /// The film's [`FilmSnapshot::generation`], and its samples per pixel.
+    /// The film's [`FilmSnapshot::generation`], its [`FilmSnapshot::film`] and its
+    /// samples per pixel.
     pub(super) snapshot: u64,
+    pub(super) film: u64,
     pub(super) spp: u64,
     pub(super) sensor: Sensor,
     /// The ambient image it was measured with (compared by identity).
@@ -477,6 +479,7 @@ pub(super) fn measure_all(
     });
     let mut measured = Measured {
         snapshot: snap.generation(),
+        film: snap.film(),
         spp: snap.spp,
         sensor: model.sensor().clone(),
         ambient: ambient_image.clone(),

@@ -465,11 +465,12 @@ impl SensorState {
     }
 
     /// The latest measurement of all gates when it is of `sensor` (and the ambient
-    /// image) on a film of `snap`'s size: while the renderer runs it may be of an
+    /// image) on `snap`'s film: while the renderer runs it may be of an
     /// earlier pass ([`Measured::snapshot`]); it stays on screen until the next one.
     fn full_for(&self, sensor: &Sensor, snap: &FilmSnapshot) -> Option<&Measured> {
         self.measured.as_ref().filter(|m| {
             m.sensor == *sensor
+                && m.film == snap.film()
                 && (m.m.width, m.m.height) == (snap.width(), snap.height())
                 && same_ambient(&m.ambient, &self.ambient)
         })

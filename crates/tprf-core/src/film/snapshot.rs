@@ -30,10 +30,18 @@ pub struct FilmSnapshot {
     robust_max: Option<f64>,
     /// See [`FilmSnapshot::generation`].
     generation: u64,
+    /// See [`FilmSnapshot::film`].
+    film: u64,
 }
 
-/// The next [`FilmSnapshot::generation`]; 0 is never handed out.
+/// The next [`FilmSnapshot::generation`] or film identity (one sequence for both); 0 is
+/// never handed out.
 static NEXT_GENERATION: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+
+/// A number no snapshot or film of this process has had.
+pub(super) fn next_id() -> u64 {
+    NEXT_GENERATION.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+}
 
 /// At most this many values are looked at for [`FilmSnapshot::robust_max`].
 const ROBUST_MAX_SAMPLES: usize = 1 << 20;
@@ -50,8 +58,12 @@ impl FilmSnapshot {
         passes: u64,
         rows: Vec<Arc<FilmRow>>,
         error_estimate: Option<f64>,
+        film: u64,
     ) -> FilmSnapshot {
-        FilmSnapshot::summarised(layout, spp, passes, rows, spp.max(1) as f64, error_estimate)
+        let mut snap =
+            FilmSnapshot::summarised(layout, spp, passes, rows, spp.max(1) as f64, error_estimate);
+        snap.film = film;
+        snap
     }
 
     /// A snapshot of means read from a file: `cube` `[H, W, T]` and `bounces`
@@ -173,6 +185,7 @@ impl FilmSnapshot {
                 .map(|[a, b]| ((a + b) / norm) as f32)
         });
         let robust_max = quantile_positive(sample, 0.999);
+        let generation = next_id();
         FilmSnapshot {
             layout,
             spp,
@@ -183,7 +196,8 @@ impl FilmSnapshot {
             steady,
             peak_bin,
             robust_max,
-            generation: NEXT_GENERATION.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+            generation,
+            film: generation,
         }
     }
 
@@ -192,6 +206,13 @@ impl FilmSnapshot {
     /// snapshot is freed the allocator may hand the same address to the next one.
     pub fn generation(&self) -> u64 {
         self.generation
+    }
+
+    /// The film this is a snapshot of: the passes of one render share it, any other
+    /// snapshot (a cube read from a file, another render) has its own. What tells a
+    /// reader that an earlier snapshot is an earlier pass of the same film.
+    pub fn film(&self) -> u64 {
+        self.film
     }
 
     pub fn axis(&self) -> &TimeAxis {
@@ -611,6 +632,27 @@ fn select_key(keys: &mut [u32], q: f64) -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Snapshots of one film's passes share [`FilmSnapshot::film`] and differ in
+    /// generation; another film, or a cube read from a file, is another film.
+    #[test]
+    fn passes_of_one_film_share_its_identity() {
+        let layout = FilmLayout {
+            width: 2,
+            height: 1,
+            axis: TimeAxis::new(0.0, 1e-9, 3).unwrap(),
+            bounces_separate: 0,
+        };
+        let film = crate::film::TprfFilm::new(layout).unwrap();
+        let (a, b) = (film.snapshot(), film.snapshot());
+        assert_eq!(a.film(), b.film());
+        assert_ne!(a.generation(), b.generation());
+        let other = crate::film::TprfFilm::new(layout).unwrap().snapshot();
+        assert_ne!(other.film(), a.film());
+        let dense = FilmSnapshot::from_dense(layout, 1, 1, &[0.0; 6], &[], None);
+        assert_ne!(dense.film(), a.film());
+        assert_ne!(dense.film(), other.film());
+    }
 
     #[test]
     fn summaries_by_hand() {

@@ -57,6 +57,8 @@ pub struct TprfFilm {
     /// The rows a pass renders (`None`: all). A shard of a render renders its bands of
     /// rows only; the others stay empty.
     rows_rendered: Option<Arc<[bool]>>,
+    /// See [`FilmSnapshot::film`].
+    id: u64,
 }
 
 impl TprfFilm {
@@ -90,6 +92,7 @@ impl TprfFilm {
             passes: 0,
             filter: TimeFilter::Box,
             rows_rendered: None,
+            id: super::snapshot::next_id(),
         })
     }
 
@@ -346,6 +349,7 @@ impl TprfFilm {
             self.passes,
             self.rows.clone(),
             self.half_error_estimate(),
+            self.id,
         )
     }
 
