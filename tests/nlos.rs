@@ -520,3 +520,85 @@ print('ok')
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }
+
+#[test]
+fn a_spad_measures_a_capture_as_its_expected_photon_counts() {
+    let scene = tprf_core::scene::load("builtin:nlos-z").unwrap();
+    let bins = 1400;
+    let set = CaptureSettings {
+        grid: [4, 3],
+        spp: 64,
+        scan: Scan::Confocal,
+        bins: Some(bins),
+        ..CaptureSettings::default()
+    };
+    let c = capture(scene, &set);
+    let dir = out_dir("spad-in");
+    write_capture_folder(&c, &dir, &[]).unwrap();
+    // A delta pulse and TDC bins equal to the capture's: the SPAD's rate in bin k is
+    // pde photons_per_unit H_k, kept below 0.01 per cycle so that N (1 - e^-r) = N r
+    // within 0.5 % (no dead time: no pile-up).
+    let (pde, cycles) = (0.5, 1000.0);
+    let max_h = c.h.iter().copied().fold(0.0f32, f32::max) as f64;
+    let ppu = 0.01 / (pde * max_h);
+    let preset = dir.with_extension("toml");
+    std::fs::write(
+        &preset,
+        format!(
+            "name = \"test\"\n[light]\nkind = \"delta\"\n[exposure]\nkind = \"tdc\"\nstart = \"0 s\"\n\
+             bin_width = \"{:e} s\"\nbins = {bins}\n[noise]\nseed = 3\n[spad]\ncycles = {cycles}\n\
+             pde = {pde}\nphotons_per_unit = {ppu:e}\n",
+            0.003 / C
+        ),
+    )
+    .unwrap();
+    let out = out_dir("spad-out");
+    let run = Command::new(env!("CARGO_BIN_EXE_tprf"))
+        .args([
+            "nlos",
+            "spad",
+            dir.to_str().unwrap(),
+            "--preset",
+            preset.to_str().unwrap(),
+        ])
+        .args(["--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let counts = read_capture(&out).unwrap();
+    assert_eq!(counts.h_shape, c.shape());
+    assert!((counts.delta_t_m - 0.003).abs() < 1e-9 && counts.t_start_m.abs() < 1e-9);
+    let (_, expected) = tprf_core::export::read_npy_f32(&out.join("spad_histogram.npy")).unwrap();
+    let k = 12;
+    for s in 0..k {
+        let h: Vec<f64> = (0..bins).map(|t| c.h[t * k + s] as f64).collect();
+        let e: Vec<f64> = (0..bins).map(|t| expected[t * k + s] as f64).collect();
+        let n: Vec<f64> = (0..bins).map(|t| counts.h[t * k + s] as f64).collect();
+        let want = cycles * pde * ppu * h.iter().sum::<f64>();
+        let got = e.iter().sum::<f64>();
+        assert!(
+            (got - want).abs() <= 0.006 * want,
+            "sensor {s}: expected counts {got}, {want} from H"
+        );
+        let argmax = |v: &[f64]| (0..v.len()).max_by(|&a, &b| v[a].total_cmp(&v[b])).unwrap();
+        assert_eq!(
+            argmax(&e),
+            argmax(&h),
+            "sensor {s}: the histogram's peak bin"
+        );
+        let drawn = n.iter().sum::<f64>();
+        assert!(
+            (drawn - got).abs() <= 5.0 * got.sqrt() + 1.0,
+            "sensor {s}: {drawn} counts drawn, {got} expected"
+        );
+        assert!(n.iter().all(|&x| x >= 0.0 && x.fract() == 0.0));
+    }
+    for d in [&dir, &out] {
+        std::fs::remove_dir_all(d).unwrap();
+    }
+    std::fs::remove_file(preset).unwrap();
+}

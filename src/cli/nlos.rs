@@ -33,6 +33,28 @@ pub enum NlosCommand {
     /// HDF5 capture file) onto a voxel volume: volume.npy [Z, Y, X] f32, volume.json and
     /// max-intensity projections (mip_front.png, mip_top.png, mip_side.png).
     Reconstruct(ReconstructArgs),
+    /// Measure a capture with the SPAD of a `tprf sensor` preset (light pulse, TDC
+    /// jitter, pile-up, dead time, ambient and dark counts), without rendering again:
+    /// a capture of photon counts on the TDC's bins (nlos.hdf5, H.npy) and spad.json.
+    Spad(SpadArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct SpadArgs {
+    /// The capture: a `tprf nlos` output folder, or an HDF5 file in tal's format.
+    pub capture: PathBuf,
+    /// A sensor TOML with a [spad] section and a tdc exposure, or builtin:spad.
+    #[arg(long)]
+    pub preset: String,
+    /// Laser cycles summed into the histogram (overrides the preset's).
+    #[arg(long)]
+    pub cycles: Option<u64>,
+    /// Seed of the realisation (overrides the preset's noise.seed).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Output folder (a new or empty one, or an earlier tprf output).
+    #[arg(long)]
+    pub out: PathBuf,
 }
 
 #[derive(Args, Debug)]
@@ -159,6 +181,7 @@ fn parse_point(text: &str, flag: &str) -> Result<[f32; 3]> {
 pub fn run(a: &NlosArgs) -> Result<()> {
     match &a.command {
         Some(NlosCommand::Reconstruct(r)) => reconstruct(r),
+        Some(NlosCommand::Spad(r)) => spad(r),
         None => capture(&a.capture),
     }
 }
@@ -337,6 +360,72 @@ fn reconstruct(a: &ReconstructArgs) -> Result<()> {
     write_reconstruction_folder(&r, &a.capture, &a.out)
         .with_context(|| format!("writing {}", a.out.display()))?;
     super::interrupt::check()?;
+    println!("{}", a.out.display());
+    Ok(())
+}
+
+fn spad(a: &SpadArgs) -> Result<()> {
+    use tprf_core::export::staging::Staging;
+    use tprf_core::nlos::files::{TalView, read_capture, write_tal_hdf5};
+    use tprf_core::sensor::Sensor;
+    super::args::check_out("--out", &a.out, &[&a.capture])?;
+    let mut sensor = Sensor::load(&a.preset).with_context(|| format!("--preset {}", a.preset))?;
+    if let Some(n) = a.cycles {
+        match &mut sensor.spad {
+            Some(spad) => spad.cycles = n,
+            None => {
+                bail!("--cycles needs a sensor with a [spad] section (e.g. --preset builtin:spad)")
+            }
+        }
+    }
+    if let Some(seed) = a.seed {
+        sensor.noise.seed = seed;
+    }
+    let capture = read_capture(&a.capture)?;
+    let measured = tprf_core::nlos::spad::spad_capture(&capture, sensor.clone())?;
+    let c = &measured.capture;
+    eprintln!(
+        "{} TDC bins of {:.4} m from {:.4} m; {:.3e} expected detections over {} transients",
+        c.bins(),
+        c.delta_t_m,
+        c.t_start_m,
+        measured.image.expected_detections,
+        c.h.len() / c.bins().max(1)
+    );
+    super::interrupt::catch();
+    let staging = Staging::new(&a.out, &[&a.capture])?;
+    let dir = staging.path();
+    let info = format!(
+        "original_format: tprf\ntprf:\n  spad_of: {}\n  preset: {}\n",
+        serde_json::to_string(&a.capture.display().to_string())?,
+        serde_json::to_string(&a.preset)?
+    );
+    write_tal_hdf5(
+        &TalView::of_loaded(c, info)?,
+        &dir.join(tprf_core::nlos::files::HDF5_NAME),
+    )?;
+    let shape: Vec<u64> = c.h_shape.iter().map(|&d| d as u64).collect();
+    tprf_core::export::write_npy_f32(&dir.join(tprf_core::nlos::files::NPY_NAME), &shape, &c.h)?;
+    tprf_core::export::write_npy_f32(
+        &dir.join("spad_histogram.npy"),
+        &shape,
+        &measured.image.histogram,
+    )?;
+    tprf_core::export::write_json(
+        &dir.join("spad.json"),
+        &serde_json::json!({
+            "format": "tprf-nlos-spad",
+            "capture": a.capture.display().to_string(),
+            "sensor": sensor,
+            "bins": c.bins(),
+            "delta_t_m": c.delta_t_m,
+            "t_start_m": c.t_start_m,
+            "expected_detections": measured.image.expected_detections,
+            "h": "photon counts of one seeded realisation (H.npy, nlos.hdf5); spad_histogram.npy: their expectation",
+        }),
+    )?;
+    super::interrupt::check()?;
+    staging.commit()?;
     println!("{}", a.out.display());
     Ok(())
 }

@@ -205,55 +205,124 @@ fn scene_info_yaml(m: &CaptureMetadata) -> String {
     )
 }
 
+/// What tal's HDF5 file holds, borrowed: from a rendered [`Capture`] or a
+/// [`LoadedCapture`] (a SPAD's counts, say). Grids are x-major point lists.
+pub struct TalView<'a> {
+    pub h: &'a [f32],
+    pub h_shape: Vec<usize>,
+    pub exhaustive: bool,
+    pub sensor_grid: &'a [Vec3],
+    pub sensor_shape: [usize; 2],
+    pub laser_grid: &'a [Vec3],
+    pub laser_shape: [usize; 2],
+    /// The wall's normal (every grid point's).
+    pub normal: Vec3,
+    pub sensor_xyz: Vec3,
+    pub laser_xyz: Vec3,
+    pub delta_t_m: f64,
+    pub t_start_m: f64,
+    pub device_legs: bool,
+    /// `scene_info`'s YAML.
+    pub scene_info: String,
+}
+
+impl<'a> TalView<'a> {
+    /// The view of a loaded capture, with `scene_info` (grid normals from the file, else
+    /// the grid's own; device positions from the file, else the grid's centre).
+    pub fn of_loaded(c: &'a LoadedCapture, scene_info: String) -> Result<TalView<'a>, NlosError> {
+        let frame = super::reconstruct::GridFrame::of(c)?;
+        Ok(TalView {
+            h: &c.h,
+            h_shape: c.h_shape.clone(),
+            exhaustive: c.exhaustive,
+            sensor_grid: &c.sensor_grid,
+            sensor_shape: c.sensor_shape,
+            laser_grid: &c.laser_grid,
+            laser_shape: c.laser_shape,
+            normal: c.sensor_normal.unwrap_or(frame.n),
+            sensor_xyz: c.sensor_xyz.unwrap_or(frame.center),
+            laser_xyz: c.laser_xyz.unwrap_or(frame.center),
+            delta_t_m: c.delta_t_m,
+            t_start_m: c.t_start_m,
+            device_legs: c.device_legs,
+            scene_info,
+        })
+    }
+}
+
 /// Write `c` as tal's HDF5 capture file at `path`.
 pub fn write_hdf5(c: &Capture, path: &Path) -> Result<(), NlosError> {
     let g = &c.geometry;
     let m = CaptureMetadata::of(c);
+    let sensors: Vec<Vec3> = g.sensors.iter().map(|p| p.position).collect();
+    let lasers: Vec<Vec3> = g.lasers.iter().map(|p| p.position).collect();
+    write_tal_hdf5(
+        &TalView {
+            h: &c.h,
+            h_shape: c.shape(),
+            exhaustive: matches!(g.scan, Scan::Exhaustive { .. }),
+            sensor_grid: &sensors,
+            sensor_shape: g.grid,
+            laser_grid: &lasers,
+            laser_shape: g.laser_grid,
+            normal: g.wall.normal,
+            sensor_xyz: g.sensor_origin,
+            laser_xyz: g.laser_origin,
+            delta_t_m: m.delta_t_m,
+            t_start_m: m.t_start_m,
+            device_legs: g.device_legs,
+            scene_info: scene_info_yaml(&m),
+        },
+        path,
+    )
+}
+
+/// Write `v` as tal's HDF5 capture file at `path` (into `path.tmp`, renamed over it).
+pub fn write_tal_hdf5(v: &TalView, path: &Path) -> Result<(), NlosError> {
     let err = |e: hdf5_pure::FormatError| h5_err(path, e);
     crate::budget::check(
-        (c.h.len() as u64).saturating_mul(4),
+        (v.h.len() as u64).saturating_mul(4),
         "nlos.hdf5",
         "a copy of H while the file is assembled",
     )?;
     let mut fb = FileBuilder::new();
-    let shape: Vec<u64> = c.shape().iter().map(|&d| d as u64).collect();
-    fb.create_dataset("H")
-        .with_f32_data(&c.h)
-        .with_shape(&shape);
-    let h_format = match g.scan {
-        Scan::Exhaustive { .. } => H_T_LX_LY_SX_SY,
-        _ => H_T_SX_SY,
+    let shape: Vec<u64> = v.h_shape.iter().map(|&d| d as u64).collect();
+    fb.create_dataset("H").with_f32_data(v.h).with_shape(&shape);
+    let h_format = if v.exhaustive {
+        H_T_LX_LY_SX_SY
+    } else {
+        H_T_SX_SY
     };
     enum_dataset(&mut fb, "H_format", H_FORMATS, h_format).map_err(err)?;
-    let [sx, sy] = g.grid;
-    let [lx, ly] = g.laser_grid;
-    let n = g.wall.normal;
+    let [sx, sy] = v.sensor_shape;
+    let [lx, ly] = v.laser_shape;
+    let n = v.normal;
     fb.create_dataset("sensor_xyz")
-        .with_f32_data(&g.sensor_origin.to_array())
+        .with_f32_data(&v.sensor_xyz.to_array())
         .with_shape(&[3]);
     fb.create_dataset("sensor_grid_xyz")
-        .with_f32_data(&flat(g.sensors.iter().map(|p| p.position)))
+        .with_f32_data(&flat(v.sensor_grid.iter().copied()))
         .with_shape(&[sx as u64, sy as u64, 3]);
     fb.create_dataset("sensor_grid_normals")
-        .with_f32_data(&flat(g.sensors.iter().map(|_| n)))
+        .with_f32_data(&flat(v.sensor_grid.iter().map(|_| n)))
         .with_shape(&[sx as u64, sy as u64, 3]);
     enum_dataset(&mut fb, "sensor_grid_format", GRID_FORMATS, GRID_X_Y_3).map_err(err)?;
     fb.create_dataset("laser_xyz")
-        .with_f32_data(&g.laser_origin.to_array())
+        .with_f32_data(&v.laser_xyz.to_array())
         .with_shape(&[3]);
     fb.create_dataset("laser_grid_xyz")
-        .with_f32_data(&flat(g.lasers.iter().map(|p| p.position)))
+        .with_f32_data(&flat(v.laser_grid.iter().copied()))
         .with_shape(&[lx as u64, ly as u64, 3]);
     fb.create_dataset("laser_grid_normals")
-        .with_f32_data(&flat(g.lasers.iter().map(|_| n)))
+        .with_f32_data(&flat(v.laser_grid.iter().map(|_| n)))
         .with_shape(&[lx as u64, ly as u64, 3]);
     enum_dataset(&mut fb, "laser_grid_format", GRID_FORMATS, GRID_X_Y_3).map_err(err)?;
     enum_dataset(&mut fb, "volume_format", VOLUME_FORMATS, 2).map_err(err)?;
     fb.create_dataset("delta_t")
-        .with_f64_data(&[m.delta_t_m])
+        .with_f64_data(&[v.delta_t_m])
         .with_shape(&[]);
     fb.create_dataset("t_start")
-        .with_f64_data(&[m.t_start_m])
+        .with_f64_data(&[v.t_start_m])
         .with_shape(&[]);
     // h5py's bool: an enum of i8 with FALSE = 0, TRUE = 1.
     let bool_type = EnumTypeBuilder::with_base(make_i8_type())
@@ -262,12 +331,12 @@ pub fn write_hdf5(c: &Capture, path: &Path) -> Result<(), NlosError> {
         .build()
         .map_err(err)?;
     fb.create_dataset("t_accounts_first_and_last_bounces")
-        .with_enum_u8_data(bool_type, &[u8::from(g.device_legs)])
+        .with_enum_u8_data(bool_type, &[u8::from(v.device_legs)])
         .with_shape(&[]);
     // A variable-length UTF-8 string, as h5py writes a Python str (tal's YAML parser
     // takes the bytes h5py reads back; a fixed-length string reads as numpy.bytes_).
     fb.create_dataset("scene_info")
-        .with_vlen_strings(&[&scene_info_yaml(&m)])
+        .with_vlen_strings(&[&v.scene_info])
         .with_shape(&[]);
     let tmp = path.with_extension("hdf5.tmp");
     fb.write(&tmp).map_err(|e| h5_err(path, e))?;

@@ -13,12 +13,13 @@
 //! One module per concept: [`wall`] (the relay wall and its grids), [`setup`] (the scan:
 //! sensor and laser points, devices, time axis), [`capture`] (the renderer),
 //! [`files`] (the capture format and the reconstruction's files), [`reconstruct`] (bp,
-//! fbp, f-k migration, phasor fields).
+//! fbp, f-k migration, phasor fields), [`spad`] (`tprf sensor`'s SPAD on a capture).
 
 pub mod capture;
 pub mod files;
 pub mod reconstruct;
 pub mod setup;
+pub mod spad;
 pub mod wall;
 
 pub use capture::{Capture, render_capture};
@@ -55,6 +56,8 @@ pub enum NlosError {
     Export(#[from] crate::export::ExportError),
     #[error(transparent)]
     Budget(#[from] crate::budget::BudgetError),
+    #[error(transparent)]
+    Sensor(#[from] crate::sensor::SensorError),
     #[error("{path}: {message}")]
     File { path: String, message: String },
 }

@@ -25,6 +25,7 @@
 
 use super::NlosError;
 use super::files::LoadedCapture;
+use crate::transport::bsdf::turn_cos_sin;
 use glam::Vec3;
 use rayon::prelude::*;
 use rustfft::FftPlanner;
@@ -567,17 +568,17 @@ fn phasor_filter(tr: &[f32], k: usize, t: usize, delta_t_m: f64, wave: Wave) -> 
 
 /// The band of frequencies (cycles per metre) and weights of the phasor-field kernel:
 /// a Gaussian around `1 / lambda` of standard deviation `1 / (2 pi sigma)`, within 3 of them.
-fn band(wave: Wave, delta_t_m: f64, n: usize) -> Vec<(f64, f32)> {
+fn band(wave: Wave, delta_t_m: f64, n: usize) -> Vec<(usize, f64, f32)> {
     let df = 1.0 / (n as f64 * delta_t_m);
     let fc = 1.0 / wave.wavelength_m;
     let sf = 1.0 / (std::f64::consts::TAU * wave.sigma_m);
     let nyquist = 0.5 / delta_t_m;
     let lo = ((fc - 3.0 * sf) / df).ceil().max(1.0) as usize;
     let hi = (((fc + 3.0 * sf).min(nyquist)) / df).floor() as usize;
-    (lo..=hi.max(lo))
+    (lo..=hi.max(lo).min(n / 2))
         .map(|i| {
             let f = i as f64 * df;
-            (f, (-0.5 * ((f - fc) / sf).powi(2)).exp() as f32)
+            (i, f, (-0.5 * ((f - fc) / sf).powi(2)).exp() as f32)
         })
         .collect()
 }
@@ -596,26 +597,21 @@ fn phasor_fields(
     let n_t = (2 * t).next_power_of_two();
     let freqs = band(wave, c.delta_t_m, n_t);
     let confocal = c.is_confocal();
-    // P_f per transient: sum_b H_b e^{-2 pi i f (t_b - legs)}, t_b the bin's centre.
+    // P_f per transient: sum_b H_b e^{-2 pi i f (t_b - legs)}, t_b the bin's centre: the
+    // band's bins of the transient's FFT (zero-padded to n_t), the phase of the start.
     let nf = freqs.len();
     let mut pf = vec![Complex32::new(0.0, 0.0); k * nf];
+    let fwd_t = FftPlanner::<f32>::new().plan_fft_forward(n_t);
     pf.par_chunks_mut(nf).enumerate().for_each(|(ki, o)| {
-        let h = &tr[ki * t..(ki + 1) * t];
-        for (fi, &(f, w)) in freqs.iter().enumerate() {
-            let mut acc = rustfft::num_complex::Complex64::new(0.0, 0.0);
-            let step = -std::f64::consts::TAU * f * c.delta_t_m;
-            let first = -std::f64::consts::TAU
-                * f
-                * (c.t_start_m + 0.5 * c.delta_t_m - p.legs_m[ki] as f64);
-            let rot = rustfft::num_complex::Complex64::from_polar(1.0, step);
-            let mut e = rustfft::num_complex::Complex64::from_polar(1.0, first);
-            for &x in h {
-                if x != 0.0 {
-                    acc += e * x as f64;
-                }
-                e *= rot;
-            }
-            o[fi] = Complex32::new((acc.re * w as f64) as f32, (acc.im * w as f64) as f32);
+        let mut buf = vec![Complex32::new(0.0, 0.0); n_t];
+        for (b, x) in buf.iter_mut().zip(&tr[ki * t..(ki + 1) * t]) {
+            *b = Complex32::new(*x, 0.0);
+        }
+        fwd_t.process(&mut buf);
+        let start_m = c.t_start_m + 0.5 * c.delta_t_m - p.legs_m[ki] as f64;
+        for (o, &(bin, f, w)) in o.iter_mut().zip(&freqs) {
+            let phase = -std::f64::consts::TAU * f * start_m;
+            *o = buf[bin] * Complex32::from_polar(w, phase as f32);
         }
     });
     // Each depth plane on the sensor lattice (2-D convolution by FFT), then the voxels.
@@ -661,8 +657,6 @@ fn phasor_fields(
         }
     }
     let [du, dv] = [frame.spacing_m[0].max(1e-9), frame.spacing_m[1].max(1e-9)];
-    let vol_u = Vec3::from(volume.u);
-    let vol_v = Vec3::from(volume.v);
     let grid0 = c.sensor_grid.first().copied().unwrap_or(frame.center);
     let planes: Vec<Vec<f32>> = (0..nz)
         .into_par_iter()
@@ -670,28 +664,31 @@ fn phasor_fields(
             let depth = (volume.voxel_center(0, 0, iz) - frame.center).dot(frame.n);
             let mut image = vec![Complex32::new(0.0, 0.0); sx * sy];
             let mut kern = vec![Complex32::new(0.0, 0.0); px * py];
-            for (fi, &(f, _)) in freqs.iter().enumerate() {
+            let mut quarter = vec![Complex32::new(0.0, 0.0); (px / 2 + 1) * (py / 2 + 1)];
+            for (fi, &(_, f, _)) in freqs.iter().enumerate() {
                 let k2 = std::f32::consts::TAU * f as f32;
-                // Kernel over offsets (circular indices), e^{i k m d} / d^m.
-                for i in 0..px {
-                    let oi = if i < px / 2 {
-                        i as f32
-                    } else {
-                        i as f32 - px as f32
-                    };
-                    for j in 0..py {
-                        let oj = if j < py / 2 {
-                            j as f32
-                        } else {
-                            j as f32 - py as f32
-                        };
-                        let d = ((oi * du).powi(2) + (oj * dv).powi(2) + depth * depth).sqrt();
-                        let (m, a) = if confocal {
+                // Kernel over offsets (circular indices), e^{i k m d} / d^m: a quadrant
+                // of |offsets|, mirrored.
+                let (hx, hy) = (px / 2, py / 2);
+                for a in 0..=hx {
+                    for b in 0..=hy {
+                        let d = ((a as f32 * du).powi(2) + (b as f32 * dv).powi(2) + depth * depth)
+                            .sqrt()
+                            .max(1e-9);
+                        let (m, amp) = if confocal {
                             (2.0, 1.0 / (d * d))
                         } else {
                             (1.0, 1.0 / d)
                         };
-                        kern[i * py + j] = Complex32::from_polar(a, k2 * m * d);
+                        let (cos, sin) = turn_cos_sin(f as f32 * m * d);
+                        quarter[a * (hy + 1) + b] = Complex32::new(amp * cos, amp * sin);
+                    }
+                }
+                for i in 0..px {
+                    let a = if i <= hx { i } else { px - i };
+                    for j in 0..py {
+                        let b = if j <= hy { j } else { py - j };
+                        kern[i * py + j] = quarter[a * (hy + 1) + b];
                     }
                 }
                 fft2(&mut kern, false);
@@ -730,7 +727,6 @@ fn phasor_fields(
                     plane[iy * nx + ix] = bilinear(&image, sx, sy, fu, fv);
                 }
             }
-            let _ = (vol_u, vol_v);
             plane
         })
         .collect();
