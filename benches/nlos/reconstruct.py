@@ -3,7 +3,7 @@
 
 Renders a confocal capture of builtin:nlos-z with `tprf nlos` (or takes --capture DIR),
 then for each method reconstructs the same voxels with `tprf nlos reconstruct` and with
-tal (pip's y-tal: `tal.reconstruct.bp`, `.fbp`, `.pf_dev` and `.fk`), both on the same
+tal (pip's y-tal: `tal.reconstruct.bp`, `.fbp`, `.pf` (confocal; `.pf_dev` otherwise) and `.fk`), both on the same
 number of CPU processes, and prints the wall times, the ratio tal / tprf (> 1: tprf is
 faster) and how well the two volumes agree (correlation of the magnitudes, peak voxels).
 
@@ -46,6 +46,9 @@ if method == 'bp':
 elif method == 'fbp':
     R = tal.reconstruct.fbp.solve(data, wl_mean=wl, wl_sigma=wl / np.sqrt(2), volume_xyz=xyz,
                                   camera_system=CameraSystem.DIRECT_LIGHT, progress=False)
+elif method == 'pf' and data.is_laser_paired_to_sensor():
+    # pf_dev refuses confocal captures; tal's pf takes them (sigma = cycles wl / 6).
+    R = tal.reconstruct.pf.solve(data, wl, 6 / np.sqrt(2), camera_system=CameraSystem.DIRECT_LIGHT, volume=xyz)
 elif method == 'pf':
     R = tal.reconstruct.pf_dev.solve(data, wl_mean=wl, wl_sigma=wl / np.sqrt(2), volume_xyz=xyz,
                                      camera_system=CameraSystem.DIRECT_LIGHT, progress=False)
