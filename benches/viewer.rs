@@ -336,7 +336,7 @@ fn throughput() {
             }
             let status = h.state().status();
             if let Some(s) = &status
-                && let tprf_core::transport::worker::WorkerState::Failed(e) = &s.state
+                && let tprf_core::request::worker::WorkerState::Failed(e) = &s.state
             {
                 panic!("render failed: {e}");
             }

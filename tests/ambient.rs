@@ -346,23 +346,14 @@ fn render_writes_it_readers_read_it_the_sensor_adds_it() {
 #[test]
 fn the_worker_renders_the_ambient_image_once() {
     use std::time::{Duration, Instant};
-    use tprf_core::transport::WindowRequest;
-    use tprf_core::transport::worker::{AMBIENT_SPP, RenderJob, RenderWorker, WorkerState};
-    let job = |scene: &str| RenderJob {
-        scene: scene.into(),
+    use tprf_core::request::RenderRequest;
+    use tprf_core::request::worker::{AMBIENT_SPP, RenderWorker, WorkerState};
+    let job = |scene: &str| RenderRequest {
         width: 16,
         height: 12,
-        window: WindowRequest {
-            t0_s: None,
-            dt_s: None,
-            bins: 32,
-            aspect: 16.0 / 12.0,
-        },
-        bounces_separate: 0,
-        settings: RenderSettings::default(),
-        spp_target: Some(2),
-        error_target: None,
-        sky_radiance_w_m2_sr: None,
+        bins: 32,
+        spp: Some(2),
+        ..RenderRequest::new(scene)
     };
     let wait = |w: &RenderWorker| {
         let start = Instant::now();
@@ -389,7 +380,7 @@ fn the_worker_renders_the_ambient_image_once() {
     // ambient image of the scene with that sky (as `tprf render --sky 2` does), and a
     // negative one fails the job, naming the sky.
     let w = RenderWorker::spawn(
-        RenderJob {
+        RenderRequest {
             sky_radiance_w_m2_sr: Some(2.0),
             ..job("builtin:cornell")
         },
@@ -404,7 +395,7 @@ fn the_worker_renders_the_ambient_image_once() {
     assert_eq!(*got, want);
     assert!(want.radiance.iter().any(|&v| v > 0.0), "the sky is seen");
     let w = RenderWorker::spawn(
-        RenderJob {
+        RenderRequest {
             sky_radiance_w_m2_sr: Some(-1.0),
             ..job("builtin:cornell")
         },

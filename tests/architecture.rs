@@ -52,7 +52,7 @@ fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
 }
 
 /// The module a source file belongs to, as the table names it: the file's first path
-/// component under `src/` (`transport/worker.rs` is `transport::worker`, its own row).
+/// component under `src/` (`request/worker.rs` is `request::worker`, its own row).
 fn module_of(src: &Path, file: &Path, rows: &[(String, BTreeSet<String>)]) -> Option<String> {
     let rel = file.strip_prefix(src).unwrap();
     let parts: Vec<String> = rel
@@ -73,7 +73,7 @@ fn module_of(src: &Path, file: &Path, rows: &[(String, BTreeSet<String>)]) -> Op
 }
 
 /// Modules `text` refers to through `prefix` (`crate::` or `tprf_core::`), with the row
-/// names of nested rows (`transport::worker`) where the path goes that deep. Comments
+/// names of nested rows (`request::worker`) where the path goes that deep. Comments
 /// are skipped.
 fn referenced(text: &str, prefix: &str, rows: &[(String, BTreeSet<String>)]) -> BTreeSet<String> {
     let mut out = BTreeSet::new();
@@ -120,7 +120,7 @@ fn referenced(text: &str, prefix: &str, rows: &[(String, BTreeSet<String>)]) -> 
 }
 
 /// Is `used` allowed for a module whose row reads `reads`? Reading `transport` allows
-/// its nested rows' parent only; a nested row (`transport::worker`) is listed by name.
+/// its nested rows' parent only; a nested row (`request::worker`) is listed by name.
 fn allowed(module: &str, used: &str, reads: &BTreeSet<String>) -> bool {
     used == module
         || module.starts_with(&format!("{used}::"))

@@ -15,8 +15,8 @@ use std::time::{Duration, Instant};
 use tprf::viewer::sensor::SensorState;
 use tprf::viewer::{Mode, Selection, Start, SteadyBlock, TprfApp, ViewerSettings};
 use tprf_core::film::{FilmLayout, FilmSnapshot, TimeAxis};
+use tprf_core::request::worker::WorkerState;
 use tprf_core::sensor::{Exposure, LightPulse, Sensor, TimeOrigin};
-use tprf_core::transport::worker::WorkerState;
 
 fn small_settings(scene: &str, side: usize, bins: usize, spp: u64) -> ViewerSettings {
     ViewerSettings {

@@ -1,6 +1,8 @@
-//! Helpers the commands share: time options with units, the worker pool.
+//! Helpers the commands share: time options with units, the worker pool, the
+//! arguments of a render request and its errors named by option.
 
 use anyhow::{Context, Result};
+use tprf_core::request::{RenderRequest, RequestError};
 use tprf_core::units::parse_time_s;
 
 /// The value of a time option such as `--t0 3ns` or `--dt 1cm` (a unit of time, or of
@@ -31,4 +33,181 @@ pub fn check_out(flag: &str, out: &std::path::Path, inputs: &[&std::path::Path])
         }
         e => anyhow::Error::from(e).context(flag.to_string()),
     })
+}
+
+/// The arguments every command that renders a scene shares (`tprf render`, and its
+/// shards): one [`RenderRequest`] field each, flattened into the command's own
+/// arguments (`#[command(flatten)]`), with the request's defaults.
+#[derive(clap::Args, Debug, Clone)]
+pub struct RequestArgs {
+    /// A .gltf/.glb path or builtin:NAME (builtin:cornell, builtin:canopy).
+    pub scene: String,
+    #[arg(long, default_value_t = 256)]
+    pub width: usize,
+    #[arg(long, default_value_t = 256)]
+    pub height: usize,
+    /// Samples per pixel (default 64 unless --seconds is given).
+    #[arg(long, conflicts_with = "seconds")]
+    pub spp: Option<u64>,
+    /// Render for this many seconds of wall time instead of a fixed spp.
+    #[arg(long)]
+    pub seconds: Option<f64>,
+    /// Number of time bins.
+    #[arg(long, default_value_t = 256)]
+    pub bins: usize,
+    /// Start of the time window, with a unit: s ms us ns ps fs, or m cm mm km of optical
+    /// path (default: just before the first arrival).
+    #[arg(long, value_parser = time_value)]
+    pub t0: Option<f64>,
+    /// Bin width, with a unit as for --t0 (default: the window that holds 99.5 % of a pilot
+    /// render's energy, divided into --bins).
+    #[arg(long, value_parser = time_value)]
+    pub dt: Option<f64>,
+    /// Largest number of scattering events on a path (Russian roulette ends most earlier).
+    #[arg(long, default_value_t = 1024)]
+    pub max_bounces: u32,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Worker threads (default: all cores). The output does not depend on it.
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Also write frames/0000.png ... (one per bin, shared exposure).
+    #[arg(long)]
+    pub frames: bool,
+    /// Per-bounce layers: bounce 0 (emitters seen directly), 1..K and the rest, in
+    /// tprf_bounces.npy [K+2, H, W, T] (or the array "bounces" of tprf.zarr).
+    #[arg(long, default_value_t = 0)]
+    pub bounces_separate: u32,
+    /// How the cube is written: `npy` (tprf.npy, one dense float32 array), `zarr`
+    /// (tprf.zarr, chunked and compressed, only where light arrived), or `auto`: npy
+    /// up to 4 GiB, zarr above.
+    #[arg(long, default_value = "auto", value_parser = parse_format)]
+    pub format: tprf_core::export::CubeFormat,
+    /// The spectral band the one-channel cube records: red, green, blue or gray.
+    #[arg(long, default_value_t = tprf_core::scene::Channel::Gray, value_parser = parse_channel)]
+    pub channel: tprf_core::scene::Channel,
+    /// Every pixel draws every pass's samples, for the same noise across the image.
+    /// Default: from the fourth sample per pixel on, where the noise is uneven enough for
+    /// it to pay, pixels draw samples in proportion to their measured noise over the
+    /// square root of their cost, for the least cube error per second (unbiased either
+    /// way).
+    #[arg(long)]
+    pub uniform: bool,
+    /// Render only shard K of N (0-based, "K/N"): the image's bands of --band-rows rows,
+    /// band b going to shard b mod N, with the same passes and window as the whole
+    /// render. `tprf merge` puts the N shard folders together into the cube one
+    /// process writes, bit for bit. Needs --spp (a time budget is not reproducible) and
+    /// --uniform (a shard cannot see the other shards' noise to plan its samples).
+    #[arg(long, conflicts_with_all = ["seconds", "frames"])]
+    pub shard: Option<String>,
+    /// Rows per band of --shard. Bands of whole Zarr chunks (32 rows, the default) let
+    /// `tprf merge` link every chunk file; thinner bands share chunks, which the merge
+    /// decodes and encodes again.
+    #[arg(long, default_value_t = tprf_core::export::shard::DEFAULT_BAND_ROWS, requires = "shard")]
+    pub band_rows: usize,
+    /// A constant sky of this radiance (W m^-2 sr^-1) in the ambient light group: not
+    /// pulsed, rendered once into ambient.npy beside the cube.
+    #[arg(long)]
+    pub sky: Option<f64>,
+    /// Samples per pixel of the ambient image, when the scene has ambient light (a sun,
+    /// a sky, lamps tagged ambient). Default: --spp, or 64.
+    #[arg(long)]
+    pub ambient_spp: Option<u32>,
+    /// Put the camera at X,Y,Z (metres); alone, it keeps the scene camera's direction.
+    #[arg(long, value_name = "X,Y,Z", value_parser = vec3_value, allow_hyphen_values = true)]
+    pub camera_position: Option<[f64; 3]>,
+    /// Turn the camera toward the point X,Y,Z (metres).
+    #[arg(long, value_name = "X,Y,Z", value_parser = vec3_value, allow_hyphen_values = true)]
+    pub look_at: Option<[f64; 3]>,
+    /// The camera's up direction with --look-at (default +Y, or +Z when looking along Y).
+    #[arg(long, value_name = "X,Y,Z", value_parser = vec3_value, allow_hyphen_values = true)]
+    pub up: Option<[f64; 3]>,
+    /// The camera's vertical field of view, degrees (default: the scene camera's).
+    #[arg(long, value_name = "DEG")]
+    pub fov: Option<f64>,
+}
+
+impl RequestArgs {
+    /// The request these arguments describe (not yet validated).
+    pub fn request(&self) -> RenderRequest {
+        RenderRequest {
+            scene: self.scene.clone(),
+            width: self.width,
+            height: self.height,
+            bins: self.bins,
+            t0_s: self.t0,
+            dt_s: self.dt,
+            spp: self.spp,
+            seconds: self.seconds,
+            max_bounces: self.max_bounces,
+            bounces_separate: self.bounces_separate,
+            seed: self.seed,
+            channel: self.channel,
+            uniform: self.uniform,
+            sky_radiance_w_m2_sr: self.sky,
+            ambient_spp: self.ambient_spp,
+            camera_position_m: self.camera_position,
+            look_at_m: self.look_at,
+            up: self.up,
+            fov_deg: self.fov,
+            threads: self.threads,
+            format: self.format,
+            frames: self.frames,
+            shard: self.shard.clone(),
+            band_rows: self.band_rows,
+            ..RenderRequest::default()
+        }
+    }
+}
+
+/// A request field's option on the command line: `--band-rows` for `band_rows`, `SCENE`
+/// for the scene.
+pub fn flag(field: &str) -> String {
+    match field {
+        "scene" => "SCENE".into(),
+        f => format!("--{}", f.replace('_', "-")),
+    }
+}
+
+/// A request's error as the command line says it: fields named by their options, and
+/// no light in the pilot pointing at the window options.
+pub fn request_error(e: RequestError) -> anyhow::Error {
+    use tprf_core::transport::WindowError;
+    match e {
+        RequestError::Invalid(p) => anyhow::anyhow!(p.text_with(flag)),
+        RequestError::Window(WindowError::NoLight) => {
+            anyhow::Error::from(e).context("--t0 and --dt")
+        }
+        e => e.into(),
+    }
+}
+
+/// `--t0`/`--dt`: a time with a unit, in seconds.
+fn time_value(text: &str) -> Result<f64, String> {
+    parse_time_s(text)
+}
+
+/// `X,Y,Z`: three finite numbers.
+fn vec3_value(text: &str) -> Result<[f64; 3], String> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    let numbers: Vec<f64> = parts
+        .iter()
+        .filter_map(|p| p.parse::<f64>().ok())
+        .filter(|v| v.is_finite())
+        .collect();
+    match numbers[..] {
+        [x, y, z] if parts.len() == 3 => Ok([x, y, z]),
+        _ => Err(format!(
+            "'{text}' is not X,Y,Z: three finite numbers separated by commas"
+        )),
+    }
+}
+
+fn parse_format(s: &str) -> Result<tprf_core::export::CubeFormat, String> {
+    s.parse()
+}
+
+fn parse_channel(s: &str) -> Result<tprf_core::scene::Channel, String> {
+    s.parse()
+        .map_err(|e: tprf_core::scene::UnknownChannel| e.to_string())
 }

@@ -29,10 +29,9 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use clap::{Args, Parser};
+use clap::Args;
 use serde::Deserialize;
-
-use super::{Cli, Command};
+use tprf_core::request::{RenderRequest, RequestError};
 
 #[derive(Args, Debug)]
 pub struct BatchArgs {
@@ -47,76 +46,9 @@ pub struct BatchArgs {
     /// Render a job even when its output is complete.
     #[arg(long)]
     pub force: bool,
-    /// Worker threads of each render (default: all cores).
+    /// Worker threads of each render (default: all cores, or a job's own `threads`).
     #[arg(long)]
     pub threads: Option<usize>,
-}
-
-/// What a job (or a sweep's settings entry, or the defaults) may set. Unset fields take
-/// the defaults', then `tprf render`'s.
-#[derive(Clone, Debug, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct JobSettings {
-    pub width: Option<usize>,
-    pub height: Option<usize>,
-    pub spp: Option<u64>,
-    pub bins: Option<usize>,
-    /// Window start, with a unit as for `tprf render --t0`.
-    pub t0: Option<String>,
-    /// Bin width, with a unit as for `--dt`.
-    pub dt: Option<String>,
-    pub seed: Option<u64>,
-    pub max_bounces: Option<u32>,
-    pub bounces_separate: Option<u32>,
-    pub channel: Option<String>,
-    /// `npy`, `zarr` or `auto`.
-    pub format: Option<String>,
-    /// Every pixel draws every pass's samples (`tprf render --uniform`); default false:
-    /// adaptive sampling.
-    pub uniform: Option<bool>,
-    /// Sensor presets (TOML files or builtin:NAME) each measuring the cube into
-    /// `OUT/sensor-NAME/`.
-    pub sensors: Option<Vec<String>>,
-}
-
-impl JobSettings {
-    /// `self`, its unset fields taken from `base`.
-    fn over(self, base: &JobSettings) -> JobSettings {
-        let b = base.clone();
-        JobSettings {
-            width: self.width.or(b.width),
-            height: self.height.or(b.height),
-            spp: self.spp.or(b.spp),
-            bins: self.bins.or(b.bins),
-            t0: self.t0.or(b.t0),
-            dt: self.dt.or(b.dt),
-            seed: self.seed.or(b.seed),
-            max_bounces: self.max_bounces.or(b.max_bounces),
-            bounces_separate: self.bounces_separate.or(b.bounces_separate),
-            channel: self.channel.or(b.channel),
-            format: self.format.or(b.format),
-            uniform: self.uniform.or(b.uniform),
-            sensors: self.sensors.or(b.sensors),
-        }
-    }
-}
-
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct JobTable {
-    name: Option<String>,
-    scene: String,
-    out: PathBuf,
-    #[serde(flatten)]
-    settings: JobSettings,
-}
-
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct SettingsEntry {
-    name: String,
-    #[serde(flatten)]
-    settings: JobSettings,
 }
 
 #[derive(Debug, Deserialize)]
@@ -126,17 +58,21 @@ struct SweepTable {
     /// With `{scene}` (the scene's name: `cornell` for builtin:cornell, a file's stem)
     /// and `{settings}` (the settings entry's name).
     out: String,
+    /// Each entry: `name` and any request field (and `sensors`).
     #[serde(default)]
-    settings: Vec<SettingsEntry>,
+    settings: Vec<toml::Table>,
 }
 
+/// A manifest: `[defaults]` and each `[[job]]` or sweep settings entry are tables of
+/// [`RenderRequest`] fields (the keys of `tprf render`'s options: `width`, `spp`, `t0`,
+/// `max_bounces` ...) and a job's own keys (`name`, `scene`, `out`, `sensors`).
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct Manifest {
     #[serde(default)]
-    defaults: JobSettings,
+    defaults: toml::Table,
     #[serde(default)]
-    job: Vec<JobTable>,
+    job: Vec<toml::Table>,
     #[serde(default)]
     sweep: Vec<SweepTable>,
 }
@@ -145,9 +81,12 @@ struct Manifest {
 #[derive(Clone, Debug)]
 pub struct Job {
     pub name: String,
-    pub scene: String,
     pub out: PathBuf,
-    pub settings: JobSettings,
+    /// Sensor presets (TOML files or builtin:NAME) each measuring the cube into
+    /// `OUT/sensor-NAME/`.
+    pub sensors: Vec<String>,
+    /// The render (its scene resolved against the manifest's folder), validated.
+    pub request: RenderRequest,
 }
 
 /// A scene's short name: `cornell` for `builtin:cornell`, the file stem of a path.
@@ -160,14 +99,57 @@ fn scene_name(scene: &str) -> String {
     }
 }
 
+/// A job's own keys taken out of its table, the rest read as a [`RenderRequest`].
+struct JobTable {
+    name: Option<String>,
+    out: Option<String>,
+    sensors: Vec<String>,
+    request: RenderRequest,
+}
+
+/// `table` over `base` (its own keys win), split into a job's keys and its request; a
+/// wrong type or an unknown key is refused, naming it.
+fn job_table(table: &toml::Table, base: &toml::Table) -> Result<JobTable> {
+    let mut t = base.clone();
+    t.extend(table.iter().map(|(k, v)| (k.clone(), v.clone())));
+    let mut text = |key: &str| -> Result<Option<String>> {
+        match t.remove(key) {
+            None => Ok(None),
+            Some(toml::Value::String(s)) => Ok(Some(s)),
+            Some(v) => bail!("{key} must be a string (got {v})"),
+        }
+    };
+    let name = text("name")?;
+    let out = text("out")?;
+    let sensors = match t.remove("sensors") {
+        None => Vec::new(),
+        Some(v) => v
+            .try_into::<Vec<String>>()
+            .context("sensors must be a list of preset names or files")?,
+    };
+    let request: RenderRequest = toml::Value::Table(t).try_into()?;
+    Ok(JobTable {
+        name,
+        out,
+        sensors,
+        request,
+    })
+}
+
 /// The jobs of the manifest at `path`, in order: its `[[job]]`s, then each sweep's
 /// scenes x settings. Relative scene and output paths are taken from the manifest's
-/// folder. Refused: an unreadable or unknown field, two jobs of one name or one output.
+/// folder. Refused: an unreadable manifest, an unknown key or a wrong type, a job whose
+/// request is invalid (naming its key), two jobs of one name or one output.
 pub fn load_jobs(path: &Path) -> Result<Vec<Job>> {
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("cannot read the manifest {}", path.display()))?;
-    let m: Manifest = toml::from_str(&text)
-        .with_context(|| format!("{} is not a batch manifest", path.display()))?;
+    let not_manifest = || format!("{} is not a batch manifest", path.display());
+    let m: Manifest = toml::from_str(&text).with_context(not_manifest)?;
+    for key in ["name", "out"] {
+        if m.defaults.contains_key(key) {
+            bail!("{}: [defaults] cannot set a job's {key}", not_manifest());
+        }
+    }
     let base = path.parent().unwrap_or(Path::new("."));
     let resolve_scene = |s: &str| -> String {
         if s.starts_with("builtin:") || Path::new(s).is_absolute() {
@@ -184,45 +166,82 @@ pub fn load_jobs(path: &Path) -> Result<Vec<Job>> {
         }
     };
     let mut jobs = Vec::new();
-    for j in m.job {
-        let name = j.name.unwrap_or_else(|| {
-            j.out.file_name().map_or_else(
-                || j.out.display().to_string(),
+    let mut add = |name: String, out: PathBuf, t: JobTable| -> Result<()> {
+        let request = RenderRequest {
+            scene: resolve_scene(&t.request.scene),
+            ..t.request
+        };
+        request
+            .validate()
+            .with_context(|| format!("{}: job '{name}'", path.display()))?;
+        jobs.push(Job {
+            name,
+            out,
+            sensors: t.sensors,
+            request,
+        });
+        Ok(())
+    };
+    for (i, table) in m.job.iter().enumerate() {
+        let t = job_table(table, &m.defaults)
+            .with_context(|| format!("{}: job {}", not_manifest(), i + 1))?;
+        let Some(out) = t.out.clone() else {
+            bail!("{}: job {} has no out", not_manifest(), i + 1);
+        };
+        if !table.contains_key("scene") {
+            bail!("{}: job {} has no scene", not_manifest(), i + 1);
+        }
+        let out = PathBuf::from(out);
+        let name = t.name.clone().unwrap_or_else(|| {
+            out.file_name().map_or_else(
+                || out.display().to_string(),
                 |n| n.to_string_lossy().into_owned(),
             )
         });
-        jobs.push(Job {
-            name,
-            scene: resolve_scene(&j.scene),
-            out: resolve_out(&j.out),
-            settings: j.settings.over(&m.defaults),
-        });
+        add(name, resolve_out(&out), t)?;
     }
     for (i, s) in m.sweep.into_iter().enumerate() {
         if s.scenes.is_empty() {
             bail!("{}: sweep {} lists no scenes", path.display(), i + 1);
         }
         let entries = if s.settings.is_empty() {
-            vec![SettingsEntry {
-                name: "default".into(),
-                settings: JobSettings::default(),
-            }]
+            let mut default = toml::Table::new();
+            default.insert("name".into(), "default".into());
+            vec![default]
         } else {
             s.settings
         };
         for scene in &s.scenes {
-            for e in &entries {
+            for (j, e) in entries.iter().enumerate() {
+                let mut entry = e.clone();
+                for key in ["scene", "out"] {
+                    if entry.contains_key(key) {
+                        bail!(
+                            "{}: sweep {} settings {}: {key} is the sweep's, not an entry's",
+                            not_manifest(),
+                            i + 1,
+                            j + 1
+                        );
+                    }
+                }
+                entry.insert("scene".into(), scene.clone().into());
+                let t = job_table(&entry, &m.defaults).with_context(|| {
+                    format!("{}: sweep {} settings {}", not_manifest(), i + 1, j + 1)
+                })?;
+                let Some(entry_name) = t.name.clone() else {
+                    bail!(
+                        "{}: sweep {} settings {} has no name",
+                        not_manifest(),
+                        i + 1,
+                        j + 1
+                    );
+                };
                 let out = s
                     .out
                     .replace("{scene}", &scene_name(scene))
-                    .replace("{settings}", &e.name);
+                    .replace("{settings}", &entry_name);
                 let out = resolve_out(Path::new(&out));
-                jobs.push(Job {
-                    name: format!("{}-{}", scene_name(scene), e.name),
-                    scene: resolve_scene(scene),
-                    out,
-                    settings: e.settings.clone().over(&m.defaults),
-                });
+                add(format!("{}-{}", scene_name(scene), entry_name), out, t)?;
             }
         }
     }
@@ -247,43 +266,6 @@ pub fn load_jobs(path: &Path) -> Result<Vec<Job>> {
     Ok(jobs)
 }
 
-/// The `tprf render` command line of a job.
-fn render_argv(job: &Job, threads: Option<usize>) -> Vec<String> {
-    let s = &job.settings;
-    let mut argv = vec![
-        "tprf".to_string(),
-        "render".into(),
-        job.scene.clone(),
-        "--out".into(),
-        job.out.to_string_lossy().into_owned(),
-    ];
-    let mut flag = |name: &str, value: Option<String>| {
-        if let Some(v) = value {
-            argv.push(format!("--{name}"));
-            argv.push(v);
-        }
-    };
-    flag("width", s.width.map(|v| v.to_string()));
-    flag("height", s.height.map(|v| v.to_string()));
-    flag("spp", s.spp.map(|v| v.to_string()));
-    flag("bins", s.bins.map(|v| v.to_string()));
-    flag("t0", s.t0.clone());
-    flag("dt", s.dt.clone());
-    flag("seed", s.seed.map(|v| v.to_string()));
-    flag("max-bounces", s.max_bounces.map(|v| v.to_string()));
-    flag(
-        "bounces-separate",
-        s.bounces_separate.map(|v| v.to_string()),
-    );
-    flag("channel", s.channel.clone());
-    flag("format", s.format.clone());
-    flag("threads", threads.map(|v| v.to_string()));
-    if s.uniform == Some(true) {
-        argv.push("--uniform".into());
-    }
-    argv
-}
-
 /// The folder a sensor preset's outputs go to inside a job's output.
 fn sensor_dir(job: &Job, preset: &str) -> PathBuf {
     job.out.join(format!("sensor-{}", scene_name(preset)))
@@ -293,10 +275,8 @@ fn sensor_dir(job: &Job, preset: &str) -> PathBuf {
 /// ([`cube_incomplete`]), or a sensor's `sensor.json` is missing.
 pub fn incomplete(job: &Job) -> Option<String> {
     cube_incomplete(job).or_else(|| {
-        job.settings
-            .sensors
+        job.sensors
             .iter()
-            .flatten()
             .map(|p| sensor_dir(job, p).join("sensor.json"))
             .find(|done| !done.is_file())
             .map(|done| format!("{} is missing", done.display()))
@@ -317,13 +297,13 @@ pub fn cube_incomplete(job: &Job) -> Option<String> {
     if meta.shard.is_some() {
         return Some(format!("{} holds a shard", job.out.display()));
     }
-    let s = &job.settings;
+    let r = &job.request;
     let differs = [
-        ("width", s.width.map(|v| v as u64), meta.width as u64),
-        ("height", s.height.map(|v| v as u64), meta.height as u64),
-        ("spp", s.spp, meta.spp),
-        ("bins", s.bins.map(|v| v as u64), meta.bins as u64),
-        ("seed", s.seed, meta.seed),
+        ("width", Some(r.width as u64), meta.width as u64),
+        ("height", Some(r.height as u64), meta.height as u64),
+        ("spp", r.spp_target(), meta.spp),
+        ("bins", Some(r.bins as u64), meta.bins as u64),
+        ("seed", Some(r.seed), meta.seed),
     ]
     .into_iter()
     .find(|(_, want, have)| want.is_some_and(|w| w != *have));
@@ -333,10 +313,10 @@ pub fn cube_incomplete(job: &Job) -> Option<String> {
             want.unwrap_or_default()
         ));
     }
-    if meta.scene != job.scene {
-        return Some(format!("it renders {}, the job {}", meta.scene, job.scene));
+    if meta.scene != r.scene {
+        return Some(format!("it renders {}, the job {}", meta.scene, r.scene));
     }
-    let uniform = s.uniform.unwrap_or(false);
+    let uniform = r.uniform;
     if meta.adaptive == uniform {
         let sampling = |uniform| if uniform { "uniform" } else { "adaptive" };
         return Some(format!(
@@ -362,7 +342,7 @@ pub enum JobOutcome {
 }
 
 /// Run one job: skipped when its output is complete (unless `force`); else rendered
-/// through `tprf render`'s own code (the folder swapped in whole) unless its cube is
+/// as `tprf render` renders (the folder swapped in whole) unless its cube is
 /// complete, then each sensor preset whose outputs are missing measured into
 /// `OUT/sensor-NAME/` through `tprf sensor`'s.
 pub fn run_job(job: &Job, threads: Option<usize>, force: bool) -> Result<JobOutcome> {
@@ -372,7 +352,7 @@ pub fn run_job(job: &Job, threads: Option<usize>, force: bool) -> Result<JobOutc
     if force || cube_incomplete(job).is_some() {
         render_job(job, threads)?;
     }
-    for preset in job.settings.sensors.iter().flatten() {
+    for preset in &job.sensors {
         let out = sensor_dir(job, preset);
         if !force && out.join("sensor.json").is_file() {
             continue;
@@ -396,19 +376,17 @@ pub fn run_job(job: &Job, threads: Option<usize>, force: bool) -> Result<JobOutc
     Ok(JobOutcome::Done)
 }
 
-/// Render a job's cube through `tprf render`'s argument parsing and code.
+/// Render a job's request (`threads`, when given, replacing the job's own) as
+/// `tprf render` does; an invalid request names the manifest's key.
 fn render_job(job: &Job, threads: Option<usize>) -> Result<()> {
-    let argv = render_argv(job, threads);
-    let cli = Cli::try_parse_from(&argv).map_err(|e| {
-        anyhow::anyhow!(
-            "its settings do not make a render: {}",
-            e.to_string().lines().next().unwrap_or_default()
-        )
-    })?;
-    let Some(Command::Render(args)) = &cli.command else {
-        bail!("internal: the job's command line is not a render");
+    let request = RenderRequest {
+        threads: threads.or(job.request.threads),
+        ..job.request.clone()
     };
-    super::render::run(args)
+    super::render::render_request(&request, &job.out, |e| match e {
+        RequestError::Invalid(p) => anyhow::anyhow!("its settings do not make a render: {p}"),
+        e => e.into(),
+    })
 }
 
 /// `tprf batch`.

@@ -9,7 +9,7 @@ use tprf_core::report::converge::{
     EstimatorSetting, FilmRequest, RunConfig, resolve_target, run_setting, summarise, summary_text,
     write_outputs,
 };
-use tprf_core::transport::RenderSettings;
+use tprf_core::request::RenderRequest;
 use tprf_core::units::format_time;
 
 use super::args::{thread_pool, time_s};
@@ -101,12 +101,11 @@ pub fn run(a: &ConvergeArgs) -> Result<()> {
     let config = RunConfig {
         seconds: a.seconds,
         per_decade: a.per_decade,
-        base: RenderSettings {
+        base: RenderRequest {
             seed: a.seed,
             channel: target.channel,
-            ..RenderSettings::default()
+            ..RenderRequest::default()
         },
-        ..RunConfig::default()
     };
     let r = &target.reference;
     eprintln!(
@@ -138,7 +137,7 @@ pub fn run(a: &ConvergeArgs) -> Result<()> {
                     )
                 })
             })
-            .map_err(anyhow::Error::msg)?;
+            .map_err(super::args::request_error)?;
         summaries.extend(summarise(&checkpoints));
         all.extend(checkpoints);
     }

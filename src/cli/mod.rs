@@ -3,7 +3,6 @@
 //! work is done by `tprf_core` (and the viewer); a command checks its arguments, calls
 //! the library, reports progress, and its errors end here, printed once.
 
-mod ambient;
 mod args;
 pub mod batch;
 pub mod converge;

@@ -14,7 +14,7 @@ use super::tone::{Exposure, Scratch, View};
 use eframe::egui::{self, RichText};
 use std::time::Instant;
 use tprf_core::film::FilmSnapshot;
-use tprf_core::transport::worker::WorkerState;
+use tprf_core::request::worker::WorkerState;
 
 /// The tprf window.
 pub struct TprfApp {

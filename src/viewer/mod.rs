@@ -1,7 +1,7 @@
 //! The viewer: an egui/eframe window over a TPRF film. Immediate mode: each frame it
 //! reads the latest snapshot and status from the render worker (or a cube loaded from
 //! disk) and draws; it mirrors no film data. It talks to the renderer only by starting,
-//! pausing and dropping a [`RenderWorker`](tprf_core::transport::worker::RenderWorker),
+//! pausing and dropping a [`RenderWorker`](tprf_core::request::worker::RenderWorker),
 //! and never waits for it.
 //!
 //! - `app`: [`TprfApp`] and the order in which a frame draws its panels;

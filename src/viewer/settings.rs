@@ -3,11 +3,9 @@
 
 use super::colormap::{ColorMap, ExposureMode};
 use serde::{Deserialize, Serialize};
+use tprf_core::request::{RenderRequest, parse_time_field};
 use tprf_core::scene::Channel;
 use tprf_core::sensor::Sensor;
-use tprf_core::transport::worker::RenderJob;
-use tprf_core::transport::{RenderSettings, WindowRequest};
-use tprf_core::units::parse_time_s;
 
 /// Everything the viewer remembers between runs (eframe storage).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -122,10 +120,12 @@ impl ViewerSettings {
         if !(self.play_bins_per_s.is_finite() && self.play_bins_per_s > 0.0) {
             self.play_bins_per_s = 30.0;
         }
-        if self
-            .sky_radiance_w_m2_sr
-            .is_some_and(|l| !(l.is_finite() && l >= 0.0))
-        {
+        // The request's own check of the sky (finite, >= 0, within f32).
+        let sky = RenderRequest {
+            sky_radiance_w_m2_sr: self.sky_radiance_w_m2_sr,
+            ..RenderRequest::new("sky")
+        };
+        if self.sky_radiance_w_m2_sr.is_some() && sky.validate().is_err() {
             self.sky_radiance_w_m2_sr = None;
         }
         // No film has more bounce layers than bounces, nor the window more than this.
@@ -175,45 +175,64 @@ impl ViewerSettings {
         }
     }
 
-    /// The render job these settings describe, or what is wrong with them.
-    pub(super) fn job(&self) -> Result<RenderJob, String> {
-        let parse = |s: &str, what: &str| -> Result<Option<f64>, String> {
-            if s.trim().is_empty() {
-                Ok(None)
-            } else {
-                parse_time_s(s)
-                    .map(Some)
-                    .map_err(|e| format!("{what}: {e}"))
-            }
-        };
-        let t0_s = parse(&self.t0, "window start")?;
-        let dt_s = parse(&self.dt, "bin width")?;
-        if let Some(dt) = dt_s
-            && dt <= 0.0
-        {
-            return Err("bin width must be > 0".into());
-        }
-        Ok(RenderJob {
+    /// The render these settings describe (checked: [`RenderRequest::validate`]), or
+    /// what is wrong with them (the request's message, naming its field: `dt: bin width
+    /// -1 ns must be finite and > 0`).
+    pub(super) fn job(&self) -> Result<RenderRequest, String> {
+        let named = |e: tprf_core::request::RequestError| e.to_string();
+        let request = RenderRequest {
             scene: self.scene.clone(),
             width: self.width,
             height: self.height,
-            window: WindowRequest {
-                t0_s,
-                dt_s,
-                bins: self.bins,
-                aspect: self.width as f64 / self.height.max(1) as f64,
-            },
+            bins: self.bins,
+            t0_s: parse_time_field("t0", &self.t0).map_err(named)?,
+            dt_s: parse_time_field("dt", &self.dt).map_err(named)?,
             bounces_separate: 3,
-            settings: RenderSettings {
-                max_bounces: self.max_bounces,
-                seed: self.seed,
-                channel: self.channel,
-                adaptive: !self.uniform_sampling,
-                ..Default::default()
-            },
-            spp_target: (self.spp_target > 0).then_some(self.spp_target),
+            max_bounces: self.max_bounces,
+            seed: self.seed,
+            channel: self.channel,
+            uniform: self.uniform_sampling,
+            spp: (self.spp_target > 0).then_some(self.spp_target),
             error_target: (self.error_target_pct > 0.0).then(|| self.error_target_pct / 100.0),
+            until_stopped: true,
             sky_radiance_w_m2_sr: self.sky_radiance_w_m2_sr,
-        })
+            ..RenderRequest::default()
+        };
+        request.validate().map_err(named)?;
+        Ok(request)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The window's sky goes through the request's one check: f64::MAX (beyond f32,
+    /// which the renderer holds radiance in) and a negative sky are dropped by the
+    /// sanitizing and refused as a job, naming the field; a finite one renders.
+    #[test]
+    fn the_sky_is_checked_as_the_request_checks_it() {
+        for bad in [f64::MAX, -1.0, f64::NAN] {
+            let s = ViewerSettings {
+                sky_radiance_w_m2_sr: Some(bad),
+                ..ViewerSettings::default()
+            };
+            let e = s.job().expect_err("an impossible sky was accepted");
+            assert!(e.starts_with("sky: sky radiance"), "{e}");
+            assert_eq!(s.sanitized().sky_radiance_w_m2_sr, None);
+        }
+        let s = ViewerSettings {
+            sky_radiance_w_m2_sr: Some(2.5),
+            ..ViewerSettings::default()
+        };
+        assert_eq!(s.job().unwrap().sky_radiance_w_m2_sr, Some(2.5));
+        assert_eq!(s.sanitized().sky_radiance_w_m2_sr, Some(2.5));
+        let e = ViewerSettings {
+            dt: "-1ns".into(),
+            ..ViewerSettings::default()
+        }
+        .job()
+        .unwrap_err();
+        assert_eq!(e, "dt: bin width -1 ns must be finite and > 0");
     }
 }

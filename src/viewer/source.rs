@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use tprf_core::export::{self, CubeMetadata};
 use tprf_core::film::FilmSnapshot;
+use tprf_core::request::worker::{RenderWorker, WorkerStatus};
 use tprf_core::transport::ambient::AmbientImage;
-use tprf_core::transport::worker::{RenderWorker, WorkerStatus};
 
 /// Where the film comes from.
 pub(super) enum Source {

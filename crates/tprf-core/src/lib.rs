@@ -9,12 +9,13 @@
 //! | [`budget`] | memory budgets checked before input-sized allocations; regular files read whole, bounded |
 //! | [`scene`] | the world in metres: triangles, materials, lights, camera; glTF import and export, built-in scenes |
 //! | [`accel`] | the obvhs CWBVH: closest-hit and any-hit queries |
-//! | [`transport`] | the transient path tracer (NEE + MIS, Russian roulette, optical path length per path), the automatic time window, [`transport::progressive::render`] (the one pass loop), the background [`transport::worker`] |
+//! | [`transport`] | the transient path tracer (NEE + MIS, Russian roulette, optical path length per path), the automatic time window, [`transport::progressive::render`] (the one pass loop) |
 //! | [`film`] | the TPRF store: per pixel, per time bin, f64 sums in two independent halves, per-bounce layers; snapshots for readers |
 //! | [`sensor`] | section 6 of the paper: `M_i = max(0, Noise + integral (TPRF * Light)(t) Exposure_i(t) dt)` through bin-integrated kernels `K_i` |
 //! | [`oned`] | the paper's 1-D world as exact impulse trains |
 //! | [`reference`] | exact answers (transient furnace, lit plane, 1-D world in 3-D) |
 //! | [`export`] | `.npy` cubes with `tprf.json`, PNG images and frames, CSV |
+//! | [`request`] | one render described once ([`request::RenderRequest`]), validated once; made ready ([`request::Session`]), rendered to a folder, or on the background [`request::worker`] |
 //! | [`report`] | error against run time, stiff and extreme cases |
 //! | [`nlos`] | non-line-of-sight captures (relay wall, wall-point integrator), tal's HDF5 capture format, reconstruction |
 //!
@@ -64,6 +65,7 @@ pub mod nlos;
 pub mod oned;
 pub mod reference;
 pub mod report;
+pub mod request;
 pub mod scene;
 pub mod sensor;
 pub mod transport;

@@ -8,7 +8,7 @@ use eframe::egui::{self, RichText};
 use std::sync::Arc;
 use std::time::Instant;
 use tprf_core::film::FilmSnapshot;
-use tprf_core::transport::worker::{WorkerState, WorkerStatus};
+use tprf_core::request::worker::{WorkerState, WorkerStatus};
 
 /// Where a render stands against its target: the fraction done and the seconds left.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -101,7 +101,7 @@ impl TprfApp {
         };
         let p = progress(
             s.spp,
-            job.spp_target,
+            job.spp,
             snap.and_then(|s| s.error_estimate),
             job.error_target,
             s.elapsed_s,

@@ -9,11 +9,10 @@
 use super::ReportError;
 use super::plot::{self, Curve};
 use crate::export::{self, ExportError, read_cube, write_atomic};
-use crate::film::{FilmError, FilmLayout, TimeAxis, TimeFilter, TprfFilm};
+use crate::film::{TimeAxis, TimeFilter, TprfFilm};
 use crate::reference::{Analytic, ReferenceCube};
+use crate::request::{RenderRequest, RequestError, Session};
 use crate::scene::{Channel, Scene};
-use crate::transport::progressive::{self, PassSize, Schedule};
-use crate::transport::{RenderSettings, Renderer};
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::io::Write as _;
@@ -31,12 +30,12 @@ pub struct EstimatorSetting {
     pub rr_start: Option<u32>,
     pub rr_min_survival: Option<f32>,
     pub max_bounces: Option<u32>,
-    /// Branches at the first vertex (`RenderSettings::first_bounce_splits`; 0 = auto).
+    /// Branches at the first vertex (`RenderRequest::splits`; 0 = auto).
     pub splits: Option<u32>,
-    /// Light-vertex connections on or off (`RenderSettings::light_vertex`; unset: the
+    /// Light-vertex connections on or off (`RenderRequest::light_vertex`; unset: the
     /// pilot chooses).
     pub light_vertex: Option<bool>,
-    /// Adaptive sampling on or off (`RenderSettings::adaptive`).
+    /// Adaptive sampling on or off (`RenderRequest::uniform`, negated).
     pub adaptive: Option<bool>,
     /// Its own time budget, seconds (default: the run's).
     pub seconds: Option<f64>,
@@ -146,16 +145,21 @@ impl EstimatorSetting {
         Ok(s)
     }
 
-    /// `base` with this setting's changes.
-    pub fn apply(&self, base: RenderSettings) -> RenderSettings {
-        RenderSettings {
+    /// `base` with this setting's changes (its time filter always).
+    pub fn apply(&self, base: RenderRequest) -> RenderRequest {
+        RenderRequest {
             nee: self.nee.unwrap_or(base.nee),
             rr_start: self.rr_start.unwrap_or(base.rr_start),
-            rr_min_survival: self.rr_min_survival.unwrap_or(base.rr_min_survival),
+            rr_floor: self.rr_min_survival.unwrap_or(base.rr_floor),
             max_bounces: self.max_bounces.unwrap_or(base.max_bounces),
-            first_bounce_splits: self.splits.unwrap_or(base.first_bounce_splits),
+            splits: match self.splits {
+                Some(0) => None,
+                Some(k) => Some(k),
+                None => base.splits,
+            },
             light_vertex: self.light_vertex.or(base.light_vertex),
-            adaptive: self.adaptive.unwrap_or(base.adaptive),
+            uniform: self.adaptive.map_or(base.uniform, |a| !a),
+            time_filter: self.filter,
             ..base
         }
     }
@@ -223,16 +227,15 @@ pub fn measure(
 }
 
 /// How a run is done.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct RunConfig {
     /// Seconds of rendering per setting (unless the setting has its own).
     pub seconds: f64,
     /// Checkpoints per decade of time (evenly spaced in log time).
     pub per_decade: u32,
-    /// Largest samples per pixel of one pass.
-    pub pass_cap: u32,
-    /// Settings every estimator setting starts from (seed, channel...).
-    pub base: RenderSettings,
+    /// The request every estimator setting starts from (seed, channel, threads...); its
+    /// film, window and stopping rule are the run's.
+    pub base: RenderRequest,
 }
 
 impl Default for RunConfig {
@@ -240,44 +243,47 @@ impl Default for RunConfig {
         RunConfig {
             seconds: 10.0,
             per_decade: 8,
-            pass_cap: 16,
-            base: RenderSettings::default(),
+            base: RenderRequest::default(),
         }
     }
 }
 
-/// Render `scene` with `setting` on the reference's film for the time budget, measuring
-/// at checkpoints `10^(k / per_decade)` seconds (the first pass end after each), after
-/// the first pass and at the end. `on_checkpoint` sees each one as it is made.
+/// Render `scene` with `setting` on the reference's film (its size and time axis) for
+/// the time budget, in the doubling passes of `tprf render`, measuring at checkpoints
+/// `10^(k / per_decade)` seconds (the first pass end after each), after the first pass
+/// and at the end. `on_checkpoint` sees each one as it is made.
 pub fn run_setting(
     scene: &Arc<Scene>,
     setting: &EstimatorSetting,
     config: &RunConfig,
     reference: &ReferenceCube,
     mut on_checkpoint: impl FnMut(&Checkpoint),
-) -> Result<Vec<Checkpoint>, FilmError> {
-    let renderer = Renderer::new(scene.clone(), setting.apply(config.base));
-    let layout = FilmLayout {
+) -> Result<Vec<Checkpoint>, RequestError> {
+    let request = RenderRequest {
+        scene: scene.name.clone(),
         width: reference.width,
         height: reference.height,
-        axis: reference.axis,
+        bins: reference.axis.bins,
+        t0_s: Some(reference.axis.t0_s),
+        dt_s: Some(reference.axis.dt_s),
         bounces_separate: 0,
+        // The run's own clock ends it (`render_s`, below).
+        spp: None,
+        seconds: None,
+        error_target: None,
+        until_stopped: true,
+        pass_seconds: None,
+        shard: None,
+        ..setting.apply(config.base.clone())
     };
-    let mut film = TprfFilm::new(layout)?.with_time_filter(setting.filter);
+    let mut session = Session::with_scene(&request, scene.clone())?;
     let budget = setting.seconds.unwrap_or(config.seconds);
     let per_decade = config.per_decade.max(1) as f64;
     let grid = |k: i64| 10f64.powf(k as f64 / per_decade);
     let mut next_k: Option<i64> = None;
     let mut out = Vec::new();
-    let schedule = Schedule {
-        pass_size: PassSize::Doubling {
-            cap: config.pass_cap,
-        },
-        spp_target: None,
-        time_budget_s: None,
-    };
     // The clock is the renderer's own (`render_s`): measuring is not charged.
-    progressive::render(&renderer, &mut film, &schedule, |report, film| {
+    session.run(|report, film| {
         let rendered = report.render_s;
         let done = !(rendered < budget);
         let due = next_k.is_none_or(|k| rendered >= grid(k));
@@ -702,8 +708,14 @@ mod tests {
         assert_eq!(s.filter, TimeFilter::Tent);
         assert_eq!(s.rr_start, Some(8));
         assert_eq!(s.rr_min_survival, Some(0.25));
-        let r = s.apply(RenderSettings::default());
+        let r = s.apply(RenderRequest::default()).settings();
         assert!(!r.nee && r.rr_start == 8 && r.rr_min_survival == 0.25);
+        let auto = EstimatorSetting::parse("splits=auto").unwrap();
+        let r = auto.apply(RenderRequest {
+            splits: Some(4),
+            ..RenderRequest::default()
+        });
+        assert_eq!(r.splits, None);
         assert_eq!(EstimatorSetting::parse("default").unwrap().label, "default");
         for bad in [
             "",

@@ -14,7 +14,6 @@ pub mod sampler;
 pub mod split;
 pub mod surface;
 mod window;
-pub mod worker;
 
 pub use integrator::{PassStats, RayKind, RenderSettings, Renderer, Sink};
 pub use split::Strategy;

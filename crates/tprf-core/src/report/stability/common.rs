@@ -1,9 +1,9 @@
 //! What the cases share: the size they run at, a render, and statistics of its pixels.
 
-use crate::film::{FilmLayout, TimeAxis, TprfFilm};
+use crate::film::{TimeAxis, TprfFilm};
+use crate::request::{RenderRequest, Session};
 use crate::scene::{Scene, TriangleAttrs};
-use crate::transport::progressive::{self, Schedule};
-use crate::transport::{RenderSettings, Renderer};
+use crate::transport::RenderSettings;
 use glam::Vec2;
 use std::sync::Arc;
 
@@ -26,7 +26,8 @@ impl Size {
     }
 }
 
-/// Render `scene` at `w x h`, `spp` samples in the progressive passes of `tprf render`.
+/// Render `scene` at `w x h` on `axis`, `spp` samples in the progressive passes of
+/// `tprf render`: the request `tprf render` would make of these settings.
 pub(super) fn render(
     scene: Scene,
     w: usize,
@@ -36,18 +37,22 @@ pub(super) fn render(
     settings: RenderSettings,
     bounces_separate: u32,
 ) -> TprfFilm {
-    let renderer = Renderer::new(Arc::new(scene), settings);
-    let mut film = TprfFilm::new(FilmLayout {
+    let request = RenderRequest {
+        scene: scene.name.clone(),
         width: w,
         height: h,
-        axis,
+        bins: axis.bins,
+        t0_s: Some(axis.t0_s),
+        dt_s: Some(axis.dt_s),
+        spp: Some(spp),
         bounces_separate,
-    })
-    .expect("stability films are small");
-    progressive::render(&renderer, &mut film, &Schedule::spp(spp), |_, _| {
-        std::ops::ControlFlow::Continue(())
-    });
-    film
+        ..RenderRequest::default()
+    }
+    .with_settings(settings);
+    let mut session =
+        Session::with_scene(&request, Arc::new(scene)).expect("stability films are small");
+    session.run(|_, _| std::ops::ControlFlow::Continue(()));
+    session.into_film()
 }
 
 /// NaN and infinite values in the film's cube.

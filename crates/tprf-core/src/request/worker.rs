@@ -1,42 +1,17 @@
-//! The renderer on a background thread: loads the scene, builds the BVH, picks the time
-//! window, then adds passes until told to stop, publishing a [`FilmSnapshot`] after each.
-//! Readers (the viewer) take the latest snapshot and status without ever waiting for a
-//! pass: the worker holds its locks only to swap a pointer.
+//! The renderer on a background thread: makes a [`RenderRequest`] ready (loads the
+//! scene, builds the BVH, picks the time window), then adds passes until told to stop,
+//! publishing a [`FilmSnapshot`] after each. Readers (the viewer) take the latest
+//! snapshot and status without ever waiting for a pass: the worker holds its locks only
+//! to swap a pointer.
 
-use super::ambient::{AmbientImage, has_ambient, render_ambient_cancellable};
-use super::integrator::{RenderSettings, Renderer};
-use super::progressive::{self, Schedule};
-use super::window::{WindowError, WindowRequest, auto_window};
-use crate::film::{
-    FilmError, FilmLayout, FilmSnapshot, LeftOutCounts, StoreStats, TimeAxis, TprfFilm,
-};
-use crate::scene::{self, Scene, SceneError};
+use super::{RenderRequest, RequestError, Session};
+use crate::film::{FilmSnapshot, LeftOutCounts, StoreStats, TimeAxis};
+use crate::transport::ambient::{AmbientImage, has_ambient, render_ambient_cancellable};
 use std::ops::ControlFlow;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
-
-/// What to render.
-#[derive(Clone, Debug, PartialEq)]
-pub struct RenderJob {
-    /// `builtin:NAME` or a glTF path.
-    pub scene: String,
-    pub width: usize,
-    pub height: usize,
-    pub window: WindowRequest,
-    pub bounces_separate: u32,
-    pub settings: RenderSettings,
-    /// Stop after this many samples per pixel (`None`: until stopped).
-    pub spp_target: Option<u64>,
-    /// Stop once the film's relative error estimate is at or below this (`None`: not on
-    /// the error).
-    pub error_target: Option<f64>,
-    /// A constant sky of this radiance (W m^-2 sr^-1, every band) in the scene's ambient
-    /// light group, replacing the scene's own (`None`: the scene's; `tprf render --sky`).
-    /// It never enters the transient render, only the ambient image.
-    pub sky_radiance_w_m2_sr: Option<f64>,
-}
 
 /// Where the worker is.
 #[derive(Clone, Debug, PartialEq)]
@@ -45,21 +20,8 @@ pub enum WorkerState {
     Rendering,
     Paused,
     Done,
-    /// The message of the [`RenderError`] that ended it, its causes included.
+    /// The message of the [`RequestError`] that ended it, its causes included.
     Failed(String),
-}
-
-/// Why a background render stopped before it began its passes.
-#[derive(Debug, thiserror::Error)]
-pub enum RenderError {
-    #[error(transparent)]
-    Scene(#[from] SceneError),
-    #[error(transparent)]
-    Window(#[from] WindowError),
-    #[error(transparent)]
-    Film(#[from] FilmError),
-    #[error("cannot start the render threads")]
-    Threads(#[source] rayon::ThreadPoolBuildError),
 }
 
 /// `error` and its causes, `: `-separated (as `anyhow` prints them with `{:#}`).
@@ -120,7 +82,7 @@ struct Shared {
 /// waiting for it.
 pub struct RenderWorker {
     shared: Arc<Shared>,
-    job: RenderJob,
+    job: Arc<RenderRequest>,
     handle: Option<JoinHandle<()>>,
 }
 
@@ -134,9 +96,16 @@ const PASS_TARGET_S: f64 = 0.25;
 pub const AMBIENT_SPP: u32 = 16;
 
 impl RenderWorker {
-    /// Start rendering `job`; `on_update` is called after each published change (the
-    /// viewer passes its repaint request).
-    pub fn spawn(job: RenderJob, on_update: impl Fn() + Send + Sync + 'static) -> RenderWorker {
+    /// Start rendering `job`: its passes paced ([`PASS_TARGET_S`] at first) unless it
+    /// sets `pass_seconds`, and until stopped unless it sets a target (`spp`,
+    /// `error_target`; `seconds`); `on_update` is called after each published change
+    /// (the viewer passes its repaint request).
+    pub fn spawn(job: RenderRequest, on_update: impl Fn() + Send + Sync + 'static) -> RenderWorker {
+        let job = Arc::new(RenderRequest {
+            pass_seconds: job.pass_seconds.or(Some(PASS_TARGET_S)),
+            until_stopped: true,
+            ..job
+        });
         let shared = Arc::new(Shared {
             snapshot: Mutex::new(None),
             ambient: Mutex::new(None),
@@ -186,7 +155,9 @@ impl RenderWorker {
         }
     }
 
-    pub fn job(&self) -> &RenderJob {
+    /// The request rendered (with the worker's pacing: `pass_seconds` set,
+    /// `until_stopped`).
+    pub fn job(&self) -> &RenderRequest {
         &self.job
     }
 
@@ -255,30 +226,39 @@ fn set_status(shared: &Shared, f: impl FnOnce(&mut WorkerStatus)) {
     }
 }
 
-fn run(job: &RenderJob, shared: &Shared, on_update: &(dyn Fn() + Sync)) -> Result<(), RenderError> {
+fn run(
+    job: &RenderRequest,
+    shared: &Shared,
+    on_update: &(dyn Fn() + Sync),
+) -> Result<(), RequestError> {
     let setup_start = Instant::now();
-    let mut scene: Scene = scene::load(&job.scene)?;
-    if let Some(l) = job.sky_radiance_w_m2_sr {
-        if !(l.is_finite() && l >= 0.0) {
-            return Err(SceneError::Invalid(format!(
-                "sky radiance {l} W m^-2 sr^-1 must be finite and >= 0"
-            ))
-            .into());
-        }
-        scene.ambient.sky_radiance = [l as f32; 3];
-    }
-    let notes = scene.notes.clone();
-    let triangles = scene.triangles.len();
-    let renderer = Renderer::new(Arc::new(scene), job.settings);
-    let mut ambient_pending = has_ambient(&renderer);
-    let axis = auto_window(&renderer, job.window)?;
-    let layout = FilmLayout {
-        width: job.width,
-        height: job.height,
-        axis,
-        bounces_separate: job.bounces_separate,
-    };
-    let mut film = TprfFilm::new(layout)?;
+    // One core stays with the caller (the viewer's UI thread) so frames keep their pace.
+    let threads = job.threads.unwrap_or_else(|| {
+        std::thread::available_parallelism()
+            .map_or(1, |n| n.get())
+            .saturating_sub(1)
+            .max(1)
+    });
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .thread_name(|i| format!("tprf-pass-{i}"))
+        .start_handler(|_| give_way_to_the_caller())
+        .build()
+        .map_err(RequestError::Threads)?;
+    pool.install(|| render(job, shared, on_update, setup_start))
+}
+
+fn render(
+    job: &RenderRequest,
+    shared: &Shared,
+    on_update: &(dyn Fn() + Sync),
+    setup_start: Instant,
+) -> Result<(), RequestError> {
+    let mut session = Session::new(job)?;
+    let notes = session.scene().notes.clone();
+    let triangles = session.scene().triangles.len();
+    let mut ambient_pending = has_ambient(session.renderer());
+    let axis = session.axis();
     set_status(shared, |s| {
         s.state = WorkerState::Rendering;
         s.setup_s = setup_start.elapsed().as_secs_f64();
@@ -289,96 +269,76 @@ fn run(job: &RenderJob, shared: &Shared, on_update: &(dyn Fn() + Sync)) -> Resul
         s.ambient_pending = ambient_pending;
     });
     on_update();
-    // One core stays with the caller (the viewer's UI thread) so frames keep their pace.
-    let threads = std::thread::available_parallelism()
-        .map_or(1, |n| n.get())
-        .saturating_sub(1)
-        .max(1);
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .thread_name(|i| format!("tprf-pass-{i}"))
-        .start_handler(|_| give_way_to_the_caller())
-        .build()
-        .map_err(RenderError::Threads)?;
     let mut retired: Option<Arc<FilmSnapshot>> = None;
     let mut paused_time = Duration::ZERO;
-    let schedule = Schedule::paced(PASS_TARGET_S, job.spp_target);
     let mut stopped = shared.stop.load(Ordering::Relaxed);
     if !stopped {
-        pool.install(|| {
-            progressive::render(&renderer, &mut film, &schedule, |report, film| {
-                // Snapshots are made here, on the render pool, not by the reader.
-                let snapshot = Arc::new(film.snapshot());
-                let error = snapshot.error_estimate;
-                // The snapshot replaced now is kept one more pass and freed here, on the
-                // render thread: a reader holding it during its frame would otherwise free
-                // it there (unmapping a large film takes the UI tens of milliseconds).
-                let replaced = shared
-                    .snapshot
-                    .lock()
-                    .ok()
-                    .and_then(|mut s| s.replace(snapshot));
-                drop(std::mem::replace(&mut retired, replaced));
-                let secs = (report.wall_s - paused_time.as_secs_f64()).max(0.0);
-                set_status(shared, |s| {
-                    s.state = WorkerState::Rendering;
-                    s.spp = report.spp;
-                    s.passes = film.passes();
-                    s.elapsed_s = secs;
-                    s.updated_at = Some(Instant::now());
-                    s.passes_per_s = film.passes() as f64 / secs.max(1e-9);
-                    s.rays = report.rays;
-                    s.store = film.store_stats();
-                    s.left_out = report.left_out;
-                    if let Some(e) = error {
-                        s.error_history.push((secs, e));
-                    }
-                });
-                on_update();
-                // The ambient image, once, after the first pass has been shown (the
-                // window has a picture meanwhile; a stop cancels it).
-                if ambient_pending {
-                    ambient_pending = false;
-                    let image = render_ambient_cancellable(
-                        &renderer,
-                        job.width,
-                        job.height,
-                        AMBIENT_SPP,
-                        &shared.stop,
-                    );
-                    if let (Some(image), Ok(mut slot)) = (image, shared.ambient.lock()) {
-                        *slot = Some(Arc::new(image));
-                    }
-                    set_status(shared, |s| s.ambient_pending = false);
-                    on_update();
+        // The ambient image is rendered from inside the pass callback, which borrows the
+        // session's film: it gets its own handle on the renderer.
+        let renderer = session.shared_renderer();
+        session.run(|report, film| {
+            // Snapshots are made here, on the render pool, not by the reader.
+            let snapshot = Arc::new(film.snapshot());
+            let error = snapshot.error_estimate;
+            // The snapshot replaced now is kept one more pass and freed here, on the
+            // render thread: a reader holding it during its frame would otherwise free
+            // it there (unmapping a large film takes the UI tens of milliseconds).
+            let replaced = shared
+                .snapshot
+                .lock()
+                .ok()
+                .and_then(|mut s| s.replace(snapshot));
+            drop(std::mem::replace(&mut retired, replaced));
+            let secs = (report.wall_s - paused_time.as_secs_f64()).max(0.0);
+            set_status(shared, |s| {
+                s.state = WorkerState::Rendering;
+                s.spp = report.spp;
+                s.passes = film.passes();
+                s.elapsed_s = secs;
+                s.updated_at = Some(Instant::now());
+                s.passes_per_s = film.passes() as f64 / secs.max(1e-9);
+                s.rays = report.rays;
+                s.store = film.store_stats();
+                s.left_out = report.left_out;
+                if let Some(e) = error {
+                    s.error_history.push((secs, e));
                 }
-                let pause_start = Instant::now();
-                let mut was_paused = false;
-                while shared.paused.load(Ordering::Relaxed) && !shared.stop.load(Ordering::Relaxed)
-                {
-                    was_paused = true;
-                    set_status(shared, |s| s.state = WorkerState::Paused);
-                    std::thread::sleep(Duration::from_millis(30));
-                }
-                paused_time += pause_start.elapsed();
-                if was_paused {
-                    // The clock runs on from the end of the pause.
-                    set_status(shared, |s| s.updated_at = Some(Instant::now()));
-                }
-                if shared.stop.load(Ordering::Relaxed) {
-                    stopped = true;
-                    return ControlFlow::Break(());
-                }
-                // The error target reached: done, like the spp target.
-                if job
-                    .error_target
-                    .zip(error)
-                    .is_some_and(|(target, e)| e <= target)
-                {
-                    return ControlFlow::Break(());
-                }
-                ControlFlow::Continue(())
             });
+            on_update();
+            // The ambient image, once, after the first pass has been shown (the
+            // window has a picture meanwhile; a stop cancels it).
+            if ambient_pending {
+                ambient_pending = false;
+                let image = render_ambient_cancellable(
+                    &renderer,
+                    job.width,
+                    job.height,
+                    AMBIENT_SPP,
+                    &shared.stop,
+                );
+                if let (Some(image), Ok(mut slot)) = (image, shared.ambient.lock()) {
+                    *slot = Some(Arc::new(image));
+                }
+                set_status(shared, |s| s.ambient_pending = false);
+                on_update();
+            }
+            let pause_start = Instant::now();
+            let mut was_paused = false;
+            while shared.paused.load(Ordering::Relaxed) && !shared.stop.load(Ordering::Relaxed) {
+                was_paused = true;
+                set_status(shared, |s| s.state = WorkerState::Paused);
+                std::thread::sleep(Duration::from_millis(30));
+            }
+            paused_time += pause_start.elapsed();
+            if was_paused {
+                // The clock runs on from the end of the pause.
+                set_status(shared, |s| s.updated_at = Some(Instant::now()));
+            }
+            if shared.stop.load(Ordering::Relaxed) {
+                stopped = true;
+                return ControlFlow::Break(());
+            }
+            ControlFlow::Continue(())
         });
     }
     if !stopped {

@@ -1,0 +1,312 @@
+//! A request rendered into a cube folder: what `tprf render` (and each `tprf batch`
+//! job) writes: `tprf.npy` (or `tprf.zarr`), `tprf.json`, `steady.png`, the per-bounce
+//! layers, the ambient image, frames, a shard's steady sums; written into a new folder
+//! beside the target and swapped in whole ([`crate::export::staging`]).
+
+use super::{RenderRequest, RequestError, Session};
+use crate::export::ambient::{AMBIENT_NPY, AMBIENT_UNITS, AmbientMetadata};
+use crate::export::shard::{self, ShardInfo};
+use crate::export::{self, BIN_VALUE, CameraMetadata, CubeFormat, CubeMetadata, zarr};
+use crate::film::TprfFilm;
+use crate::transport::ambient::{AmbientImage, render_ambient};
+use crate::transport::progressive::PassReport;
+use crate::units::{C_M_PER_S, format_time};
+use std::ops::ControlFlow;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// What a folder render tells its caller as it goes: lines for the user, each pass,
+/// and the start of the writing. Every method has a default that does nothing.
+pub trait Observer {
+    /// A line for the user: the scene's notes (`note: ...`), the time axis chosen, the
+    /// ambient image.
+    fn message(&mut self, _line: &str) {}
+
+    /// After each pass, with the film; [`ControlFlow::Break`] ends the render there (the
+    /// passes made are written).
+    fn pass(&mut self, _report: &PassReport, _film: &TprfFilm) -> ControlFlow<()> {
+        ControlFlow::Continue(())
+    }
+
+    /// Before the output folder is begun and between its files: [`ControlFlow::Break`]
+    /// abandons it ([`RequestError::Interrupted`]; the staging folder is removed and the
+    /// old output stays as it was).
+    fn writing(&mut self) -> ControlFlow<()> {
+        ControlFlow::Continue(())
+    }
+}
+
+/// What [`render_to_folder`] wrote.
+#[derive(Clone, Debug)]
+pub struct Written {
+    /// `tprf.json` as written.
+    pub meta: CubeMetadata,
+    /// The concrete format (`auto` resolved).
+    pub format: CubeFormat,
+    /// Rows rendered (all, or a shard's).
+    pub rows_rendered: usize,
+    /// Every pass's report.
+    pub passes: Vec<PassReport>,
+}
+
+/// The nearest of `path`'s parent folders that exists (`.` for a relative path whose
+/// first folder is new).
+fn existing_ancestor(path: &Path) -> PathBuf {
+    path.ancestors()
+        .skip(1)
+        .find(|p| !p.as_os_str().is_empty() && p.is_dir())
+        .map_or_else(|| PathBuf::from("."), PathBuf::from)
+}
+
+/// Render `request` into the folder `out` in the request's thread pool: the folder is
+/// checked before anything is rendered (it must be new, empty or an earlier tprf output;
+/// [`export::staging::check_target`], the scene file being an input it never replaces),
+/// as is the disk's room for a dense cube; after the passes, a render with NaN or
+/// infinite contributions is refused (nothing written), the ambient image rendered when
+/// the scene has ambient light, and the files written into a staging folder swapped in
+/// whole.
+pub fn render_to_folder(
+    request: &RenderRequest,
+    out: &Path,
+    observer: &mut (dyn Observer + Send),
+) -> Result<Written, RequestError> {
+    request.validate()?;
+    let scene_path = Path::new(&request.scene);
+    export::staging::check_target(out, &[scene_path])?;
+    let pool = request.thread_pool()?;
+    let threads = pool.current_num_threads();
+    pool.install(|| in_pool(request, out, threads, observer))
+}
+
+fn in_pool(
+    request: &RenderRequest,
+    out: &Path,
+    threads: usize,
+    observer: &mut (dyn Observer + Send),
+) -> Result<Written, RequestError> {
+    let start = Instant::now();
+    let mut session = Session::new(request)?;
+    for note in &session.scene().notes {
+        observer.message(&format!("note: {note}"));
+    }
+    let axis = session.axis();
+    observer.message(&format!(
+        "time axis: {} bins of {} from {} ({:.4} m to {:.4} m of optical path)",
+        axis.bins,
+        format_time(axis.dt_s),
+        format_time(axis.t0_s),
+        axis.t0_s * C_M_PER_S,
+        axis.end_s() * C_M_PER_S
+    ));
+    let (width, height) = (request.width, request.height);
+    let layout = *session.film().layout();
+    // The folder is written beside its place and swapped in at the end (export::staging),
+    // which creates the folders above it then: nothing is made on disk before the render
+    // is done. Its free space is that of the nearest folder above it that exists.
+    let parent = existing_ancestor(out);
+    let (w, h, t) = (width as u64, height as u64, axis.bins as u64);
+    let format = request.format.resolve(&[h, w, t]);
+    let spec = session.shard();
+    let fingerprint = match &spec {
+        Some(_) => Some(shard::scene_fingerprint(&request.scene)?),
+        None => None,
+    };
+    // A dense cube: refuse now, not after the render, what cannot be written.
+    let file_bytes = export::npy_f32_bytes(&[h, w, t]).saturating_add(export::npy_f32_bytes(&[
+        layout.bounce_layers() as u64,
+        h,
+        w,
+        t,
+    ]));
+    if format == CubeFormat::Npy
+        && let Some(free) = export::disk_free_bytes(&parent)
+        && file_bytes > free
+    {
+        let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
+        return Err(RequestError::DiskFull {
+            width,
+            height,
+            bins: axis.bins,
+            need_gib: gib(file_bytes),
+            out: out.display().to_string(),
+            free_gib: gib(free),
+        });
+    }
+
+    let reports = session.run(|r, film| observer.pass(r, film));
+    let last = reports.last().copied();
+    if let Some(r) = last
+        && r.left_out.non_finite > 0
+    {
+        return Err(RequestError::NonFinite {
+            non_finite: r.left_out.non_finite,
+            paths: r.paths,
+            scene: request.scene.clone(),
+        });
+    }
+    let ambient = render_ambient_image(&session, request.ambient_spp(), observer)?;
+
+    let interrupted = |observer: &mut (dyn Observer + Send)| match observer.writing() {
+        ControlFlow::Break(()) => Err(RequestError::Interrupted),
+        ControlFlow::Continue(()) => Ok(()),
+    };
+    interrupted(observer)?;
+    let staging = export::staging::Staging::new(out, &[scene_path_of(request)])?;
+    let dir = staging.path();
+    let film = session.film();
+    let snap = film.snapshot();
+    let steady = film.steady();
+    let exposure = 0.8 * export::exposure_for(steady.iter().copied(), 0.99);
+    export::write_png_gray(&dir.join("steady.png"), width, height, &steady, exposure)?;
+    if request.frames {
+        export::write_frames(dir, &snap)?;
+    }
+    let cam = &session.scene().camera;
+    let renderer = session.renderer();
+    let meta = CubeMetadata {
+        format: match format {
+            CubeFormat::Zarr => {
+                "tprf cube v2: tprf.zarr (Zarr v3 group): cube float32 [H, W, T] and, with \
+                 bounces_separate > 0, bounces float32 [layers, H, W, T]; row 0 = top"
+            }
+            _ => "tprf cube v1: tprf.npy float32 [H, W, T], row 0 = top",
+        }
+        .into(),
+        t0_s: axis.t0_s,
+        dt_s: axis.dt_s,
+        bins: axis.bins,
+        width,
+        height,
+        spp: film.spp(),
+        seed: request.seed,
+        c_m_per_s: C_M_PER_S,
+        channel: request.channel.name().into(),
+        value: BIN_VALUE.into(),
+        scene: request.scene.clone(),
+        camera: CameraMetadata {
+            position_m: cam.position().to_array(),
+            world_from_camera: glam::Mat4::from(cam.world_from_camera).to_cols_array(),
+            yfov_deg: cam.yfov_rad.to_degrees(),
+        },
+        max_bounces: request.max_bounces,
+        bounces_separate: request.bounces_separate,
+        threads,
+        wall_seconds: start.elapsed().as_secs_f64(),
+        rays_traced: renderer.rays_traced(),
+        paths_traced: last.map_or(0, |r| r.paths),
+        first_bounce_splits: renderer.strategy().splits,
+        light_vertex: renderer.strategy().light_vertex,
+        adaptive: !request.uniform,
+        error_estimate: film.half_error_estimate(),
+        passes: reports.len() as u64,
+        left_out: last.map_or_else(Default::default, |r| r.left_out),
+        store: film.store_stats(),
+        render_seconds: last.map_or(0.0, |r| r.render_s),
+        notes: session.scene().notes.clone(),
+        shard: match (&spec, fingerprint) {
+            (Some(spec), Some(scene_fingerprint)) => {
+                let terms = film.row_error_terms();
+                Some(ShardInfo {
+                    k: spec.k,
+                    n: spec.n,
+                    band_rows: spec.band_rows,
+                    rows: ShardInfo::row_ranges(spec, height),
+                    half_spp: film.half_spp(),
+                    scene_fingerprint,
+                    filter: film.time_filter(),
+                    format: match format {
+                        CubeFormat::Zarr => "zarr",
+                        _ => "npy",
+                    }
+                    .into(),
+                    row_error_terms: (0..height)
+                        .filter(|&y| film.renders_row(y))
+                        .filter_map(|y| terms.get(y).map(|t| [t.0, t.1]))
+                        .collect(),
+                    store_list_bytes: film.row_list_bytes(),
+                })
+            }
+            _ => None,
+        },
+        ambient: ambient.as_ref().map(|(_, m)| AmbientMetadata {
+            file: match format {
+                CubeFormat::Zarr => format!("{}/ambient", zarr::ZARR_NAME),
+                _ => AMBIENT_NPY.into(),
+            },
+            ..m.clone()
+        }),
+    };
+    if spec.is_some() {
+        shard::write_steady(dir, width, height, &steady)?;
+    }
+    if format == CubeFormat::Zarr {
+        zarr::write_snapshot_zarr(&dir.join(zarr::ZARR_NAME), &snap, &meta)?;
+    } else {
+        export::write_snapshot_npy(&dir.join("tprf.npy"), &snap, false)?;
+        if layout.bounce_layers() > 0 {
+            export::write_snapshot_npy(&dir.join("tprf_bounces.npy"), &snap, true)?;
+        }
+    }
+    if let Some((image, _)) = &ambient {
+        // After the cube: a Zarr cube's group must exist.
+        export::ambient::write_ambient(
+            dir,
+            format == CubeFormat::Zarr,
+            image.width,
+            image.height,
+            &image.radiance,
+        )?;
+    }
+    interrupted(observer)?;
+    export::write_json(&dir.join("tprf.json"), &meta)?;
+    interrupted(observer)?;
+    staging.commit()?;
+    Ok(Written {
+        meta,
+        format,
+        rows_rendered: film.rows_rendered(),
+        passes: reports,
+    })
+}
+
+fn scene_path_of(request: &RenderRequest) -> &Path {
+    Path::new(&request.scene)
+}
+
+/// The scene's ambient image and its metadata when the scene has an ambient group
+/// (`None` otherwise), at `spp` samples per pixel.
+fn render_ambient_image(
+    session: &Session,
+    spp: u32,
+    observer: &mut (dyn Observer + Send),
+) -> Result<Option<(AmbientImage, AmbientMetadata)>, RequestError> {
+    let renderer = session.renderer();
+    let group = &renderer.scene().ambient;
+    if group.is_empty() {
+        return Ok(None);
+    }
+    let start = Instant::now();
+    let r = session.request();
+    let image = render_ambient(renderer, r.width, r.height, spp);
+    if image.non_finite > 0 {
+        return Err(RequestError::AmbientNonFinite(image.non_finite));
+    }
+    observer.message(&format!(
+        "ambient image: {} at {spp} spp in {:.1} s (mean {:.4e} W m^-2 sr^-1{})",
+        group.describe().join(", "),
+        start.elapsed().as_secs_f64(),
+        image.radiance.iter().map(|&v| v as f64).sum::<f64>() / image.radiance.len().max(1) as f64,
+        image.error_estimate.map_or(String::new(), |e| format!(
+            ", error estimate {:.2} %",
+            100.0 * e
+        ))
+    ));
+    let meta = AmbientMetadata {
+        file: String::new(),
+        units: AMBIENT_UNITS.into(),
+        lights: group.describe(),
+        spp,
+        error_estimate: image.error_estimate,
+    };
+    Ok(Some((image, meta)))
+}

@@ -1,0 +1,157 @@
+//! A request made ready to render, and its passes.
+
+use super::{RenderRequest, RequestError, apply_camera};
+use crate::export::shard::ShardSpec;
+use crate::film::{FilmLayout, TimeAxis, TprfFilm};
+use crate::scene::{self, Scene};
+use crate::transport::progressive::{self, PassReport};
+use crate::transport::{Renderer, auto_window};
+use std::ops::ControlFlow;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// A request made ready: its scene loaded (with the request's sky and camera), the
+/// renderer, the time axis (chosen by a pilot render where the request does not fix
+/// it), and an empty film of the request's shape (a shard's rows only, with its time
+/// filter). Runs in the caller's rayon pool (the pilot render is parallel).
+pub struct Session {
+    request: RenderRequest,
+    scene: Arc<Scene>,
+    renderer: Arc<Renderer>,
+    film: TprfFilm,
+    shard: Option<ShardSpec>,
+    setup_s: f64,
+}
+
+impl Session {
+    /// Validate `request`, load its scene (`builtin:NAME` or a glTF path) and make it
+    /// ready.
+    pub fn new(request: &RenderRequest) -> Result<Session, RequestError> {
+        let start = Instant::now();
+        request.validate()?;
+        let scene = scene::load(&request.scene)?;
+        Session::prepared(request, Arc::new(scene), start)
+    }
+
+    /// Validate `request` and make it ready on a scene built in code (a reference's, a
+    /// stability case's); `request.scene` names it in metadata (left empty: the scene's
+    /// own name).
+    pub fn with_scene(request: &RenderRequest, scene: Arc<Scene>) -> Result<Session, RequestError> {
+        let start = Instant::now();
+        let named;
+        let request = if request.scene.trim().is_empty() {
+            named = RenderRequest {
+                scene: match scene.name.trim() {
+                    "" => "a scene built in code".into(),
+                    name => name.to_string(),
+                },
+                ..request.clone()
+            };
+            &named
+        } else {
+            request
+        };
+        request.validate()?;
+        Session::prepared(request, scene, start)
+    }
+
+    fn prepared(
+        request: &RenderRequest,
+        mut scene: Arc<Scene>,
+        start: Instant,
+    ) -> Result<Session, RequestError> {
+        let camera = apply_camera(request, &scene.camera)?;
+        if camera != scene.camera {
+            Arc::make_mut(&mut scene).camera = camera;
+        }
+        if let Some(l) = request.sky_radiance_w_m2_sr {
+            // Validated: finite, >= 0 and within f32.
+            Arc::make_mut(&mut scene).ambient.sky_radiance = [l as f32; 3];
+        }
+        let renderer = Arc::new(Renderer::new(scene.clone(), request.settings()));
+        let axis = auto_window(&renderer, request.window())?;
+        let layout = FilmLayout {
+            width: request.width,
+            height: request.height,
+            axis,
+            bounces_separate: request.bounces_separate,
+        };
+        let mut film = TprfFilm::new(layout)?.with_time_filter(request.time_filter);
+        let shard = request.shard_spec()?;
+        if let Some(spec) = &shard {
+            film = film.with_rows(&spec.rows(request.height));
+        }
+        Ok(Session {
+            request: request.clone(),
+            scene,
+            renderer,
+            film,
+            shard,
+            setup_s: start.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// Add passes to the film until the request's spp target, time budget or error
+    /// target is met, or `on_pass` (called after each pass, with the film) breaks; the
+    /// reports of the passes made. Called again, it goes on from where the film is.
+    pub fn run(
+        &mut self,
+        mut on_pass: impl FnMut(&PassReport, &TprfFilm) -> ControlFlow<()>,
+    ) -> Vec<PassReport> {
+        let schedule = self.request.schedule();
+        let error_target = self.request.error_target;
+        progressive::render(&self.renderer, &mut self.film, &schedule, |report, film| {
+            on_pass(report, film)?;
+            // The error target reached: done, like the spp target.
+            if error_target
+                .zip(film.half_error_estimate())
+                .is_some_and(|(target, e)| e <= target)
+            {
+                return ControlFlow::Break(());
+            }
+            ControlFlow::Continue(())
+        })
+    }
+
+    pub fn request(&self) -> &RenderRequest {
+        &self.request
+    }
+
+    /// The scene as rendered (the request's sky and camera applied).
+    pub fn scene(&self) -> &Arc<Scene> {
+        &self.scene
+    }
+
+    pub fn renderer(&self) -> &Renderer {
+        &self.renderer
+    }
+
+    /// The renderer, shared: for work beside the passes (the worker's ambient image,
+    /// rendered from inside its pass callback).
+    pub fn shared_renderer(&self) -> Arc<Renderer> {
+        self.renderer.clone()
+    }
+
+    pub fn film(&self) -> &TprfFilm {
+        &self.film
+    }
+
+    /// The film, taken out of the session.
+    pub fn into_film(self) -> TprfFilm {
+        self.film
+    }
+
+    pub fn axis(&self) -> TimeAxis {
+        *self.film.axis()
+    }
+
+    /// The shard rendered (`None`: the whole image).
+    pub fn shard(&self) -> Option<ShardSpec> {
+        self.shard
+    }
+
+    /// Seconds spent loading the scene, choosing the window and making the film.
+    pub fn setup_s(&self) -> f64 {
+        self.setup_s
+    }
+}
