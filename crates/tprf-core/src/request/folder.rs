@@ -7,7 +7,7 @@ use super::{RenderRequest, RequestError, Session};
 use crate::export::ambient::{AMBIENT_NPY, AMBIENT_UNITS, AmbientMetadata};
 use crate::export::shard::{self, ShardInfo};
 use crate::export::{self, BIN_VALUE, CameraMetadata, CubeFormat, CubeMetadata, zarr};
-use crate::film::TprfFilm;
+use crate::film::{FilmSnapshot, TprfFilm};
 use crate::transport::ambient::{AmbientImage, render_ambient};
 use crate::transport::progressive::PassReport;
 use crate::units::{C_M_PER_S, format_time};
@@ -58,66 +58,95 @@ fn existing_ancestor(path: &Path) -> PathBuf {
         .map_or_else(|| PathBuf::from("."), PathBuf::from)
 }
 
+/// A request rendered in memory ([`render`]): the film, its metadata (`tprf.json` but
+/// for what depends on the files: the cube's format and the ambient image's file name,
+/// filled in by [`write_folder`]) and the ambient image when the scene has ambient
+/// light.
+pub struct Rendered {
+    pub film: TprfFilm,
+    pub meta: CubeMetadata,
+    pub ambient: Option<(AmbientImage, AmbientMetadata)>,
+    /// Every pass's report.
+    pub passes: Vec<PassReport>,
+}
+
+/// Render `request` in memory in the request's thread pool: its passes (each reported
+/// to `observer`, which may end the render), then, where the scene has ambient light,
+/// the ambient image. A render with NaN or infinite contributions is refused.
+pub fn render(
+    request: &RenderRequest,
+    observer: &mut (dyn Observer + Send),
+) -> Result<Rendered, RequestError> {
+    request.validate()?;
+    let pool = request.thread_pool()?;
+    let threads = pool.current_num_threads();
+    pool.install(|| rendered(request, threads, observer, |_| Ok(())))
+}
+
 /// Render `request` into the folder `out` in the request's thread pool: the folder is
 /// checked before anything is rendered (it must be new, empty or an earlier tprf output;
 /// [`export::staging::check_target`], the scene file being an input it never replaces),
-/// as is the disk's room for a dense cube; after the passes, a render with NaN or
-/// infinite contributions is refused (nothing written), the ambient image rendered when
-/// the scene has ambient light, and the files written into a staging folder swapped in
-/// whole.
+/// as is the disk's room for a dense cube; then [`render`]'s render, and its files
+/// written by [`write_folder`].
 pub fn render_to_folder(
     request: &RenderRequest,
     out: &Path,
     observer: &mut (dyn Observer + Send),
 ) -> Result<Written, RequestError> {
     request.validate()?;
-    let scene_path = Path::new(&request.scene);
+    let scene_path = scene_path_of(request);
     export::staging::check_target(out, &[scene_path])?;
     let pool = request.thread_pool()?;
     let threads = pool.current_num_threads();
-    pool.install(|| in_pool(request, out, threads, observer))
+    pool.install(|| {
+        let format = |bins: usize| {
+            let (w, h) = (request.width as u64, request.height as u64);
+            request.format.resolve(&[h, w, bins as u64])
+        };
+        let done = rendered(request, threads, observer, |session| {
+            disk_room(request, session, format(session.axis().bins), out)
+        })?;
+        let snap = done.film.snapshot();
+        let steady = done.film.steady();
+        let meta = write_folder(
+            &snap,
+            &steady,
+            done.meta,
+            done.ambient
+                .as_ref()
+                .map(|(image, _)| image.radiance.as_slice()),
+            format(snap.axis().bins),
+            request.frames,
+            out,
+            &[scene_path],
+            observer,
+        )?;
+        Ok(Written {
+            meta,
+            format: format(snap.axis().bins),
+            rows_rendered: done.film.rows_rendered(),
+            passes: done.passes,
+        })
+    })
 }
 
-fn in_pool(
+/// Refuse now, not after the render, a dense cube the disk under `out` has no room for.
+fn disk_room(
     request: &RenderRequest,
+    session: &Session,
+    format: CubeFormat,
     out: &Path,
-    threads: usize,
-    observer: &mut (dyn Observer + Send),
-) -> Result<Written, RequestError> {
-    let start = Instant::now();
-    let mut session = Session::new(request)?;
-    for note in &session.scene().notes {
-        observer.message(&format!("note: {note}"));
-    }
-    let axis = session.axis();
-    observer.message(&format!(
-        "time axis: {} bins of {} from {} ({:.4} m to {:.4} m of optical path)",
-        axis.bins,
-        format_time(axis.dt_s),
-        format_time(axis.t0_s),
-        axis.t0_s * C_M_PER_S,
-        axis.end_s() * C_M_PER_S
-    ));
-    let (width, height) = (request.width, request.height);
-    let layout = *session.film().layout();
+) -> Result<(), RequestError> {
     // The folder is written beside its place and swapped in at the end (export::staging),
     // which creates the folders above it then: nothing is made on disk before the render
     // is done. Its free space is that of the nearest folder above it that exists.
     let parent = existing_ancestor(out);
+    let (width, height) = (request.width, request.height);
+    let axis = session.axis();
     let (w, h, t) = (width as u64, height as u64, axis.bins as u64);
-    let format = request.format.resolve(&[h, w, t]);
-    let spec = session.shard();
-    let fingerprint = match &spec {
-        Some(_) => Some(shard::scene_fingerprint(&request.scene)?),
-        None => None,
-    };
-    // A dense cube: refuse now, not after the render, what cannot be written.
-    let file_bytes = export::npy_f32_bytes(&[h, w, t]).saturating_add(export::npy_f32_bytes(&[
-        layout.bounce_layers() as u64,
-        h,
-        w,
-        t,
-    ]));
+    let layers = session.film().layout().bounce_layers() as u64;
+    let file_bytes =
+        export::npy_f32_bytes(&[h, w, t]).saturating_add(export::npy_f32_bytes(&[layers, h, w, t]));
     if format == CubeFormat::Npy
         && let Some(free) = export::disk_free_bytes(&parent)
         && file_bytes > free
@@ -132,7 +161,32 @@ fn in_pool(
             free_gib: gib(free),
         });
     }
+    Ok(())
+}
 
+/// The render of [`render`] in the current pool, `before_passes` checking the session
+/// once it is ready.
+fn rendered(
+    request: &RenderRequest,
+    threads: usize,
+    observer: &mut (dyn Observer + Send),
+    before_passes: impl FnOnce(&Session) -> Result<(), RequestError>,
+) -> Result<Rendered, RequestError> {
+    let start = Instant::now();
+    let mut session = Session::new(request)?;
+    for note in &session.scene().notes {
+        observer.message(&format!("note: {note}"));
+    }
+    let axis = session.axis();
+    observer.message(&format!(
+        "time axis: {} bins of {} from {} ({:.4} m to {:.4} m of optical path)",
+        axis.bins,
+        format_time(axis.dt_s),
+        format_time(axis.t0_s),
+        axis.t0_s * C_M_PER_S,
+        axis.end_s() * C_M_PER_S
+    ));
+    before_passes(&session)?;
     let reports = session.run(|r, film| observer.pass(r, film));
     let last = reports.last().copied();
     if let Some(r) = last
@@ -145,33 +199,125 @@ fn in_pool(
         });
     }
     let ambient = render_ambient_image(&session, request.ambient_spp(), observer)?;
+    let mut meta = cube_metadata(
+        &session,
+        threads,
+        start.elapsed().as_secs_f64(),
+        std::slice::from_ref(&reports),
+    )?;
+    meta.ambient = ambient.as_ref().map(|(_, m)| m.clone());
+    Ok(Rendered {
+        film: session.into_film(),
+        meta,
+        ambient,
+        passes: reports,
+    })
+}
 
+/// Write a cube folder at `out`: the cube `snap` (`tprf.npy`, with `tprf_bounces.npy`
+/// for per-bounce layers, or `tprf.zarr`, as `format` says), `steady.png` from `steady`
+/// (W m^-2 sr^-1 per pixel), a shard's steady sums, the ambient image `ambient` (W m^-2
+/// sr^-1, `[H, W]`; `meta.ambient` describes it, and is dropped without it), frames when
+/// asked, and `tprf.json` from `meta` (its format and file names filled in), into a
+/// staging folder swapped in whole ([`export::staging`]; `inputs` are never replaced).
+/// `observer.writing` may abandon it between files. What `tprf render` and
+/// `Cube.save` write; returns the metadata written.
+#[allow(clippy::too_many_arguments)]
+pub fn write_folder(
+    snap: &FilmSnapshot,
+    steady: &[f64],
+    mut meta: CubeMetadata,
+    ambient: Option<&[f32]>,
+    format: CubeFormat,
+    frames: bool,
+    out: &Path,
+    inputs: &[&Path],
+    observer: &mut (dyn Observer + Send),
+) -> Result<CubeMetadata, RequestError> {
     let interrupted = |observer: &mut (dyn Observer + Send)| match observer.writing() {
         ControlFlow::Break(()) => Err(RequestError::Interrupted),
         ControlFlow::Continue(()) => Ok(()),
     };
     interrupted(observer)?;
-    let staging = export::staging::Staging::new(out, &[scene_path_of(request)])?;
-    let dir = staging.path();
-    let film = session.film();
-    let snap = film.snapshot();
-    let steady = film.steady();
-    let exposure = 0.8 * export::exposure_for(steady.iter().copied(), 0.99);
-    export::write_png_gray(&dir.join("steady.png"), width, height, &steady, exposure)?;
-    if request.frames {
-        export::write_frames(dir, &snap)?;
+    let (width, height) = (snap.width(), snap.height());
+    let zarr = format == CubeFormat::Zarr;
+    meta.format = if zarr {
+        "tprf cube v2: tprf.zarr (Zarr v3 group): cube float32 [H, W, T] and, with \
+         bounces_separate > 0, bounces float32 [layers, H, W, T]; row 0 = top"
+    } else {
+        "tprf cube v1: tprf.npy float32 [H, W, T], row 0 = top"
     }
+    .into();
+    if let Some(s) = &mut meta.shard {
+        s.format = if zarr { "zarr" } else { "npy" }.into();
+    }
+    if ambient.is_none() {
+        meta.ambient = None;
+    }
+    if let Some(a) = &mut meta.ambient {
+        a.file = if zarr {
+            format!("{}/ambient", zarr::ZARR_NAME)
+        } else {
+            AMBIENT_NPY.into()
+        };
+    }
+    let staging = export::staging::Staging::new(out, inputs)?;
+    let dir = staging.path();
+    let exposure = 0.8 * export::exposure_for(steady.iter().copied(), 0.99);
+    export::write_png_gray(&dir.join("steady.png"), width, height, steady, exposure)?;
+    if frames {
+        export::write_frames(dir, snap)?;
+    }
+    if meta.shard.is_some() {
+        shard::write_steady(dir, width, height, steady)?;
+    }
+    if zarr {
+        zarr::write_snapshot_zarr(&dir.join(zarr::ZARR_NAME), snap, &meta)?;
+    } else {
+        export::write_snapshot_npy(&dir.join("tprf.npy"), snap, false)?;
+        if snap.layers() > 0 {
+            export::write_snapshot_npy(&dir.join("tprf_bounces.npy"), snap, true)?;
+        }
+    }
+    if let Some(radiance) = ambient {
+        // After the cube: a Zarr cube's group must exist.
+        export::ambient::write_ambient(dir, zarr, width, height, radiance)?;
+    }
+    interrupted(observer)?;
+    export::write_json(&dir.join("tprf.json"), &meta)?;
+    interrupted(observer)?;
+    staging.commit()?;
+    Ok(meta)
+}
+
+/// `tprf.json` of `session`'s film as it is: `runs` holds each [`Session::run`]'s
+/// reports (paths, render time and work left out are summed over them), `wall_s` the
+/// seconds since the render began, `threads` the pool's. What depends on the files (the
+/// format, the ambient image) is left for [`write_folder`].
+pub fn cube_metadata(
+    session: &Session,
+    threads: usize,
+    wall_s: f64,
+    runs: &[Vec<PassReport>],
+) -> Result<CubeMetadata, RequestError> {
+    let request = session.request();
+    let (width, height) = (request.width, request.height);
+    let axis = session.axis();
+    let film = session.film();
     let cam = &session.scene().camera;
     let renderer = session.renderer();
-    let meta = CubeMetadata {
-        format: match format {
-            CubeFormat::Zarr => {
-                "tprf cube v2: tprf.zarr (Zarr v3 group): cube float32 [H, W, T] and, with \
-                 bounces_separate > 0, bounces float32 [layers, H, W, T]; row 0 = top"
-            }
-            _ => "tprf cube v1: tprf.npy float32 [H, W, T], row 0 = top",
-        }
-        .into(),
+    let spec = session.shard();
+    let lasts = runs.iter().filter_map(|r| r.last());
+    let mut left_out = crate::film::LeftOutCounts::default();
+    let (mut paths, mut render_s) = (0, 0.0);
+    for r in lasts {
+        left_out += r.left_out;
+        paths += r.paths;
+        render_s += r.render_s;
+    }
+    Ok(CubeMetadata {
+        // Filled in by `write_folder`, which knows the files.
+        format: String::new(),
         t0_s: axis.t0_s,
         dt_s: axis.dt_s,
         bins: axis.bins,
@@ -191,20 +337,20 @@ fn in_pool(
         max_bounces: request.max_bounces,
         bounces_separate: request.bounces_separate,
         threads,
-        wall_seconds: start.elapsed().as_secs_f64(),
+        wall_seconds: wall_s,
         rays_traced: renderer.rays_traced(),
-        paths_traced: last.map_or(0, |r| r.paths),
+        paths_traced: paths,
         first_bounce_splits: renderer.strategy().splits,
         light_vertex: renderer.strategy().light_vertex,
         adaptive: !request.uniform,
         error_estimate: film.half_error_estimate(),
-        passes: reports.len() as u64,
-        left_out: last.map_or_else(Default::default, |r| r.left_out),
+        passes: runs.iter().map(|r| r.len() as u64).sum(),
+        left_out,
         store: film.store_stats(),
-        render_seconds: last.map_or(0.0, |r| r.render_s),
+        render_seconds: render_s,
         notes: session.scene().notes.clone(),
-        shard: match (&spec, fingerprint) {
-            (Some(spec), Some(scene_fingerprint)) => {
+        shard: match &spec {
+            Some(spec) => {
                 let terms = film.row_error_terms();
                 Some(ShardInfo {
                     k: spec.k,
@@ -212,13 +358,10 @@ fn in_pool(
                     band_rows: spec.band_rows,
                     rows: ShardInfo::row_ranges(spec, height),
                     half_spp: film.half_spp(),
-                    scene_fingerprint,
+                    scene_fingerprint: shard::scene_fingerprint(&request.scene)?,
                     filter: film.time_filter(),
-                    format: match format {
-                        CubeFormat::Zarr => "zarr",
-                        _ => "npy",
-                    }
-                    .into(),
+                    // Filled in by `write_folder`.
+                    format: String::new(),
                     row_error_terms: (0..height)
                         .filter(|&y| film.renders_row(y))
                         .filter_map(|y| terms.get(y).map(|t| [t.0, t.1]))
@@ -226,46 +369,9 @@ fn in_pool(
                     store_list_bytes: film.row_list_bytes(),
                 })
             }
-            _ => None,
+            None => None,
         },
-        ambient: ambient.as_ref().map(|(_, m)| AmbientMetadata {
-            file: match format {
-                CubeFormat::Zarr => format!("{}/ambient", zarr::ZARR_NAME),
-                _ => AMBIENT_NPY.into(),
-            },
-            ..m.clone()
-        }),
-    };
-    if spec.is_some() {
-        shard::write_steady(dir, width, height, &steady)?;
-    }
-    if format == CubeFormat::Zarr {
-        zarr::write_snapshot_zarr(&dir.join(zarr::ZARR_NAME), &snap, &meta)?;
-    } else {
-        export::write_snapshot_npy(&dir.join("tprf.npy"), &snap, false)?;
-        if layout.bounce_layers() > 0 {
-            export::write_snapshot_npy(&dir.join("tprf_bounces.npy"), &snap, true)?;
-        }
-    }
-    if let Some((image, _)) = &ambient {
-        // After the cube: a Zarr cube's group must exist.
-        export::ambient::write_ambient(
-            dir,
-            format == CubeFormat::Zarr,
-            image.width,
-            image.height,
-            &image.radiance,
-        )?;
-    }
-    interrupted(observer)?;
-    export::write_json(&dir.join("tprf.json"), &meta)?;
-    interrupted(observer)?;
-    staging.commit()?;
-    Ok(Written {
-        meta,
-        format,
-        rows_rendered: film.rows_rendered(),
-        passes: reports,
+        ambient: None,
     })
 }
 

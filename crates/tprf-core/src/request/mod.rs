@@ -11,9 +11,11 @@
 //!   time window (a pilot render when it is not given whole) and an empty film, then its
 //!   passes ([`Session::run`]: `progressive::render` with the request's schedule, a
 //!   callback after each pass);
+//! - [`render`]: that render in memory, with its metadata and ambient image (what Python's
+//!   `tprf.render` returns);
 //! - [`render_to_folder`]: that render and its files (`tprf render`'s folder: the cube,
 //!   `tprf.json`, the steady image, the ambient image, frames, a shard's rows), written
-//!   beside the folder and swapped in whole;
+//!   by [`write_folder`] beside the folder and swapped in whole;
 //! - [`worker::RenderWorker`]: that render on a background thread, for the window.
 //!
 //! Units: times in seconds (read from a number of seconds, or text with a unit:
@@ -26,7 +28,9 @@ mod session;
 pub mod worker;
 
 pub use camera::apply_camera;
-pub use folder::{Observer, Written, render_to_folder};
+pub use folder::{
+    Observer, Rendered, Written, cube_metadata, render, render_to_folder, write_folder,
+};
 pub use session::Session;
 
 use crate::export::shard::{self, ShardError, ShardSpec};

@@ -116,7 +116,7 @@ pub(super) fn split(bytes: &[u8]) -> Result<Glb<'_>, String> {
                  {chunk_len} bytes, {remaining} remain"
             ));
         }
-        if chunk_len % 4 != 0 {
+        if !chunk_len.is_multiple_of(4) {
             return Err(format!(
                 "corrupt .glb: its {name} chunk (chunk {index}, at byte {offset}) is \
                  {chunk_len} bytes long, not a multiple of 4 (chunks are padded to 4 bytes)"
