@@ -10,6 +10,7 @@ Conventions (as in tprf's files): lengths in metres, times in seconds; a cube is
 unit-energy pulse leaving the light at t = 0.
 """
 
+from ._render import Renderer, render
 from ._tprf import Cube, __version__, load
 
-__all__ = ["Cube", "load", "__version__"]
+__all__ = ["Cube", "Renderer", "load", "render", "__version__"]

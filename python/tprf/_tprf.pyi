@@ -1,7 +1,7 @@
 """Type stubs of tprf's native module."""
 
 from os import PathLike
-from typing import Any, Optional, Tuple, Union
+from typing import Any, Callable, Optional, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -22,6 +22,15 @@ class Cube:
     @property
     def bounces(self) -> Optional[npt.NDArray[np.float32]]:
         """float32 [K + 2, H, W, T] per-bounce layers, or None."""
+    @property
+    def ambient(self) -> Optional[npt.NDArray[np.float32]]:
+        """float32 [H, W]: the steady radiance of the scene's unpulsed light (sky,
+        lamps), W m^-2 sr^-1, or None."""
+    def save(self, dir: Union[str, PathLike[str]], format: str = "auto",
+             frames: bool = False) -> None:
+        """Write the cube folder tprf render writes (tprf.npy or tprf.zarr, tprf.json,
+        steady.png, bounce layers, ambient image); dir must be new, empty or an earlier
+        tprf output."""
     @property
     def t0_s(self) -> float:
         """Start of the time window, seconds."""
@@ -44,3 +53,30 @@ class Cube:
 
 def load(dir: Union[str, PathLike[str]]) -> Cube:
     """Read a cube folder written by tprf render (tprf.npy or tprf.zarr, tprf.json)."""
+
+Progress = Callable[[int, int, Optional[float], float], None]
+"""progress(spp, passes, error_estimate, wall_s), called after each pass."""
+
+def render(request_json: str, progress: Optional[Progress] = None) -> Cube:
+    """Render a request (JSON, tprf render's option names) in memory; tprf.render builds
+    it from keyword arguments."""
+
+class Renderer:
+    """A progressive render of a request (JSON); tprf.Renderer wraps it."""
+
+    def __init__(self, request_json: str) -> None: ...
+    def run(self, seconds: Optional[float] = None, spp: Optional[int] = None,
+            passes: Optional[int] = None, progress: Optional[Progress] = None) -> bool:
+        """Add passes until a limit or the request's target; whether the target is met."""
+    def cube(self) -> Cube:
+        """The film so far."""
+    @property
+    def spp(self) -> int: ...
+    @property
+    def passes(self) -> int: ...
+    @property
+    def error_estimate(self) -> Optional[float]: ...
+    @property
+    def done(self) -> bool: ...
+    @property
+    def request(self) -> dict[str, Any]: ...

@@ -4,8 +4,9 @@ use numpy::{PyArray1, PyArray2, PyArray3, PyArray4, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
-use tprf_core::export::{self, CubeMetadata};
-use tprf_core::film::FilmSnapshot;
+use tprf_core::export::{self, CubeFormat, CubeMetadata};
+use tprf_core::film::{FilmLayout, FilmSnapshot, TimeAxis};
+use tprf_core::request;
 
 use crate::errors::IntoPy;
 
@@ -18,17 +19,30 @@ pub struct Cube {
     data: Py<PyArray3<f32>>,
     steady: Py<PyArray2<f32>>,
     bounces: Option<Py<PyArray4<f32>>>,
+    ambient: Option<Py<PyArray2<f32>>>,
     meta: CubeMetadata,
 }
 
+/// `array`, no longer writeable: a cube's arrays are its data and its metadata's, which
+/// an edit in place would make lie (`np.array(cube)` is a writeable copy).
+fn read_only<'py, A: pyo3::PyTypeInfo>(array: Bound<'py, A>) -> PyResult<Bound<'py, A>> {
+    let kwargs = PyDict::new(array.py());
+    kwargs.set_item("write", false)?;
+    array.as_any().call_method("setflags", (), Some(&kwargs))?;
+    Ok(array)
+}
+
 impl Cube {
-    /// The cube of `snap` with its metadata `meta`: the dense arrays built once, held as
-    /// numpy arrays that `.data` and the others hand out without copying. The values are
-    /// those `tprf render` writes to `tprf.npy` (the same rows, [`FilmSnapshot::dense`]).
+    /// The cube of `snap` with its metadata `meta` and, where the render made one, its
+    /// ambient image (`meta.ambient` is dropped without it): the dense arrays built
+    /// once, held as read-only numpy arrays that `.data` and the others hand out without
+    /// copying. The values are those `tprf render` writes to `tprf.npy` (the same rows,
+    /// [`FilmSnapshot::dense`]).
     pub fn from_snapshot(
         py: Python<'_>,
         snap: &FilmSnapshot,
-        meta: CubeMetadata,
+        mut meta: CubeMetadata,
+        ambient: Option<Vec<f32>>,
     ) -> PyResult<Cube> {
         let (h, w, t) = (snap.height(), snap.width(), snap.axis().bins);
         let layers = snap.layers();
@@ -38,21 +52,27 @@ impl Cube {
             let bounces: Vec<f32> = (0..layers).flat_map(|l| snap.dense(Some(l))).collect();
             (data, steady, bounces)
         });
-        let data = PyArray1::from_vec(py, data).reshape([h, w, t])?.unbind();
-        let steady = PyArray1::from_vec(py, steady).reshape([h, w])?.unbind();
+        let data = read_only(PyArray1::from_vec(py, data).reshape([h, w, t])?)?.unbind();
+        let steady = read_only(PyArray1::from_vec(py, steady).reshape([h, w])?)?.unbind();
         let bounces = if layers > 0 {
-            Some(
-                PyArray1::from_vec(py, bounces)
-                    .reshape([layers, h, w, t])?
-                    .unbind(),
-            )
+            Some(read_only(PyArray1::from_vec(py, bounces).reshape([layers, h, w, t])?)?.unbind())
         } else {
             None
         };
+        let ambient = match ambient {
+            Some(a) if a.len() == h * w => {
+                Some(read_only(PyArray1::from_vec(py, a).reshape([h, w])?)?.unbind())
+            }
+            _ => None,
+        };
+        if ambient.is_none() {
+            meta.ambient = None;
+        }
         Ok(Cube {
             data,
             steady,
             bounces,
+            ambient,
             meta,
         })
     }
@@ -82,6 +102,73 @@ impl Cube {
     #[getter]
     fn bounces<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray4<f32>>> {
         self.bounces.as_ref().map(|b| b.bind(py).clone())
+    }
+
+    /// The ambient image, float32 ``[H, W]`` (W m^-2 sr^-1: the steady radiance of the
+    /// scene's unpulsed light, sky and lamps), or None when the scene has none.
+    #[getter]
+    fn ambient<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f32>>> {
+        self.ambient.as_ref().map(|a| a.bind(py).clone())
+    }
+
+    /// save(dir, format="auto", frames=False)
+    ///
+    /// Write the cube as ``tprf render`` writes its folder (``tprf.npy`` or, for
+    /// ``format="zarr"`` or a dense cube over 4 GiB with ``"auto"``, ``tprf.zarr``; with
+    /// ``tprf.json``, ``steady.png``, the bounce layers, the ambient image and, with
+    /// ``frames=True``, ``frames/``), into a new folder swapped in whole. ``dir`` must
+    /// be new, empty or an earlier tprf output (a folder of other files is refused,
+    /// never overwritten).
+    #[pyo3(signature = (dir, format="auto", frames=false))]
+    fn save(&self, py: Python<'_>, dir: PathBuf, format: &str, frames: bool) -> PyResult<()> {
+        let format: CubeFormat = format
+            .parse()
+            .map_err(|e| pyo3::exceptions::PyValueError::new_err(format!("format: {e}")))?;
+        let m = &self.meta;
+        let (h, w, t) = (m.height, m.width, m.bins);
+        let data = self.data.bind(py).readonly();
+        let bounces = self.bounces.as_ref().map(|b| b.bind(py).readonly());
+        let ambient = self.ambient.as_ref().map(|a| a.bind(py).readonly());
+        let data = data.as_slice()?;
+        let bounces = match &bounces {
+            Some(b) => b.as_slice()?,
+            None => &[],
+        };
+        let ambient = match &ambient {
+            Some(a) => Some(a.as_slice()?),
+            None => None,
+        };
+        let format = format.resolve(&[h as u64, w as u64, t as u64]);
+        py.detach(|| {
+            let layout = FilmLayout {
+                width: w,
+                height: h,
+                axis: TimeAxis::new(m.t0_s, m.dt_s, t)?,
+                bounces_separate: m.bounces_separate,
+            };
+            let snap =
+                FilmSnapshot::from_dense(layout, m.spp, m.passes, data, bounces, m.error_estimate);
+            let steady: Vec<f64> = data
+                .chunks_exact(t.max(1))
+                .map(|px| px.iter().map(|&v| f64::from(v)).sum())
+                .collect();
+            struct Quiet;
+            impl request::Observer for Quiet {}
+            request::write_folder(
+                &snap,
+                &steady,
+                m.clone(),
+                ambient,
+                format,
+                frames,
+                &dir,
+                &[],
+                &mut Quiet,
+            )
+            .map(|_| ())
+            .map_err(|e| Box::new(e) as Box<dyn std::error::Error + Send + Sync>)
+        })
+        .map_err(|e| crate::errors::to_py(&*e))
     }
 
     /// Start of the time window, seconds.
@@ -175,6 +262,12 @@ impl Cube {
 /// ``tprf.json`` and, where present, the per-bounce layers), or by ``Cube.save``.
 #[pyfunction]
 pub fn load(py: Python<'_>, dir: PathBuf) -> PyResult<Cube> {
-    let (meta, snap) = py.detach(|| export::load_snapshot(&dir)).py_err()?;
-    Cube::from_snapshot(py, &snap, meta)
+    let (meta, snap, ambient) = py
+        .detach(|| {
+            let (meta, snap) = export::load_snapshot(&dir)?;
+            let ambient = export::ambient::load_ambient(&dir, &meta)?;
+            Ok::<_, export::ExportError>((meta, snap, ambient))
+        })
+        .py_err()?;
+    Cube::from_snapshot(py, &snap, meta, ambient)
 }

@@ -5,6 +5,7 @@
 
 mod cube;
 mod errors;
+mod render;
 
 use pyo3::prelude::*;
 
@@ -12,6 +13,8 @@ use pyo3::prelude::*;
 fn _tprf(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<cube::Cube>()?;
     m.add_function(wrap_pyfunction!(cube::load, m)?)?;
+    m.add_class::<render::Renderer>()?;
+    m.add_function(wrap_pyfunction!(render::render, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
