@@ -1296,3 +1296,320 @@ fn malformed_structure_gives_errors_not_panics() {
         assert!(err.contains(expected), "{name}: {err}");
     }
 }
+
+// ---- large textures: reduced on load, each texel its block's mean ----
+
+/// CRC-32 (IEEE) of `bytes`, for PNG chunks.
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut crc = !0u32;
+    for &b in bytes {
+        crc ^= u32::from(b);
+        for _ in 0..8 {
+            crc = if crc & 1 != 0 {
+                (crc >> 1) ^ 0xEDB8_8320
+            } else {
+                crc >> 1
+            };
+        }
+    }
+    !crc
+}
+
+/// A PNG of `w x h` pixels of `color_type` (0 grey, 4 grey + alpha, 2 RGB, 6 RGBA) and
+/// `bits` (8 or 16) holding `pixels` (row-major, 16-bit samples big-endian), Adam7
+/// interlaced when `interlaced`; written here from the PNG specification (image data in
+/// stored deflate blocks, filter 0), independently of the decoders under test.
+fn raw_png(w: u32, h: u32, color_type: u8, bits: u8, interlaced: bool, pixels: &[u8]) -> Vec<u8> {
+    let channels = match color_type {
+        0 => 1,
+        4 => 2,
+        2 => 3,
+        _ => 4,
+    };
+    let bpp = channels * usize::from(bits / 8);
+    let pixel = |x: u32, y: u32| {
+        let at = (y as usize * w as usize + x as usize) * bpp;
+        &pixels[at..at + bpp]
+    };
+    let mut scanlines = Vec::new();
+    // (x offset, x step, y offset, y step) of each pass; one pass of all pixels if not
+    // interlaced.
+    let passes: &[(u32, u32, u32, u32)] = if interlaced {
+        &[
+            (0, 8, 0, 8),
+            (4, 8, 0, 8),
+            (0, 4, 4, 8),
+            (2, 4, 0, 4),
+            (0, 2, 2, 4),
+            (1, 2, 0, 2),
+            (0, 1, 1, 2),
+        ]
+    } else {
+        &[(0, 1, 0, 1)]
+    };
+    for &(xo, xs, yo, ys) in passes {
+        if xo >= w || yo >= h {
+            continue; // an empty pass has no scanlines
+        }
+        for y in (yo..h).step_by(ys as usize) {
+            scanlines.push(0); // filter: none
+            for x in (xo..w).step_by(xs as usize) {
+                scanlines.extend_from_slice(pixel(x, y));
+            }
+        }
+    }
+    // zlib: header, stored blocks of at most 65535 bytes, Adler-32.
+    let mut zlib = vec![0x78, 0x01];
+    let blocks: Vec<&[u8]> = scanlines.chunks(65535).collect();
+    for (i, block) in blocks.iter().enumerate() {
+        zlib.push(u8::from(i + 1 == blocks.len()));
+        let len = block.len() as u16;
+        zlib.extend(len.to_le_bytes());
+        zlib.extend((!len).to_le_bytes());
+        zlib.extend_from_slice(block);
+    }
+    let (mut a, mut b) = (1u32, 0u32);
+    for &byte in &scanlines {
+        a = (a + u32::from(byte)) % 65521;
+        b = (b + a) % 65521;
+    }
+    zlib.extend(((b << 16) | a).to_be_bytes());
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    let mut chunk = |ty: &[u8], data: &[u8]| {
+        png.extend((data.len() as u32).to_be_bytes());
+        let mut body = ty.to_vec();
+        body.extend_from_slice(data);
+        png.extend_from_slice(&body);
+        png.extend(crc32(&body).to_be_bytes());
+    };
+    let mut ihdr = Vec::new();
+    ihdr.extend(w.to_be_bytes());
+    ihdr.extend(h.to_be_bytes());
+    ihdr.extend([bits, color_type, 0, 0, u8::from(interlaced)]);
+    chunk(b"IHDR", &ihdr);
+    chunk(b"IDAT", &zlib);
+    chunk(b"IEND", &[]);
+    png
+}
+
+#[test]
+fn the_hand_written_png_decodes_as_written() {
+    // Checked against the image crate, which decodes it whole, interlaced or not.
+    let pixels: Vec<u8> = (0..13 * 7 * 4).map(|i| (i * 37 % 251) as u8).collect();
+    for interlaced in [false, true] {
+        let png = raw_png(13, 7, 6, 8, interlaced, &pixels);
+        let decoded = image::load_from_memory(&png).unwrap().into_rgba8();
+        assert_eq!(decoded.into_raw(), pixels, "interlaced {interlaced}");
+    }
+}
+
+/// A one-triangle document with `materials` (JSON) and one texture per image URI.
+fn doc_with_images(materials: Value, images: &[String]) -> Value {
+    let mut bin = Bin::default();
+    let pos = bin.vec3(&TRI);
+    let n = materials.as_array().unwrap().len();
+    let prims: Vec<Value> = (0..n)
+        .map(|i| json!({"attributes": {"POSITION": pos}, "material": i}))
+        .collect();
+    let textures: Vec<Value> = (0..images.len()).map(|i| json!({"source": i})).collect();
+    let images: Vec<Value> = images.iter().map(|u| json!({"uri": u})).collect();
+    bin.into_doc(json!({
+        "asset": {"version": "2.0"},
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": prims}],
+        "materials": materials, "textures": textures, "images": images,
+    }))
+}
+
+fn png_uri(png: &[u8]) -> String {
+    format!("data:image/png;base64,{}", base64(png))
+}
+
+/// The texture of material `m`'s base colour (or metallic-roughness when `mr`).
+fn texture_of<'a>(scene: &'a Scene, m: usize, mr: bool) -> &'a tprf_core::scene::Texture {
+    let material = &scene.materials[m];
+    let r = if mr {
+        material.metallic_roughness_texture
+    } else {
+        material.base_color_texture
+    };
+    &scene.textures[r.unwrap().texture as usize]
+}
+
+/// sRGB code -> linear, IEC 61966-2-1, in f64.
+fn srgb_to_linear(code: u8) -> f64 {
+    let c = f64::from(code) / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+#[test]
+fn textures_over_8192_pixels_a_side_are_reduced_keeping_each_blocks_mean() {
+    // A black and white checkerboard 8194 pixels wide: halved to 4097 x 1. Every 2 x 2
+    // block is half black, half white: mean albedo 0.5 in linear light, which is sRGB
+    // code 188 (averaging the codes instead would give 128, linear 0.216). As data
+    // (metallic-roughness) the mean of the stored values is 127.5, rounded to 128.
+    let (w, h) = (8194u32, 2u32);
+    let checker: Vec<u8> = (0..h)
+        .flat_map(|y| (0..w).map(move |x| if (x + y) % 2 == 0 { 0 } else { 255 }))
+        .collect();
+    let checker16: Vec<u8> = checker.iter().flat_map(|&v| [v, v]).collect();
+    let uris = [
+        png_uri(&raw_png(w, h, 0, 8, false, &checker)),
+        png_uri(&raw_png(w, h, 0, 16, true, &checker16)),
+    ];
+    let materials = json!([
+        {"name": "colour", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}},
+        {"name": "data", "pbrMetallicRoughness": {"metallicRoughnessTexture": {"index": 0}}},
+        {"name": "colour16", "pbrMetallicRoughness": {"baseColorTexture": {"index": 1}}},
+    ]);
+    let scene = load_doc("checker", &doc_with_images(materials, &uris));
+    // One image used as colour and as data: two reductions.
+    assert_eq!(scene.textures.len(), 3);
+    for (m, mr, code) in [(0, false, 188u8), (1, true, 128), (2, false, 188)] {
+        let tex = texture_of(&scene, m, mr);
+        assert_eq!((tex.width, tex.height), (4097, 1), "material {m}");
+        assert!(
+            tex.rgba8.iter().all(|&t| t == [code, code, code, 255]),
+            "material {m}: {:?}",
+            &tex.rgba8[..4]
+        );
+    }
+    assert!((srgb_to_linear(188) - 0.5).abs() < 0.003);
+    assert!(
+        has_note(
+            &scene,
+            "images[0] 'data: URI': 8194 x 2 pixels reduced to 4097 x 1 on load (each texel \
+             the mean of a 2 x 2 block, colour averaged in linear light"
+        ),
+        "{:?}",
+        scene.notes
+    );
+    assert!(
+        has_note(&scene, "values averaged as stored"),
+        "{:?}",
+        scene.notes
+    );
+}
+
+#[test]
+fn reduced_blocks_at_the_edges_and_interlaced_images_are_averaged_exactly() {
+    // 8195 x 3 RGBA, as data: factor 2, 4098 x 2 texels, the last column and row of
+    // blocks one pixel wide or high. Each texel is checked against its block's mean
+    // computed here in f64, for the image read row by row (an external file) and the
+    // same image Adam7-interlaced (a data: URI), whose passes revisit every block.
+    let (w, h) = (8195u32, 3u32);
+    let value = |x: u32, y: u32, c: u32| ((x * 7 + y * 131 + c * 61 + x * x % 13) % 256) as u8;
+    let pixels: Vec<u8> = (0..h)
+        .flat_map(|y| (0..w).flat_map(move |x| (0..4).map(move |c| value(x, y, c))))
+        .collect();
+    write_file("edges.png", &raw_png(w, h, 6, 8, false, &pixels));
+    let uris = [
+        "edges.png".to_string(),
+        png_uri(&raw_png(w, h, 6, 8, true, &pixels)),
+    ];
+    let materials = json!([
+        {"pbrMetallicRoughness": {"metallicRoughnessTexture": {"index": 0}}},
+        {"pbrMetallicRoughness": {"metallicRoughnessTexture": {"index": 1}}},
+    ]);
+    let scene = load_doc("edges", &doc_with_images(materials, &uris));
+    for m in 0..2 {
+        let tex = texture_of(&scene, m, true);
+        assert_eq!((tex.width, tex.height), (4098, 2));
+        for ty in 0..2u32 {
+            for tx in 0..4098u32 {
+                let xs: Vec<u32> = (2 * tx..(2 * tx + 2).min(w)).collect();
+                let ys: Vec<u32> = (2 * ty..(2 * ty + 2).min(h)).collect();
+                let n = (xs.len() * ys.len()) as f64;
+                for c in 0..4 {
+                    let sum: f64 = ys
+                        .iter()
+                        .flat_map(|&y| xs.iter().map(move |&x| f64::from(value(x, y, c))))
+                        .sum();
+                    let want = sum / n;
+                    let got = f64::from(tex.rgba8[(ty * 4098 + tx) as usize][c as usize]);
+                    assert!(
+                        (got - want).abs() <= 0.5 + 1e-3,
+                        "material {m}, texel ({tx}, {ty}), channel {c}: {got} for a mean of {want}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn small_interlaced_and_16_bit_pngs_keep_every_pixel() {
+    // 13 x 7 RGBA 16-bit, interlaced and not: kept whole, each sample rounded to eight
+    // bits as (v + 128) / 257.
+    let samples: Vec<u16> = (0..13 * 7 * 4).map(|i| (i * 7919 % 65536) as u16).collect();
+    let bytes: Vec<u8> = samples.iter().flat_map(|s| s.to_be_bytes()).collect();
+    let uris = [
+        png_uri(&raw_png(13, 7, 6, 16, false, &bytes)),
+        png_uri(&raw_png(13, 7, 6, 16, true, &bytes)),
+    ];
+    let materials = json!([
+        {"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}},
+        {"pbrMetallicRoughness": {"baseColorTexture": {"index": 1}}},
+    ]);
+    let scene = load_doc("interlaced16", &doc_with_images(materials, &uris));
+    let want: Vec<[u8; 4]> = samples
+        .chunks(4)
+        .map(|p| std::array::from_fn(|c| ((u32::from(p[c]) + 128) / 257) as u8))
+        .collect();
+    for m in 0..2 {
+        let tex = texture_of(&scene, m, false);
+        assert_eq!((tex.width, tex.height), (13, 7));
+        assert_eq!(tex.rgba8, want, "material {m}");
+    }
+    assert!(!has_note(&scene, "reduced"), "{:?}", scene.notes);
+}
+
+#[test]
+fn large_jpegs_are_reduced_or_refused_by_what_decoding_them_whole_takes() {
+    use image::codecs::jpeg::JpegEncoder;
+    let jpeg = |w: u32, h: u32, color: image::ExtendedColorType, data: &[u8]| {
+        let mut out = Vec::new();
+        JpegEncoder::new_with_quality(&mut out, 100)
+            .encode(data, w, h, color)
+            .unwrap();
+        format!("data:image/jpeg;base64,{}", base64(&out))
+    };
+    // Grey, 8200 x 8 (65.6 kB decoded whole): halved to 4100 x 4 (65.6 kB), within
+    // 4 times the texture. A flat grey stays that grey.
+    let grey = jpeg(8200, 8, image::ExtendedColorType::L8, &vec![90u8; 8200 * 8]);
+    let materials = json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]);
+    let scene = load_doc("jpeg-grey", &doc_with_images(materials.clone(), &[grey]));
+    let tex = texture_of(&scene, 0, false);
+    assert_eq!((tex.width, tex.height), (4100, 4));
+    assert!(
+        tex.rgba8
+            .iter()
+            .all(|t| t[0].abs_diff(90) <= 1 && t[3] == 255),
+        "{:?}",
+        &tex.rgba8[..4]
+    );
+    assert!(
+        has_note(&scene, "8200 x 8 pixels reduced to 4100 x 4"),
+        "{:?}",
+        scene.notes
+    );
+    // RGB, 16400 x 16 (787 kB decoded whole) for a 5467 x 6 texture (131 kB): refused.
+    let rgb = jpeg(
+        16_400,
+        16,
+        image::ExtendedColorType::Rgb8,
+        &vec![200u8; 16_400 * 16 * 3],
+    );
+    let err = load_err("jpeg-rgb", &doc_with_images(materials, &[rgb]));
+    assert!(
+        err.contains("a JPEG of 16400 x 16 pixels is decoded whole")
+            && err.contains("to keep a 5467 x 6 texture")
+            && err.contains("save it as PNG"),
+        "{err}"
+    );
+}

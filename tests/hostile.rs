@@ -258,26 +258,122 @@ fn textured_triangle(dir: &Path, image: Value) -> PathBuf {
 }
 
 #[test]
-fn a_png_claiming_20000_x_20000_pixels_is_refused_from_its_header() {
+fn a_png_claiming_more_pixels_than_it_holds_is_refused() {
+    // A 20000 x 20000 header with no image data: reduced on load to 6667 x 6667 (178 MB,
+    // within the 2 GiB limit), then refused where its data ends, not after 6 GB of
+    // buffers (20000^2 x 16-bit RGBA, converted and copied, as before).
     let dir = tmp("png");
     std::fs::write(dir.join("huge.png"), png_header_only(20_000, 20_000)).unwrap();
     let path = textured_triangle(&dir, json!({"uri": "huge.png"}));
-    let o = tprf_limited(
-        &[
-            "render",
-            path.to_str().unwrap(),
-            "--out",
-            dir.join("out").to_str().unwrap(),
-        ],
-        Some(ULIMIT_V_KIB),
-    );
-    // 20000^2 x (8 B decoded + 8 B RGBA8 and texture) = 6 GB.
+    let out = dir.join("out");
+    let args = [
+        "render",
+        path.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let o = tprf_limited(&args, Some(ULIMIT_V_KIB));
+    assert_refused(&o, &["images[0] 'huge.png'", "cannot decode"]);
+    // A million pixels a side would need a reduction by 123: refused from the header.
+    std::fs::write(dir.join("huge.png"), png_header_only(1_000_000, 1_000_000)).unwrap();
+    let o = tprf_limited(&args, Some(ULIMIT_V_KIB));
     assert_refused(
         &o,
         &[
             "images[0] 'huge.png'",
-            "needs 6.0 GiB for decoding 20000 x 20000 pixels",
+            "the image is 1000000 x 1000000 pixels: textures are kept at most 8192 pixels a \
+             side, and reduced on load from at most 524288",
         ],
+    );
+}
+
+/// Run `tprf ARGS` under `ulimit -v limit_kib` to its end: its exit status, its stderr
+/// and its peak resident memory (`ru_maxrss` from wait4, bytes).
+#[cfg(target_os = "linux")]
+fn tprf_peak_rss(args: &[&str], limit_kib: u64) -> (Option<i32>, String, u64) {
+    use std::io::Read;
+    let mut child = Command::new("sh")
+        .arg("-c")
+        .arg(format!("ulimit -v {limit_kib} && exec \"$0\" \"$@\""))
+        .arg(env!("CARGO_BIN_EXE_tprf"))
+        .args(args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run tprf");
+    let mut pipe = child.stderr.take().expect("stderr");
+    let reader = std::thread::spawn(move || {
+        let mut text = String::new();
+        let _ = pipe.read_to_string(&mut text);
+        text
+    });
+    let mut status = 0;
+    // SAFETY: an all-zero rusage is a valid value; wait4 fills it for our own child.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    let pid = child.id() as libc::pid_t;
+    // SAFETY: `status` and `usage` are valid for writes; `pid` is our child, not yet
+    // reaped (`child` is never waited on).
+    let waited = unsafe { libc::wait4(pid, &mut status, 0, &mut usage) };
+    assert_eq!(waited, pid, "wait4");
+    let code = libc::WIFEXITED(status).then(|| libc::WEXITSTATUS(status));
+    let stderr = reader.join().expect("stderr reader");
+    (code, stderr, (usage.ru_maxrss as u64) << 10)
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn a_20000_x_20000_png_loads_within_a_fixed_multiple_of_its_texture() {
+    // A valid 20000 x 20000 grey PNG (400 M pixels) took 3.1 GB of resident memory: the
+    // image crate's 400 MB decode, a 1.6 GB RGBA8 conversion and a 1.6 GB copy. Now it is
+    // read row by row into a 6667 x 6667 texture (178 MB). Under a 2 GiB address-space
+    // limit the render runs, and the process peaks below the texture plus 64 MiB for the
+    // program and its small render (decoding may hold up to 4 times the texture; a PNG
+    // read row by row holds one row of sums).
+    let dir = tmp("png-20k");
+    let (w, h) = (20_000u32, 20_000u32);
+    let file = std::fs::File::create(dir.join("grey.png")).unwrap();
+    let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), w, h);
+    encoder.set_color(png::ColorType::Grayscale);
+    encoder.set_depth(png::BitDepth::Eight);
+    encoder.set_compression(png::Compression::Fastest);
+    let mut writer = encoder.write_header().unwrap();
+    let mut stream = writer.stream_writer().unwrap();
+    let mut row = vec![0u8; w as usize];
+    for y in 0..h {
+        for (x, v) in row.iter_mut().enumerate() {
+            *v = ((x as u32 * 7 + y * 3) % 256) as u8;
+        }
+        std::io::Write::write_all(&mut stream, &row).unwrap();
+    }
+    stream.finish().unwrap();
+    // The IEND chunk and the buffered bytes reach the file when the writer goes.
+    drop(writer);
+    let path = textured_triangle(&dir, json!({"uri": "grey.png"}));
+    let out = dir.join("out");
+    let (code, err, peak) = tprf_peak_rss(
+        &[
+            "render",
+            path.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--width",
+            "16",
+            "--height",
+            "16",
+            "--spp",
+            "1",
+        ],
+        ULIMIT_V_KIB,
+    );
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        err.contains("images[0] 'grey.png': 20000 x 20000 pixels reduced to 6667 x 6667 on load"),
+        "{err}"
+    );
+    let texture = 6667u64 * 6667 * 4;
+    assert!(
+        peak < texture + (64 << 20),
+        "peak resident memory {peak} B for a {texture} B texture"
     );
 }
 

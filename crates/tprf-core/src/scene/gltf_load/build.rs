@@ -3,6 +3,7 @@
 //! the first perspective camera, and what the file lacks (a camera, a light) added with a
 //! note.
 
+use super::decode::Encoding;
 use super::validate::{SUPPORTED_EXTENSIONS, check_accessor, check_count, invalid, read_all};
 use crate::budget::{self, format_count};
 use crate::scene::{
@@ -211,8 +212,10 @@ pub(super) struct Builder<'a> {
     /// Scene material of each glTF material used so far (`None` key: the default material).
     pub(super) material_of: HashMap<Option<usize>, u32>,
     pub(super) textures: Vec<Texture>,
-    /// Scene texture of each glTF image decoded so far.
-    pub(super) texture_of_image: HashMap<usize, u32>,
+    /// Scene texture of each glTF image decoded so far: key `(image, None)` for an image
+    /// kept whole (the same texels whatever it encodes), `(image, Some(encoding))` for a
+    /// reduced one (its block means depend on whether it is sRGB colour).
+    pub(super) texture_of_image: HashMap<(usize, Option<Encoding>), u32>,
     pub(super) lights: Vec<PunctualLight>,
     /// Directional lights, point/spot lights tagged ambient, the sky.
     pub(super) ambient: AmbientLights,

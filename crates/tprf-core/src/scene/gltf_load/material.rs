@@ -1,11 +1,12 @@
 //! glTF materials as scene [`Material`]s: metallic-roughness factors and textures, the
 //! KHR_materials_{specular, transmission, ior, emissive_strength} factors, alpha modes,
-//! and images decoded to RGBA8 once each.
+//! and images decoded to RGBA8 once each (once per encoding where reduced on load).
 
 use super::build::{Builder, name_or_index};
-use super::resource::{decode_texture, read_uri};
+use super::decode::{Decoded, Encoded, Encoding, MAX_TEXTURE_SIDE, decode_texture};
+use super::resource::open_image;
 use super::validate::{invalid, uri_label};
-use crate::scene::{AlphaMode, Material, SceneError, Texture, TextureRef};
+use crate::scene::{AlphaMode, Material, SceneError, TextureRef};
 
 impl Builder<'_> {
     /// The scene material for a glTF material (converted on first use); the glTF default
@@ -46,10 +47,11 @@ impl Builder<'_> {
         Ok(Material {
             name: name_or_index(m.name(), "materials", m.index().unwrap_or_default()),
             base_color: pbr.base_color_factor(),
-            base_color_texture: self.texture(pbr.base_color_texture())?,
+            base_color_texture: self.texture(pbr.base_color_texture(), Encoding::Srgb)?,
             metallic: pbr.metallic_factor(),
             roughness: pbr.roughness_factor(),
-            metallic_roughness_texture: self.texture(pbr.metallic_roughness_texture())?,
+            metallic_roughness_texture: self
+                .texture(pbr.metallic_roughness_texture(), Encoding::Linear)?,
             specular_factor: specular.as_ref().map_or(1.0, |s| s.specular_factor()),
             specular_color: specular
                 .as_ref()
@@ -64,15 +66,17 @@ impl Builder<'_> {
                 gltf::material::AlphaMode::Blend => AlphaMode::Blend,
             },
             emissive: m.emissive_factor().map(|e| e * strength),
-            emissive_texture: self.texture(m.emissive_texture())?,
+            emissive_texture: self.texture(m.emissive_texture(), Encoding::Srgb)?,
             double_sided: m.double_sided(),
         })
     }
 
-    /// The scene texture of a texture reference, decoding its image on first use.
+    /// The scene texture of a texture reference, decoding its image on first use (reduced
+    /// on load when larger than [`MAX_TEXTURE_SIDE`], noted).
     fn texture(
         &mut self,
         info: Option<gltf::texture::Info>,
+        encoding: Encoding,
     ) -> Result<Option<TextureRef>, SceneError> {
         let Some(info) = info else {
             return Ok(None);
@@ -84,28 +88,58 @@ impl Builder<'_> {
             ));
         }
         let image = info.texture().source();
-        if let Some(&k) = self.texture_of_image.get(&image.index()) {
+        let index = image.index();
+        let cached = [None, Some(encoding)]
+            .into_iter()
+            .find_map(|e| self.texture_of_image.get(&(index, e)).copied());
+        if let Some(k) = cached {
             return Ok(Some(TextureRef { texture: k }));
         }
-        let texture = self.decode_image(&image)?;
+        let (what, decoded) = self.decode_image(&image, encoding)?;
+        let Decoded {
+            texture,
+            source: (w, h),
+            factor,
+        } = decoded;
+        let key = if factor > 1 {
+            let light = match encoding {
+                Encoding::Srgb => "colour averaged in linear light",
+                Encoding::Linear => "values averaged as stored",
+            };
+            self.note_once(format!(
+                "{what}: {w} x {h} pixels reduced to {} x {} on load (each texel the mean of a \
+                 {factor} x {factor} block, {light}; textures are kept at most \
+                 {MAX_TEXTURE_SIDE} pixels a side)",
+                texture.width, texture.height
+            ));
+            (index, Some(encoding))
+        } else {
+            (index, None)
+        };
         let k = self.textures.len() as u32;
         self.textures.push(texture);
-        self.texture_of_image.insert(image.index(), k);
+        self.texture_of_image.insert(key, k);
         Ok(Some(TextureRef { texture: k }))
     }
 
-    /// Decode an image (external file, `data:` URI or buffer view) to RGBA8, its
-    /// encoded and decoded sizes budgeted before they are allocated.
-    fn decode_image(&self, image: &gltf::Image) -> Result<Texture, SceneError> {
+    /// Decode an image (external file, `data:` URI or buffer view) to RGBA8 under the
+    /// memory budget, reduced on load if larger than [`MAX_TEXTURE_SIDE`]; with the
+    /// image's name for messages.
+    fn decode_image(
+        &self,
+        image: &gltf::Image,
+        encoding: Encoding,
+    ) -> Result<(String, Decoded), SceneError> {
         match image.source() {
             gltf::image::Source::Uri { uri, mime_type } => {
                 let what = format!("images[{}] '{}'", image.index(), uri_label(uri));
-                let bytes = read_uri(self.file, self.base, &what, uri, u64::MAX)?;
+                let encoded = open_image(self.file, self.base, &what, uri)?;
                 let mime = mime_type.or_else(|| match super::resource::locate(self.base, uri) {
                     Ok(super::resource::Location::Data { mime, .. }) => mime,
                     _ => None,
                 });
-                decode_texture(self.file, &what, mime, &bytes)
+                let decoded = decode_texture(self.file, &what, mime, encoded, encoding)?;
+                Ok((what, decoded))
             }
             gltf::image::Source::View { view, mime_type } => {
                 let what = format!(
@@ -119,7 +153,9 @@ impl Builder<'_> {
                     .get(view.buffer().index())
                     .and_then(|b| b.0.get(view.offset()..view.offset() + view.length()))
                     .ok_or_else(|| invalid(self.file, format!("{what}: outside its buffer")))?;
-                decode_texture(self.file, &what, Some(mime_type), bytes)
+                let encoded = Encoded::Bytes(bytes.into());
+                let decoded = decode_texture(self.file, &what, Some(mime_type), encoded, encoding)?;
+                Ok((what, decoded))
             }
         }
     }

@@ -28,19 +28,26 @@
 //! missing or garbled version), and a .glb's container is checked as glTF-Validator
 //! checks it (header length equal to the file's, chunk lengths, alignment, order).
 //!
-//! In five files: `glb` splits and checks the .glb container; `validate` reads the
+//! Textures are decoded under the memory budget and kept at most
+//! [`MAX_TEXTURE_SIDE`] pixels a side: a larger image is reduced on load (PNG row by row,
+//! never holding its full-size pixels), and noted.
+//!
+//! In six files: `glb` splits and checks the .glb container; `validate` reads the
 //! version, the JSON and the buffers and checks what the gltf crate would otherwise
-//! panic on, before it sees them; `resource` reads buffers and
-//! images by URI (regular files only, bounded) and decodes images under a memory budget;
-//! `build` counts the triangles after instancing against the memory budget, then walks
+//! panic on, before it sees them; `resource` reads buffers and opens images by URI
+//! (regular files only, bounded); `decode` decodes and reduces images under the memory
+//! budget; `build` counts the triangles after instancing against the memory budget, then walks
 //! the node trees into triangles, lights and a camera; `material` converts materials and
 //! their textures.
 
 mod build;
+mod decode;
 mod glb;
 mod material;
 mod resource;
 mod validate;
+
+pub use decode::{MAX_REDUCTION, MAX_TEXTURE_SIDE, MAX_WORK_MULTIPLE};
 
 use super::{Scene, SceneError};
 use build::Builder;

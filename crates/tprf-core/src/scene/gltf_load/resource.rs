@@ -4,12 +4,13 @@
 //!
 //! The gltf crate would read a URI's file to its end (`file:///dev/zero` never ends, a
 //! FIFO blocks) and decode any image whole; here a file is read only if it is a regular
-//! file, at most the buffer's declared length, and an image's decoded size is read from
-//! its header and budgeted before its pixels are decoded.
+//! file, at most the buffer's declared length, and an image file is opened (a regular
+//! file only) for `decode` to read as it decodes.
 
+use super::decode::Encoded;
 use super::validate::invalid;
 use crate::budget::{self, BudgetError};
-use crate::scene::{SceneError, Texture};
+use crate::scene::SceneError;
 use base64::Engine as _;
 use std::path::{Path, PathBuf};
 
@@ -81,56 +82,29 @@ pub(super) fn read_uri(
     }
 }
 
-/// Bytes a decoded texture holds per pixel beyond the decoder's own output: the RGBA8
-/// conversion and the [`Texture`]'s copy.
-const TEXTURE_BYTES_PER_PIXEL: u64 = 4 + 4;
-
-/// Decode PNG or JPEG `bytes` (`mime` as the file declares it, else guessed from the
-/// bytes) to an RGBA8 [`Texture`], values as stored (sRGB decoding happens at lookup).
-/// The decoded size is read from the header and budgeted before any pixel is decoded.
-pub(super) fn decode_texture(
+/// The encoded image at `uri`: a `data:` URI's bytes, or its file opened (a regular file
+/// only), to be read as it is decoded.
+pub(super) fn open_image(
     file: &str,
+    base: &Path,
     what: &str,
-    mime: Option<&str>,
-    bytes: &[u8],
-) -> Result<Texture, SceneError> {
-    use image::{ImageDecoder, ImageFormat};
-    let err = |m: String| invalid(file, format!("{what}: {m}"));
-    let format = match mime {
-        Some("image/png") => ImageFormat::Png,
-        Some("image/jpeg") => ImageFormat::Jpeg,
-        _ => match image::guess_format(bytes) {
-            Ok(f @ (ImageFormat::Png | ImageFormat::Jpeg)) => f,
-            _ => return Err(err("not a PNG or JPEG image".into())),
+    uri: &str,
+) -> Result<Encoded<'static>, SceneError> {
+    match locate(base, uri).map_err(|m| invalid(file, format!("{what}: {m}")))? {
+        Location::Data { .. } => {
+            let bytes = read_uri(file, base, what, uri, u64::MAX)?;
+            Ok(Encoded::Bytes(bytes.into()))
+        }
+        Location::File(path) => match budget::open_regular(&path) {
+            Ok((f, len)) => Ok(Encoded::File { file: f, len }),
+            Err(BudgetError::Io { path, source }) => Err(SceneError::Io {
+                path: format!("{} ({what} of {file})", path.display()),
+                source,
+            }),
+            Err(e @ BudgetError::NotAFile { .. }) => Err(invalid(file, format!("{what}: {e}"))),
+            Err(e) => Err(SceneError::Budget(e)),
         },
-    };
-    let mut reader = image::ImageReader::with_format(std::io::Cursor::new(bytes), format);
-    // The budget below decides what fits, not the image crate's fixed 512 MiB.
-    reader.no_limits();
-    let decoder = reader
-        .into_decoder()
-        .map_err(|e| err(format!("cannot read the image header: {e}")))?;
-    let (w, h) = decoder.dimensions();
-    if w == 0 || h == 0 {
-        return Err(err(format!("the image is {w} x {h} pixels")));
     }
-    let pixels = u64::from(w) * u64::from(h);
-    let need = decoder
-        .total_bytes()
-        .saturating_add(pixels.saturating_mul(TEXTURE_BYTES_PER_PIXEL));
-    budget::check(
-        need,
-        &format!("{what} of {file}"),
-        format_args!("decoding {w} x {h} pixels"),
-    )?;
-    let image = image::DynamicImage::from_decoder(decoder)
-        .map_err(|e| err(format!("cannot decode: {e}")))?;
-    let rgba = image.into_rgba8();
-    Ok(Texture {
-        width: w,
-        height: h,
-        rgba8: rgba.pixels().map(|p| p.0).collect(),
-    })
 }
 
 #[cfg(test)]
