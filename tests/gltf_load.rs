@@ -1427,7 +1427,7 @@ fn png_uri(png: &[u8]) -> String {
 }
 
 /// The texture of material `m`'s base colour (or metallic-roughness when `mr`).
-fn texture_of<'a>(scene: &'a Scene, m: usize, mr: bool) -> &'a tprf_core::scene::Texture {
+fn texture_of(scene: &Scene, m: usize, mr: bool) -> &tprf_core::scene::Texture {
     let material = &scene.materials[m];
     let r = if mr {
         material.metallic_roughness_texture
