@@ -471,7 +471,7 @@ def main(argv=None):
                     help="spp of the twin check's renders (two seeds each), which make the reference too")
     ap.add_argument("--twin-chi", type=float, default=2.0, help="largest |diff|^2 / noise accepted")
     ap.add_argument("--ignore-twin-check", action="store_true")
-    ap.add_argument("--max-spp", type=int, default=1 << 16)
+    ap.add_argument("--max-spp", type=int, default=1 << 17)
     ap.add_argument("--cap", type=float, default=60.0, help="stop a renderer after a run this long (s)")
     ap.add_argument("--tprf", help="tprf binary (default target/release/tprf)")
     ap.add_argument("--tal-python", default=str(REPO / "target" / "nlos-venv" / "bin" / "python"),
@@ -486,6 +486,7 @@ def main(argv=None):
         return 0
     loaded, why = camera_race.load_mitsuba()
     if loaded is None:
+        why = why.replace("or run with --setup", "(benches/race/README.md: Install)")
         print(f"skipped: {why}")
         return 0
     mi, dr, versions = loaded
