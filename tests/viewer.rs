@@ -267,6 +267,101 @@ fn images_have_colour_bars_and_a_readout_under_the_cursor() {
     assert!((after / before - 0.5).abs() < 1e-3, "{before} -> {after}");
 }
 
+/// At every window size from 1024 x 700 up, everything is on screen: the time ruler
+/// ends left of the right panel (its last bin reachable by a click at its visible
+/// end), the playback speed field is visible, the images stay clear of the right panel
+/// and the window's bottom, and in sensor mode the measurement and the envelope editor
+/// too. (At 1280 x 800 the ruler ran on under the right panel: its visible end was bin
+/// 223 of 256, and the speed field was hidden.)
+#[test]
+fn the_layout_fits_at_every_window_size() {
+    let bins = 256;
+    for (w, hgt) in [(1024.0, 700.0), (1280.0, 800.0), (1600.0, 900.0), (1920.0, 1080.0)] {
+        let settings = small_settings("builtin:cornell", 24, bins, 2);
+        let mut h = Harness::builder()
+            .with_size(Vec2::new(w, hgt))
+            .build_eframe(move |cc| TprfApp::with_settings(cc, settings, Start::Default));
+        wait_done(&mut h, Duration::from_secs(60));
+        h.state_mut().playing = false;
+        h.run_steps(2);
+        let size = format!("{w} x {hgt}");
+        let inside = |r: eframe::egui::Rect, right: f32, what: &str| {
+            assert!(
+                r.left() >= 0.0 && r.top() >= 0.0 && r.right() <= right && r.bottom() <= hgt,
+                "{size}: {what} at {r:?} leaves the visible area (right edge {right})"
+            );
+        };
+        let plot = h.get_by_label("tprf plot").rect();
+        let ruler = h.get_by_label("time scrubber").rect();
+        inside(ruler, plot.left(), "the time ruler");
+        inside(h.get_by_label("speed").rect(), plot.left(), "the speed field");
+        inside(h.get_by_label("time slice").rect(), plot.left(), "the time slice");
+        inside(h.get_by_label("rainbow image").rect(), plot.left(), "the rainbow image");
+        inside(plot, w, "the TPRF plot");
+        for (x, want) in [(ruler.right() - 1.0, bins - 1), (ruler.left() + 1.0, 0)] {
+            click_at(&mut h, Pos2::new(x, ruler.center().y));
+            assert_eq!(h.state().bin, want, "{size}: a click at x = {x} of {ruler:?}");
+        }
+        h.state_mut().settings.mode = Mode::Sensor;
+        h.run_steps(3);
+        wait_sensor(&mut h);
+        h.run_steps(2);
+        let editor = h.get_by_label("envelope editor").rect();
+        inside(editor, w, "the envelope editor");
+        inside(
+            h.get_by_label("measurement image").rect(),
+            editor.left(),
+            "the measurement image",
+        );
+    }
+}
+
+/// Typing into a field and pressing Tab within one frame (a slow frame: 4 a second
+/// under software rendering): what was typed lands in that field, and the next field
+/// keeps its value. (egui moved the focus first, and "Height 256", Tab, made "Height
+/// 25" and "Bins 2566".) The window's input hook is called as eframe calls it.
+#[test]
+fn typing_then_tab_in_one_frame_stays_in_its_field() {
+    use eframe::App;
+    use eframe::egui::Modifiers;
+    let mut h = harness(small_settings("builtin:cornell", 8, 16, 1));
+    h.run_steps(2);
+    let key = |key: Key, modifiers: Modifiers| Event::Key {
+        key,
+        physical_key: None,
+        pressed: true,
+        repeat: false,
+        modifiers,
+    };
+    // One frame's input, through the hook.
+    let frame = |h: &mut Harness<'static, TprfApp>, events: Vec<Event>| {
+        for e in events {
+            h.event(e);
+        }
+        let ctx = h.ctx.clone();
+        let mut input = std::mem::take(h.input_mut());
+        h.state_mut().raw_input_hook(&ctx, &mut input);
+        *h.input_mut() = input;
+        h.step();
+    };
+    h.get_by_label("Height").click();
+    frame(&mut h, vec![]);
+    frame(&mut h, vec![key(Key::A, Modifiers::COMMAND)]);
+    frame(
+        &mut h,
+        vec![
+            Event::Text("3".into()),
+            Event::Text("2".into()),
+            key(Key::Tab, Modifiers::NONE),
+        ],
+    );
+    for _ in 0..3 {
+        frame(&mut h, vec![]);
+    }
+    let p = &h.state().pending;
+    assert_eq!((p.height, p.bins), (32, 16), "Height then Bins");
+}
+
 /// After a resolution change the selected pixel and the pins point at the same scene
 /// point of the new film, and the window says so.
 #[test]
@@ -317,7 +412,8 @@ fn the_selection_follows_a_resolution_change() {
 }
 
 /// The sensor tab opens on the film's window and the pulse (not on all 256 LiDAR
-/// gates); gates outside the window are said so, and fitting them clears it.
+/// gates), with the preset fitted to the window (said so, with a way back); gates
+/// outside the window are said so, and fitting them clears it.
 #[test]
 fn the_sensor_tab_opens_on_the_window_and_flags_gates_outside_it() {
     let mut h = harness(ViewerSettings {
@@ -353,13 +449,29 @@ fn the_sensor_tab_opens_on_the_window_and_flags_gates_outside_it() {
         .shown_plane(&snap)
         .expect("the shown gate is measured");
     assert!(plane.iter().any(|&v| v > 0.0), "gate {gate} is black");
-    // The LiDAR's 256 gates of 1 ns run far past this window: flagged.
+    // The LiDAR's 256 gates of 1 ns run far past this window: the tab opened on the
+    // ones that see it, and says so; the preset's own gates are one click away, and
+    // then flagged.
+    let note = label_with(&h, "Fitted the Full-waveform LiDAR preset");
+    assert!(note.contains("of 256"), "{note}");
+    let kept = h.state().settings.sensor.exposure.count();
+    assert!((10..=30).contains(&kept), "{kept} gates kept: {note}");
     assert!(
         h.query_by_label_contains("outside the rendered window")
-            .is_some()
+            .is_none()
     );
-    // Gated camera: 8 gates of 3 ns from the window's start, past its end.
+    h.get_by_label("Keep all 256 gates").click();
+    h.run_steps(2);
+    assert_eq!(h.state().settings.sensor.exposure.count(), 256);
+    assert!(h.query_by_label_contains("Fitted the").is_none());
+    let warning = label_with(&h, "lie outside the rendered window");
+    assert!(warning.contains("of 256"), "{warning}");
+    // Gated camera: 8 gates of 3 ns from the window's start, past its end. Picked,
+    // it is fitted too; its own gates, flagged, can instead tile the window.
     h.get_by_label("gated").click();
+    h.run_steps(2);
+    assert!(h.state().settings.sensor.exposure.count() < 8);
+    h.get_by_label("Keep all 8 gates").click();
     h.run_steps(2);
     let warning = label_with(&h, "lie outside the rendered window");
     assert!(warning.contains("of 8"), "{warning}");

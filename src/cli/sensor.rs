@@ -10,7 +10,7 @@ use clap::Args;
 use tprf_core::export::sensor::{
     DEFAULT_TILE_BYTES, SensorCube, SensorRun, measure_cube, write_sensor_outputs, write_spad_files,
 };
-use tprf_core::sensor::{Derived, Exposure, LightPulse, Sensor, SensorModel};
+use tprf_core::sensor::{Derived, Draws, Exposure, LightPulse, Pipeline, Sensor, SensorModel};
 use tprf_core::units::format_time;
 
 #[derive(Args, Debug)]
@@ -147,48 +147,41 @@ pub fn run(a: &SensorArgs) -> Result<()> {
     let kernels_s = t_kernels.elapsed().as_secs_f64();
     let t_measure = Instant::now();
     let measured = measure_cube(&cube, &model, &a.pixels, DEFAULT_TILE_BYTES)?;
-    let mut m = measured.measurements;
     let measure_s = t_measure.elapsed().as_secs_f64();
-    // The SPAD reads the clean measurement and the steady image, both whole by now
-    // (measure_cube gathers them tile by tile), never the cube itself; with the cube's
-    // ambient image A when it has one (ambient_scale photons_per_unit A photons/s more
-    // per pixel, in every TDC bin). Its [B, H, W] arrays are computed and written a
-    // band of rows at a time.
+    // The sensor's steps after the clean one, in the one order of
+    // tprf_core::sensor::pipeline (the window takes the same): the SPAD reads the clean
+    // measurement, the steady image and the cube's ambient image (measure_cube gathered
+    // the first two tile by tile; never the cube itself), its [B, H, W] arrays computed
+    // and written a band of rows at a time; then the gates get the ambient image as a
+    // constant rate (M_i += ambient_scale A integral Exposure_i dt), before the noise,
+    // which photon noise grows with; then the noise and the derived depths.
     // Everything is written into a folder beside --out and swapped in at the end.
     let staging = tprf_core::export::staging::Staging::new(&a.out, &[&a.dir])?;
+    let pipeline = Pipeline {
+        model: &model,
+        clean: &measured.measurements,
+        steady: measured.steady.as_deref().unwrap_or(&[]),
+        ambient: cube.ambient.as_deref(),
+    };
     let spad = match &measured.steady {
-        Some(steady) => Some(write_spad_files(
-            staging.path(),
-            &model,
-            &m,
-            steady,
-            cube.ambient.as_deref(),
-            DEFAULT_TILE_BYTES,
-        )?),
+        Some(_) => Some(write_spad_files(staging.path(), &pipeline, DEFAULT_TILE_BYTES)?),
         None => None,
     };
     let t_noise = Instant::now();
-    // The ambient image as a constant rate in every gate, before the noise (photon noise
-    // grows with it): M_i += ambient_scale A integral Exposure_i dt.
-    let ambient_json = match &cube.ambient {
-        Some(image) => {
-            let added = match model.ambient_weights_s() {
-                Ok(_) => {
-                    model.add_ambient(&mut m, image)?;
-                    Ok(())
-                }
-                Err(why) => {
-                    eprintln!("note: the cube's ambient image is not added: {why}");
-                    Err(why)
-                }
-            };
+    let gates = pipeline.gates(Draws::Fresh)?;
+    let ambient_json = match (&cube.ambient, &gates.ambient) {
+        (Some(image), Some(added)) => {
+            if let Err(why) = added {
+                eprintln!("note: the cube's ambient image is not added: {why}");
+            }
             Some(tprf_core::export::ambient::sensor_json(
-                &model, image, added,
+                &model,
+                image,
+                added.clone(),
             ))
         }
-        None => None,
+        _ => None,
     };
-    model.apply_noise(&mut m);
     let noise_s = t_noise.elapsed().as_secs_f64();
     let n = model.gate_count();
 
@@ -217,7 +210,7 @@ pub fn run(a: &SensorArgs) -> Result<()> {
         staging.path(),
         &SensorRun {
             model: &model,
-            measurements: &m,
+            gates: &gates,
             width: w,
             height: h,
             cube_dir: &a.dir,

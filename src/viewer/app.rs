@@ -67,6 +67,8 @@ pub struct TprfApp {
     pub file_dialogs: bool,
     /// The path window, while open.
     pub(super) path_prompt: Option<PathPrompt>,
+    /// Input events held back for the next frame ([`super::input::split_at_tab`]).
+    pub(super) deferred_input: Vec<egui::Event>,
     pub(super) ctx: egui::Context,
 }
 
@@ -121,6 +123,7 @@ impl TprfApp {
             sensor: SensorState::default(),
             file_dialogs: super::files::dialogs_enabled(),
             path_prompt: None,
+            deferred_input: Vec::new(),
             ctx: cc.egui_ctx.clone(),
         };
         app.sensor.set_waker(cc.egui_ctx.clone());
@@ -259,6 +262,7 @@ impl eframe::App for TprfApp {
             self.sensor.auto_start = matches!(self.source, super::source::Source::Live(_))
                 && self.settings.t0.trim().is_empty();
             self.sensor.set_ambient(self.ambient());
+            self.sensor.fit_on_open(&mut self.settings.sensor, s.axis());
             self.sensor.update(&self.settings.sensor, s);
         }
         let window_w = ui.available_width();
@@ -316,6 +320,7 @@ impl eframe::App for TprfApp {
                         self.apply_pending();
                     }
                     Some(sensor::CoverageAction::FitGates(e)) => self.settings.sensor.exposure = e,
+                    Some(sensor::CoverageAction::Restore(s)) => self.settings.sensor = *s,
                     None => {}
                 }
             }
@@ -349,6 +354,21 @@ impl eframe::App for TprfApp {
         }
         let ui_ms = started.elapsed().as_secs_f32() * 1e3;
         self.timing.ui_ms = FrameTiming::smooth(self.timing.ui_ms, ui_ms);
+    }
+
+    /// A frame's input cut at a Tab (see [`super::input`]): the events held back last
+    /// frame come first, and what this one holds back waits for the next, which is
+    /// asked for at once.
+    fn raw_input_hook(&mut self, ctx: &egui::Context, raw_input: &mut egui::RawInput) {
+        if !self.deferred_input.is_empty() {
+            let mut events = std::mem::take(&mut self.deferred_input);
+            events.append(&mut raw_input.events);
+            raw_input.events = events;
+        }
+        self.deferred_input = super::input::split_at_tab(&mut raw_input.events);
+        if !self.deferred_input.is_empty() {
+            ctx.request_repaint();
+        }
     }
 
     fn save(&mut self, storage: &mut dyn eframe::Storage) {

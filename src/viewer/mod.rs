@@ -17,6 +17,8 @@
 //!   number, and image-layout mappings (tested without a window);
 //! - `colorbar`, `plotting`: the colour bar under every image, and egui_plot set up
 //!   with readable ticks and units;
+//! - `input`: a frame's keyboard input cut at a Tab, so typing never lands in the next
+//!   field;
 //! - `files`: choosing a file: the system dialog, or a path typed in the window when
 //!   the dialog cannot open;
 //! - [`sensor`]: the sensor tab (model, background measurement, envelope editor).
@@ -27,6 +29,7 @@ mod colorbar;
 pub mod colormap;
 mod exports;
 mod files;
+mod input;
 pub mod layout;
 mod panels;
 mod playback;

@@ -30,6 +30,9 @@ impl TprfApp {
         if let Some(a) = out.file {
             self.choose_file(a);
         }
+        if out.preset_picked {
+            self.sensor.preset_picked();
+        }
         if let Some(e) = &self.sensor.error {
             ui.label(RichText::new(e).color(ui.visuals().error_fg_color));
         }

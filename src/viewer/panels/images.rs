@@ -131,11 +131,8 @@ impl TprfApp {
         if let Some(s) = &self.selection {
             outline(s, PIN_COLORS[0]);
         }
-        let hovered = response.hover_pos().map(to_pixel);
-        if let Some((x, y)) = hovered {
-            response.on_hover_text_at_pointer(self.pixel_readout(snap, x, y));
-        }
-        hovered
+        // Read out in the line under the images (a tooltip at the pointer covered it).
+        response.hover_pos().map(to_pixel)
     }
 
     /// What the window says of pixel `(x, y)`: its value in the scrubber's bin and its
@@ -251,21 +248,58 @@ impl TprfApp {
             .filter(|a| a.width == snap.width() && a.height == snap.height());
         let has_samples = snap.spp > 0 && snap.pixel_samples_drawn(0, 0).is_some();
         if view == View::Steady && (ambient.is_some() || has_samples) {
+            let mut tabs = vec![(
+                SteadyBlock::Steady,
+                "Steady",
+                "steady state: the sum over time of the TPRF",
+            )];
+            if ambient.is_some() {
+                tabs.push((
+                    SteadyBlock::Ambient,
+                    "Ambient",
+                    "the ambient light group (sun, sky, lamps tagged ambient): steady light, \
+                     W m⁻² sr⁻¹",
+                ));
+            }
+            if has_samples {
+                tabs.push((
+                    SteadyBlock::Samples,
+                    "Samples",
+                    "the samples each pixel drew, over the image's mean: adaptive sampling \
+                     gives the noisy pixels more",
+                ));
+            }
+            // Tabs where they fit the block's width, else a menu (a tab cut off at the
+            // block's edge could not be read or clicked).
+            let font = egui::TextStyle::Button.resolve(ui.style());
+            let pad = 2.0 * ui.spacing().button_padding.x + ui.spacing().item_spacing.x;
+            let needed: f32 = tabs
+                .iter()
+                .map(|(_, name, _)| {
+                    let g = ui.painter().layout_no_wrap(name.to_string(), font.clone(), Color32::WHITE);
+                    g.size().x + pad + 2.0
+                })
+                .sum();
+            let s = &mut self.settings.steady_block;
             ui.horizontal(|ui| {
                 ui.set_height(TITLE_H - 4.0);
-                let s = &mut self.settings.steady_block;
-                ui.selectable_value(s, SteadyBlock::Steady, RichText::new("Steady").strong())
-                    .on_hover_text("steady state: the sum over time of the TPRF");
-                if ambient.is_some() {
-                    ui.selectable_value(s, SteadyBlock::Ambient, RichText::new("Ambient").strong())
-                        .on_hover_text("the ambient light group (sun, sky, lamps tagged ambient): steady light, W m⁻² sr⁻¹");
-                }
-                if has_samples {
-                    ui.selectable_value(s, SteadyBlock::Samples, RichText::new("Samples").strong())
-                        .on_hover_text(
-                            "the samples each pixel drew, over the image's mean: adaptive \
-                             sampling gives the noisy pixels more",
-                        );
+                if needed <= size.x {
+                    for (block, name, hover) in &tabs {
+                        ui.selectable_value(s, *block, RichText::new(*name).strong())
+                            .on_hover_text(*hover);
+                    }
+                } else {
+                    let now = tabs.iter().find(|t| t.0 == *s).map_or("Steady", |t| t.1);
+                    egui::ComboBox::from_id_salt("steady-block")
+                        .selected_text(RichText::new(now).strong())
+                        .width((size.x - 8.0).max(40.0))
+                        .show_ui(ui, |ui| {
+                            for (block, name, hover) in &tabs {
+                                ui.selectable_value(s, *block, *name).on_hover_text(*hover);
+                            }
+                        })
+                        .response
+                        .on_hover_text("what this image shows");
                 }
             });
             self.pending.steady_block = self.settings.steady_block;

@@ -221,6 +221,7 @@ impl TprfApp {
             _ => Vec::new(),
         };
         let h = ui.available_height();
+        let bottom = ui.max_rect().bottom();
         let axis = *snap.axis();
         // Scrolls when the window is too short for the three plots.
         egui::ScrollArea::vertical().show(ui, |ui| {
@@ -238,6 +239,7 @@ impl TprfApp {
                 &tprf,
                 &m_pixel,
                 (h * 0.19).max(110.0),
+                bottom,
                 snap,
                 (sel.y0, sel.x0),
             );

@@ -11,8 +11,12 @@ impl TprfApp {
     /// The playback buttons over the ruler of `axis`.
     pub(crate) fn scrubber_ui(&mut self, ui: &mut egui::Ui, axis: &TimeAxis) {
         let bins = axis.bins;
-        // Wraps rather than clipping the time readout in a narrow window; the time
-        // comes first, whole.
+        // The panel's width, taken before anything is laid out: a row wider than the
+        // panel widens the ui, and a ruler as wide as that ran on under the right panel
+        // (the last eighth of the bins out of reach at 1280 x 800).
+        let width = ui.available_width();
+        // Every item is whole and wraps to a new row where the panel is narrow: the
+        // time first, then the buttons, loop and speed.
         ui.horizontal_wrapped(|ui| {
             ui.add(
                 egui::Label::new(
@@ -25,7 +29,7 @@ impl TprfApp {
                     .monospace()
                     .strong(),
                 )
-                .wrap_mode(egui::TextWrapMode::Extend),
+                .wrap_mode(egui::TextWrapMode::Truncate),
             );
             ui.separator();
             if ui.button("⏮").on_hover_text("First bin").clicked() {
@@ -47,17 +51,20 @@ impl TprfApp {
                 self.step(1, bins);
             }
             ui.checkbox(&mut self.settings.looping, "loop");
+            let l = ui.label("speed");
             ui.add(
-                egui::Slider::new(&mut self.settings.play_bins_per_s, 1.0..=240.0)
-                    .logarithmic(true)
-                    .text("bins/s"),
-            );
+                egui::DragValue::new(&mut self.settings.play_bins_per_s)
+                    .range(1.0..=240.0)
+                    .speed(0.5)
+                    .max_decimals(1)
+                    .suffix(" bins/s"),
+            )
+            .labelled_by(l.id)
+            .on_hover_text("playback speed, bins per second (1 to 240)");
         });
         // The scrub bar: drag or click anywhere on it.
-        let (rect, response) = ui.allocate_exact_size(
-            Vec2::new(ui.available_width(), 32.0),
-            Sense::click_and_drag(),
-        );
+        let (rect, response) =
+            ui.allocate_exact_size(Vec2::new(width, 32.0), Sense::click_and_drag());
         let ruler = TimeRuler {
             axis: *axis,
             left: rect.left() + 4.0,

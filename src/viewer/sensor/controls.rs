@@ -1,66 +1,126 @@
 //! The sensor's controls in the left panel: presets, loading and saving a sensor file,
-//! the light pulse, the gate sequence and the noise, each kind with its own fields.
+//! the light pulse, the gate sequence, the SPAD, the ambient light and the noise. The
+//! pulse's, gates' and SPAD's numbers are the ones their types list
+//! ([`tprf_core::sensor::Field`]): each drawn by its unit, none mirrored here. Every
+//! time is shown after the trigger (the pulse), as the editor's axis and its handles
+//! show it: a gate time stored from the window's start is shown with the start added,
+//! and the gates' origin is named beside them.
 
-use super::kinds::{EXPOSURE_KINDS, LIGHT_KINDS, exposure_of_kind, label_of, light_of_kind};
 use super::{GATE_COLOR, LIGHT_COLOR};
 use crate::viewer::files::FileAction;
 use eframe::egui::{self, RichText};
 use tprf_core::film::TimeAxis;
-use tprf_core::sensor::{Acquisition, Exposure, LightPulse, Sensor, Spad};
+use tprf_core::sensor::{
+    Acquisition, EXPOSURE_KINDS, Exposure, Field, LIGHT_KINDS, LightPulse, Quantity, Sensor,
+    Spad, TimeOrigin, kind_label,
+};
+use tprf_core::units::format_time;
 
-/// A time in ns, stored in seconds, within the sensor's +-1 s
-/// ([`tprf_core::sensor::MAX_TIME_S`]).
-fn time_ns(ui: &mut egui::Ui, label: &str, t_s: &mut f64, speed_ns: f64) {
-    let l = ui.label(label);
-    let mut ns = *t_s * 1e9;
-    let max_ns = tprf_core::sensor::MAX_TIME_S * 1e9;
-    if ui
-        .add(
-            egui::DragValue::new(&mut ns)
-                .range(-max_ns..=max_ns)
-                .speed(speed_ns)
-                .suffix(" ns")
-                .max_decimals(4),
-        )
-        .labelled_by(l.id)
-        .changed()
-        && ns.is_finite()
-    {
-        *t_s = ns * 1e-9;
-    }
+/// `field` as a row of a two-column grid: its label and a number widget in its unit
+/// (times in ns, `offset_s` added to a time counted from the gates' origin; energy with
+/// an SI prefix; frequencies in MHz), its help on hover. The new value (in the field's
+/// own terms) when it was changed.
+fn field_ui(ui: &mut egui::Ui, f: &Field, offset_s: f64, dt_s: f64) -> Option<f64> {
+    let l = ui.label(f.label);
+    let offset = if f.from_origin { offset_s } else { 0.0 };
+    let mut v = f.value;
+    let r = match f.quantity {
+        Quantity::Time => {
+            let mut ns = (f.value + offset) * 1e9;
+            let r = ui.add(
+                egui::DragValue::new(&mut ns)
+                    .range((f.min + offset) * 1e9..=(f.max + offset) * 1e9)
+                    .speed(dt_s * 1e9 / 4.0)
+                    .suffix(" ns")
+                    .max_decimals(4),
+            );
+            v = ns * 1e-9 - offset;
+            r
+        }
+        Quantity::Energy => {
+            let speed = (v.abs() * 0.01).max(1e-18);
+            ui.add(
+                egui::DragValue::new(&mut v)
+                    .range(f.min..=f.max)
+                    .speed(speed)
+                    .custom_formatter(|x, _| si_joules(x))
+                    .custom_parser(parse_joules),
+            )
+        }
+        Quantity::Count => {
+            let mut n = f.value.round().max(0.0) as u64;
+            let r = ui.add(egui::DragValue::new(&mut n).range(f.min as u64..=f.max as u64));
+            v = n as f64;
+            r
+        }
+        Quantity::Number => {
+            let speed = (v.abs() * 0.01).max((f.max - f.min).min(1.0) * 1e-3);
+            ui.add(
+                egui::DragValue::new(&mut v)
+                    .range(f.min..=f.max)
+                    .speed(speed)
+                    .max_decimals(6),
+            )
+        }
+        Quantity::Frequency => {
+            let mut mhz = f.value * 1e-6;
+            let r = ui.add(
+                egui::DragValue::new(&mut mhz)
+                    .range(f.min * 1e-6..=f.max * 1e-6)
+                    .speed(0.1)
+                    .suffix(" MHz"),
+            );
+            v = mhz * 1e6;
+            r
+        }
+        Quantity::Rate => {
+            let speed = (v * 0.01).max(1.0);
+            ui.add(
+                egui::DragValue::new(&mut v)
+                    .range(f.min..=f.max)
+                    .speed(speed)
+                    .suffix(" /s"),
+            )
+        }
+        Quantity::Degrees => ui.add(
+            egui::DragValue::new(&mut v)
+                .range(f.min..=f.max)
+                .speed(1.0)
+                .suffix("°"),
+        ),
+    };
+    let r = r.labelled_by(l.id);
+    let r = if f.help.is_empty() {
+        r
+    } else {
+        r.on_hover_text(f.help)
+    };
     ui.end_row();
+    (r.changed() && v.is_finite()).then_some(v)
 }
 
-/// A number in `range`, dragged at `speed` per pixel.
-fn number(
+/// The fields of one sensor part as a grid; the first changed, as (key, new value).
+fn fields_ui(
     ui: &mut egui::Ui,
-    label: &str,
-    v: &mut f64,
-    range: std::ops::RangeInclusive<f64>,
-    speed: f64,
-) {
-    let l = ui.label(label);
-    ui.add(egui::DragValue::new(v).range(range).speed(speed))
-        .labelled_by(l.id);
-    ui.end_row();
-}
-
-/// The light's energy in joules, shown with an SI prefix ("1 µJ", "2.5 mJ") and typed
-/// as joules or with a unit ("1e-6", "1 uJ"): a real pulse's microjoules would read
-/// 0.00 with two decimals.
-fn energy_j(ui: &mut egui::Ui, v: &mut f64) {
-    let l = ui.label("energy");
-    let speed = (v.abs() * 0.01).max(1e-18);
-    ui.add(
-        egui::DragValue::new(v)
-            .range(0.0..=1e12)
-            .speed(speed)
-            .custom_formatter(|x, _| si_joules(x))
-            .custom_parser(parse_joules),
-    )
-    .on_hover_text("pulse energy, J (type e.g. 1e-6 or 1 uJ)")
-    .labelled_by(l.id);
-    ui.end_row();
+    id: &str,
+    fields: &[Field],
+    offset_s: f64,
+    dt_s: f64,
+    knots: Option<usize>,
+) -> Option<(&'static str, f64)> {
+    let mut changed = None;
+    egui::Grid::new(id).num_columns(2).show(ui, |ui| {
+        if let Some(n) = knots {
+            ui.label(format!("{n} knots: drag them on the plot"));
+            ui.end_row();
+        }
+        for f in fields {
+            if let Some(v) = field_ui(ui, f, offset_s, dt_s) {
+                changed = Some((f.key, v));
+            }
+        }
+    });
+    changed
 }
 
 /// `x` joules with the SI prefix that puts it in 1 ..= 999, four significant digits.
@@ -113,78 +173,13 @@ fn parse_joules(s: &str) -> Option<f64> {
     s.parse().ok()
 }
 
-/// A count from 1 to `max`.
-fn count(ui: &mut egui::Ui, label: &str, v: &mut u64, max: u64) {
-    let l = ui.label(label);
-    ui.add(egui::DragValue::new(v).range(1..=max))
-        .labelled_by(l.id);
-    ui.end_row();
-}
-
-/// A rate in hertz, typed as a count per second.
-fn rate(ui: &mut egui::Ui, label: &str, v: &mut f64, hover: &str) {
-    let l = ui.label(label);
-    let speed = (*v * 0.01).max(1.0);
-    ui.add(
-        egui::DragValue::new(v)
-            .range(0.0..=1e15)
-            .speed(speed)
-            .suffix(" /s"),
-    )
-    .labelled_by(l.id)
-    .on_hover_text(hover);
-    ui.end_row();
-}
-
 /// The SPAD's parameters (the TDC bins and jitter are the exposure's).
-fn spad_ui(ui: &mut egui::Ui, spad: &mut Spad) {
+fn spad_ui(ui: &mut egui::Ui, spad: &mut Spad, dt_s: f64) {
     ui.label(RichText::new("SPAD").strong());
-    egui::Grid::new("spad-grid").num_columns(2).show(ui, |ui| {
-        count(
-            ui,
-            "cycles",
-            &mut spad.cycles,
-            tprf_core::sensor::spad::MAX_CYCLES,
-        );
-        number(ui, "PDE", &mut spad.pde, 0.0..=1.0, 0.005);
-        let l = ui.label("photons / unit");
-        let speed = (spad.photons_per_unit * 0.01).max(1e-6);
-        ui.add(
-            egui::DragValue::new(&mut spad.photons_per_unit)
-                .range(0.0..=1e30)
-                .speed(speed),
-        )
-        .labelled_by(l.id)
-        .on_hover_text("photons reaching the pixel per unit of (TPRF * Light), per pulse");
-        ui.end_row();
-        rate(
-            ui,
-            "ambient",
-            &mut spad.ambient_rate_hz,
-            "uniform ambient photons per second at each pixel",
-        );
-        let l = ui.label("ambient lamp");
-        let speed = (spad.ambient_lamp_hz * 0.01).max(1.0);
-        ui.add(
-            egui::DragValue::new(&mut spad.ambient_lamp_hz)
-                .range(0.0..=1e15)
-                .speed(speed)
-                .suffix(" /s"),
-        )
-        .labelled_by(l.id)
-        .on_hover_text(
-            "a steady lamp where the light is, of this many pulse energies per second: \
-             each pixel gets it times its steady image",
-        );
-        ui.end_row();
-        rate(
-            ui,
-            "dark counts",
-            &mut spad.dark_count_rate_hz,
-            "dark count rate",
-        );
-        let speed = (spad.dead_time_s * 1e9 * 0.01).max(0.01);
-        time_ns(ui, "dead time", &mut spad.dead_time_s, speed);
+    if let Some((key, v)) = fields_ui(ui, "spad-grid", &spad.fields(), 0.0, dt_s, None) {
+        spad.set_field(key, v);
+    }
+    ui.horizontal(|ui| {
         let l = ui.label("acquisition");
         egui::ComboBox::from_id_salt("spad-mode")
             .selected_text(match spad.mode {
@@ -196,22 +191,8 @@ fn spad_ui(ui: &mut egui::Ui, spad: &mut Spad) {
                 ui.selectable_value(&mut spad.mode, Acquisition::FreeRunning, "free-running");
             })
             .response
-            .labelled_by(l.id);
-        ui.end_row();
-        number(
-            ui,
-            "afterpulsing",
-            &mut spad.afterpulse_probability,
-            0.0..=1.0,
-            0.001,
-        );
-        if spad.afterpulse_probability > 0.0 {
-            if !(spad.afterpulse_delay_s > 0.0) {
-                spad.afterpulse_delay_s = (spad.dead_time_s * 2.0).max(1e-9);
-            }
-            let speed = (spad.afterpulse_delay_s * 1e9 * 0.01).max(0.01);
-            time_ns(ui, "afterpulse delay", &mut spad.afterpulse_delay_s, speed);
-        }
+            .labelled_by(l.id)
+            .on_hover_text("synchronous: armed afresh each laser cycle; free-running: never reset");
     });
 }
 
@@ -222,6 +203,59 @@ pub(crate) struct ControlsOutcome {
     pub(crate) message: Option<String>,
     /// A sensor file to load or save (the window asks for its path).
     pub(crate) file: Option<FileAction>,
+    /// A built-in preset was picked.
+    pub(crate) preset_picked: bool,
+}
+
+/// The gates' origin: where their times count from (the window's start or the
+/// trigger), shown with what that is in time after the trigger, and switchable
+/// (the gates stay where they are).
+fn origin_ui(ui: &mut egui::Ui, exposure: &mut Exposure, axis: Option<&TimeAxis>) {
+    if matches!(exposure, Exposure::Amcw { .. }) {
+        ui.label(RichText::new("phases count from the trigger").weak());
+        return;
+    }
+    let t0 = axis.map(|a| a.t0_s);
+    let window = match t0 {
+        Some(t0) => format!("the window start ({})", format_time(t0)),
+        None => "the window start".to_string(),
+    };
+    let name = |o: TimeOrigin| match o {
+        TimeOrigin::Window => window.clone(),
+        TimeOrigin::Pulse => "the pulse (0 ns)".to_string(),
+    };
+    let now = exposure.origin();
+    let mut origin = now;
+    ui.horizontal_wrapped(|ui| {
+        let l = ui.label("gates move with");
+        egui::ComboBox::from_id_salt("exposure-origin")
+            .selected_text(name(now))
+            .show_ui(ui, |ui| {
+                for o in [TimeOrigin::Window, TimeOrigin::Pulse] {
+                    ui.selectable_value(&mut origin, o, name(o));
+                }
+            })
+            .response
+            .labelled_by(l.id)
+            .on_hover_text(
+                "what the gates are tied to when the film's window changes; their times \
+                 below are after the pulse either way",
+            );
+    });
+    if origin != now
+        && let Some(t0) = t0
+    {
+        *exposure = exposure.with_origin(origin, t0);
+    }
+    ui.label(
+        RichText::new(match (now, t0) {
+            (TimeOrigin::Window, None) => {
+                "times counted from the window start (no film yet)".to_string()
+            }
+            _ => "times after the pulse, as on the plot".to_string(),
+        })
+        .weak(),
+    );
 }
 
 /// The sensor's controls (left panel): presets, light, gates, noise.
@@ -243,7 +277,10 @@ pub(crate) fn controls_ui(
                 .clicked()
             {
                 match Sensor::builtin(name) {
-                    Ok(s) => *sensor = s,
+                    Ok(s) => {
+                        *sensor = s;
+                        out.preset_picked = true;
+                    }
                     Err(e) => out.message = Some(e.to_string()),
                 }
             }
@@ -260,13 +297,12 @@ pub(crate) fn controls_ui(
         }
     });
     let dt_s = axis.map_or(1e-10, |a| a.dt_s);
-    let speed = dt_s * 1e9 / 4.0;
 
     ui.label(RichText::new("Light(t)").color(LIGHT_COLOR).strong());
     let kind = sensor.light.kind_name();
     let mut new_kind = kind;
     egui::ComboBox::from_id_salt("light-kind")
-        .selected_text(label_of(LIGHT_KINDS, kind))
+        .selected_text(kind_label(LIGHT_KINDS, kind))
         .show_ui(ui, |ui| {
             for (k, l) in LIGHT_KINDS {
                 ui.selectable_value(&mut new_kind, k, *l);
@@ -274,79 +310,19 @@ pub(crate) fn controls_ui(
         });
     if new_kind != kind {
         // A new pulse leaves at the trigger, t = 0, like the rendered one.
-        sensor.light = light_of_kind(new_kind, 0.0, dt_s);
+        sensor.light = LightPulse::of_kind(new_kind, 0.0, 4.0 * dt_s);
     }
-    egui::Grid::new("light-grid")
-        .num_columns(2)
-        .show(ui, |ui| match &mut sensor.light {
-            LightPulse::Delta { t_s, energy } => {
-                time_ns(ui, "time", t_s, speed);
-                energy_j(ui, energy);
-            }
-            LightPulse::Gaussian {
-                centre_s,
-                fwhm_s,
-                energy,
-            } => {
-                time_ns(ui, "centre", centre_s, speed);
-                time_ns(ui, "FWHM", fwhm_s, speed);
-                energy_j(ui, energy);
-            }
-            LightPulse::Rect {
-                start_s,
-                width_s,
-                energy,
-            } => {
-                time_ns(ui, "start", start_s, speed);
-                time_ns(ui, "width", width_s, speed);
-                energy_j(ui, energy);
-            }
-            LightPulse::Exponential {
-                onset_s,
-                tau_s,
-                energy,
-            } => {
-                time_ns(ui, "onset", onset_s, speed);
-                time_ns(ui, "decay τ", tau_s, speed);
-                energy_j(ui, energy);
-            }
-            LightPulse::LaserDiode {
-                onset_s,
-                rise_s,
-                fall_s,
-                energy,
-            } => {
-                time_ns(ui, "onset", onset_s, speed);
-                time_ns(ui, "rise", rise_s, speed);
-                time_ns(ui, "fall", fall_s, speed);
-                energy_j(ui, energy);
-            }
-            LightPulse::Sinc2 {
-                centre_s,
-                width_s,
-                lobes,
-                energy,
-            } => {
-                time_ns(ui, "centre", centre_s, speed);
-                time_ns(ui, "first zero", width_s, speed);
-                let l = ui.label("side lobes");
-                ui.add(egui::DragValue::new(lobes).range(0..=64))
-                    .labelled_by(l.id);
-                ui.end_row();
-                energy_j(ui, energy);
-            }
-            LightPulse::PiecewiseLinear { points, energy } => {
-                ui.label(format!("{} knots: drag them on the plot", points.len()));
-                ui.end_row();
-                energy_j(ui, energy);
-            }
-        });
+    let knots = sensor.light.knots().map(<[_]>::len);
+    if let Some((key, v)) = fields_ui(ui, "light-grid", &sensor.light.fields(), 0.0, dt_s, knots)
+    {
+        sensor.light.set_field(key, v);
+    }
 
     ui.label(RichText::new("Exposure_i(t)").color(GATE_COLOR).strong());
     let kind = sensor.exposure.kind_name();
     let mut new_kind = kind;
     egui::ComboBox::from_id_salt("exposure-kind")
-        .selected_text(label_of(EXPOSURE_KINDS, kind))
+        .selected_text(kind_label(EXPOSURE_KINDS, kind))
         .show_ui(ui, |ui| {
             for (k, l) in EXPOSURE_KINDS {
                 ui.selectable_value(&mut new_kind, k, *l);
@@ -355,103 +331,24 @@ pub(crate) fn controls_ui(
     if new_kind != kind
         && let Some(axis) = axis
     {
-        sensor.exposure = exposure_of_kind(new_kind, axis);
+        sensor.exposure = Exposure::of_kind(new_kind, axis.end_s() - axis.t0_s);
         sensor.derived = Default::default();
         sensor.derived.amcw_depth = new_kind == "amcw";
         // A SPAD needs TDC bins; TDC bins get a SPAD.
         sensor.spad = (new_kind == "tdc").then(Spad::default);
     }
-    let max_gates = tprf_core::sensor::MAX_GATES;
-    egui::Grid::new("exposure-grid")
-        .num_columns(2)
-        .show(ui, |ui| match &mut sensor.exposure {
-            Exposure::Box {
-                start_s,
-                width_s,
-                step_s,
-                count: n,
-                gain,
-                ..
-            } => {
-                time_ns(ui, "start", start_s, speed);
-                time_ns(ui, "width", width_s, speed);
-                let mut step = step_s.unwrap_or(*width_s);
-                time_ns(ui, "step", &mut step, speed);
-                if step_s.is_some() || step != *width_s {
-                    *step_s = Some(step);
-                }
-                count(ui, "gates", n, max_gates);
-                number(ui, "gain", gain, 0.0..=1e12, 0.01);
-            }
-            Exposure::Gaussian {
-                centre_s,
-                fwhm_s,
-                step_s,
-                count: n,
-                peak,
-                ..
-            } => {
-                time_ns(ui, "centre", centre_s, speed);
-                time_ns(ui, "FWHM", fwhm_s, speed);
-                let mut step = step_s.unwrap_or(*fwhm_s);
-                time_ns(ui, "step", &mut step, speed);
-                if step_s.is_some() || step != *fwhm_s {
-                    *step_s = Some(step);
-                }
-                count(ui, "gates", n, max_gates);
-                number(ui, "peak", peak, 0.0..=1e12, 0.01);
-            }
-            Exposure::PiecewiseLinear {
-                points,
-                step_s,
-                count: n,
-                ..
-            } => {
-                ui.label(format!("{} knots: drag them on the plot", points.len()));
-                ui.end_row();
-                time_ns(ui, "step", step_s, speed);
-                count(ui, "gates", n, max_gates);
-            }
-            Exposure::Amcw {
-                freq_hz,
-                phase_steps,
-                phase0_deg,
-                modulation,
-            } => {
-                let mut mhz = *freq_hz * 1e-6;
-                let l = ui.label("frequency");
-                if ui
-                    .add(
-                        egui::DragValue::new(&mut mhz)
-                            .range(1e-3..=1e5)
-                            .speed(0.1)
-                            .suffix(" MHz"),
-                    )
-                    .labelled_by(l.id)
-                    .changed()
-                {
-                    *freq_hz = mhz * 1e6;
-                }
-                ui.end_row();
-                count(ui, "phase steps", phase_steps, 64);
-                number(ui, "phase 0 (deg)", phase0_deg, -360.0..=360.0, 1.0);
-                number(ui, "modulation", modulation, 0.0..=1.0, 0.01);
-            }
-            Exposure::Tdc {
-                start_s,
-                bin_width_s,
-                bins,
-                jitter_fwhm_s,
-                ..
-            } => {
-                time_ns(ui, "start", start_s, speed);
-                time_ns(ui, "bin width", bin_width_s, speed);
-                count(ui, "bins", bins, max_gates);
-                time_ns(ui, "jitter FWHM", jitter_fwhm_s, speed);
-            }
-        });
+    origin_ui(ui, &mut sensor.exposure, axis);
+    let offset = match (sensor.exposure.origin(), axis) {
+        (TimeOrigin::Window, Some(a)) => a.t0_s,
+        _ => 0.0,
+    };
+    let knots = sensor.exposure.knots().map(<[_]>::len);
+    let fields = sensor.exposure.fields();
+    if let Some((key, v)) = fields_ui(ui, "exposure-grid", &fields, offset, dt_s, knots) {
+        sensor.exposure.set_field(key, v);
+    }
     if let Some(spad) = &mut sensor.spad {
-        spad_ui(ui, spad);
+        spad_ui(ui, spad, dt_s);
     }
 
     ui.label(RichText::new("Ambient").strong());
@@ -473,7 +370,7 @@ pub(crate) fn controls_ui(
              x A photons/s more",
             );
             ui.end_row();
-            if matches!(sensor.exposure, tprf_core::sensor::Exposure::Amcw { .. }) {
+            if matches!(sensor.exposure, Exposure::Amcw { .. }) {
                 let l = ui.label("ambient exposure");
                 let mut on = sensor.ambient_exposure_s.is_some();
                 ui.checkbox(&mut on, "").labelled_by(l.id).on_hover_text(
@@ -485,7 +382,11 @@ pub(crate) fn controls_ui(
                 }
                 ui.end_row();
                 if let Some(t) = &mut sensor.ambient_exposure_s {
-                    number(ui, "  seconds / J", t, 1e-15..=1e15, (*t * 0.01).max(1e-12));
+                    let l = ui.label("  seconds / J");
+                    let speed = (*t * 0.01).max(1e-12);
+                    ui.add(egui::DragValue::new(t).range(1e-15..=1e15).speed(speed))
+                        .labelled_by(l.id);
+                    ui.end_row();
                 }
             }
         });

@@ -99,11 +99,19 @@ pub(crate) fn editor_ui(
     } else {
         OUTSIDE_COLOR
     };
+    // Each entry whole: one that does not fit goes to the next line.
     ui.horizontal_wrapped(|ui| {
-        ui.label(RichText::new("— Light").color(LIGHT_COLOR));
-        ui.label(RichText::new(format!("— Exposure_{} {gate_label}", state.gate)).color(sel_color));
-        ui.label(RichText::new("■ TPRF").color(TPRF_COLOR));
-        ui.label(RichText::new("▨ not rendered").color(OUTSIDE_COLOR));
+        for (text, color) in [
+            ("— Light".to_string(), LIGHT_COLOR),
+            (format!("— Exposure_{} {gate_label}", state.gate), sel_color),
+            ("■ TPRF".to_string(), TPRF_COLOR),
+            ("▨ not rendered".to_string(), OUTSIDE_COLOR),
+        ] {
+            ui.add(
+                egui::Label::new(RichText::new(text).color(color))
+                    .wrap_mode(egui::TextWrapMode::Extend),
+            );
+        }
     });
     ui.label(
         RichText::new("Drag the dots (Shift: fine) · scroll: zoom · drag: pan · double-click: fit")
@@ -123,12 +131,14 @@ pub(crate) fn editor_ui(
         p.set_plot_bounds_x(lo * 1e9..=hi * 1e9);
         p.set_plot_bounds_y(-0.06..=1.12);
         let (w0, w1) = (axis.t0_s * 1e9, axis.end_s() * 1e9);
+        // Unnamed: the legend above names them (a name inside a narrow span was cut
+        // to "not r…").
         let shade = OUTSIDE_COLOR.gamma_multiply(0.18);
         if lo * 1e9 < w0 {
-            p.span(Span::new("not rendered", (lo * 1e9).min(w0)..=w0).fill(shade));
+            p.span(Span::new("", (lo * 1e9).min(w0)..=w0).fill(shade));
         }
         if hi * 1e9 > w1 {
-            p.span(Span::new("not rendered", w1..=(hi * 1e9).max(w1)).fill(shade));
+            p.span(Span::new("", w1..=(hi * 1e9).max(w1)).fill(shade));
         }
         p.line(
             Line::new("TPRF (pixel)", PlotPoints::from(tprf_steps))

@@ -1,39 +1,41 @@
 //! The envelope editor's handles as pure maths: where each handle of a sensor sits on
 //! the editor (time in s, height on its 0..1 scale) and what dragging one to a point
-//! changes. No drawing here; the editor turns these into dots and drags.
+//! changes. Which numbers have handles, and where, the sensor's own types say
+//! ([`tprf_core::sensor::Field::handle`]); the knots of a free envelope are handles
+//! too. No drawing here; the editor turns these into dots and drags.
 
 use tprf_core::film::TimeAxis;
-use tprf_core::sensor::{Exposure, LightPulse, Point, Sensor, TimeOrigin};
+use tprf_core::sensor::{Field, HandleAt, Point, Sensor, TimeOrigin};
 
 /// A point of an envelope the user can drag on the editor plot.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum Handle {
-    /// The pulse's time (delta time, centre, onset or start).
-    LightTime,
-    /// The pulse's width (FWHM, width, decay or fall time).
-    LightWidth,
+    /// The light's field of this key (its time, or its width).
+    Light(&'static str),
+    /// The gates' field of this key (gate 0's time or width, or gate 1's time: the
+    /// step).
+    Gate(&'static str),
     /// Knot `k` of a piecewise-linear pulse.
     LightKnot(usize),
-    /// Gate 0's time (start or centre).
-    GateTime,
-    /// Gate 0's width.
-    GateWidth,
-    /// Gate 1's time: the step between gates.
-    GateStep,
     /// Knot `k` of a piecewise-linear gate.
     GateKnot(usize),
 }
 
 impl Handle {
-    /// What the handle is and where it stands now: "Light centre: 5.000 ns".
+    /// What the handle is and where it stands now, in seconds after the trigger (as
+    /// the editor's axis and the form's fields show it): "Light centre: at 5.0000 ns".
     pub(super) fn describe(self, sensor: &Sensor, axis: &TimeAxis) -> String {
+        let label = |fields: Vec<Field>, key: &str| {
+            fields
+                .into_iter()
+                .find(|f| f.key == key)
+                .map_or(key.to_string(), |f| f.label.to_string())
+        };
         let name = match self {
-            Handle::LightTime => "Light time (centre, onset or start)".to_string(),
-            Handle::LightWidth => "Light width".to_string(),
+            Handle::Light(key) => format!("Light {}", label(sensor.light.fields(), key)),
+            Handle::Gate("step_s") => "gate 1: the step between gates".to_string(),
+            Handle::Gate(key) => format!("gate 0's {}", label(sensor.exposure.fields(), key)),
             Handle::LightKnot(k) => format!("Light knot {k}"),
-            Handle::GateTime => "gate 0's time (start or centre)".to_string(),
-            Handle::GateWidth => "gate width".to_string(),
-            Handle::GateStep => "gate 1: the step between gates".to_string(),
             Handle::GateKnot(k) => format!("gate knot {k}"),
         };
         match handles(sensor, axis).into_iter().find(|h| h.handle == self) {
@@ -51,11 +53,11 @@ pub(super) struct HandlePos {
     pub(super) y: f64,
 }
 
-/// Absolute time of a gate-sequence time `t` (gates may count from the window start).
-fn gate_abs_s(origin: TimeOrigin, t_s: f64, axis: &TimeAxis) -> f64 {
-    match origin {
-        TimeOrigin::Pulse => t_s,
-        TimeOrigin::Window => t_s + axis.t0_s,
+/// Where the gate sequence's times count from, in seconds after the trigger.
+pub(super) fn origin_offset_s(sensor: &Sensor, axis: &TimeAxis) -> f64 {
+    match sensor.exposure.origin() {
+        TimeOrigin::Pulse => 0.0,
+        TimeOrigin::Window => axis.t0_s,
     }
 }
 
@@ -65,101 +67,75 @@ fn knot_scale(points: &[Point]) -> f64 {
     if m > 0.0 { m } else { 1.0 }
 }
 
+/// Where the handles of `fields` stand: `offset_s` added to a time that counts from
+/// the gates' origin (and to an extent's anchor, which does).
+fn field_handles(
+    fields: &[Field],
+    offset_s: f64,
+    handle: impl Fn(&'static str) -> Handle,
+    out: &mut Vec<HandlePos>,
+) {
+    let at = |f: &Field| f.value + if f.from_origin { offset_s } else { 0.0 };
+    for f in fields {
+        let (t_s, y) = match f.handle {
+            Some(HandleAt::Time { y }) => (at(f), y),
+            Some(HandleAt::Extent { anchor, factor, y }) => {
+                let Some(a) = fields.iter().find(|g| g.key == anchor) else {
+                    continue;
+                };
+                (at(a) + factor * f.value, y)
+            }
+            None => continue,
+        };
+        out.push(HandlePos {
+            handle: handle(f.key),
+            t_s,
+            y,
+        });
+    }
+}
+
 /// The handles of `sensor` on the editor (gate handles on gate 0 and gate 1).
 pub(super) fn handles(sensor: &Sensor, axis: &TimeAxis) -> Vec<HandlePos> {
     let mut out = Vec::new();
-    let mut push = |handle, t_s: f64, y: f64| out.push(HandlePos { handle, t_s, y });
-    match &sensor.light {
-        LightPulse::Delta { t_s, .. } => push(Handle::LightTime, *t_s, 1.0),
-        LightPulse::Gaussian {
-            centre_s, fwhm_s, ..
-        } => {
-            push(Handle::LightTime, *centre_s, 1.0);
-            push(Handle::LightWidth, centre_s + fwhm_s / 2.0, 0.5);
-        }
-        LightPulse::Rect {
-            start_s, width_s, ..
-        } => {
-            push(Handle::LightTime, *start_s, 1.0);
-            push(Handle::LightWidth, start_s + width_s, 1.0);
-        }
-        LightPulse::Exponential { onset_s, tau_s, .. } => {
-            push(Handle::LightTime, *onset_s, 1.0);
-            push(Handle::LightWidth, onset_s + tau_s, (-1.0f64).exp());
-        }
-        LightPulse::LaserDiode {
-            onset_s, fall_s, ..
-        } => {
-            push(Handle::LightTime, *onset_s, 0.0);
-            push(Handle::LightWidth, onset_s + fall_s, 0.5);
-        }
-        LightPulse::Sinc2 {
-            centre_s, width_s, ..
-        } => {
-            push(Handle::LightTime, *centre_s, 1.0);
-            push(Handle::LightWidth, centre_s + width_s, 0.0);
-        }
-        LightPulse::PiecewiseLinear { points, .. } => {
-            let s = knot_scale(points);
-            for (k, p) in points.iter().enumerate() {
-                push(Handle::LightKnot(k), p.0, p.1 / s);
-            }
+    field_handles(&sensor.light.fields(), 0.0, Handle::Light, &mut out);
+    if let Some(points) = sensor.light.knots() {
+        let s = knot_scale(points);
+        for (k, p) in points.iter().enumerate() {
+            out.push(HandlePos {
+                handle: Handle::LightKnot(k),
+                t_s: p.0,
+                y: p.1 / s,
+            });
         }
     }
-    match &sensor.exposure {
-        Exposure::Box {
-            origin,
-            start_s,
-            width_s,
-            step_s,
-            count,
-            ..
-        } => {
-            let t0 = gate_abs_s(*origin, *start_s, axis);
-            push(Handle::GateTime, t0, 0.9);
-            push(Handle::GateWidth, t0 + width_s, 0.9);
-            if *count > 1 {
-                push(Handle::GateStep, t0 + step_s.unwrap_or(*width_s), 0.8);
-            }
+    let offset = origin_offset_s(sensor, axis);
+    field_handles(&sensor.exposure.fields(), offset, Handle::Gate, &mut out);
+    if let Some(points) = sensor.exposure.knots() {
+        let s = knot_scale(points);
+        for (k, p) in points.iter().enumerate() {
+            out.push(HandlePos {
+                handle: Handle::GateKnot(k),
+                t_s: offset + p.0,
+                y: 0.9 * p.1 / s,
+            });
         }
-        Exposure::Gaussian {
-            origin,
-            centre_s,
-            fwhm_s,
-            step_s,
-            count,
-            ..
-        } => {
-            let c = gate_abs_s(*origin, *centre_s, axis);
-            push(Handle::GateTime, c, 0.9);
-            push(Handle::GateWidth, c + fwhm_s / 2.0, 0.45);
-            if *count > 1 {
-                push(Handle::GateStep, c + step_s.unwrap_or(*fwhm_s), 0.8);
-            }
-        }
-        Exposure::PiecewiseLinear { origin, points, .. } => {
-            let s = knot_scale(points);
-            for (k, p) in points.iter().enumerate() {
-                push(
-                    Handle::GateKnot(k),
-                    gate_abs_s(*origin, p.0, axis),
-                    0.9 * p.1 / s,
-                );
-            }
-        }
-        Exposure::Tdc {
-            origin,
-            start_s,
-            bin_width_s,
-            ..
-        } => {
-            let t0 = gate_abs_s(*origin, *start_s, axis);
-            push(Handle::GateTime, t0, 0.9);
-            push(Handle::GateWidth, t0 + bin_width_s, 0.9);
-        }
-        Exposure::Amcw { .. } => {}
     }
     out
+}
+
+/// The value field `f` of `fields` takes when its handle is dragged to `t_s`: the time
+/// itself, or the extent from its anchor, at least `min_w` (and the field's minimum).
+fn dragged_value(fields: &[Field], f: &Field, t_s: f64, offset_s: f64, min_w: f64) -> Option<f64> {
+    let origin = |g: &Field| if g.from_origin { offset_s } else { 0.0 };
+    match f.handle? {
+        HandleAt::Time { .. } => Some(t_s - origin(f)),
+        HandleAt::Extent { anchor, factor, .. } => {
+            let a = fields.iter().find(|g| g.key == anchor)?;
+            let w = (t_s - (a.value + origin(a))) / factor;
+            Some(w.max(min_w).max(f.min))
+        }
+    }
 }
 
 /// Move `handle` to time `t_s` (and height `y` on the 0..1 scale, for knots). Widths
@@ -170,117 +146,35 @@ pub(super) fn drag_handle(sensor: &mut Sensor, handle: Handle, t_s: f64, y: f64,
     }
     let min_w = axis.dt_s * 1e-3;
     let y = y.clamp(0.0, 1.0);
-    match (&mut sensor.light, handle) {
-        (LightPulse::Delta { t_s: t, .. }, Handle::LightTime) => *t = t_s,
-        (LightPulse::Gaussian { centre_s, .. }, Handle::LightTime) => *centre_s = t_s,
-        (
-            LightPulse::Gaussian {
-                centre_s, fwhm_s, ..
-            },
-            Handle::LightWidth,
-        ) => *fwhm_s = (2.0 * (t_s - *centre_s)).max(min_w),
-        (LightPulse::Rect { start_s, .. }, Handle::LightTime) => *start_s = t_s,
-        (
-            LightPulse::Rect {
-                start_s, width_s, ..
-            },
-            Handle::LightWidth,
-        ) => *width_s = (t_s - *start_s).max(min_w),
-        (LightPulse::Exponential { onset_s, .. }, Handle::LightTime) => *onset_s = t_s,
-        (LightPulse::Exponential { onset_s, tau_s, .. }, Handle::LightWidth) => {
-            *tau_s = (t_s - *onset_s).max(min_w)
+    match handle {
+        Handle::Light(key) => {
+            let fields = sensor.light.fields();
+            if let Some(f) = fields.iter().find(|f| f.key == key)
+                && let Some(v) = dragged_value(&fields, f, t_s, 0.0, min_w)
+            {
+                sensor.light.set_field(key, v);
+            }
         }
-        (LightPulse::LaserDiode { onset_s, .. }, Handle::LightTime) => *onset_s = t_s,
-        (
-            LightPulse::LaserDiode {
-                onset_s,
-                rise_s,
-                fall_s,
-                ..
-            },
-            Handle::LightWidth,
-        ) => *fall_s = (t_s - *onset_s).max(*rise_s + min_w),
-        (LightPulse::Sinc2 { centre_s, .. }, Handle::LightTime) => *centre_s = t_s,
-        (
-            LightPulse::Sinc2 {
-                centre_s, width_s, ..
-            },
-            Handle::LightWidth,
-        ) => *width_s = (t_s - *centre_s).max(min_w),
-        (LightPulse::PiecewiseLinear { points, .. }, Handle::LightKnot(k)) => {
-            move_knot(points, k, t_s, y)
+        Handle::Gate(key) => {
+            let offset = origin_offset_s(sensor, axis);
+            let fields = sensor.exposure.fields();
+            if let Some(f) = fields.iter().find(|f| f.key == key)
+                && let Some(v) = dragged_value(&fields, f, t_s, offset, min_w)
+            {
+                sensor.exposure.set_field(key, v);
+            }
         }
-        _ => {}
-    }
-    match (&mut sensor.exposure, handle) {
-        (
-            Exposure::Box {
-                origin, start_s, ..
-            },
-            Handle::GateTime,
-        ) => *start_s = t_s - gate_abs_s(*origin, 0.0, axis),
-        (
-            Exposure::Box {
-                origin,
-                start_s,
-                width_s,
-                ..
-            },
-            Handle::GateWidth,
-        ) => *width_s = (t_s - gate_abs_s(*origin, *start_s, axis)).max(min_w),
-        (
-            Exposure::Box {
-                origin,
-                start_s,
-                step_s,
-                ..
-            },
-            Handle::GateStep,
-        ) => *step_s = Some((t_s - gate_abs_s(*origin, *start_s, axis)).max(min_w)),
-        (
-            Exposure::Gaussian {
-                origin, centre_s, ..
-            },
-            Handle::GateTime,
-        ) => *centre_s = t_s - gate_abs_s(*origin, 0.0, axis),
-        (
-            Exposure::Gaussian {
-                origin,
-                centre_s,
-                fwhm_s,
-                ..
-            },
-            Handle::GateWidth,
-        ) => *fwhm_s = (2.0 * (t_s - gate_abs_s(*origin, *centre_s, axis))).max(min_w),
-        (
-            Exposure::Gaussian {
-                origin,
-                centre_s,
-                step_s,
-                ..
-            },
-            Handle::GateStep,
-        ) => *step_s = Some((t_s - gate_abs_s(*origin, *centre_s, axis)).max(min_w)),
-        (
-            Exposure::Tdc {
-                origin, start_s, ..
-            },
-            Handle::GateTime,
-        ) => *start_s = t_s - gate_abs_s(*origin, 0.0, axis),
-        (
-            Exposure::Tdc {
-                origin,
-                start_s,
-                bin_width_s,
-                ..
-            },
-            Handle::GateWidth,
-        ) => *bin_width_s = (t_s - gate_abs_s(*origin, *start_s, axis)).max(min_w),
-        (Exposure::PiecewiseLinear { origin, points, .. }, Handle::GateKnot(k)) => {
-            let t = t_s - gate_abs_s(*origin, 0.0, axis);
-            move_knot(points, k, t, y / 0.9)
+        Handle::LightKnot(k) => {
+            if let Some(points) = sensor.light.knots_mut() {
+                move_knot(points, k, t_s, y);
+            }
         }
-        _ => {}
+        Handle::GateKnot(k) => {
+            let offset = origin_offset_s(sensor, axis);
+            if let Some(points) = sensor.exposure.knots_mut() {
+                move_knot(points, k, t_s - offset, y / 0.9);
+            }
+        }
     }
 }
 
@@ -301,9 +195,8 @@ fn move_knot(points: &mut [Point], k: usize, t_s: f64, y: f64) {
 
 #[cfg(test)]
 mod tests {
-    use super::super::kinds::{exposure_of_kind, light_of_kind};
     use super::*;
-    use tprf_core::sensor::SensorModel;
+    use tprf_core::sensor::{Exposure, LightPulse, SensorModel};
 
     fn axis() -> TimeAxis {
         TimeAxis::new(2e-9, 50e-12, 200).unwrap()
@@ -329,20 +222,22 @@ mod tests {
         );
         let hs = handles(&s, &axis);
         let find = |h| hs.iter().find(|p| p.handle == h).unwrap().t_s;
-        assert!((find(Handle::LightTime) - 1e-9).abs() < 1e-21);
-        assert!((find(Handle::LightWidth) - 1.2e-9).abs() < 1e-21);
+        assert!((find(Handle::Light("centre_s")) - 1e-9).abs() < 1e-21);
+        // The FWHM's handle at the half maximum: centre + FWHM / 2.
+        assert!((find(Handle::Light("fwhm_s")) - 1.2e-9).abs() < 1e-21);
         // Window-relative gates are drawn at absolute times.
-        assert!((find(Handle::GateTime) - 3e-9).abs() < 1e-21);
-        assert!((find(Handle::GateWidth) - 3.5e-9).abs() < 1e-21);
-        assert!((find(Handle::GateStep) - 3.5e-9).abs() < 1e-21);
+        assert!((find(Handle::Gate("start_s")) - 3e-9).abs() < 1e-21);
+        assert!((find(Handle::Gate("width_s")) - 3.5e-9).abs() < 1e-21);
+        assert!((find(Handle::Gate("step_s")) - 3.5e-9).abs() < 1e-21);
+        assert_eq!(hs.len(), 5);
 
         // Dragging a handle to a time puts the handle there.
         for (h, t) in [
-            (Handle::LightTime, 0.5e-9),
-            (Handle::LightWidth, 1.0e-9),
-            (Handle::GateTime, 4e-9),
-            (Handle::GateWidth, 4.3e-9),
-            (Handle::GateStep, 4.6e-9),
+            (Handle::Light("centre_s"), 0.5e-9),
+            (Handle::Light("fwhm_s"), 1.0e-9),
+            (Handle::Gate("start_s"), 4e-9),
+            (Handle::Gate("width_s"), 4.3e-9),
+            (Handle::Gate("step_s"), 4.6e-9),
         ] {
             drag_handle(&mut s, h, t, 0.5, &axis);
             let now = handles(&s, &axis)
@@ -353,13 +248,22 @@ mod tests {
             assert!((now - t).abs() < 1e-18, "{h:?}: {now} vs {t}");
         }
         // A width dragged past its start stays positive; NaN is ignored.
-        drag_handle(&mut s, Handle::GateWidth, 0.0, 0.5, &axis);
+        // Dragged to 4.6 ns, gate 1 starts there: a step of 0.6 ns from gate 0's 4 ns,
+        // counted from the window start (2 ns) in the file.
+        let Exposure::Box {
+            start_s, step_s, ..
+        } = s.exposure
+        else {
+            unreachable!()
+        };
+        assert!((start_s - 2e-9).abs() < 1e-18 && (step_s.unwrap() - 0.6e-9).abs() < 1e-18);
+        drag_handle(&mut s, Handle::Gate("width_s"), 0.0, 0.5, &axis);
         let Exposure::Box { width_s, .. } = s.exposure else {
             unreachable!()
         };
         assert!(width_s > 0.0);
         let before = s.clone();
-        drag_handle(&mut s, Handle::LightTime, f64::NAN, 0.5, &axis);
+        drag_handle(&mut s, Handle::Light("centre_s"), f64::NAN, 0.5, &axis);
         assert_eq!(s, before);
         // Every edit leaves a sensor the model accepts.
         SensorModel::new(s, axis).unwrap();
@@ -369,8 +273,8 @@ mod tests {
     fn knots_keep_their_order() {
         let axis = axis();
         let mut s = Sensor::new(
-            light_of_kind("piecewise_linear", 0.0, axis.dt_s),
-            exposure_of_kind("box", &axis),
+            LightPulse::of_kind("piecewise_linear", 0.0, 4.0 * axis.dt_s),
+            Exposure::of_kind("box", axis.end_s() - axis.t0_s),
         );
         drag_handle(&mut s, Handle::LightKnot(1), 1.0, 0.7, &axis);
         let LightPulse::PiecewiseLinear { points, .. } = &s.light else {

@@ -24,6 +24,8 @@ pub(crate) enum CoverageAction {
     ExtendWindow { t0_s: f64, dt_s: f64, bins: usize },
     /// Replace the gates with these, fitted to the window.
     FitGates(Exposure),
+    /// Put this sensor back (the preset as it was before the tab fitted it).
+    Restore(Box<tprf_core::sensor::Sensor>),
 }
 
 /// What the sensor images report back: a clicked pixel, an action.
@@ -47,7 +49,8 @@ pub(crate) fn images_ui(
     let mut textures = std::mem::take(&mut state.textures);
     let mut gate_sel = state.gate;
     let mut view = state.spad_view;
-    let out = if state.spad_shown(snap).is_some() {
+    let restore = fit_note_ui(ui, state);
+    let mut out = if state.spad_shown(snap).is_some() {
         ImagesOutcome {
             clicked: spad_images(ui, state, snap, &mut textures, &mut gate_sel, &mut view),
             action: None,
@@ -58,7 +61,34 @@ pub(crate) fn images_ui(
     state.textures = textures;
     state.gate = gate_sel;
     state.spad_view = view;
+    if let Some(s) = restore {
+        state.fit_note = None;
+        out.action = Some(CoverageAction::Restore(Box::new(s)));
+    }
     out
+}
+
+/// The note that the tab fitted the preset to the film's window, while its gates are
+/// the fitted ones, with a button to put the preset's own back; the sensor to put back
+/// when it was clicked.
+fn fit_note_ui(ui: &mut egui::Ui, state: &SensorState) -> Option<tprf_core::sensor::Sensor> {
+    let note = state.fit_note.as_ref()?;
+    let model = state.model.as_ref()?;
+    if model.sensor().exposure != note.fitted {
+        return None;
+    }
+    let mut restore = None;
+    ui.horizontal_wrapped(|ui| {
+        ui.label(RichText::new(format!("ℹ {}", note.text)).color(ui.visuals().strong_text_color()));
+        if ui
+            .button(format!("Keep all {} gates", note.original.exposure.count()))
+            .on_hover_text("the preset's own gates, most of which see nothing of this film")
+            .clicked()
+        {
+            restore = Some(note.original.clone());
+        }
+    });
+    restore
 }
 
 /// The SPAD's images: TDC bin `k` of the histogram chosen (expected, one realisation,
@@ -479,13 +509,11 @@ fn measurement_images(
             ui.set_width(big.x);
             ui.add(
                 egui::Label::new(
-                    RichText::new(format!(
-                        "M_{gate}: gate {gate}'s measurement (one exposure for all gates)"
-                    ))
-                    .strong(),
+                    RichText::new(format!("M_{gate}, the measurement of gate {gate}")).strong(),
                 )
                 .truncate(),
-            );
+            )
+            .on_hover_text("one exposure for all gates: see the colour bar");
             let tone = Tone {
                 scale: white.map_or(1.0, |m| 1.0 / m),
                 log: false,

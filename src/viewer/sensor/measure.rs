@@ -10,9 +10,9 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 use tprf_core::film::FilmSnapshot;
-use tprf_core::sensor::spad::{spad_expected, spad_expected_until, spad_rows};
 use tprf_core::sensor::{
-    AmcwImage, Measurements, NoiseField, Sensor, SensorModel, SpadImage, derived,
+    AmcwImage, Draws, Gates, Measurements, NoiseField, Pipeline, Sensor, SensorModel, SpadImage,
+    derived,
 };
 use tprf_core::transport::ambient::AmbientImage;
 
@@ -240,7 +240,7 @@ pub(super) struct SpadPreview {
 /// The SPAD's expected histogram and depth of `snap` through `model` on every
 /// [`preview_step`]-th pixel in each direction (the pixel at the middle of each block):
 /// those pixels' TPRFs, clean measurement, steady and ambient values gathered into a
-/// small film and put through [`spad_expected`] as the full image is. Each preview
+/// small film and put through [`Pipeline::spad_expected`] as the full image is. Each preview
 /// pixel's values are exactly the full image's at that pixel; only the pixels between
 /// are missing (shown as their block's).
 pub(super) fn preview_spad(
@@ -275,7 +275,15 @@ pub(super) fn preview_spad(
     let clean = model
         .measure_clean(&cube, gw, gh)
         .map_err(|e| e.to_string())?;
-    let image = spad_expected(model, &clean, &steady, amb.as_deref()).map_err(|e| e.to_string())?;
+    let image = Pipeline {
+        model,
+        clean: &clean,
+        steady: &steady,
+        ambient: amb.as_deref(),
+    }
+    .spad_expected(&AtomicBool::new(false))
+    .map_err(|e| e.to_string())?
+    .ok_or("the sensor has no SPAD")?;
     let mut spad = SpadMeasured::new(image);
     spad.step = s;
     Ok(SpadPreview {
@@ -444,30 +452,33 @@ pub(super) fn measure_all(
             m: model.measure_clean_film(snap),
         }),
     };
-    let mut m = clean.m.clone();
     // The scene's ambient image, when it has one of the film's size.
     let ambient = ambient_image
         .as_deref()
         .filter(|a| a.width == snap.width() && a.height == snap.height())
         .map(|a| a.radiance.as_slice());
-    // The SPAD counts photons of the clean (TPRF * Light) and of the ambient image; the
-    // additive noise is the gates' own.
+    // The sensor's steps after the clean one, in the order tprf sensor takes them.
+    let pipeline = Pipeline {
+        model,
+        clean: &clean.m,
+        steady: snap.steady(),
+        ambient,
+    };
     let spad = match model.sensor().spad {
         Some(_) => Some(SpadMeasured::new(
-            spad_expected_until(model, &m, snap.steady(), ambient, cancel)
+            pipeline
+                .spad_expected(cancel)
                 .map_err(|e| e.to_string())?
                 .ok_or("cancelled by an edit")?,
         )),
         None => None,
     };
-    // The ambient light in every gate, before the noise (shot noise grows with it).
-    if let Some(a) = ambient {
-        model.add_ambient(&mut m, a).map_err(|e| e.to_string())?;
-    }
-    model.apply_noise_cached(&mut m, &mut noise_field);
+    let Gates {
+        m, depth_m, amcw, ..
+    } = pipeline
+        .gates(Draws::Kept(&mut noise_field))
+        .map_err(|e| e.to_string())?;
     let robust_max = shared_white(model, snap);
-    let depth_m = model.first_return_depth(&m);
-    let amcw = model.amcw(&m);
     let amcw_error_m = amcw.as_ref().map(|a| {
         let truth = derived::tprf_first_return_depth_film(snap, &Default::default());
         a.depth_m.iter().zip(&truth).map(|(d, t)| d - t).collect()
@@ -532,6 +543,12 @@ pub(super) fn sample_spad(
         .filter(|a| a.width == snap.width() && a.height == snap.height())
         .map(|a| a.radiance.as_slice());
     let (w, h, b) = (clean.width, clean.height, clean.gates);
+    let pipeline = Pipeline {
+        model,
+        clean,
+        steady: snap.steady(),
+        ambient,
+    };
     let mut image = SpadImage {
         counts: vec![0.0; b * w * h],
         coates: vec![0.0; b * w * h],
@@ -545,7 +562,7 @@ pub(super) fn sample_spad(
             return None;
         }
         let n = rows.min(h - y0);
-        let band = spad_rows(model, clean, snap.steady(), ambient, image.sampler, y0, n).ok()?;
+        let band = pipeline.spad_rows(image.sampler, y0, n).ok()?;
         for k in 0..b {
             let (from, to) = (k * n * w..(k + 1) * n * w, k * h * w + y0 * w);
             image.counts[to..to + n * w].copy_from_slice(&band.counts[from.clone()]);

@@ -9,7 +9,6 @@
 //!   the latest measurement of all gates;
 //! - `measure`: all gates, noise and derived depth, on a background pool;
 //! - `handles`: where the editor's handles are and what dragging one changes (pure);
-//! - `kinds`: a new light or gate sequence of a kind, sized for the window (pure);
 //! - `view`: the editor's time range, gates outside the film's window and the ways out,
 //!   handles kept apart (pure);
 //! - `controls`, `editor`, `plots`, `images`: the widgets.
@@ -18,7 +17,6 @@ mod controls;
 mod editor;
 mod handles;
 mod images;
-mod kinds;
 mod measure;
 mod plots;
 mod state;

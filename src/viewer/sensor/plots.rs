@@ -15,14 +15,23 @@ use tprf_core::sensor::spad::spad_pixel_ambient;
 const COATES_COLOR: Color32 = Color32::from_rgb(0x7d, 0xe0, 0x7d);
 const TRUTH_COLOR: Color32 = Color32::from_rgb(0xff, 0x6b, 0x9a);
 
-/// Figures 6 and 7 of the paper for one pixel: TPRF * Light on the bins, and M_i
-/// against i (click a point to show that gate).
+/// Height of the last plot of the panel: down to `bottom` (the panel's lower edge, so
+/// its axis label is not cut off), at least `min` points.
+fn to_bottom(ui: &egui::Ui, bottom: f32, min: f32) -> f32 {
+    (bottom - ui.cursor().top() - 8.0).max(min)
+}
+
+/// Figures 6 and 7 of the paper for one pixel: TPRF * Light on the bins (`height`
+/// points tall), and M_i against i (click a point to show that gate) or a SPAD's
+/// histograms, down to `bottom`.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn pixel_plots_ui(
     ui: &mut egui::Ui,
     state: &mut SensorState,
     tprf: &[f32],
     m_pixel: &[f32],
     height: f32,
+    bottom: f32,
     snap: &FilmSnapshot,
     pixel: (usize, usize),
 ) {
@@ -55,7 +64,7 @@ pub(crate) fn pixel_plots_ui(
                 .allow_band(false),
         )
     });
-    if spad_plot_ui(ui, state, &trace.m_clean, tprf, height, snap, pixel) {
+    if spad_plot_ui(ui, state, &trace.m_clean, tprf, (height, bottom), snap, pixel) {
         return;
     }
     let Some(model) = state.model() else {
@@ -86,7 +95,7 @@ pub(crate) fn pixel_plots_ui(
         .partition(|p| !outside.get(p[0] as usize).copied().unwrap_or(false));
     let gate = state.gate;
     let plot = Plot::new("sensor-m")
-        .height(height)
+        .height(to_bottom(ui, bottom, height))
         .allow_drag(false)
         .include_y(0.0);
     let r = plotting::value_plot(plot, "gate i", &format!("M_i ({BIN_UNIT})")).show(ui, |p| {
@@ -138,7 +147,7 @@ fn spad_plot_ui(
     state: &mut SensorState,
     signal: &[f64],
     tprf: &[f32],
-    height: f32,
+    (height, bottom): (f32, f32),
     snap: &FilmSnapshot,
     (y, x): (usize, usize),
 ) -> bool {
@@ -187,7 +196,7 @@ fn spad_plot_ui(
         .filter(|v| v.is_finite())
         .fold(0.0, f64::max);
     let plot = Plot::new("sensor-spad")
-        .height(1.25 * height)
+        .height(to_bottom(ui, bottom, height))
         .allow_drag(false)
         .include_y(0.0)
         .include_y(1.7 * top)

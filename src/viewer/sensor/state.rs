@@ -116,6 +116,19 @@ pub struct SensorState {
     pub(super) ambient: Option<Arc<AmbientImage>>,
     /// Wakes the window when a background result is ready or a follow-up is due.
     waker: Option<egui::Context>,
+    /// Whether the sensor was checked against the film's window since the tab opened
+    /// or a preset was picked ([`SensorState::fit_on_open`]).
+    opened: bool,
+    /// What that check changed, while the gates are still the ones it made.
+    pub(super) fit_note: Option<FitNote>,
+}
+
+/// A preset fitted to the film's window when the tab opened on it: the note shown, the
+/// gates it made, and the sensor as it was (to undo it).
+pub(super) struct FitNote {
+    pub(super) text: String,
+    pub(super) fitted: tprf_core::sensor::Exposure,
+    pub(super) original: Sensor,
 }
 
 impl SensorState {
@@ -131,6 +144,30 @@ impl SensorState {
     /// film is due (without one the window sees them at its next frame).
     pub fn set_waker(&mut self, ctx: egui::Context) {
         self.waker = Some(ctx);
+    }
+
+    /// The first time the tab measures a film after it opened or a preset was picked:
+    /// a preset most of whose gates miss the film's window is fitted to it
+    /// ([`super::view::fitted_on_open`]), and the tab says so (with a way back).
+    pub fn fit_on_open(&mut self, sensor: &mut Sensor, axis: &tprf_core::film::TimeAxis) {
+        if std::mem::replace(&mut self.opened, true) {
+            return;
+        }
+        if let Some((fitted, text)) = super::view::fitted_on_open(sensor, axis, self.auto_start)
+        {
+            self.fit_note = Some(FitNote {
+                text,
+                fitted: fitted.exposure.clone(),
+                original: sensor.clone(),
+            });
+            *sensor = fitted;
+        }
+    }
+
+    /// A preset was picked: it is checked against the film's window on the next frame.
+    pub fn preset_picked(&mut self) {
+        self.opened = false;
+        self.fit_note = None;
     }
 
     /// The ambient radiance of pixel `(y, x)`, W m^-2 sr^-1 (0 without an image).
@@ -310,13 +347,13 @@ impl SensorState {
             let packed = tprf_core::sensor::PackedKernels::new(std::slice::from_ref(k), axis.bins);
             let mut m = tprf_core::sensor::measure::measure_clean_film(&packed, snap);
             // The ambient light in this gate too (as the full measurement adds it).
-            if let (Some(a), Ok(w)) = (&self.ambient, model.ambient_weights_s())
-                && let Some(&w) = w.get(gate)
-                && a.radiance.len() == m.values.len()
-            {
-                for (v, &r) in m.values.iter_mut().zip(&a.radiance) {
-                    *v += (w * f64::from(r.max(0.0))) as f32;
-                }
+            if let Some(a) = &self.ambient {
+                tprf_core::sensor::pipeline::add_ambient_to_gate(
+                    model,
+                    gate,
+                    &mut m.values,
+                    &a.radiance,
+                );
             }
             self.plane = Some(Plane {
                 snapshot: key,

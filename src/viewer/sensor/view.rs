@@ -4,7 +4,8 @@
 //! the window), and handles kept apart on screen.
 
 use tprf_core::film::TimeAxis;
-use tprf_core::sensor::{Exposure, Gate, Light, Point, TimeOrigin};
+use tprf_core::sensor::{Exposure, Gate, Light, Point, Sensor, TimeOrigin};
+use tprf_core::units::format_time;
 
 /// The editor's time range, seconds.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -237,6 +238,65 @@ pub fn gates_fitted(exposure: &Exposure, axis: &TimeAxis) -> Option<Exposure> {
     Some(e)
 }
 
+/// What the sensor tab does to a preset it opens on a film whose window most of its
+/// gates miss: `sensor` with only the gates that see the window `axis` (through its
+/// pulse; [`Coverage`] not [`Coverage::Outside`]), or, when none does, its gates
+/// tiling the window ([`gates_fitted`]); and a sentence saying so. `None` when every
+/// gate sees the window, or the sensor does not compile.
+pub fn fitted_on_open(
+    sensor: &Sensor,
+    axis: &TimeAxis,
+    starts_at_first_light: bool,
+) -> Option<(Sensor, String)> {
+    let light = sensor.light.compile().ok()?;
+    let pulse = main_span(&light);
+    let gates = sensor.exposure.gates(axis.t0_s).ok()?;
+    let seen: Vec<bool> = gates
+        .iter()
+        .map(|g| coverage(g, pulse, axis, starts_at_first_light) != Coverage::Outside)
+        .collect();
+    let n = seen.len();
+    let window = format!("{} … {}", format_time(axis.t0_s), format_time(axis.end_s()));
+    let name = if sensor.name.is_empty() {
+        "the sensor".to_string()
+    } else {
+        format!("the {} preset", sensor.name)
+    };
+    let mut fitted = sensor.clone();
+    let note = match (seen.iter().position(|&s| s), seen.iter().rposition(|&s| s)) {
+        (Some(0), Some(last)) if last + 1 == n => return None,
+        (Some(first), Some(last)) => {
+            fitted.exposure = sensor
+                .exposure
+                .subsequence(first as u64, (last - first + 1) as u64)?;
+            format!(
+                "Fitted {name} to the rendered window {window}: its gates {} of {n} see \
+                 it, and are kept as gates 0–{} (the others saw nothing of it).",
+                if first == last {
+                    first.to_string()
+                } else {
+                    format!("{first}–{last}")
+                },
+                last - first
+            )
+        }
+        _ => {
+            fitted.exposure = gates_fitted(&sensor.exposure, axis)?;
+            format!(
+                "Fitted {name} to the rendered window {window}: none of its {n} gates saw \
+                 it, so they now tile it."
+            )
+        }
+    };
+    // Derived outputs the new gates cannot give (AMCW depth needs its phases) go.
+    if let Ok(g) = fitted.exposure.gates(axis.t0_s)
+        && fitted.derived.validate(&fitted.exposure, &g).is_err()
+    {
+        fitted.derived = Default::default();
+    }
+    Some((fitted, note))
+}
+
 /// Screen positions moved apart so no two are closer than `min_px`: each one too near
 /// an earlier one steps down by `min_px` until it is clear.
 pub fn declutter(points: &mut [(f32, f32)], min_px: f32) {
@@ -360,6 +420,40 @@ mod tests {
         .compile()
         .unwrap();
         assert_eq!(main_span(&d), (1e-9, 1e-9));
+    }
+
+    /// The LiDAR preset (1 ns box gates from the window start, a 2 ns FWHM pulse at
+    /// 5 ns) on the Cornell box's 12.8 ns window: gate k sees arrivals from
+    /// `t0 + k - 8.157` to `t0 + k + 1 - 1.843` ns (the pulse above 1e-3 of its peak
+    /// spans 5 +- 3.157 ns), so gate 0's end before the window and gates from 21 on
+    /// start after it: gates 1-20 are kept. A window starting at the first light
+    /// keeps gate 0 too (what it needs before t0 no film has). The gated preset's 8
+    /// gates, all seeing a 40 ns window, are left alone.
+    #[test]
+    fn a_preset_opens_fitted_to_the_window() {
+        let axis = axis();
+        let lidar = Sensor::builtin("lidar").unwrap();
+        let (fitted, note) = fitted_on_open(&lidar, &axis, false).expect("fitted");
+        let Exposure::Box { start_s, count, .. } = fitted.exposure else {
+            panic!("{:?}", fitted.exposure)
+        };
+        assert_eq!(count, 20);
+        assert!((start_s - 1e-9).abs() < 1e-18, "{start_s}");
+        assert!(note.contains("gates 1–20 of 256"), "{note}");
+        let (fitted, _) = fitted_on_open(&lidar, &axis, true).expect("fitted");
+        assert_eq!(fitted.exposure.count(), 21);
+        assert_eq!(fitted.exposure.subsequence(0, 1), lidar.exposure.subsequence(0, 1));
+        let wide = TimeAxis::new(0.0, 0.5e-9, 80).unwrap();
+        assert!(fitted_on_open(&Sensor::builtin("gated").unwrap(), &wide, false).is_none());
+        // Gates that all miss the window tile it instead.
+        let mut late = Sensor::builtin("gated").unwrap();
+        late.exposure = late.exposure.subsequence(0, 8).unwrap();
+        if let Exposure::Box { start_s, .. } = &mut late.exposure {
+            *start_s = 500e-9;
+        }
+        let (fitted, note) = fitted_on_open(&late, &axis, false).expect("fitted");
+        assert_eq!(Some(fitted.exposure), gates_fitted(&late.exposure, &axis));
+        assert!(note.contains("none of its 8 gates"), "{note}");
     }
 
     #[test]

@@ -51,8 +51,8 @@ macro_rules! bail {
 
 use super::{NpyBands, NpyF32, write_csv, write_json, write_npy_f32, write_png_rgb};
 use crate::film::{TimeAxis, quantile};
-use crate::sensor::spad::{Sampler, spad_bytes_per_pixel, spad_rows, spad_sampler};
-use crate::sensor::{FirstReturn, Measurements, SensorModel, derived};
+use crate::sensor::spad::{Sampler, spad_bytes_per_pixel};
+use crate::sensor::{FirstReturn, Gates, Measurements, Pipeline, SensorModel, derived};
 
 /// The time window of a cube as `tprf.json` records it; other keys are ignored, so a
 /// cube written by another tool needs only these.
@@ -441,8 +441,9 @@ fn check_finite(
 pub struct SensorRun<'a> {
     /// The sensor compiled for the cube's time axis.
     pub model: &'a SensorModel,
-    /// The measurements `M_i`, noise included.
-    pub measurements: &'a Measurements,
+    /// The measurements `M_i` (noise included) and what is derived from them: steps 3
+    /// to 5 of the sensor's [`crate::sensor::pipeline`].
+    pub gates: &'a Gates,
     pub width: usize,
     pub height: usize,
     /// The render folder the cube came from: recorded in `sensor.json`.
@@ -503,7 +504,7 @@ pub struct SensorOutputs {
 pub fn write_sensor_outputs(out: &Path, run: &SensorRun) -> Result<SensorOutputs> {
     let SensorRun {
         model,
-        measurements: m,
+        gates,
         width: w,
         height: h,
         cube_dir,
@@ -512,6 +513,7 @@ pub fn write_sensor_outputs(out: &Path, run: &SensorRun) -> Result<SensorOutputs
         traces,
         ..
     } = *run;
+    let m = &gates.m;
     let axis = *model.axis();
     let n = model.gate_count();
     super::create_dir(out)?;
@@ -523,9 +525,9 @@ pub fn write_sensor_outputs(out: &Path, run: &SensorRun) -> Result<SensorOutputs
     )?;
 
     let mut derived_json = serde_json::Map::new();
-    if let Some(depth) = model.first_return_depth(m) {
-        write_npy_f32(&out.join("depth.npy"), &[h as u64, w as u64], &depth)?;
-        write_depth_png(&out.join("depth.png"), w, h, &depth)?;
+    if let Some(depth) = &gates.depth_m {
+        write_npy_f32(&out.join("depth.npy"), &[h as u64, w as u64], depth)?;
+        write_depth_png(&out.join("depth.png"), w, h, depth)?;
         files.extend(["depth.npy".into(), "depth.png".into()]);
         let found = depth.iter().filter(|d| d.is_finite()).count();
         derived_json.insert(
@@ -538,7 +540,7 @@ pub fn write_sensor_outputs(out: &Path, run: &SensorRun) -> Result<SensorOutputs
         );
     }
     let mut multipath = None;
-    if let Some(amcw) = model.amcw(m) {
+    if let Some(amcw) = &gates.amcw {
         let Some((reference, how)) = true_depth else {
             bail!("the AMCW depth needs its reference depth (measure_cube gives it)");
         };
@@ -695,25 +697,20 @@ pub struct SpadFiles {
     pub seconds: f64,
 }
 
-/// The SPAD's files from the sensor's clean measurement `signal` (`[B, H, W]`, before
-/// ambient and noise), the steady image and the cube's ambient image (as
-/// [`crate::sensor::spad_image_ambient`]): `spad_histogram.npy`, `spad_counts.npy`,
-/// `spad_coates.npy` (`[B, H, W]`) and `spad_depth_{histogram,counts,coates}.{npy,png}`
-/// (`[H, W]`) into `out`. The image is computed and written a band of rows at a time
-/// ([`spad_rows`]), each band's arrays at most `tile_bytes` (and a quarter of the memory
-/// free; one row at least): a histogram larger than memory is measured, and the files
-/// are byte for byte the same for any band size.
-pub fn write_spad_files(
-    out: &Path,
-    model: &SensorModel,
-    signal: &Measurements,
-    steady: &[f32],
-    ambient: Option<&[f32]>,
-    tile_bytes: u64,
-) -> Result<SpadFiles> {
+/// Step 2 of the sensor's [`crate::sensor::pipeline`] into files: the SPAD of
+/// `pipeline` (its clean measurement `[B, H, W]`, before ambient and noise, the steady
+/// image and the cube's ambient image; as [`crate::sensor::spad_image_ambient`]):
+/// `spad_histogram.npy`, `spad_counts.npy`, `spad_coates.npy` (`[B, H, W]`) and
+/// `spad_depth_{histogram,counts,coates}.{npy,png}` (`[H, W]`) into `out`. The image is
+/// computed and written a band of rows at a time ([`Pipeline::spad_rows`]), each band's
+/// arrays at most `tile_bytes` (and a quarter of the memory free; one row at least): a
+/// histogram larger than memory is measured, and the files are byte for byte the same
+/// for any band size.
+pub fn write_spad_files(out: &Path, pipeline: &Pipeline, tile_bytes: u64) -> Result<SpadFiles> {
     let started = Instant::now();
+    let signal = pipeline.clean;
     let (w, h) = (signal.width, signal.height);
-    let (sampler, expected_detections) = spad_sampler(model, signal, steady, ambient)?;
+    let (sampler, expected_detections) = pipeline.spad_sampler()?;
     let bins = signal.gates;
     let budget =
         crate::budget::available().map_or(tile_bytes, |free| tile_bytes.min(free.bytes / 4));
@@ -737,7 +734,7 @@ pub fn write_spad_files(
     let (mut never_armed, mut bands, mut centres_s) = (0, 0, Vec::new());
     for y0 in (0..h).step_by(rows) {
         let n = rows.min(h - y0);
-        let band = spad_rows(model, signal, steady, ambient, sampler, y0, n)?;
+        let band = pipeline.spad_rows(sampler, y0, n)?;
         for (file, values) in arrays
             .iter_mut()
             .zip([&band.histogram, &band.counts, &band.coates])
@@ -841,7 +838,8 @@ fn spad_json(model: &SensorModel, spad: &SpadFiles) -> serde_json::Value {
 }
 
 /// A depth image as grey PNG, linear in depth from the 1 % to the 99 % quantile:
-/// nearest white, farthest dark grey, no depth black.
+/// nearest white, farthest dark grey, no depth black; with its scale under it
+/// ([`with_scale`]).
 fn write_depth_png(path: &Path, w: usize, h: usize, depth: &[f32]) -> Result<()> {
     let values = || depth.iter().map(|&d| f64::from(d));
     let (lo, hi) = (
@@ -849,38 +847,175 @@ fn write_depth_png(path: &Path, w: usize, h: usize, depth: &[f32]) -> Result<()>
         quantile(values(), 0.99).unwrap_or(0.0),
     );
     let span = (hi - lo).max(1e-12);
+    // t = 0 nearest (white), 1 farthest (dark grey).
+    let grey = |t: f64| {
+        let g = (255.0 * (0.15 + 0.85 * (1.0 - t.clamp(0.0, 1.0)))).round() as u8;
+        [g, g, g]
+    };
     let mut rgb = Vec::with_capacity(3 * depth.len());
     for &d in depth {
-        let g = if d.is_finite() {
-            let t = ((hi - f64::from(d)) / span).clamp(0.0, 1.0);
-            (255.0 * (0.15 + 0.85 * t)).round() as u8
+        rgb.extend(if d.is_finite() {
+            grey((f64::from(d) - lo) / span)
         } else {
-            0
-        };
-        rgb.extend([g, g, g]);
+            [0, 0, 0]
+        });
     }
-    Ok(write_png_rgb(path, w, h, rgb)?)
+    let scale = Scale {
+        ramp: &grey,
+        lo,
+        hi: lo + span,
+        unit: "m",
+        note: "depth; black: no return",
+    };
+    let (rgb, cw, ch) = with_scale(rgb, w, h, &scale)?;
+    Ok(write_png_rgb(path, cw, ch, rgb)?)
 }
 
 /// A signed image as PNG: blue below 0, white at 0, red above, saturating at
-/// `+- scale`; NaN black.
+/// `+- scale`; NaN black; with its scale under it ([`with_scale`]).
 fn write_signed_png(path: &Path, w: usize, h: usize, values: &[f32], scale: f64) -> Result<()> {
+    let scale = scale.max(1e-300);
+    // t = 0 at -scale, 1/2 at 0, 1 at +scale.
+    let colour = |t: f64| {
+        let t = (2.0 * t - 1.0).clamp(-1.0, 1.0);
+        let fade = (255.0 * (1.0 - t.abs())).round() as u8;
+        if t < 0.0 {
+            [fade, fade, 255]
+        } else {
+            [255, fade, fade]
+        }
+    };
     let mut rgb = Vec::with_capacity(3 * values.len());
     for &v in values {
-        let px = if v.is_finite() {
-            let t = (f64::from(v) / scale.max(1e-300)).clamp(-1.0, 1.0);
-            let fade = (255.0 * (1.0 - t.abs())).round() as u8;
-            if t < 0.0 {
-                [fade, fade, 255]
-            } else {
-                [255, fade, fade]
-            }
+        rgb.extend(if v.is_finite() {
+            colour(0.5 + 0.5 * f64::from(v) / scale)
         } else {
             [0, 0, 0]
-        };
-        rgb.extend(px);
+        });
     }
-    Ok(write_png_rgb(path, w, h, rgb)?)
+    let bar = Scale {
+        ramp: &colour,
+        lo: -scale,
+        hi: scale,
+        unit: "m",
+        note: "AMCW depth - true depth; black: none",
+    };
+    let (rgb, cw, ch) = with_scale(rgb, w, h, &bar)?;
+    Ok(write_png_rgb(path, cw, ch, rgb)?)
+}
+
+/// The colour scale drawn under an image: `ramp(t)` for `t` from 0 (at `lo`) to 1
+/// (at `hi`), in `unit`, with a note.
+struct Scale<'a> {
+    ramp: &'a dyn Fn(f64) -> [u8; 3],
+    lo: f64,
+    hi: f64,
+    unit: &'a str,
+    note: &'a str,
+}
+
+/// Height of the scale strip, pixels.
+const SCALE_H: usize = 56;
+/// Narrowest picture with a scale: a smaller image is enlarged by a whole factor
+/// (pixels stay square and sharp) so the scale's labels fit.
+const SCALE_MIN_W: usize = 360;
+
+/// The image `rgb` (`w x h`) enlarged by the smallest whole factor that makes it at
+/// least [`SCALE_MIN_W`] wide, over a white strip holding its colour bar with `lo`,
+/// the middle and `hi` written in `unit`, and the note: what a PNG of a measurement
+/// needs to be read. Returns the picture and its size.
+fn with_scale(rgb: Vec<u8>, w: usize, h: usize, scale: &Scale) -> Result<(Vec<u8>, usize, usize)> {
+    if w == 0 || h == 0 || rgb.len() != 3 * w * h {
+        return Ok((rgb, w, h));
+    }
+    let k = SCALE_MIN_W.div_ceil(w).max(1);
+    let (cw, ch) = (w * k, h * k + SCALE_H);
+    crate::budget::check(
+        (3 * cw * ch) as u64,
+        "a depth picture",
+        format_args!("{cw} x {ch} pixels"),
+    )
+    .map_err(|e| SensorFilesError::Export(e.into()))?;
+    let mut out = vec![255u8; 3 * cw * ch];
+    for y in 0..h * k {
+        for x in 0..w * k {
+            let src = 3 * ((y / k) * w + x / k);
+            let dst = 3 * (y * cw + x);
+            out[dst..dst + 3].copy_from_slice(&rgb[src..src + 3]);
+        }
+    }
+    // The bar: a quarter of the strip's height, inset from the edges.
+    let (bx0, bx1) = (12, cw.saturating_sub(12).max(13));
+    let (by0, by1) = (h * k + 6, h * k + 20);
+    for x in bx0..bx1 {
+        let c = (scale.ramp)((x - bx0) as f64 / (bx1 - bx0 - 1).max(1) as f64);
+        for y in by0..by1 {
+            let dst = 3 * (y * cw + x);
+            out[dst..dst + 3].copy_from_slice(&c);
+        }
+    }
+    draw_scale_text(&mut out, (cw, ch), (bx0, bx1, by1), scale)
+        .map_err(|e| SensorFilesError::Invalid(format!("cannot draw a depth scale: {e}")))?;
+    Ok((out, cw, ch))
+}
+
+/// `v` to four significant digits: `0.6123`, `12.35`, `1.235e4`.
+fn four_digits(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let mag = v.abs().log10().floor();
+    if !(-3.0..4.0).contains(&mag) {
+        return format!("{v:.3e}");
+    }
+    format!("{v:.*}", (3.0 - mag).max(0.0) as usize)
+}
+
+/// The labels of [`with_scale`]'s bar (plotters, in egui's bundled Ubuntu font: no
+/// system font needed).
+fn draw_scale_text(
+    buf: &mut [u8],
+    (cw, ch): (usize, usize),
+    (bx0, bx1, by1): (usize, usize, usize),
+    scale: &Scale,
+) -> std::result::Result<(), Box<dyn std::error::Error>> {
+    use plotters::prelude::*;
+    use plotters::style::text_anchor::{HPos, Pos, VPos};
+    static FONT: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    let ok = *FONT.get_or_init(|| {
+        plotters::style::register_font(
+            "sans-serif",
+            FontStyle::Normal,
+            epaint_default_fonts::UBUNTU_LIGHT,
+        )
+        .is_ok()
+    });
+    if !ok {
+        return Err("no font".into());
+    }
+    let root = BitMapBackend::with_buffer(buf, (cw as u32, ch as u32)).into_drawing_area();
+    let font = ("sans-serif", 13).into_font().color(&BLACK);
+    let label = |v: f64| format!("{} {}", four_digits(v), scale.unit);
+    let y = (by1 + 2) as i32;
+    let (x0, x1) = (bx0 as i32, bx1 as i32);
+    for (text, x, h) in [
+        (label(scale.lo), x0, HPos::Left),
+        (label(0.5 * (scale.lo + scale.hi)), (x0 + x1) / 2, HPos::Center),
+        (label(scale.hi), x1, HPos::Right),
+    ] {
+        root.draw(&Text::new(
+            text,
+            (x, y),
+            font.clone().pos(Pos::new(h, VPos::Top)),
+        ))?;
+    }
+    root.draw(&Text::new(
+        scale.note.to_string(),
+        ((x0 + x1) / 2, y + 17),
+        font.pos(Pos::new(HPos::Center, VPos::Top)),
+    ))?;
+    root.present()?;
+    Ok(())
 }
 
 /// `pixel_Y_X.csv` (per bin: time, TPRF, TPRF * Light, each gate's share of M_i) and
@@ -928,4 +1063,37 @@ fn write_pixel_csv(
     let gates_name = format!("pixel_{y}_{x}_gates.csv");
     write_csv(&out.join(&gates_name), &header, rows)?;
     Ok(vec![name, gates_name])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 2 x 1 depth image (1 m, 3 m): enlarged by 180 to 360 pixels wide, nearest
+    /// white and farthest dark grey (0.15 x 255), over a strip whose bar runs from the
+    /// same white to the same grey, with its labels written in dark pixels.
+    #[test]
+    fn a_depth_png_carries_its_scale() {
+        let dir = std::env::temp_dir().join(format!("tprf-depth-png-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("depth.png");
+        write_depth_png(&path, 2, 1, &[1.0, 3.0]).unwrap();
+        let img = image::open(&path).unwrap().to_rgb8();
+        assert_eq!(img.dimensions(), (360, 180 + SCALE_H as u32));
+        let far = (255.0f64 * 0.15).round() as u8;
+        assert_eq!(img.get_pixel(0, 0).0, [255; 3]);
+        assert_eq!(img.get_pixel(179, 179).0, [255; 3]);
+        assert_eq!(img.get_pixel(180, 0).0, [far; 3]);
+        assert_eq!(img.get_pixel(12, 190).0, [255; 3]);
+        assert_eq!(img.get_pixel(347, 190).0, [far; 3]);
+        let text = (203..236)
+            .flat_map(|y| (0..360).map(move |x| (x, y)))
+            .filter(|&(x, y)| img.get_pixel(x, y).0[0] < 128)
+            .count();
+        assert!(text > 100, "labels: {text} dark pixels");
+        assert_eq!(four_digits(0.61234), "0.6123");
+        assert_eq!(four_digits(12.346), "12.35");
+        assert_eq!(four_digits(12346.0), "1.235e4");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }

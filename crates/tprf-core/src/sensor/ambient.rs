@@ -83,12 +83,21 @@ impl SensorModel {
             let Some(plane) = m.values.get_mut(i * pixels..(i + 1) * pixels) else {
                 break;
             };
-            for (v, &a) in plane.iter_mut().zip(ambient) {
-                let a = if a > 0.0 { f64::from(a) } else { 0.0 };
-                *v = (f64::from(*v) + w * a) as f32;
-            }
+            add_to_plane(plane, *w, ambient);
         }
         Ok(true)
+    }
+}
+
+/// `plane[p] += w A[p]` (in f64), `A` the ambient image, its negative or NaN values
+/// counted as 0: one gate's share of [`SensorModel::add_ambient`].
+pub(crate) fn add_to_plane(plane: &mut [f32], w: f64, ambient: &[f32]) {
+    if w == 0.0 {
+        return;
+    }
+    for (v, &a) in plane.iter_mut().zip(ambient) {
+        let a = if a > 0.0 { f64::from(a) } else { 0.0 };
+        *v = (f64::from(*v) + w * a) as f32;
     }
 }
 

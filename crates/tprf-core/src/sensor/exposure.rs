@@ -328,6 +328,54 @@ impl Exposure {
         }
     }
 
+    /// Gates `first .. first + count` of this stepped sequence as a sequence of their
+    /// own: the same shape, width and step, its gate 0 this one's gate `first` (the
+    /// start, centre or knots moved on by `first` steps). `None` for AMCW phase steps
+    /// and TDC bins (whose count sets the modulation's phases and the laser cycle), and
+    /// for an empty range or one past the last gate.
+    pub fn subsequence(&self, first: u64, count: u64) -> Option<Exposure> {
+        if count == 0 || first.checked_add(count)? > self.count() {
+            return None;
+        }
+        let mut e = self.clone();
+        match &mut e {
+            Exposure::Box {
+                start_s,
+                width_s,
+                step_s,
+                count: n,
+                ..
+            } => {
+                *start_s += step_s.unwrap_or(*width_s) * first as f64;
+                *n = count;
+            }
+            Exposure::Gaussian {
+                centre_s,
+                fwhm_s,
+                step_s,
+                count: n,
+                ..
+            } => {
+                *centre_s += step_s.unwrap_or(*fwhm_s) * first as f64;
+                *n = count;
+            }
+            Exposure::PiecewiseLinear {
+                points,
+                step_s,
+                count: n,
+                ..
+            } => {
+                let by = *step_s * first as f64;
+                for p in points.iter_mut() {
+                    p.0 += by;
+                }
+                *n = count;
+            }
+            Exposure::Amcw { .. } | Exposure::Tdc { .. } => return None,
+        }
+        Some(e)
+    }
+
     /// The time origin of the gate times ([`TimeOrigin::Pulse`] for AMCW).
     pub fn origin(&self) -> TimeOrigin {
         match self {
@@ -932,5 +980,59 @@ mod tests {
             modulation: 1.0,
         };
         assert!(amcw.gates(0.0).is_err());
+    }
+
+    /// A subsequence is gates `first ..` of the whole, gate for gate, for every stepped
+    /// kind; the others and out-of-range requests have none.
+    #[test]
+    fn a_subsequence_is_the_same_gates() {
+        let stepped = [
+            Exposure::Box {
+                origin: TimeOrigin::Window,
+                start_s: 1e-9,
+                width_s: 0.5e-9,
+                step_s: Some(0.7e-9),
+                count: 10,
+                gain: 2.0,
+            },
+            Exposure::Gaussian {
+                origin: TimeOrigin::Pulse,
+                centre_s: 3e-9,
+                fwhm_s: 1e-9,
+                step_s: None,
+                count: 6,
+                peak: 1.0,
+            },
+            Exposure::PiecewiseLinear {
+                origin: TimeOrigin::Pulse,
+                points: vec![Point(0.0, 0.0), Point(1e-9, 1.0), Point(2e-9, 0.0)],
+                step_s: 1.5e-9,
+                count: 5,
+            },
+        ];
+        for e in &stepped {
+            let all = e.gates(4e-9).unwrap();
+            let sub = e.subsequence(2, 3).expect("a stepped kind");
+            assert_eq!(sub.count(), 3);
+            let part = sub.gates(4e-9).unwrap();
+            for (i, (a, b)) in all[2..5].iter().zip(&part).enumerate() {
+                for t in [3e-9, 4.2e-9, 5.1e-9, 6.5e-9, 8e-9, 11e-9] {
+                    assert!(
+                        (a.value(t) - b.value(t)).abs() < 1e-9,
+                        "{}: gate {i} at {t}",
+                        e.kind_name()
+                    );
+                }
+            }
+            assert!(e.subsequence(4, e.count()).is_none());
+            assert!(e.subsequence(0, 0).is_none());
+        }
+        let amcw = Exposure::Amcw {
+            freq_hz: 20e6,
+            phase_steps: 4,
+            phase0_deg: 0.0,
+            modulation: 1.0,
+        };
+        assert!(amcw.subsequence(0, 2).is_none());
     }
 }

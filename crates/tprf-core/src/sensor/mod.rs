@@ -22,10 +22,15 @@
 //! Parts, one per file:
 //! - [`light`]: `Light(t)` presets ([`LightPulse`]) and their compiled form ([`Light`]);
 //! - [`exposure`]: `Exposure_i(t)` gate sequences ([`Exposure`]) and single gates ([`Gate`]);
+//! - [`fields`]: the editable numbers of each kind of pulse, gates and SPAD, described
+//!   by the types themselves (what a form and an envelope editor need), and new ones
+//!   of a kind;
 //! - [`kernel`]: the bin-averaged kernels `K_i[b]` ([`SparseKernel`]);
 //! - [`measure`]: the `[pixels x T] x [T x N]` product ([`Measurements`]);
 //! - [`ambient`]: the cube's ambient image added to every gate as a constant rate;
 //! - [`noise`]: Gaussian white noise, optional Poisson photon noise, `max(0, .)`;
+//! - [`pipeline`]: the one order of a measurement (clean, SPAD, ambient, noise,
+//!   derived) that `tprf sensor` and the window both follow;
 //! - [`derived`]: first-return depth, AMCW phase and depth;
 //! - [`spad`]: a SPAD behind a TDC (a `tdc` exposure): pile-up, dead time,
 //!   afterpulsing, ambient light and dark counts, the Coates correction;
@@ -39,11 +44,13 @@
 pub mod ambient;
 pub mod derived;
 pub mod exposure;
+pub mod fields;
 pub mod kernel;
 pub mod light;
 pub mod measure;
 pub mod model;
 pub mod noise;
+pub mod pipeline;
 pub mod preset;
 mod quad;
 pub mod spad;
@@ -51,11 +58,13 @@ mod values;
 
 pub use derived::{AmcwImage, Derived, FirstReturn};
 pub use exposure::{Exposure, Gate, MAX_GATES, TimeOrigin};
+pub use fields::{EXPOSURE_KINDS, Field, HandleAt, LIGHT_KINDS, Quantity, kind_label};
 pub use kernel::{SparseKernel, compute_kernels};
 pub use light::{Light, LightPulse};
 pub use measure::{Measurements, PackedKernels};
 pub use model::{PixelTrace, SensorModel, Update};
 pub use noise::{Noise, NoiseField};
+pub use pipeline::{Draws, Gates, Pipeline};
 pub use preset::{BUILTIN_PRESETS, Sensor};
 pub use spad::{Acquisition, Spad, SpadImage, spad_image, spad_image_ambient};
 pub use values::Point;
