@@ -1159,14 +1159,13 @@ fn spad_files_in_bands_are_the_whole_image() {
         let whole = tempdir(&format!("whole-{mode:?}"));
         let rows = tempdir(&format!("rows-{mode:?}"));
         let write = |dir: &std::path::Path, tile_bytes: u64| {
-            match tprf_core::export::sensor::write_spad_files(
-                dir,
-                &m,
-                &meas,
-                &steady,
-                Some(&ambient),
-                tile_bytes,
-            ) {
+            let pipeline = tprf_core::sensor::pipeline::Pipeline {
+                model: &m,
+                clean: &meas,
+                steady: &steady,
+                ambient: Some(&ambient),
+            };
+            match tprf_core::export::sensor::write_spad_files(dir, &pipeline, tile_bytes) {
                 Ok(f) => f,
                 Err(e) => panic!("{e}"),
             }

@@ -276,7 +276,12 @@ fn images_have_colour_bars_and_a_readout_under_the_cursor() {
 #[test]
 fn the_layout_fits_at_every_window_size() {
     let bins = 256;
-    for (w, hgt) in [(1024.0, 700.0), (1280.0, 800.0), (1600.0, 900.0), (1920.0, 1080.0)] {
+    for (w, hgt) in [
+        (1024.0, 700.0),
+        (1280.0, 800.0),
+        (1600.0, 900.0),
+        (1920.0, 1080.0),
+    ] {
         let settings = small_settings("builtin:cornell", 24, bins, 2);
         let mut h = Harness::builder()
             .with_size(Vec2::new(w, hgt))
@@ -294,13 +299,29 @@ fn the_layout_fits_at_every_window_size() {
         let plot = h.get_by_label("tprf plot").rect();
         let ruler = h.get_by_label("time scrubber").rect();
         inside(ruler, plot.left(), "the time ruler");
-        inside(h.get_by_label("speed").rect(), plot.left(), "the speed field");
-        inside(h.get_by_label("time slice").rect(), plot.left(), "the time slice");
-        inside(h.get_by_label("rainbow image").rect(), plot.left(), "the rainbow image");
+        inside(
+            h.get_by_label("speed").rect(),
+            plot.left(),
+            "the speed field",
+        );
+        inside(
+            h.get_by_label("time slice").rect(),
+            plot.left(),
+            "the time slice",
+        );
+        inside(
+            h.get_by_label("rainbow image").rect(),
+            plot.left(),
+            "the rainbow image",
+        );
         inside(plot, w, "the TPRF plot");
         for (x, want) in [(ruler.right() - 1.0, bins - 1), (ruler.left() + 1.0, 0)] {
             click_at(&mut h, Pos2::new(x, ruler.center().y));
-            assert_eq!(h.state().bin, want, "{size}: a click at x = {x} of {ruler:?}");
+            assert_eq!(
+                h.state().bin,
+                want,
+                "{size}: a click at x = {x} of {ruler:?}"
+            );
         }
         h.state_mut().settings.mode = Mode::Sensor;
         h.run_steps(3);

@@ -164,7 +164,11 @@ pub fn run(a: &SensorArgs) -> Result<()> {
         ambient: cube.ambient.as_deref(),
     };
     let spad = match &measured.steady {
-        Some(_) => Some(write_spad_files(staging.path(), &pipeline, DEFAULT_TILE_BYTES)?),
+        Some(_) => Some(write_spad_files(
+            staging.path(),
+            &pipeline,
+            DEFAULT_TILE_BYTES,
+        )?),
         None => None,
     };
     let t_noise = Instant::now();

@@ -276,7 +276,9 @@ impl TprfApp {
             let needed: f32 = tabs
                 .iter()
                 .map(|(_, name, _)| {
-                    let g = ui.painter().layout_no_wrap(name.to_string(), font.clone(), Color32::WHITE);
+                    let g =
+                        ui.painter()
+                            .layout_no_wrap(name.to_string(), font.clone(), Color32::WHITE);
                     g.size().x + pad + 2.0
                 })
                 .sum();

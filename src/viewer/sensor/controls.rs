@@ -11,8 +11,8 @@ use crate::viewer::files::FileAction;
 use eframe::egui::{self, RichText};
 use tprf_core::film::TimeAxis;
 use tprf_core::sensor::{
-    Acquisition, EXPOSURE_KINDS, Exposure, Field, LIGHT_KINDS, LightPulse, Quantity, Sensor,
-    Spad, TimeOrigin, kind_label,
+    Acquisition, EXPOSURE_KINDS, Exposure, Field, LIGHT_KINDS, LightPulse, Quantity, Sensor, Spad,
+    TimeOrigin, kind_label,
 };
 use tprf_core::units::format_time;
 
@@ -313,8 +313,7 @@ pub(crate) fn controls_ui(
         sensor.light = LightPulse::of_kind(new_kind, 0.0, 4.0 * dt_s);
     }
     let knots = sensor.light.knots().map(<[_]>::len);
-    if let Some((key, v)) = fields_ui(ui, "light-grid", &sensor.light.fields(), 0.0, dt_s, knots)
-    {
+    if let Some((key, v)) = fields_ui(ui, "light-grid", &sensor.light.fields(), 0.0, dt_s, knots) {
         sensor.light.set_field(key, v);
     }
 

@@ -64,7 +64,15 @@ pub(crate) fn pixel_plots_ui(
                 .allow_band(false),
         )
     });
-    if spad_plot_ui(ui, state, &trace.m_clean, tprf, (height, bottom), snap, pixel) {
+    if spad_plot_ui(
+        ui,
+        state,
+        &trace.m_clean,
+        tprf,
+        (height, bottom),
+        snap,
+        pixel,
+    ) {
         return;
     }
     let Some(model) = state.model() else {

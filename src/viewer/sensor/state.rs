@@ -153,8 +153,7 @@ impl SensorState {
         if std::mem::replace(&mut self.opened, true) {
             return;
         }
-        if let Some((fitted, text)) = super::view::fitted_on_open(sensor, axis, self.auto_start)
-        {
+        if let Some((fitted, text)) = super::view::fitted_on_open(sensor, axis, self.auto_start) {
             self.fit_note = Some(FitNote {
                 text,
                 fitted: fitted.exposure.clone(),

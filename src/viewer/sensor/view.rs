@@ -442,7 +442,10 @@ mod tests {
         assert!(note.contains("gates 1–20 of 256"), "{note}");
         let (fitted, _) = fitted_on_open(&lidar, &axis, true).expect("fitted");
         assert_eq!(fitted.exposure.count(), 21);
-        assert_eq!(fitted.exposure.subsequence(0, 1), lidar.exposure.subsequence(0, 1));
+        assert_eq!(
+            fitted.exposure.subsequence(0, 1),
+            lidar.exposure.subsequence(0, 1)
+        );
         let wide = TimeAxis::new(0.0, 0.5e-9, 80).unwrap();
         assert!(fitted_on_open(&Sensor::builtin("gated").unwrap(), &wide, false).is_none());
         // Gates that all miss the window tile it instead.

@@ -1000,7 +1000,11 @@ fn draw_scale_text(
     let (x0, x1) = (bx0 as i32, bx1 as i32);
     for (text, x, h) in [
         (label(scale.lo), x0, HPos::Left),
-        (label(0.5 * (scale.lo + scale.hi)), (x0 + x1) / 2, HPos::Center),
+        (
+            label(0.5 * (scale.lo + scale.hi)),
+            (x0 + x1) / 2,
+            HPos::Center,
+        ),
         (label(scale.hi), x1, HPos::Right),
     ] {
         root.draw(&Text::new(

@@ -458,8 +458,7 @@ impl Exposure {
             ],
             Exposure::PiecewiseLinear { step_s, count, .. } => {
                 vec![
-                    Field::new("step_s", "step", Time, *step_s)
-                        .help("from one gate to the next"),
+                    Field::new("step_s", "step", Time, *step_s).help("from one gate to the next"),
                     gates(*count),
                 ]
             }
@@ -512,9 +511,12 @@ impl Exposure {
                 | Exposure::PiecewiseLinear { count, .. },
                 "count",
             )
-            | (Exposure::Amcw {
-                phase_steps: count, ..
-            }, "phase_steps")
+            | (
+                Exposure::Amcw {
+                    phase_steps: count, ..
+                },
+                "phase_steps",
+            )
             | (Exposure::Tdc { bins: count, .. }, "bins") => {
                 *count = whole(value, 1);
                 return true;
@@ -523,9 +525,7 @@ impl Exposure {
                 *step_s = Some(value);
                 return true;
             }
-            (Exposure::Box { start_s, .. } | Exposure::Tdc { start_s, .. }, "start_s") => {
-                start_s
-            }
+            (Exposure::Box { start_s, .. } | Exposure::Tdc { start_s, .. }, "start_s") => start_s,
             (Exposure::Box { width_s, .. }, "width_s") => width_s,
             (Exposure::Box { gain, .. }, "gain") => gain,
             (Exposure::Gaussian { centre_s, .. }, "centre_s") => centre_s,
@@ -613,17 +613,33 @@ impl Spad {
             Field::new("pde", "PDE", Number, self.pde)
                 .range(0.0, 1.0)
                 .help("photon detection efficiency: the chance a photon makes an avalanche"),
-            Field::new("photons_per_unit", "photons / unit", Number, self.photons_per_unit)
-                .range(0.0, 1e30)
-                .help("photons reaching the pixel per unit of (TPRF * Light), per pulse"),
+            Field::new(
+                "photons_per_unit",
+                "photons / unit",
+                Number,
+                self.photons_per_unit,
+            )
+            .range(0.0, 1e30)
+            .help("photons reaching the pixel per unit of (TPRF * Light), per pulse"),
             Field::new("ambient_rate_hz", "ambient", Rate, self.ambient_rate_hz)
                 .help("uniform ambient photons per second at each pixel"),
-            Field::new("ambient_lamp_hz", "ambient lamp", Rate, self.ambient_lamp_hz).help(
+            Field::new(
+                "ambient_lamp_hz",
+                "ambient lamp",
+                Rate,
+                self.ambient_lamp_hz,
+            )
+            .help(
                 "a steady lamp where the light is, of this many pulse energies per second: \
                  each pixel gets it times its steady image",
             ),
-            Field::new("dark_count_rate_hz", "dark counts", Rate, self.dark_count_rate_hz)
-                .help("dark count rate"),
+            Field::new(
+                "dark_count_rate_hz",
+                "dark counts",
+                Rate,
+                self.dark_count_rate_hz,
+            )
+            .help("dark count rate"),
             Field::duration("dead_time_s", "dead time", self.dead_time_s)
                 .help("dead after each detection, from the end of its TDC bin"),
             Field::new(
@@ -637,8 +653,12 @@ impl Spad {
         ];
         if self.afterpulse_probability > 0.0 {
             f.push(
-                Field::duration("afterpulse_delay_s", "afterpulse delay", self.afterpulse_delay_s)
-                    .help("mean delay of an afterpulse"),
+                Field::duration(
+                    "afterpulse_delay_s",
+                    "afterpulse delay",
+                    self.afterpulse_delay_s,
+                )
+                .help("mean delay of an afterpulse"),
             );
         }
         f
@@ -708,15 +728,24 @@ mod tests {
         for (lk, _) in LIGHT_KINDS {
             let mut l = LightPulse::of_kind(lk, 1e-9, 0.3e-9);
             for f in l.fields() {
-                let v = f.value * 1.5 + if f.quantity == Quantity::Count { 1.0 } else { 1e-10 };
-                let v = if f.quantity == Quantity::Count { v.round() } else { v };
+                let v = f.value * 1.5
+                    + if f.quantity == Quantity::Count {
+                        1.0
+                    } else {
+                        1e-10
+                    };
+                let v = if f.quantity == Quantity::Count {
+                    v.round()
+                } else {
+                    v
+                };
                 assert!(l.set_field(f.key, v), "{lk}.{}", f.key);
                 let back = l.fields().into_iter().find(|g| g.key == f.key).unwrap();
                 assert_eq!(back.value, v, "{lk}.{}", f.key);
                 let file = toml::Value::try_from(&l).unwrap();
-                let stored = file.get(f.key).and_then(|x| {
-                    x.as_float().or(x.as_integer().map(|i| i as f64))
-                });
+                let stored = file
+                    .get(f.key)
+                    .and_then(|x| x.as_float().or(x.as_integer().map(|i| i as f64)));
                 assert_eq!(stored, Some(v), "{lk}.{} in the file", f.key);
                 if let Some(HandleAt::Extent { anchor, .. }) = f.handle {
                     assert!(l.fields().iter().any(|g| g.key == anchor), "{lk}: {anchor}");
@@ -736,9 +765,9 @@ mod tests {
                 let back = e.fields().into_iter().find(|g| g.key == f.key).unwrap();
                 assert_eq!(back.value, v, "{ek}.{}", f.key);
                 let file = toml::Value::try_from(&e).unwrap();
-                let stored = file.get(f.key).and_then(|x| {
-                    x.as_float().or(x.as_integer().map(|i| i as f64))
-                });
+                let stored = file
+                    .get(f.key)
+                    .and_then(|x| x.as_float().or(x.as_integer().map(|i| i as f64)));
                 assert_eq!(stored, Some(v), "{ek}.{} in the file", f.key);
             }
         }
@@ -751,7 +780,11 @@ mod tests {
             };
             assert!(spad.set_field(f.key, v), "spad.{}", f.key);
             assert_eq!(
-                spad.fields().into_iter().find(|g| g.key == f.key).unwrap().value,
+                spad.fields()
+                    .into_iter()
+                    .find(|g| g.key == f.key)
+                    .unwrap()
+                    .value,
                 v
             );
         }

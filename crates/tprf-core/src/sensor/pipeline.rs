@@ -176,7 +176,10 @@ mod tests {
         let g = p.gates(Draws::Fresh).unwrap();
         let want = [1.0 + 0.5 * 2e-9 * 4.0, 0.5 * 2e-9 * 8.0];
         for (got, want) in g.m.values.iter().zip(want) {
-            assert!((f64::from(*got) - want).abs() <= 1e-7 * want, "{got} vs {want}");
+            assert!(
+                (f64::from(*got) - want).abs() <= 1e-7 * want,
+                "{got} vs {want}"
+            );
         }
         assert_eq!(g.ambient, Some(Ok(())));
         assert!(g.depth_m.is_none() && g.amcw.is_none());
