@@ -125,7 +125,7 @@ impl Field {
         self
     }
 
-    fn from_origin(mut self) -> Field {
+    fn timed_from_origin(mut self) -> Field {
         self.from_origin = true;
         self
     }
@@ -428,7 +428,7 @@ impl Exposure {
             } => vec![
                 Field::new("start_s", "start", Time, *start_s)
                     .help("gate 0 opens")
-                    .from_origin()
+                    .timed_from_origin()
                     .at(0.9),
                 Field::duration("width_s", "width", *width_s)
                     .help("each gate is open this long")
@@ -447,7 +447,7 @@ impl Exposure {
             } => vec![
                 Field::new("centre_s", "centre", Time, *centre_s)
                     .help("gate 0's centre")
-                    .from_origin()
+                    .timed_from_origin()
                     .at(0.9),
                 Field::duration("fwhm_s", "FWHM", *fwhm_s)
                     .help("full width at half maximum")
@@ -488,7 +488,7 @@ impl Exposure {
             } => vec![
                 Field::new("start_s", "start", Time, *start_s)
                     .help("bin 0 opens")
-                    .from_origin()
+                    .timed_from_origin()
                     .at(0.9),
                 Field::duration("bin_width_s", "bin width", *bin_width_s)
                     .extent("start_s", 1.0, 0.9),
