@@ -50,10 +50,11 @@ pub fn parse_time_s(text: &str) -> Result<f64, String> {
     Ok(seconds)
 }
 
-/// A readable time: picks fs/ps/ns/us/ms/s so the number is in [1, 1000).
-pub fn format_time(seconds: f64) -> String {
+/// The unit a time reads best in: fs/ps/ns/us/ms/s so the number is in [1, 1000) (0
+/// and anything over a second in s), with the factor from seconds to it.
+pub fn time_unit(seconds: f64) -> (f64, &'static str) {
     let a = seconds.abs();
-    let (scale, unit) = if a == 0.0 || a >= 1.0 {
+    if a == 0.0 || a >= 1.0 {
         (1.0, "s")
     } else if a >= 1e-3 {
         (1e3, "ms")
@@ -65,7 +66,12 @@ pub fn format_time(seconds: f64) -> String {
         (1e12, "ps")
     } else {
         (1e15, "fs")
-    };
+    }
+}
+
+/// A readable time: picks fs/ps/ns/us/ms/s so the number is in [1, 1000).
+pub fn format_time(seconds: f64) -> String {
+    let (scale, unit) = time_unit(seconds);
     format!("{:.4} {unit}", seconds * scale)
 }
 

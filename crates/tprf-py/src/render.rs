@@ -318,9 +318,8 @@ impl Renderer {
                 })
                 .map_err(|e| {
                     PyRuntimeError::new_err(format!("cannot start the render thread: {e}"))
-                })
+                })?
         };
-        let handle = handle?;
         match wait(py, handle, rx, &cancel, progress.as_ref()) {
             Ok((session, reports)) => {
                 inner.wall_s += reports.last().map_or(0.0, |r| r.wall_s);

@@ -108,6 +108,7 @@ pub fn render_to_folder(
         })?;
         let snap = done.film.snapshot();
         let steady = done.film.steady();
+        let format = format(snap.axis().bins);
         let meta = write_folder(
             &snap,
             &steady,
@@ -115,7 +116,7 @@ pub fn render_to_folder(
             done.ambient
                 .as_ref()
                 .map(|(image, _)| image.radiance.as_slice()),
-            format(snap.axis().bins),
+            format,
             request.frames,
             out,
             &[scene_path],
@@ -123,7 +124,7 @@ pub fn render_to_folder(
         )?;
         Ok(Written {
             meta,
-            format: format(snap.axis().bins),
+            format,
             rows_rendered: done.film.rows_rendered(),
             passes: done.passes,
         })

@@ -333,20 +333,7 @@ fn time_text(seconds: f64) -> String {
     if !seconds.is_finite() {
         return format!("{seconds} s");
     }
-    let a = seconds.abs();
-    let (scale, unit) = if a == 0.0 || a >= 1.0 {
-        (1.0, "s")
-    } else if a >= 1e-3 {
-        (1e3, "ms")
-    } else if a >= 1e-6 {
-        (1e6, "us")
-    } else if a >= 1e-9 {
-        (1e9, "ns")
-    } else if a >= 1e-12 {
-        (1e12, "ps")
-    } else {
-        (1e15, "fs")
-    };
+    let (scale, unit) = crate::units::time_unit(seconds);
     let v = seconds * scale;
     let text = format!("{v:.6}");
     let text = text.trim_end_matches('0').trim_end_matches('.');
