@@ -99,6 +99,40 @@ pub fn format_bytes(bytes: u64) -> String {
     format!("{value:.1} {unit}")
 }
 
+/// A size in bytes as a person writes it: `2GiB`, `512 MiB`, `1.5G`, `300MB`, `4096`
+/// (bytes). `KiB MiB GiB TiB` and `K M G T` are powers of 1024, `kB MB GB TB` powers of
+/// 1000, `B` (or no unit) bytes.
+pub fn parse_bytes(text: &str) -> Result<u64, String> {
+    let t = text.trim();
+    let split = t.find(|c: char| c.is_ascii_alphabetic()).unwrap_or(t.len());
+    let (num, unit) = t.split_at(split);
+    let value: f64 = num
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{text}': '{}' is not a number", num.trim()))?;
+    let scale: f64 = match unit.trim() {
+        "" | "B" => 1.0,
+        "K" | "KiB" | "k" => 1024.0,
+        "M" | "MiB" => 1024.0 * 1024.0,
+        "G" | "GiB" => 1024.0 * 1024.0 * 1024.0,
+        "T" | "TiB" => 1024f64.powi(4),
+        "kB" | "KB" => 1e3,
+        "MB" => 1e6,
+        "GB" => 1e9,
+        "TB" => 1e12,
+        other => {
+            return Err(format!(
+                "'{text}': unknown unit '{other}' (B, KiB MiB GiB TiB or K M G T, kB MB GB TB)"
+            ));
+        }
+    };
+    let bytes = value * scale;
+    if !(bytes.is_finite() && bytes >= 1.0 && bytes < u64::MAX as f64) {
+        return Err(format!("'{text}' is not a size of at least 1 byte"));
+    }
+    Ok(bytes.round() as u64)
+}
+
 /// A count for a person: `5000`, `98.0 M`, `3.0 G`.
 pub fn format_count(n: u64) -> String {
     match n {
@@ -348,6 +382,18 @@ fn rlimit_room(which: Rlimit) -> Option<u64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sizes_parse_as_written() {
+        assert_eq!(parse_bytes("2GiB").unwrap(), 2 << 30);
+        assert_eq!(parse_bytes(" 1.5 G").unwrap(), 3 << 29);
+        assert_eq!(parse_bytes("300MB").unwrap(), 300_000_000);
+        assert_eq!(parse_bytes("4096").unwrap(), 4096);
+        assert_eq!(parse_bytes("64 KiB").unwrap(), 65536);
+        for bad in ["", "GiB", "2 furlongs", "-1G", "0", "inf", "1e30 TiB"] {
+            assert!(parse_bytes(bad).is_err(), "{bad}");
+        }
+    }
 
     #[test]
     fn bytes_and_counts_read_as_a_person_writes_them() {

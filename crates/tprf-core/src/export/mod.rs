@@ -202,6 +202,26 @@ pub struct CubeMetadata {
     /// holds, and what `tprf merge` needs to check and merge it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub shard: Option<shard::ShardInfo>,
+    /// Only when the render stopped before its target: why (its next pass would not
+    /// have fitted in memory); the cube holds the passes made, whole.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stopped: Option<RenderStopped>,
+}
+
+/// Why a render stopped before its target, as `tprf.json` records it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RenderStopped {
+    /// `memory`: the next pass would have taken the film over its memory budget.
+    pub reason: String,
+    /// What happened, in words: the spp reached, the memory foreseen, the limit.
+    pub message: String,
+    /// The samples per pixel asked for, when the request set a target.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spp_target: Option<u64>,
+    /// The limit, bytes, and what set it (`max_memory`, `system`, `cgroup`,
+    /// `address_space`, `data_segment`).
+    pub limit_bytes: u64,
+    pub limited_by: String,
 }
 
 /// `passes` as a count; cubes written before it was summarised list one record per pass.

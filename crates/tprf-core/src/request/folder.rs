@@ -3,10 +3,12 @@
 //! layers, the ambient image, frames, a shard's steady sums; written into a new folder
 //! beside the target and swapped in whole ([`crate::export::staging`]).
 
-use super::{RenderRequest, RequestError, Session};
+use super::{MemoryRefusal, MemoryStop, RenderRequest, RequestError, Session};
 use crate::export::ambient::{AMBIENT_NPY, AMBIENT_UNITS, AmbientMetadata};
 use crate::export::shard::{self, ShardInfo};
-use crate::export::{self, BIN_VALUE, CameraMetadata, CubeFormat, CubeMetadata, zarr};
+use crate::export::{
+    self, BIN_VALUE, CameraMetadata, CubeFormat, CubeMetadata, RenderStopped, zarr,
+};
 use crate::film::{FilmSnapshot, TprfFilm};
 use crate::transport::ambient::{AmbientImage, render_ambient};
 use crate::transport::progressive::PassReport;
@@ -47,6 +49,9 @@ pub struct Written {
     pub rows_rendered: usize,
     /// Every pass's report.
     pub passes: Vec<PassReport>,
+    /// Why the render stopped before its target (its next pass would not have fitted in
+    /// memory), when it did: the folder holds the passes made.
+    pub stopped: Option<MemoryStop>,
 }
 
 /// The nearest of `path`'s parent folders that exists (`.` for a relative path whose
@@ -68,6 +73,9 @@ pub struct Rendered {
     pub ambient: Option<(AmbientImage, AmbientMetadata)>,
     /// Every pass's report.
     pub passes: Vec<PassReport>,
+    /// Why the render stopped before its target (its next pass would not have fitted in
+    /// memory), when it did: the film holds the passes made.
+    pub stopped: Option<MemoryStop>,
 }
 
 /// Render `request` in memory in the request's thread pool: its passes (each reported
@@ -127,6 +135,7 @@ pub fn render_to_folder(
             format,
             rows_rendered: done.film.rows_rendered(),
             passes: done.passes,
+            stopped: done.stopped,
         })
     })
 }
@@ -189,6 +198,24 @@ fn rendered(
     ));
     before_passes(&session)?;
     let reports = session.run(|r, film| observer.pass(r, film));
+    let stopped = session.memory_stop().cloned();
+    if let Some(stop) = &stopped {
+        if reports.is_empty() {
+            // Memory ran short between the first pass's check and the pass: nothing to
+            // write.
+            let layout = session.film().layout();
+            return Err(RequestError::Memory(MemoryRefusal {
+                width: layout.width,
+                height: layout.height,
+                bins: layout.axis.bins,
+                bins_per_sample: session.pilot_bins_per_sample(),
+                need_bytes: stop.need_bytes,
+                limit_bytes: stop.limit_bytes,
+                limited_by: stop.limited_by,
+            }));
+        }
+        observer.message(&format!("memory: {stop}"));
+    }
     let last = reports.last().copied();
     if let Some(r) = last
         && r.left_out.non_finite > 0
@@ -212,6 +239,7 @@ fn rendered(
         meta,
         ambient,
         passes: reports,
+        stopped,
     })
 }
 
@@ -372,6 +400,13 @@ pub fn cube_metadata(
             }
             None => None,
         },
+        stopped: session.memory_stop().map(|stop| RenderStopped {
+            reason: "memory".into(),
+            message: stop.to_string(),
+            spp_target: request.spp_target(),
+            limit_bytes: stop.limit_bytes,
+            limited_by: stop.limited_by.key().into(),
+        }),
         ambient: None,
     })
 }

@@ -24,6 +24,7 @@
 
 mod camera;
 mod folder;
+mod memory;
 mod session;
 pub mod worker;
 
@@ -31,6 +32,7 @@ pub use camera::apply_camera;
 pub use folder::{
     Observer, Rendered, Written, cube_metadata, render, render_to_folder, write_folder,
 };
+pub use memory::{MemoryLimit, MemoryRefusal, MemoryStop};
 pub use session::Session;
 
 use crate::export::shard::{self, ShardError, ShardSpec};
@@ -161,6 +163,17 @@ pub struct RenderRequest {
     pub shard: Option<String>,
     /// Rows per band of `shard` (default 32, the Zarr chunk height).
     pub band_rows: usize,
+    /// The most memory the film may take, bytes (`max_memory`: a number of bytes, or
+    /// text with a unit, `"2GiB"`): its fixed part, its store of the bins that received
+    /// light, and what a pass builds beside them (the scene and the renderer are not
+    /// counted). Before a pass that would exceed it, or what the process may still
+    /// allocate, the render stops at the last whole pass ([`MemoryStop`]).
+    #[serde(
+        rename = "max_memory",
+        deserialize_with = "bytes",
+        skip_serializing_if = "Option::is_none"
+    )]
+    pub max_memory_bytes: Option<u64>,
 }
 
 impl Default for RenderRequest {
@@ -200,6 +213,7 @@ impl Default for RenderRequest {
             frames: false,
             shard: None,
             band_rows: shard::DEFAULT_BAND_ROWS,
+            max_memory_bytes: None,
         }
     }
 }
@@ -223,6 +237,12 @@ impl Problem {
     fn field(name: &'static str) -> Problem {
         Problem {
             parts: vec![Part::Field(name)],
+        }
+    }
+
+    fn text_only(text: impl Into<String>) -> Problem {
+        Problem {
+            parts: vec![Part::Text(text.into())],
         }
     }
 
@@ -281,6 +301,9 @@ pub enum RequestError {
     Export(#[from] ExportError),
     #[error("cannot start the render threads")]
     Threads(#[source] rayon::ThreadPoolBuildError),
+    /// The first pass cannot fit in memory: the film foreseen by a pilot render.
+    #[error("{0}")]
+    Memory(MemoryRefusal),
     #[error(
         "{non_finite} sample contributions were NaN or infinite (of {paths} paths): an \
          emitter or a light of {scene} overflows, or a material is broken; the cube was not \
@@ -365,6 +388,23 @@ fn time_s<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
         None => Ok(None),
         Some(Time::Seconds(s)) => Ok(Some(s)),
         Some(Time::Text(t)) => crate::units::parse_time_s(&t)
+            .map(Some)
+            .map_err(serde::de::Error::custom),
+    }
+}
+
+/// A size in bytes: a number, or text with a unit ([`crate::budget::parse_bytes`]).
+fn bytes<'de, D: Deserializer<'de>>(d: D) -> Result<Option<u64>, D::Error> {
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Size {
+        Bytes(u64),
+        Text(String),
+    }
+    match Option::<Size>::deserialize(d)? {
+        None => Ok(None),
+        Some(Size::Bytes(b)) => Ok(Some(b)),
+        Some(Size::Text(t)) => crate::budget::parse_bytes(&t)
             .map(Some)
             .map_err(serde::de::Error::custom),
     }
@@ -489,6 +529,9 @@ impl RenderRequest {
         }
         if self.threads == Some(0) {
             return bad("threads", " must be at least 1".into());
+        }
+        if self.max_memory_bytes == Some(0) {
+            return bad("max_memory", " must be at least 1 byte".into());
         }
         camera::check(self)?;
         if let Some(spec) = self.shard_spec()? {

@@ -1,8 +1,9 @@
 //! A request made ready to render, and its passes.
 
+use super::memory::{MemoryBudget, MemoryStop};
 use super::{RenderRequest, RequestError, apply_camera};
 use crate::export::shard::ShardSpec;
-use crate::film::{FilmLayout, TimeAxis, TprfFilm};
+use crate::film::{FilmLayout, TimeAxis, TimeFilter, TprfFilm};
 use crate::scene::{self, Scene};
 use crate::transport::progressive::{self, PassReport};
 use crate::transport::{Renderer, auto_window};
@@ -21,6 +22,8 @@ pub struct Session {
     film: TprfFilm,
     shard: Option<ShardSpec>,
     setup_s: f64,
+    memory: MemoryBudget,
+    memory_stop: Option<MemoryStop>,
 }
 
 impl Session {
@@ -81,6 +84,15 @@ impl Session {
         if let Some(spec) = &shard {
             film = film.with_rows(&spec.rows(request.height));
         }
+        // A first pass (1 sample per pixel in every schedule) that cannot fit is refused
+        // now, with the film a pilot render foresees.
+        let mut memory = MemoryBudget::new(
+            request.max_memory_bytes,
+            &renderer,
+            &film,
+            request.time_filter == TimeFilter::Tent,
+        );
+        memory.check_first_pass(&film, 1)?;
         Ok(Session {
             request: request.clone(),
             scene,
@@ -88,29 +100,75 @@ impl Session {
             film,
             shard,
             setup_s: start.elapsed().as_secs_f64(),
+            memory,
+            memory_stop: None,
         })
     }
 
+    /// Readers keep `copies` published snapshots beside the film while it renders (the
+    /// window's worker: 2), whose rows a pass rebuilds beside them: counted in the
+    /// memory each pass is foreseen to need.
+    pub fn hold_snapshots(&mut self, copies: u64) {
+        self.memory.set_reader_copies(copies);
+    }
+
+    /// New bins per pixel and sample the memory budget last saw (before any pass: the
+    /// pilot render's).
+    pub fn pilot_bins_per_sample(&self) -> f64 {
+        self.memory.bins_per_sample()
+    }
+
+    /// Why the last [`Session::run`] stopped before its target: its next pass would not
+    /// have fitted in memory (`None`: it did not stop for memory).
+    pub fn memory_stop(&self) -> Option<&MemoryStop> {
+        self.memory_stop.as_ref()
+    }
+
     /// Add passes to the film until the request's spp target, time budget or error
-    /// target is met, or `on_pass` (called after each pass, with the film) breaks; the
-    /// reports of the passes made. Called again, it goes on from where the film is.
+    /// target is met, `on_pass` (called after each pass, with the film) breaks, or the
+    /// next pass would not fit in memory ([`Session::memory_stop`] then says so, and the
+    /// film holds the passes before it); the reports of the passes made. Called again,
+    /// it goes on from where the film is.
     pub fn run(
         &mut self,
         mut on_pass: impl FnMut(&PassReport, &TprfFilm) -> ControlFlow<()>,
     ) -> Vec<PassReport> {
         let schedule = self.request.schedule();
         let error_target = self.request.error_target;
-        progressive::render(&self.renderer, &mut self.film, &schedule, |report, film| {
-            on_pass(report, film)?;
-            // The error target reached: done, like the spp target.
-            if error_target
-                .zip(film.half_error_estimate())
-                .is_some_and(|(target, e)| e <= target)
-            {
-                return ControlFlow::Break(());
+        self.memory_stop = None;
+        let memory = &mut self.memory;
+        let stop = &mut self.memory_stop;
+        let before = |spp: u32, film: &TprfFilm| match memory.before_pass(film, spp) {
+            Ok(()) => ControlFlow::Continue(()),
+            Err((need_bytes, limit_bytes, limited_by)) => {
+                *stop = Some(MemoryStop {
+                    spp: film.spp(),
+                    passes: film.passes(),
+                    next_pass_spp: spp,
+                    need_bytes,
+                    limit_bytes,
+                    limited_by,
+                });
+                ControlFlow::Break(())
             }
-            ControlFlow::Continue(())
-        })
+        };
+        progressive::render_with(
+            &self.renderer,
+            &mut self.film,
+            &schedule,
+            before,
+            |report, film| {
+                on_pass(report, film)?;
+                // The error target reached: done, like the spp target.
+                if error_target
+                    .zip(film.half_error_estimate())
+                    .is_some_and(|(target, e)| e <= target)
+                {
+                    return ControlFlow::Break(());
+                }
+                ControlFlow::Continue(())
+            },
+        )
     }
 
     pub fn request(&self) -> &RenderRequest {

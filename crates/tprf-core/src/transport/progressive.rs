@@ -175,6 +175,26 @@ pub fn render(
     renderer: &Renderer,
     film: &mut TprfFilm,
     schedule: &Schedule,
+    on_pass: impl FnMut(&PassReport, &TprfFilm) -> ControlFlow<()>,
+) -> Vec<PassReport> {
+    render_with(
+        renderer,
+        film,
+        schedule,
+        |_, _| ControlFlow::Continue(()),
+        on_pass,
+    )
+}
+
+/// [`render`] with `before_pass(spp, film)` asked before each pass, with the samples
+/// per pixel it would add: [`ControlFlow::Break`] stops the render there, the film
+/// holding the passes before it (what a memory budget does when the pass would not
+/// fit).
+pub fn render_with(
+    renderer: &Renderer,
+    film: &mut TprfFilm,
+    schedule: &Schedule,
+    mut before_pass: impl FnMut(u32, &TprfFilm) -> ControlFlow<()>,
     mut on_pass: impl FnMut(&PassReport, &TprfFilm) -> ControlFlow<()>,
 ) -> Vec<PassReport> {
     let start = Instant::now();
@@ -203,6 +223,9 @@ pub fn render(
                 PassSize::Paced { .. } => 0,
             };
             spp = toward_target(pass, spp, next, left);
+        }
+        if before_pass(spp, film).is_break() {
+            break;
         }
         let pass_start = Instant::now();
         let stats = renderer.render_pass(film, spp);
