@@ -129,7 +129,11 @@ impl TprfApp {
             let state = match &s.state {
                 WorkerState::Loading => "loading".to_string(),
                 WorkerState::Rendering => "rendering".to_string(),
-                WorkerState::Paused => "paused".to_string(),
+                // Paused by the render itself: its next pass would not fit in memory.
+                WorkerState::Paused => match &s.memory_stop {
+                    Some(m) => format!("paused for memory: {m} (resume tries the pass again)"),
+                    None => "paused".to_string(),
+                },
                 WorkerState::Done => "done".to_string(),
                 WorkerState::Failed(e) => format!("failed: {e}"),
             };

@@ -68,6 +68,11 @@ pub struct WorkerStatus {
     /// Whether the scene's ambient image is still to come (the scene has ambient
     /// light and [`RenderWorker::ambient`] has none yet).
     pub ambient_pending: bool,
+    /// Why the render is paused by itself: its next pass would not fit in memory
+    /// ([`super::MemoryStop`], in words). Resuming tries the pass again (memory may
+    /// have been freed meanwhile), and pauses again with a new message if it still
+    /// does not fit.
+    pub memory_stop: Option<String>,
 }
 
 struct Shared {
@@ -125,6 +130,7 @@ impl RenderWorker {
                 store: StoreStats::default(),
                 left_out: LeftOutCounts::default(),
                 ambient_pending: false,
+                memory_stop: None,
             }),
             paused: AtomicBool::new(false),
             stop: AtomicBool::new(false),
@@ -276,70 +282,103 @@ fn render(
         // The ambient image is rendered from inside the pass callback, which borrows the
         // session's film: it gets its own handle on the renderer.
         let renderer = session.shared_renderer();
-        session.run(|report, film| {
-            // Snapshots are made here, on the render pool, not by the reader.
-            let snapshot = Arc::new(film.snapshot());
-            let error = snapshot.error_estimate;
-            // The snapshot replaced now is kept one more pass and freed here, on the
-            // render thread: a reader holding it during its frame would otherwise free
-            // it there (unmapping a large film takes the UI tens of milliseconds).
-            let replaced = shared
-                .snapshot
-                .lock()
-                .ok()
-                .and_then(|mut s| s.replace(snapshot));
-            drop(std::mem::replace(&mut retired, replaced));
-            let secs = (report.wall_s - paused_time.as_secs_f64()).max(0.0);
-            set_status(shared, |s| {
-                s.state = WorkerState::Rendering;
-                s.spp = report.spp;
-                s.passes = film.passes();
-                s.elapsed_s = secs;
-                s.updated_at = Some(Instant::now());
-                s.passes_per_s = film.passes() as f64 / secs.max(1e-9);
-                s.rays = report.rays;
-                s.store = film.store_stats();
-                s.left_out = report.left_out;
-                if let Some(e) = error {
-                    s.error_history.push((secs, e));
+        // The snapshot published and the one retired share rows a pass rebuilds.
+        session.hold_snapshots(2);
+        // Seconds rendered by earlier runs (a run resumed after a memory stop starts
+        // its clock again), and by this one at its last pass.
+        let (mut carried_s, mut last_s) = (0.0, 0.0);
+        loop {
+            session.run(|report, film| {
+                // Snapshots are made here, on the render pool, not by the reader.
+                let snapshot = Arc::new(film.snapshot());
+                let error = snapshot.error_estimate;
+                // The snapshot replaced now is kept one more pass and freed here, on the
+                // render thread: a reader holding it during its frame would otherwise free
+                // it there (unmapping a large film takes the UI tens of milliseconds).
+                let replaced = shared
+                    .snapshot
+                    .lock()
+                    .ok()
+                    .and_then(|mut s| s.replace(snapshot));
+                drop(std::mem::replace(&mut retired, replaced));
+                let secs = carried_s + (report.wall_s - paused_time.as_secs_f64()).max(0.0);
+                last_s = secs;
+                set_status(shared, |s| {
+                    s.state = WorkerState::Rendering;
+                    s.spp = report.spp;
+                    s.passes = film.passes();
+                    s.elapsed_s = secs;
+                    s.updated_at = Some(Instant::now());
+                    s.passes_per_s = film.passes() as f64 / secs.max(1e-9);
+                    s.rays = report.rays;
+                    s.store = film.store_stats();
+                    s.left_out = report.left_out;
+                    if let Some(e) = error {
+                        s.error_history.push((secs, e));
+                    }
+                });
+                on_update();
+                // The ambient image, once, after the first pass has been shown (the
+                // window has a picture meanwhile; a stop cancels it).
+                if ambient_pending {
+                    ambient_pending = false;
+                    let image = render_ambient_cancellable(
+                        &renderer,
+                        job.width,
+                        job.height,
+                        AMBIENT_SPP,
+                        &shared.stop,
+                    );
+                    if let (Some(image), Ok(mut slot)) = (image, shared.ambient.lock()) {
+                        *slot = Some(Arc::new(image));
+                    }
+                    set_status(shared, |s| s.ambient_pending = false);
+                    on_update();
                 }
+                let pause_start = Instant::now();
+                let mut was_paused = false;
+                while shared.paused.load(Ordering::Relaxed) && !shared.stop.load(Ordering::Relaxed)
+                {
+                    was_paused = true;
+                    set_status(shared, |s| s.state = WorkerState::Paused);
+                    std::thread::sleep(Duration::from_millis(30));
+                }
+                paused_time += pause_start.elapsed();
+                if was_paused {
+                    // The clock runs on from the end of the pause.
+                    set_status(shared, |s| s.updated_at = Some(Instant::now()));
+                }
+                if shared.stop.load(Ordering::Relaxed) {
+                    stopped = true;
+                    return ControlFlow::Break(());
+                }
+                ControlFlow::Continue(())
+            });
+            // Stopped for memory: paused with the message until resumed (the pass is
+            // tried again) or stopped.
+            let Some(memory) = session.memory_stop().map(|m| m.to_string()) else {
+                break;
+            };
+            shared.paused.store(true, Ordering::Relaxed);
+            set_status(shared, |s| {
+                s.state = WorkerState::Paused;
+                s.memory_stop = Some(memory);
             });
             on_update();
-            // The ambient image, once, after the first pass has been shown (the
-            // window has a picture meanwhile; a stop cancels it).
-            if ambient_pending {
-                ambient_pending = false;
-                let image = render_ambient_cancellable(
-                    &renderer,
-                    job.width,
-                    job.height,
-                    AMBIENT_SPP,
-                    &shared.stop,
-                );
-                if let (Some(image), Ok(mut slot)) = (image, shared.ambient.lock()) {
-                    *slot = Some(Arc::new(image));
-                }
-                set_status(shared, |s| s.ambient_pending = false);
-                on_update();
-            }
-            let pause_start = Instant::now();
-            let mut was_paused = false;
             while shared.paused.load(Ordering::Relaxed) && !shared.stop.load(Ordering::Relaxed) {
-                was_paused = true;
-                set_status(shared, |s| s.state = WorkerState::Paused);
                 std::thread::sleep(Duration::from_millis(30));
-            }
-            paused_time += pause_start.elapsed();
-            if was_paused {
-                // The clock runs on from the end of the pause.
-                set_status(shared, |s| s.updated_at = Some(Instant::now()));
             }
             if shared.stop.load(Ordering::Relaxed) {
                 stopped = true;
-                return ControlFlow::Break(());
+                break;
             }
-            ControlFlow::Continue(())
-        });
+            set_status(shared, |s| {
+                s.state = WorkerState::Rendering;
+                s.memory_stop = None;
+                s.updated_at = Some(Instant::now());
+            });
+            (carried_s, paused_time) = (last_s, Duration::ZERO);
+        }
     }
     if !stopped {
         set_status(shared, |s| s.state = WorkerState::Done);
