@@ -125,6 +125,13 @@ pub struct RequestArgs {
     /// The camera's vertical field of view, degrees (default: the scene camera's).
     #[arg(long, value_name = "DEG")]
     pub fov: Option<f64>,
+    /// The most memory the film may take, with a unit (`2GiB`, `512MiB`, `300MB`; no
+    /// unit: bytes). A render whose first pass would not fit is refused with the size
+    /// foreseen; before a pass that would take the film over this, or over what the
+    /// system, the cgroup or `ulimit -v` leaves, the render stops at the last whole
+    /// pass, writes the passes made and exits with status 3.
+    #[arg(long, value_name = "SIZE", value_parser = bytes_value)]
+    pub max_memory: Option<u64>,
 }
 
 impl RequestArgs {
@@ -155,6 +162,7 @@ impl RequestArgs {
             frames: self.frames,
             shard: self.shard.clone(),
             band_rows: self.band_rows,
+            max_memory_bytes: self.max_memory,
             ..RenderRequest::default()
         }
     }
@@ -175,6 +183,7 @@ pub fn request_error(e: RequestError) -> anyhow::Error {
     use tprf_core::transport::WindowError;
     match e {
         RequestError::Invalid(p) => anyhow::anyhow!(p.text_with(flag)),
+        RequestError::Memory(m) => anyhow::anyhow!(m.text_with(flag)),
         RequestError::Window(WindowError::NoLight) => {
             anyhow::Error::from(e).context("--t0 and --dt")
         }
@@ -185,6 +194,11 @@ pub fn request_error(e: RequestError) -> anyhow::Error {
 /// `--t0`/`--dt`: a time with a unit, in seconds.
 fn time_value(text: &str) -> Result<f64, String> {
     parse_time_s(text)
+}
+
+/// `--max-memory`: a size with a unit, in bytes.
+fn bytes_value(text: &str) -> Result<u64, String> {
+    tprf_core::budget::parse_bytes(text)
 }
 
 /// `X,Y,Z`: three finite numbers.

@@ -297,6 +297,9 @@ pub fn cube_incomplete(job: &Job) -> Option<String> {
     if meta.shard.is_some() {
         return Some(format!("{} holds a shard", job.out.display()));
     }
+    if let Some(stop) = &meta.stopped {
+        return Some(format!("stopped before its target ({})", stop.message));
+    }
     let r = &job.request;
     let differs = [
         ("width", Some(r.width as u64), meta.width as u64),

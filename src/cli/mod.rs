@@ -87,10 +87,17 @@ pub fn main() -> std::process::ExitCode {
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {}", message_chain(&e));
-            std::process::ExitCode::FAILURE
-        }
+        Err(e) => match e.downcast_ref::<render::StoppedForMemory>() {
+            // The output was written (the passes made); said apart from a failure.
+            Some(stop) => {
+                eprintln!("stopped: {stop}");
+                std::process::ExitCode::from(render::StoppedForMemory::EXIT_STATUS)
+            }
+            None => {
+                eprintln!("error: {}", message_chain(&e));
+                std::process::ExitCode::FAILURE
+            }
+        },
     }
 }
 

@@ -60,7 +60,28 @@ pub fn render_request(
             100.0 * e
         ))
     );
-    Ok(())
+    match written.stopped {
+        Some(stop) => Err(StoppedForMemory(stop.text_with(super::args::flag)).into()),
+        None => Ok(()),
+    }
+}
+
+/// The render stopped before its target, its next pass not fitting in memory; the
+/// output holds the passes made. `tprf` exits with [`StoppedForMemory::EXIT_STATUS`].
+#[derive(Debug)]
+pub struct StoppedForMemory(pub String);
+
+impl std::fmt::Display for StoppedForMemory {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for StoppedForMemory {}
+
+impl StoppedForMemory {
+    /// The exit status of a render stopped for memory (README's exit statuses).
+    pub const EXIT_STATUS: u8 = 3;
 }
 
 /// The render's lines on stderr and a progress bar over its passes (in spp, or in

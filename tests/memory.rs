@@ -1,0 +1,206 @@
+//! A film that outgrows its memory budget (issue 30): a request whose first pass cannot
+//! fit is refused up front with the size foreseen; a film that grows past `--max-memory`
+//! stops at its last whole pass, writes what it has (the same cube a render of that many
+//! samples writes, bit for bit) and exits with status 3; the window's worker pauses with
+//! the same message instead.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::time::{Duration, Instant};
+
+fn tprf(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tprf"))
+        .args(args)
+        .output()
+        .expect("run tprf")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn tempdir(name: &str) -> PathBuf {
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("memory-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn json(path: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
+}
+
+/// The film: cornell at 32 x 32 pixels and 1024 bins, whose store grows with every pass
+/// (its dense cube is 32 x 32 x 1024 x 16 B = 16 MiB of halves), asked for far more
+/// samples than the budget lets it take.
+/// Two threads: the budget counts a pass's scratch per thread, so the pass it stops at
+/// is the same on any machine.
+const FILM: [&str; 10] = [
+    "--width",
+    "32",
+    "--height",
+    "32",
+    "--bins",
+    "1024",
+    "--seed",
+    "7",
+    "--threads",
+    "2",
+];
+const SPP_ASKED: u64 = 4096;
+/// The budget: the film's first passes fit (its fixed part is about 100 KiB), the
+/// store's growth toward the dense 16 MiB does not. (It stops after an even number of
+/// passes, where a render asked for the spp it reached makes the same passes.)
+const MAX_MEMORY: &str = "4MiB";
+const MAX_MEMORY_BYTES: u64 = 4 << 20;
+
+/// Samples per pixel after `passes` passes of the doubling schedule far from its
+/// target: passes go in pairs of 1, 2, 4, ... samples per pixel.
+fn doubling_spp_after(passes: u64) -> u64 {
+    (0..passes).map(|p| 1u64 << (p / 2)).sum()
+}
+
+/// The CLI: exit status 3, the message on stderr naming --max-memory, tprf.json's
+/// `stopped` note, fewer samples than asked, the film's store within the budget, and a
+/// cube equal bit for bit to a render asked for the samples it stopped at (whole
+/// passes: the same passes, the same seed, no budget).
+#[test]
+fn a_film_that_outgrows_max_memory_stops_at_its_last_whole_pass() {
+    let dir = tempdir("stop");
+    let out = dir.join("stopped");
+    let spp = SPP_ASKED.to_string();
+    let mut args = vec!["render", "builtin:cornell", "--out", out.to_str().unwrap()];
+    args.extend(FILM);
+    args.extend(["--spp", &spp, "--uniform", "--max-memory", MAX_MEMORY]);
+    let o = tprf(&args);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert!(err.contains("stopped: stopped at"), "{err}");
+    assert!(err.contains("--max-memory"), "{err}");
+    let meta = json(&out.join("tprf.json"));
+    let stopped = &meta["stopped"];
+    assert_eq!(stopped["reason"], "memory", "{meta}");
+    assert_eq!(stopped["limited_by"], "max_memory", "{meta}");
+    assert_eq!(stopped["limit_bytes"], MAX_MEMORY_BYTES, "{meta}");
+    assert_eq!(stopped["spp_target"], SPP_ASKED, "{meta}");
+    let got_spp = meta["spp"].as_u64().unwrap();
+    let passes = meta["passes"].as_u64().unwrap();
+    assert!(got_spp >= 1 && got_spp < SPP_ASKED, "{meta}");
+    // Whole passes: the spp of the passes made, each whole.
+    assert_eq!(got_spp, doubling_spp_after(passes), "{meta}");
+    assert!(
+        passes.is_multiple_of(2),
+        "tune MAX_MEMORY: stopped after {passes} passes"
+    );
+    let store_bytes = meta["store"]["bytes"].as_u64().unwrap();
+    assert!(
+        store_bytes <= MAX_MEMORY_BYTES,
+        "{store_bytes} > {MAX_MEMORY_BYTES}"
+    );
+    // It stopped because the store grew: a pass more would have gone over, so the
+    // store already holds a fair part of the budget.
+    assert!(store_bytes > MAX_MEMORY_BYTES / 8, "{store_bytes}");
+
+    // The same request asked for the samples it stopped at, without a budget.
+    let whole = dir.join("whole");
+    let got = got_spp.to_string();
+    let mut args = vec![
+        "render",
+        "builtin:cornell",
+        "--out",
+        whole.to_str().unwrap(),
+    ];
+    args.extend(FILM);
+    args.extend(["--spp", &got, "--uniform"]);
+    let o = tprf(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let a = std::fs::read(out.join("tprf.npy")).unwrap();
+    let b = std::fs::read(whole.join("tprf.npy")).unwrap();
+    assert!(a.starts_with(b"\x93NUMPY"), "a valid .npy");
+    assert!(
+        a == b,
+        "the stopped cube is the render of its {got_spp} spp"
+    );
+    assert!(json(&whole.join("tprf.json")).get("stopped").is_none());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A budget the first pass cannot fit: refused before any pass, naming --max-memory and
+/// the size foreseen, nothing written.
+#[test]
+fn a_first_pass_that_cannot_fit_is_refused_up_front() {
+    let dir = tempdir("refuse");
+    let out = dir.join("never");
+    let mut args = vec!["render", "builtin:cornell", "--out", out.to_str().unwrap()];
+    args.extend(FILM);
+    args.extend(["--spp", "4", "--max-memory", "64KiB"]);
+    let o = tprf(&args);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("would need about"), "{err}");
+    assert!(err.contains("--max-memory"), "{err}");
+    assert!(!out.exists(), "nothing written");
+    // A size that is not one names the option.
+    let o = tprf(&[
+        "render",
+        "builtin:cornell",
+        "--out",
+        out.to_str().unwrap(),
+        "--max-memory",
+        "2 furlongs",
+    ]);
+    assert!(stderr(&o).contains("--max-memory"), "{}", stderr(&o));
+    assert!(!o.status.success());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The window's worker: the render pauses by itself with the message (never fails,
+/// never aborts), its last snapshot holding the passes made; resumed, it tries the pass
+/// again and pauses again, the budget still being short.
+#[test]
+fn the_worker_pauses_with_the_message_when_the_film_outgrows_its_budget() {
+    use tprf_core::request::RenderRequest;
+    use tprf_core::request::worker::{RenderWorker, WorkerState};
+    let job = RenderRequest {
+        width: 32,
+        height: 32,
+        bins: 1024,
+        seed: 7,
+        threads: Some(2),
+        spp: Some(SPP_ASKED),
+        uniform: true,
+        max_memory_bytes: Some(MAX_MEMORY_BYTES),
+        ..RenderRequest::new("builtin:cornell")
+    };
+    let w = RenderWorker::spawn(job, || {});
+    let paused_for_memory = |w: &RenderWorker| {
+        let start = Instant::now();
+        loop {
+            let s = w.status().unwrap();
+            if s.state == WorkerState::Paused && s.memory_stop.is_some() {
+                return s;
+            }
+            assert!(
+                !w.is_finished(),
+                "the worker ended instead of pausing: {:?}",
+                s.state
+            );
+            assert!(start.elapsed() < Duration::from_secs(120), "never paused");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    };
+    let s = paused_for_memory(&w);
+    let message = s.memory_stop.clone().unwrap();
+    assert!(message.contains("max_memory"), "{message}");
+    assert!(s.spp >= 1 && s.spp < SPP_ASKED, "{}", s.spp);
+    assert!(w.is_paused());
+    assert!(s.store.bytes <= MAX_MEMORY_BYTES);
+    let snap = w.latest().expect("the passes made are shown");
+    assert_eq!(snap.spp, s.spp);
+    // Resumed: the same pass still does not fit.
+    w.set_paused(false);
+    std::thread::sleep(Duration::from_millis(200));
+    let again = paused_for_memory(&w);
+    assert_eq!(again.spp, s.spp);
+}
