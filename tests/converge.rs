@@ -129,7 +129,9 @@ fn a_time_budget_run_makes_ordered_checkpoints() {
     for spec in ["default", "filter=tent,rr_floor=0.5,seconds=0.2"] {
         let setting = EstimatorSetting::parse(spec).unwrap();
         let mut seen = 0;
-        let c = run_setting(&scene, &setting, &config, &target.reference, |_| seen += 1).unwrap();
+        let run = run_setting(&scene, &setting, &config, &target.reference, |_| seen += 1).unwrap();
+        assert_eq!(run.memory_stop, None, "{spec}");
+        let c = run.checkpoints;
         assert_eq!(seen, c.len());
         // At least one checkpoint; how many fit the budget depends on the machine's load
         // (a loaded 2-core machine fits one pass of the first), so only their order is

@@ -86,7 +86,7 @@ fn a_film_that_outgrows_max_memory_stops_at_its_last_whole_pass() {
     assert_eq!(stopped["spp_target"], SPP_ASKED, "{meta}");
     let got_spp = meta["spp"].as_u64().unwrap();
     let passes = meta["passes"].as_u64().unwrap();
-    assert!(got_spp >= 1 && got_spp < SPP_ASKED, "{meta}");
+    assert!((1..SPP_ASKED).contains(&got_spp), "{meta}");
     // Whole passes: the spp of the passes made, each whole.
     assert_eq!(got_spp, doubling_spp_after(passes), "{meta}");
     assert!(
@@ -155,9 +155,10 @@ fn a_first_pass_that_cannot_fit_is_refused_up_front() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// The window's worker: the render pauses by itself with the message (never fails,
-/// never aborts), its last snapshot holding the passes made; resumed, it tries the pass
-/// again and pauses again, the budget still being short.
+/// The window's worker: its paced passes shrink to what fits, and when not even one
+/// sample per pixel more fits the render pauses by itself with the message (never
+/// fails, never aborts), its last snapshot holding the passes made; resumed, it tries
+/// the pass again and pauses again, the budget still being short.
 #[test]
 fn the_worker_pauses_with_the_message_when_the_film_outgrows_its_budget() {
     use tprf_core::request::RenderRequest;
@@ -197,6 +198,10 @@ fn the_worker_pauses_with_the_message_when_the_film_outgrows_its_budget() {
     assert!(w.is_paused());
     assert!(s.store.bytes <= MAX_MEMORY_BYTES);
     let snap = w.latest().expect("the passes made are shown");
+    assert_eq!(s.spp, snap.spp, "the status tells the film shown");
+    // Paced passes are made as large as fit: it paused when not even one sample per
+    // pixel more would fit, the store having grown into the budget.
+    assert!(s.store.bytes > MAX_MEMORY_BYTES / 8, "{}", s.store.bytes);
     assert!(snap.spp >= 1 && snap.spp < SPP_ASKED, "{}", snap.spp);
     // Resumed: the same pass still does not fit.
     w.set_paused(false);
@@ -207,4 +212,42 @@ fn the_worker_pauses_with_the_message_when_the_film_outgrows_its_budget() {
         snap.spp,
         "no pass made over the budget"
     );
+}
+
+/// `tprf converge`: a setting whose film outgrows `--max-memory` ends at its last whole
+/// pass, its checkpoints kept; the other settings run, the outputs are written, the
+/// message names the setting and --max-memory, and the exit status is 3.
+#[test]
+fn converge_stops_a_setting_at_its_memory_budget_and_writes_the_rest() {
+    let dir = tempdir("converge");
+    let out = dir.join("converge");
+    let o = tprf(&[
+        "converge",
+        "--reference",
+        "analytic:furnace?rho=0.9",
+        "--width",
+        "32",
+        "--height",
+        "32",
+        "--bins",
+        "1024",
+        "--threads",
+        "2",
+        // Far more than the budget lets a setting render: it ends on memory, not time.
+        "--seconds",
+        "600",
+        "--max-memory",
+        MAX_MEMORY,
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert!(err.contains("default: stopped at"), "{err}");
+    assert!(err.contains("--max-memory"), "{err}");
+    let csv = std::fs::read_to_string(out.join("converge.csv")).unwrap();
+    // The checkpoints made before the stop, at least the first pass's.
+    assert!(csv.lines().skip(1).count() >= 1, "{csv}");
+    assert!(out.join("converge.png").exists());
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -185,3 +185,42 @@ def test_data_is_handed_out_without_copies():
     assert all(np.shares_memory(a, arrays[0]) for a in arrays)
     # Forty views of a 64 MiB cube: no copy of it.
     assert psutil.Process().memory_info().rss - rss < nbytes // 2
+
+
+# The memory budget (issue 30): cornell at 32 x 32 x 1024 bins, whose store grows with
+# every pass toward its 16 MiB dense size, asked for far more than 4 MiB lets it take.
+BUDGET = dict(width=32, height=32, bins=1024, seed=7, threads=2, uniform=True,
+              max_memory="4MiB", progress=False)
+
+
+def test_a_render_over_its_memory_budget_returns_the_passes_made_with_a_warning(
+        tprf_bin, tmp_path):
+    with pytest.warns(RuntimeWarning, match="max_memory"):
+        cube = tprf.render("builtin:cornell", spp=4096, **BUDGET)
+    stopped = cube.metadata["stopped"]
+    assert stopped["reason"] == "memory" and stopped["limited_by"] == "max_memory"
+    spp = cube.metadata["spp"]
+    assert 1 <= spp < 4096
+    # The passes made, whole: tprf render asked for that many samples writes this cube.
+    out = tmp_path / "whole"
+    cli_render(tprf_bin, out, "--width", "32", "--height", "32", "--bins", "1024",
+               "--seed", "7", "--uniform", "--spp", str(spp))
+    assert np.array_equal(cube.data, np.load(out / "tprf.npy"))
+
+
+def test_a_renderer_over_its_memory_budget_raises_memory_error_and_keeps_its_film():
+    r = tprf.Renderer("builtin:cornell", spp=4096,
+                      **{k: v for k, v in BUDGET.items() if k != "progress"})
+    with pytest.raises(MemoryError, match="max_memory"):
+        r.run(progress=False)
+    spp = r.spp
+    assert 1 <= spp < 4096 and r.cube().metadata["spp"] == spp
+    # Tried again, the pass still does not fit: no pass over the budget.
+    with pytest.raises(MemoryError):
+        r.run(progress=False)
+    assert r.spp == spp
+
+
+def test_a_first_pass_over_the_memory_budget_is_a_value_error():
+    with pytest.raises(ValueError, match="max_memory"):
+        tprf.render("builtin:cornell", spp=4, **dict(BUDGET, max_memory="64KiB"))

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 import sys
+import warnings
 from os import PathLike
 from typing import Any, Callable, Iterator, Optional, Union
 
@@ -124,6 +125,12 @@ def render(scene: Union[str, PathLike], *, width: int, height: int,
 
     Ctrl-C raises KeyboardInterrupt at once (the render stops at the end of its pass).
     Bad settings raise ValueError naming the setting; a missing scene FileNotFoundError.
+
+    Memory: ``max_memory`` (bytes, or text with a unit: ``"2GiB"``) bounds the film, as
+    do free memory, a cgroup and ``ulimit -v``. A render whose first pass cannot fit
+    raises ValueError with the size foreseen; one whose next pass would not fit stops at
+    its last whole pass and returns the cube of the passes made, with a RuntimeWarning
+    and ``metadata["stopped"]`` saying so (as ``tprf render`` exits with status 3).
     """
     fields = dict(width=width, height=height, spp=spp, seconds=seconds, bins=bins, t0=t0,
                   dt=dt, seed=seed, uniform=uniform, max_bounces=max_bounces,
@@ -133,9 +140,13 @@ def render(scene: Union[str, PathLike], *, width: int, height: int,
         None if seconds is not None or options.get("error_target") is not None else _DEFAULT_SPP)
     bar = _Progress(total, seconds, progress)
     try:
-        return _tprf.render(request, bar)
+        cube = _tprf.render(request, bar)
     finally:
         bar.close()
+    stopped = cube.metadata.get("stopped")
+    if stopped:
+        warnings.warn(f"tprf: {stopped['message']}", RuntimeWarning, stacklevel=2)
+    return cube
 
 
 class Renderer:
@@ -171,7 +182,9 @@ class Renderer:
         """Add passes until ``seconds`` of wall time, ``spp`` samples per pixel in the
         film, ``passes`` passes, or the render's own target, whichever comes first (a
         pass is never cut); the film then, as a Cube. Ctrl-C raises KeyboardInterrupt at
-        once: the film keeps every pass made, and the next call goes on from it."""
+        once: the film keeps every pass made, and the next call goes on from it. A next
+        pass that would not fit in memory (``max_memory``, free memory) raises
+        MemoryError saying so, the film keeping the passes made (``cube()``)."""
         if seconds is None and spp is None and passes is None and self._target_spp is None \
                 and not self._has_error_target():
             raise ValueError("this render has no target (spp or error_target): give run "

@@ -197,7 +197,7 @@ fn time_value(text: &str) -> Result<f64, String> {
 }
 
 /// `--max-memory`: a size with a unit, in bytes.
-fn bytes_value(text: &str) -> Result<u64, String> {
+pub fn bytes_value(text: &str) -> Result<u64, String> {
     tprf_core::budget::parse_bytes(text)
 }
 

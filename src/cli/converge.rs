@@ -59,6 +59,11 @@ pub struct ConvergeArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Memory the film may take, with a unit (`4GiB`, `500MB`); a setting whose next
+    /// pass would not fit ends there, its checkpoints kept, and `tprf` exits with status
+    /// 3 after writing the outputs. Default: what the system can give.
+    #[arg(long, value_name = "SIZE", value_parser = super::args::bytes_value)]
+    pub max_memory: Option<u64>,
 }
 
 /// `tprf converge`.
@@ -104,6 +109,7 @@ pub fn run(a: &ConvergeArgs) -> Result<()> {
         base: RenderRequest {
             seed: a.seed,
             channel: target.channel,
+            max_memory_bytes: a.max_memory,
             ..RenderRequest::default()
         },
     };
@@ -122,8 +128,10 @@ pub fn run(a: &ConvergeArgs) -> Result<()> {
     let scene = Arc::new(target.scene);
     let mut all = Vec::new();
     let mut summaries = Vec::new();
+    // Settings that ended before their budget, their next pass not fitting in memory.
+    let mut stopped = Vec::new();
     for s in &settings {
-        let checkpoints = pool
+        let run = pool
             .install(|| {
                 run_setting(&scene, s, &config, r, |c| {
                     eprintln!(
@@ -138,8 +146,13 @@ pub fn run(a: &ConvergeArgs) -> Result<()> {
                 })
             })
             .map_err(super::args::request_error)?;
-        summaries.extend(summarise(&checkpoints));
-        all.extend(checkpoints);
+        if let Some(stop) = &run.memory_stop {
+            let text = stop.text_with(super::args::flag);
+            eprintln!("  {}: stopped: {text}", s.label);
+            stopped.push(format!("{}: {text}", s.label));
+        }
+        summaries.extend(summarise(&run.checkpoints));
+        all.extend(run.checkpoints);
     }
     let title = format!(
         "{}: {} x {} x {} bins",
@@ -148,7 +161,11 @@ pub fn run(a: &ConvergeArgs) -> Result<()> {
     write_outputs(&a.out, &inputs, &title, &all, &summaries)?;
     eprint!("{}", summary_text(&summaries));
     eprintln!("wrote {}", a.out.display());
-    Ok(())
+    if stopped.is_empty() {
+        Ok(())
+    } else {
+        Err(super::render::StoppedForMemory(stopped.join("; ")).into())
+    }
 }
 
 /// `e` with the `tprf converge` arguments it concerns in front.

@@ -5,7 +5,7 @@
 //! to the progress callback and to check for Ctrl-C: an interrupt raises
 //! `KeyboardInterrupt` at once and the render stops at the end of the pass it is in.
 
-use pyo3::exceptions::PyRuntimeError;
+use pyo3::exceptions::{PyMemoryError, PyRuntimeError};
 use pyo3::prelude::*;
 use std::ops::ControlFlow;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -325,8 +325,13 @@ impl Renderer {
                 inner.wall_s += reports.last().map_or(0.0, |r| r.wall_s);
                 inner.runs.push(reports);
                 let done = session_done(&self.request, &session);
+                let stop = session.memory_stop().map(|m| m.to_string());
                 inner.session = Some(session);
-                Ok(done)
+                match stop {
+                    // The film keeps the passes made; a later run tries the pass again.
+                    Some(message) => Err(PyMemoryError::new_err(message)),
+                    None => Ok(done),
+                }
             }
             Err(Stopped::Interrupted(e, handle)) => {
                 inner.pending = Some(handle);

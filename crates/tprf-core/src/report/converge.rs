@@ -11,7 +11,7 @@ use super::plot::{self, Curve};
 use crate::export::{self, ExportError, read_cube, write_atomic};
 use crate::film::{TimeAxis, TimeFilter, TprfFilm};
 use crate::reference::{Analytic, ReferenceCube};
-use crate::request::{RenderRequest, RequestError, Session};
+use crate::request::{MemoryStop, RenderRequest, RequestError, Session};
 use crate::scene::{Channel, Scene};
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -251,14 +251,16 @@ impl Default for RunConfig {
 /// Render `scene` with `setting` on the reference's film (its size and time axis) for
 /// the time budget, in the doubling passes of `tprf render`, measuring at checkpoints
 /// `10^(k / per_decade)` seconds (the first pass end after each), after the first pass
-/// and at the end. `on_checkpoint` sees each one as it is made.
+/// and at the end. `on_checkpoint` sees each one as it is made. A setting whose next
+/// pass would not fit in memory (the base request's `max_memory`, or what the process
+/// may still allocate) ends there: its checkpoints so far, and the stop.
 pub fn run_setting(
     scene: &Arc<Scene>,
     setting: &EstimatorSetting,
     config: &RunConfig,
     reference: &ReferenceCube,
     mut on_checkpoint: impl FnMut(&Checkpoint),
-) -> Result<Vec<Checkpoint>, RequestError> {
+) -> Result<SettingRun, RequestError> {
     let request = RenderRequest {
         scene: scene.name.clone(),
         width: reference.width,
@@ -304,7 +306,19 @@ pub fn run_setting(
             ControlFlow::Continue(())
         }
     });
-    Ok(out)
+    Ok(SettingRun {
+        checkpoints: out,
+        memory_stop: session.memory_stop().cloned(),
+    })
+}
+
+/// What [`run_setting`] measured.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SettingRun {
+    pub checkpoints: Vec<Checkpoint>,
+    /// Why the setting ended before its time budget: its next pass would not have fitted
+    /// in memory (`None`: it ran its budget).
+    pub memory_stop: Option<MemoryStop>,
 }
 
 /// A least-squares line through `(log10 x, log10 y)`: `y = 10^intercept x^slope`.

@@ -341,30 +341,67 @@ impl MemoryBudget {
     }
 
     /// Whether a pass of `spp` samples per pixel fits: `Err` with what it would need and
-    /// the limit it would pass, else the pass's start noted (for the next rate). What the
-    /// pass before it added (noted then) sets the rate first.
+    /// the limit it would pass, else the samples per pixel of the pass to make, its start
+    /// noted (for the next rate). With `shrink`, a pass that does not fit is made as
+    /// large as fits (the need grows with the samples), and `Err` only when one sample
+    /// per pixel does not. What the pass before it added (noted then) sets the rate
+    /// first.
     pub fn before_pass(
         &mut self,
         film: &TprfFilm,
         spp: u32,
-    ) -> Result<(), (u64, u64, MemoryLimit)> {
+        shrink: bool,
+    ) -> Result<u32, (u64, u64, MemoryLimit)> {
         self.after_pass(film);
-        let (need, held) = self.foresee(film, spp);
-        if let Some(max) = self.max_bytes
-            && need > max
-        {
-            return Err((need, max, MemoryLimit::MaxMemory));
-        }
-        if let Some(a) = budget::available() {
-            // What the process may still allocate, less a reserve for the rest of it.
-            let room = a.bytes.saturating_sub(RESERVE_BYTES.min(a.bytes / 10));
-            let limit = held.saturating_add(room);
-            if need > limit {
-                return Err((need, limit, MemoryLimit::from_budget(a.limited_by)));
+        let limit = self.limit(film);
+        let fits = |s: u32| {
+            let need = self.foresee(film, s).0;
+            match limit {
+                Some((max, by)) if need > max => Err((need, max, by)),
+                _ => Ok(()),
             }
+        };
+        let pass_spp = match fits(spp) {
+            Ok(()) => spp,
+            Err(over) if !shrink || spp <= 1 => return Err(over),
+            Err(_) => {
+                // The largest pass that fits, in [1, spp): `lo` fits or is 0.
+                let (mut lo, mut hi) = (0u32, spp);
+                while hi - lo > 1 {
+                    let mid = lo + (hi - lo) / 2;
+                    if fits(mid).is_ok() {
+                        lo = mid;
+                    } else {
+                        hi = mid;
+                    }
+                }
+                if lo == 0 {
+                    fits(1)?;
+                }
+                lo.max(1)
+            }
+        };
+        self.before_pass = Some((film.store_stats().stored_bins, pass_spp));
+        Ok(pass_spp)
+    }
+
+    /// The bytes the film may take and what sets them: `max_memory` or, where lower,
+    /// what it holds plus what the process may still allocate, less a reserve for the
+    /// rest of the process (`None`: no limit known).
+    fn limit(&self, film: &TprfFilm) -> Option<(u64, MemoryLimit)> {
+        let system = budget::available().map(|a| {
+            let room = a.bytes.saturating_sub(RESERVE_BYTES.min(a.bytes / 10));
+            let held = self.foresee(film, 0).1;
+            (
+                held.saturating_add(room),
+                MemoryLimit::from_budget(a.limited_by),
+            )
+        });
+        let max = self.max_bytes.map(|m| (m, MemoryLimit::MaxMemory));
+        match (max, system) {
+            (Some(m), Some(s)) => Some(if s.0 < m.0 { s } else { m }),
+            (m, s) => m.or(s),
         }
-        self.before_pass = Some((film.store_stats().stored_bins, spp));
-        Ok(())
     }
 
     /// After a pass: the rate of new bins and their cost, as seen.
@@ -386,8 +423,8 @@ impl MemoryBudget {
 
     /// Refuse a first pass of `spp` that cannot fit.
     pub fn check_first_pass(&mut self, film: &TprfFilm, spp: u32) -> Result<(), RequestError> {
-        match self.before_pass(film, spp) {
-            Ok(()) => {
+        match self.before_pass(film, spp, false) {
+            Ok(_) => {
                 self.before_pass = None;
                 Ok(())
             }

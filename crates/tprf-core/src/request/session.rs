@@ -5,7 +5,7 @@ use super::{RenderRequest, RequestError, apply_camera};
 use crate::export::shard::ShardSpec;
 use crate::film::{FilmLayout, TimeAxis, TimeFilter, TprfFilm};
 use crate::scene::{self, Scene};
-use crate::transport::progressive::{self, PassReport};
+use crate::transport::progressive::{self, PassReport, PassSize};
 use crate::transport::{Renderer, auto_window};
 use std::ops::ControlFlow;
 use std::sync::Arc;
@@ -138,8 +138,12 @@ impl Session {
         self.memory_stop = None;
         let memory = &mut self.memory;
         let stop = &mut self.memory_stop;
-        let before = |spp: u32, film: &TprfFilm| match memory.before_pass(film, spp) {
-            Ok(()) => ControlFlow::Continue(()),
+        // A paced schedule's pass may be made smaller to fit (its size is the pace's,
+        // not the result's); a doubling schedule's passes stay whole, so that a stopped
+        // render is the render of the samples it reached.
+        let shrink = matches!(schedule.pass_size, PassSize::Paced { .. });
+        let before = |spp: u32, film: &TprfFilm| match memory.before_pass(film, spp, shrink) {
+            Ok(spp) => ControlFlow::Continue(spp),
             Err((need_bytes, limit_bytes, limited_by)) => {
                 *stop = Some(MemoryStop {
                     spp: film.spp(),

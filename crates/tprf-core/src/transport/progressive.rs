@@ -181,20 +181,21 @@ pub fn render(
         renderer,
         film,
         schedule,
-        |_, _| ControlFlow::Continue(()),
+        |spp, _| ControlFlow::Continue(spp),
         on_pass,
     )
 }
 
 /// [`render`] with `before_pass(spp, film)` asked before each pass, with the samples
-/// per pixel it would add: [`ControlFlow::Break`] stops the render there, the film
-/// holding the passes before it (what a memory budget does when the pass would not
-/// fit).
+/// per pixel the schedule would add: it answers the samples per pixel to add (at most
+/// `spp`: a paced schedule's passes may be made smaller), or [`ControlFlow::Break`] to
+/// stop the render there, the film holding the passes before it (what a memory budget
+/// does when the pass would not fit).
 pub fn render_with(
     renderer: &Renderer,
     film: &mut TprfFilm,
     schedule: &Schedule,
-    mut before_pass: impl FnMut(u32, &TprfFilm) -> ControlFlow<()>,
+    mut before_pass: impl FnMut(u32, &TprfFilm) -> ControlFlow<(), u32>,
     mut on_pass: impl FnMut(&PassReport, &TprfFilm) -> ControlFlow<()>,
 ) -> Vec<PassReport> {
     let start = Instant::now();
@@ -224,9 +225,10 @@ pub fn render_with(
             };
             spp = toward_target(pass, spp, next, left);
         }
-        if before_pass(spp, film).is_break() {
-            break;
-        }
+        spp = match before_pass(spp, film) {
+            ControlFlow::Continue(s) => s.clamp(1, spp),
+            ControlFlow::Break(()) => break,
+        };
         let pass_start = Instant::now();
         let stats = renderer.render_pass(film, spp);
         let pass_time = pass_start.elapsed();
