@@ -52,7 +52,9 @@ macro_rules! bail {
 use super::{NpyBands, NpyF32, write_csv, write_json, write_npy_f32, write_png_rgb};
 use crate::film::{TimeAxis, quantile};
 use crate::sensor::spad::{Sampler, spad_bytes_per_pixel};
-use crate::sensor::{FirstReturn, Gates, Measurements, Pipeline, SensorModel, derived};
+use crate::sensor::{
+    AmcwImage, FirstReturn, Gates, Measurements, Pipeline, SensorModel, SpadImage, derived,
+};
 
 /// The time window of a cube as `tprf.json` records it; other keys are ignored, so a
 /// cube written by another tool needs only these.
@@ -72,9 +74,11 @@ struct CubeWindow {
 
 /// A cube `tprf sensor` measures: `tprf.npy` (numpy's form) read a band of rows at a
 /// time, or `tprf.zarr` read a tile of pixels at a time, so that a cube larger than
-/// memory is measured in memory that follows one tile.
-pub struct SensorCube {
-    /// The render folder.
+/// memory is measured in memory that follows one tile; or a cube already in memory
+/// ([`SensorCube::in_memory`], borrowed for `'a`: Python's `tprf.Cube`).
+pub struct SensorCube<'a> {
+    /// The render folder (for a cube in memory, the name it is given in messages and
+    /// in `sensor.json`).
     pub dir: std::path::PathBuf,
     pub width: usize,
     pub height: usize,
@@ -82,10 +86,10 @@ pub struct SensorCube {
     /// The ambient image `[H, W]` (W m^-2 sr^-1) beside the cube, when `tprf.json`
     /// records one ([`super::ambient`]).
     pub ambient: Option<Vec<f32>>,
-    form: CubeForm,
+    form: CubeForm<'a>,
 }
 
-enum CubeForm {
+enum CubeForm<'a> {
     /// `tprf.npy` `[H, W, T]`, and `tprf_bounces.npy` `[L, H, W, T]` when it is there
     /// with a single-scattering layer (`L >= 3`) and the cube's shape.
     Npy {
@@ -93,18 +97,68 @@ enum CubeForm {
         bounces: Option<NpyF32>,
     },
     Zarr(Box<super::zarr::ZarrCube>),
+    /// `[H, W, T]` in memory, and the bounce layers `[L, H, W, T]` when there are
+    /// `L >= 3` of them (with a single-scattering layer).
+    Memory {
+        cube: &'a [f32],
+        bounces: Option<&'a [f32]>,
+    },
 }
 
 /// The most bytes of cube a tile read from the cube holds by default: 256 MiB (or a
 /// quarter of the memory free, if less). One tile is in memory at a time.
 pub const DEFAULT_TILE_BYTES: u64 = 256 << 20;
 
-impl SensorCube {
+impl<'a> SensorCube<'a> {
+    /// A cube in memory, float32 `[H, W, T]` row-major (`height` x `width` pixels on
+    /// `axis`), named `name` in messages; `bounces` its per-bounce layers `[L, H, W, T]`
+    /// (used, as a folder's `tprf_bounces.npy`, when `L >= 3`: layer 1 is single
+    /// scattering, the AMCW reference depth), `ambient` its ambient image `[H, W]`
+    /// (W m^-2 sr^-1). Measured by [`measure_cube`] as a folder holding the same
+    /// arrays is, bit for bit.
+    pub fn in_memory(
+        name: &Path,
+        (height, width): (usize, usize),
+        axis: TimeAxis,
+        cube: &'a [f32],
+        bounces: Option<&'a [f32]>,
+        ambient: Option<Vec<f32>>,
+    ) -> Result<SensorCube<'a>> {
+        let t = axis.bins;
+        super::check_not_empty(name, width, height, t)?;
+        let plane = height.saturating_mul(width).saturating_mul(t);
+        if cube.len() != plane {
+            bail!(
+                "{}: {} values, but {height} x {width} pixels x {t} bins = {plane}",
+                name.display(),
+                cube.len()
+            );
+        }
+        let bounces = bounces.filter(|b| b.len() % plane == 0 && b.len() / plane >= 3);
+        if let Some(a) = &ambient
+            && a.len() != width * height
+        {
+            bail!(
+                "{}: the ambient image has {} values, not {height} x {width}",
+                name.display(),
+                a.len()
+            );
+        }
+        Ok(SensorCube {
+            dir: name.to_path_buf(),
+            width,
+            height,
+            axis,
+            ambient,
+            form: CubeForm::Memory { cube, bounces },
+        })
+    }
+
     /// Opens the cube of render folder `dir`: `tprf.npy` or, without one, `tprf.zarr`;
     /// either is read tile by tile as it is measured. `tprf.json` needs only the time
     /// window (`t0_s`, `dt_s`, `bins`; `width` and `height` are checked when present), so
     /// `.npy` cubes written by other tools can be measured too.
-    pub fn open(dir: &Path) -> Result<SensorCube> {
+    pub fn open(dir: &Path) -> Result<SensorCube<'static>> {
         let json_path = dir.join("tprf.json");
         let text = crate::budget::read_file(&json_path, "tprf.json").map_err(|e| match e {
             crate::budget::BudgetError::Io { path, source } => {
@@ -199,6 +253,7 @@ impl SensorCube {
         match &self.form {
             CubeForm::Npy { cube, .. } => cube.path(),
             CubeForm::Zarr(z) => &z.path,
+            CubeForm::Memory { .. } => &self.dir,
         }
     }
 
@@ -212,6 +267,26 @@ impl SensorCube {
         let t = self.axis.bins;
         match &self.form {
             CubeForm::Zarr(z) => Ok(z.read_tile(y0, x0, rows, cols, layer)?),
+            CubeForm::Memory { cube, bounces } => {
+                let values = match layer {
+                    None => *cube,
+                    Some(_) => match bounces {
+                        Some(b) => *b,
+                        None => bail!("the cube has no single-scattering layer"),
+                    },
+                };
+                let plane = self.width * self.height * t;
+                let base = layer.map_or(0, |l| l * plane);
+                let mut out = Vec::with_capacity(rows * cols * t);
+                for y in y0..y0 + rows {
+                    let first = base + (y * self.width + x0) * t;
+                    match values.get(first..first + cols * t) {
+                        Some(row) => out.extend_from_slice(row),
+                        None => bail!("rows {y0}..{} are outside the cube", y0 + rows),
+                    }
+                }
+                Ok(out)
+            }
             CubeForm::Npy { cube, bounces } => {
                 let npy = match layer {
                     None => cube,
@@ -237,6 +312,7 @@ impl SensorCube {
         match &self.form {
             CubeForm::Npy { bounces, .. } => bounces.is_some(),
             CubeForm::Zarr(z) => z.layers() >= 3,
+            CubeForm::Memory { bounces, .. } => bounces.is_some(),
         }
     }
 
@@ -250,7 +326,7 @@ impl SensorCube {
             return vec![(0, 0, h, w)];
         }
         let [cy, cx, _] = match self.form {
-            CubeForm::Npy { .. } => [1, 1, 0],
+            CubeForm::Npy { .. } | CubeForm::Memory { .. } => [1, 1, 0],
             CubeForm::Zarr(_) => super::zarr::CHUNK.map(|c| c as usize),
         };
         let pixel_bytes = (self.axis.bins as u64).saturating_mul(4).max(1);
@@ -481,6 +557,19 @@ pub struct MultipathError {
     pub ambiguity_m: f64,
 }
 
+/// The AMCW multipath error image `[H, W]`: `amcw_depth - true_depth` wrapped into
+/// `[-ambiguity/2, ambiguity/2)`, metres, per pixel ([`derived::wrapped_difference`];
+/// `multipath_error.npy`).
+pub fn multipath_error(amcw: &AmcwImage, true_depth_m: &[f32]) -> Vec<f32> {
+    amcw.depth_m
+        .iter()
+        .zip(true_depth_m)
+        .map(|(&d, &r)| {
+            derived::wrapped_difference(f64::from(d), f64::from(r), amcw.ambiguity_m) as f32
+        })
+        .collect()
+}
+
 /// What [`write_sensor_outputs`] wrote.
 #[derive(Clone, Debug)]
 pub struct SensorOutputs {
@@ -544,14 +633,7 @@ pub fn write_sensor_outputs(out: &Path, run: &SensorRun) -> Result<SensorOutputs
         let Some((reference, how)) = true_depth else {
             bail!("the AMCW depth needs its reference depth (measure_cube gives it)");
         };
-        let error: Vec<f32> = amcw
-            .depth_m
-            .iter()
-            .zip(reference)
-            .map(|(&d, &r)| {
-                derived::wrapped_difference(f64::from(d), f64::from(r), amcw.ambiguity_m) as f32
-            })
-            .collect();
+        let error = multipath_error(amcw, reference);
         let shape = [h as u64, w as u64];
         write_npy_f32(&out.join("amcw_phase.npy"), &shape, &amcw.phase_rad)?;
         write_npy_f32(&out.join("amcw_amplitude.npy"), &shape, &amcw.amplitude)?;
@@ -718,13 +800,91 @@ pub fn write_spad_files(out: &Path, pipeline: &Pipeline, tile_bytes: u64) -> Res
     let rows = usize::try_from(budget / row_bytes.max(1))
         .unwrap_or(usize::MAX)
         .clamp(1, h.max(1));
+    let shape = SpadShape {
+        bins,
+        width: w,
+        height: h,
+        sampler,
+        expected_detections,
+    };
+    write_spad_bands(out, &shape, rows, started, |y0, n| {
+        Ok(std::borrow::Cow::Owned(pipeline.spad_rows(sampler, y0, n)?))
+    })
+}
+
+/// [`write_spad_files`]'s files from a SPAD image already computed whole
+/// ([`Pipeline::spad_rows`] over every row, which the bands of `write_spad_files` equal
+/// bit for bit), drawn by `sampler` with `expected_detections` over the image
+/// ([`Pipeline::spad_sampler`]): the same files, byte for byte, written in one band.
+pub fn write_spad_image(
+    out: &Path,
+    image: &SpadImage,
+    sampler: Sampler,
+    expected_detections: f64,
+) -> Result<SpadFiles> {
+    let shape = SpadShape {
+        bins: image.bins,
+        width: image.width,
+        height: image.height,
+        sampler,
+        expected_detections,
+    };
+    let n = image.width * image.height;
+    if image.histogram.len() != image.bins * n
+        || image.counts.len() != image.bins * n
+        || image.coates.len() != image.bins * n
+        || [
+            &image.depth_histogram_m,
+            &image.depth_counts_m,
+            &image.depth_coates_m,
+        ]
+        .iter()
+        .any(|d| d.len() != n)
+    {
+        bail!(
+            "the SPAD image's arrays do not hold {} bins of {} x {} pixels",
+            image.bins,
+            image.height,
+            image.width
+        );
+    }
+    write_spad_bands(out, &shape, image.height.max(1), Instant::now(), |_, _| {
+        Ok(std::borrow::Cow::Borrowed(image))
+    })
+}
+
+/// What the SPAD's files describe besides the arrays.
+struct SpadShape {
+    bins: usize,
+    width: usize,
+    height: usize,
+    sampler: Sampler,
+    expected_detections: f64,
+}
+
+/// The SPAD's files, `band(y0, n)` giving rows `y0 .. y0 + n` of the image, taken
+/// `rows` at a time.
+fn write_spad_bands<'b>(
+    out: &Path,
+    shape: &SpadShape,
+    rows: usize,
+    started: Instant,
+    mut band_of: impl FnMut(usize, usize) -> Result<std::borrow::Cow<'b, SpadImage>>,
+) -> Result<SpadFiles> {
+    let SpadShape {
+        bins,
+        width: w,
+        height: h,
+        sampler,
+        expected_detections,
+    } = *shape;
     super::create_dir(out)?;
-    let shape = [bins as u64, h as u64, w as u64];
+    let npy_shape = [bins as u64, h as u64, w as u64];
     let names = ["spad_histogram.npy", "spad_counts.npy", "spad_coates.npy"];
     let mut arrays = [
-        NpyBands::create(&out.join(names[0]), shape)?,
-        NpyBands::create(&out.join(names[1]), shape)?,
-        NpyBands::create(&out.join(names[2]), shape)?,
+        NpyBands::create(&out.join(names[0]), npy_shape)?,
+        NpyBands::create(&out.join(names[1]), npy_shape)?,
+        NpyBands::create(&out.join(names[2]), npy_shape)?,
     ];
     let mut depths = [
         vec![f32::NAN; w * h],
@@ -732,9 +892,9 @@ pub fn write_spad_files(out: &Path, pipeline: &Pipeline, tile_bytes: u64) -> Res
         vec![f32::NAN; w * h],
     ];
     let (mut never_armed, mut bands, mut centres_s) = (0, 0, Vec::new());
-    for y0 in (0..h).step_by(rows) {
+    for y0 in (0..h).step_by(rows.max(1)) {
         let n = rows.min(h - y0);
-        let band = pipeline.spad_rows(sampler, y0, n)?;
+        let band = band_of(y0, n)?;
         for (file, values) in arrays
             .iter_mut()
             .zip([&band.histogram, &band.counts, &band.coates])
@@ -750,7 +910,7 @@ pub fn write_spad_files(out: &Path, pipeline: &Pipeline, tile_bytes: u64) -> Res
         }
         never_armed += band.coates.iter().filter(|v| v.is_nan()).count();
         bands += 1;
-        centres_s = band.centres_s;
+        centres_s.clone_from(&band.centres_s);
     }
     for file in arrays {
         file.finish()?;

@@ -1,5 +1,6 @@
 //! The editable numbers of a sensor, described by its own types. For each parameter of
-//! a light pulse ([`LightPulse::fields`]), a gate sequence ([`Exposure::fields`]) and a
+//! a light pulse ([`LightPulse::fields`]), a gate sequence ([`Exposure::fields`]), the
+//! noise ([`Noise::fields`]) and a
 //! SPAD ([`Spad::fields`]): its key in a sensor file, a short name, its unit and range,
 //! whether a gate time counts from the sequence's origin, and where an envelope editor
 //! draws a handle for it (and so what dragging the handle changes). A user interface
@@ -10,6 +11,7 @@
 
 use super::exposure::{Exposure, MAX_GATES, TimeOrigin};
 use super::light::{LightPulse, MAX_LOBES};
+use super::noise::Noise;
 use super::spad::{MAX_CYCLES, Spad};
 use super::values::Point;
 
@@ -601,6 +603,39 @@ impl Exposure {
     }
 }
 
+impl Noise {
+    /// The noise's editable numbers (its seed aside: a whole number beyond a float's
+    /// 53 bits), in the order a form shows them.
+    pub fn fields(&self) -> Vec<Field> {
+        use Quantity::Number;
+        vec![
+            Field::new("sigma", "noise σ", Number, self.sigma)
+                .range(0.0, super::MAX_SCALE)
+                .help("standard deviation of the additive Gaussian noise, in measurement units"),
+            Field::new(
+                "photons_per_energy",
+                "photons / unit",
+                Number,
+                self.photons_per_energy,
+            )
+            .range(0.0, super::MAX_SCALE)
+            .help("photon (Poisson) noise: photons per unit of measurement; 0: none"),
+        ]
+    }
+
+    /// Set the field `key` (as [`Self::fields`] names it) to `value`; false when there
+    /// is no such field.
+    pub fn set_field(&mut self, key: &str, value: f64) -> bool {
+        let slot = match key {
+            "sigma" => &mut self.sigma,
+            "photons_per_energy" => &mut self.photons_per_energy,
+            _ => return false,
+        };
+        *slot = value;
+        true
+    }
+}
+
 impl Spad {
     /// The SPAD's editable numbers (its acquisition mode aside), in the order a form
     /// shows them; the afterpulse delay only with afterpulsing on.
@@ -788,6 +823,13 @@ mod tests {
                 v
             );
         }
+        let mut noise = Noise::default();
+        for f in noise.fields() {
+            assert!(noise.set_field(f.key, 0.5), "noise.{}", f.key);
+            let file = toml::Value::try_from(noise).unwrap();
+            assert_eq!(file.get(f.key).and_then(|x| x.as_float()), Some(0.5));
+        }
+        assert!(!noise.set_field("seed", 1.0));
         // Afterpulsing on: its delay appears, and is set.
         assert!(spad.fields().iter().any(|f| f.key == "afterpulse_delay_s"));
         assert!(spad.afterpulse_delay_s > 0.0);
