@@ -11,6 +11,6 @@ unit-energy pulse leaving the light at t = 0.
 """
 
 from ._render import Renderer, render
-from ._tprf import Cube, __version__, load
+from ._tprf import Cube, Measurement, Sensor, __version__, load
 
-__all__ = ["Cube", "Renderer", "load", "render", "__version__"]
+__all__ = ["Cube", "Measurement", "Renderer", "Sensor", "load", "render", "__version__"]

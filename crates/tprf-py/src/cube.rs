@@ -25,7 +25,7 @@ pub struct Cube {
 
 /// `array`, no longer writeable: a cube's arrays are its data and its metadata's, which
 /// an edit in place would make lie (`np.array(cube)` is a writeable copy).
-fn read_only<'py, A: pyo3::PyTypeInfo>(array: Bound<'py, A>) -> PyResult<Bound<'py, A>> {
+pub(crate) fn read_only<'py, A: pyo3::PyTypeInfo>(array: Bound<'py, A>) -> PyResult<Bound<'py, A>> {
     let kwargs = PyDict::new(array.py());
     kwargs.set_item("write", false)?;
     array.as_any().call_method("setflags", (), Some(&kwargs))?;
@@ -79,6 +79,21 @@ impl Cube {
 
     pub fn meta(&self) -> &CubeMetadata {
         &self.meta
+    }
+
+    /// The cube's `[H, W, T]` array.
+    pub fn data_array(&self) -> &Py<PyArray3<f32>> {
+        &self.data
+    }
+
+    /// The bounce layers `[L, H, W, T]`, when rendered.
+    pub fn bounces_array(&self) -> Option<&Py<PyArray4<f32>>> {
+        self.bounces.as_ref()
+    }
+
+    /// The ambient image `[H, W]`, when the scene has one.
+    pub fn ambient_array(&self) -> Option<&Py<PyArray2<f32>>> {
+        self.ambient.as_ref()
     }
 }
 

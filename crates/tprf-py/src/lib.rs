@@ -6,6 +6,7 @@
 mod cube;
 mod errors;
 mod render;
+mod sensor;
 
 use pyo3::prelude::*;
 
@@ -15,6 +16,9 @@ fn _tprf(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(cube::load, m)?)?;
     m.add_class::<render::Renderer>()?;
     m.add_function(wrap_pyfunction!(render::render, m)?)?;
+    m.add_class::<sensor::PySensor>()?;
+    m.add_class::<sensor::SensorPart>()?;
+    m.add_class::<sensor::Measurement>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
