@@ -1,6 +1,7 @@
 """The examples run as a user runs them (executed, not just present), and draw what
 they say they draw."""
 
+import re
 import subprocess
 import sys
 
@@ -24,3 +25,9 @@ def test_cornell_example_renders_scrubs_and_plots(tmp_path):
     assert all(f.std() > 0.01 for f in frames)
     assert not np.array_equal(frames[0], frames[1])
     assert imread(tmp_path / "convergence.png").std() > 0.01
+    # The LiDAR measurement: most pixels see a return, its figure drawn.
+    found = re.search(r"LiDAR: (\d+) of (\d+) pixels with a return", run.stdout)
+    assert found, run.stdout
+    with_return, pixels = map(int, found.groups())
+    assert with_return > 0.9 * pixels
+    assert imread(tmp_path / "lidar.png").std() > 0.01
