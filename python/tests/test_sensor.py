@@ -82,7 +82,9 @@ def test_measure_is_tprf_sensor_bit_for_bit(tprf_bin, render_dir, tmp_path, pres
         assert same_bits(getattr(m, ARRAYS[name]), np.load(cli / name)), name
     for name in set(ARRAYS) - set(npys):
         assert getattr(m, ARRAYS[name]) is None, name
+    # Read-only arrays lent by the measurement: no copy per access.
     assert m.images.flags.writeable is False
+    assert np.shares_memory(m.images, m.images)
     assert m.shape == np.load(cli / "sensor.npy").shape
     # save writes the same folder: the same files, the same bytes (but sensor.json's
     # timings and the cube's name).
