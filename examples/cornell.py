@@ -114,7 +114,8 @@ def main():
                     label=f"first return: depth {depth[y, x]:.3f} m")
     lit = np.nonzero(measurement.images[:, y, x] > 0)[0]
     if lit.size:
-        ax_wave.set_xlim(gates_ns[max(lit[0] - 4, 0)], gates_ns[min(lit[-1] + 4, len(gates_ns) - 1)])
+        first, last = max(lit[0] - 4, 0), min(lit[-1] + 4, len(gates_ns) - 1)
+        ax_wave.set_xlim(gates_ns[first], gates_ns[last])
     ax_wave.set_xlabel("gate centre (ns after the trigger)")
     ax_wave.set_ylabel("measurement (W m$^{-2}$ sr$^{-1}$ s)")
     ax_wave.set_title(f"LiDAR waveform of pixel (row {y}, column {x})")
