@@ -54,6 +54,7 @@ fn edge_lights() -> Scene {
         },
         ambient: Default::default(),
         objects: Vec::new(),
+        medium: None,
         notes: Vec::new(),
     }
 }

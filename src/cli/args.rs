@@ -113,6 +113,13 @@ pub struct RequestArgs {
     /// a sky, lamps tagged ambient). Default: --spp, or 64.
     #[arg(long)]
     pub ambient_spp: Option<u32>,
+    /// A participating medium filling the scene (the air: fog, haze, water), replacing
+    /// the scene's own: `sigma_s=0.05/m,sigma_a=0.001/m,g=0.9,n=1.0` (coefficients per
+    /// metre, Henyey-Greenstein g, refractive index n), or `visibility=30m` (fog of that
+    /// meteorological optical range: extinction 3.912 / V, g 0.9; `albedo=` and `g=`
+    /// may follow), or `none` to render the scene in vacuum.
+    #[arg(long, value_name = "SPEC")]
+    pub medium: Option<String>,
     /// Put the camera at X,Y,Z (metres); alone, it keeps the scene camera's direction.
     #[arg(long, value_name = "X,Y,Z", value_parser = vec3_value, allow_hyphen_values = true)]
     pub camera_position: Option<[f64; 3]>,
@@ -153,6 +160,7 @@ impl RequestArgs {
             uniform: self.uniform,
             sky_radiance_w_m2_sr: self.sky,
             ambient_spp: self.ambient_spp,
+            medium: self.medium.clone(),
             camera_position_m: self.camera_position,
             look_at_m: self.look_at,
             up: self.up,

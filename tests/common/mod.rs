@@ -23,6 +23,7 @@ pub fn empty_scene(camera: Camera) -> Scene {
         camera,
         ambient: Default::default(),
         objects: Vec::new(),
+        medium: None,
         notes: vec![],
     }
 }

@@ -197,6 +197,11 @@ pub struct CubeMetadata {
     /// scene has an ambient light group.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ambient: Option<ambient::AmbientMetadata>,
+    /// The participating media the light crossed: the scene-wide medium (`region`
+    /// "scene") and those filling closed meshes (`region` "material 'NAME'"); empty
+    /// (and not written) for a scene in vacuum.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub media: Vec<MediumMetadata>,
     pub notes: Vec<String>,
     /// Only in a shard's folder (`tprf render --shard K/N`): which part of the render it
     /// holds, and what `tprf merge` needs to check and merge it.
@@ -236,6 +241,22 @@ fn pass_count<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<u64
         Passes::Count(n) => n,
         Passes::List(l) => l.len() as u64,
     })
+}
+
+/// A participating medium as written to metadata (scene::Medium's fields).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MediumMetadata {
+    /// Where it is: `scene` (around everything) or `material 'NAME'` (inside the meshes
+    /// of that material).
+    pub region: String,
+    /// Scattering coefficient per channel (linear RGB), 1/m.
+    pub sigma_s_per_m: [f32; 3],
+    /// Absorption coefficient per channel, 1/m.
+    pub sigma_a_per_m: [f32; 3],
+    /// Henyey-Greenstein asymmetry.
+    pub g: f32,
+    /// Refractive index: light travels at c / n in it.
+    pub n: f32,
 }
 
 /// The camera as written to metadata.

@@ -207,6 +207,7 @@ impl Furnace {
             camera: Camera::look_at(Vec3::ZERO, Vec3::new(0.0, 0.0, -1.0), 60f32.to_radians()),
             ambient: Default::default(),
             objects: Vec::new(),
+            medium: None,
             notes: Vec::new(),
         }
     }

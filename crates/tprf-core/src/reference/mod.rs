@@ -142,7 +142,8 @@ impl Analytic {
     ///   or `le` (emitted radiance of the wall for `light=area`, default 1);
     /// - `analytic:plane` with `h` (camera height, m, default 2), `rho` (default 0.5),
     ///   `i` (W/sr, default 3), `fov` (degrees, default 40), `light_h` (light height on
-    ///   the camera's axis, m, default: at the camera);
+    ///   the camera's axis, m, default: at the camera), `sigma_a` (a purely absorbing
+    ///   medium filling space, 1/m, default 0) and `n` (its refractive index, default 1);
     /// - `analytic:oned` with `world` (a 1-D world file, default the paper's Figure 4
     ///   world, `assets/oned/figure4.json`).
     pub fn parse(spec: &str) -> Result<Analytic, ReferenceError> {
@@ -230,6 +231,24 @@ impl Analytic {
                             })?
                         }
                         "i" => p.intensity_w_per_sr = number(spec, k, v, positive)?,
+                        "sigma_a" => {
+                            p.sigma_a_per_m = number(spec, k, v, |x| {
+                                if x >= 0.0 {
+                                    Ok(())
+                                } else {
+                                    Err("the absorption must be >= 0 (per metre)".into())
+                                }
+                            })?
+                        }
+                        "n" => {
+                            p.n = number(spec, k, v, |x| {
+                                if x >= 1.0 {
+                                    Ok(())
+                                } else {
+                                    Err("the refractive index must be >= 1".into())
+                                }
+                            })?
+                        }
                         "fov" => {
                             p.fov_deg = number(spec, k, v, |x| {
                                 if x > 0.0 && x < 170.0 {
@@ -243,7 +262,7 @@ impl Analytic {
                             return Err(ReferenceError::UnknownParameter {
                                 spec: spec.into(),
                                 key: k.into(),
-                                known: "h, light_h, rho, i, fov",
+                                known: "h, light_h, rho, i, fov, sigma_a, n",
                             });
                         }
                     }

@@ -188,6 +188,7 @@ impl OnedScene {
             camera: Camera::look_at(Vec3::ZERO, Vec3::NEG_Z, self.fov_deg.to_radians() as f32),
             ambient: Default::default(),
             objects: Vec::new(),
+            medium: None,
             notes: Vec::new(),
         };
         let quad = |s: &mut Scene, z: f64, m: Material| {

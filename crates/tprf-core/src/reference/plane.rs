@@ -13,6 +13,11 @@
 //! the radii where `t(q)` crosses a bin edge; each piece is integrated by Gauss-Legendre
 //! after splitting at the kinks of `len(q)` (the radii of the rectangle's sides and
 //! corners). Accurate to ~1e-10.
+//!
+//! Space may be filled with a purely absorbing medium of index `n` (absorption
+//! `sigma_a`, no scattering): light then keeps `e^(-sigma_a path)` of itself over its
+//! path `path = sqrt(l^2 + q^2) + sqrt(h^2 + q^2)` and arrives at `n path / c`; still
+//! one scattering event, still a function of `q` only.
 
 use crate::film::{FilmError, TimeAxis};
 use crate::scene::{Camera, Material, PunctualLight, Scene, Triangle, TriangleAttrs};
@@ -33,6 +38,10 @@ pub struct Plane {
     pub half_m: f64,
     /// Vertical field of view, degrees.
     pub fov_deg: f64,
+    /// Absorption coefficient of the medium filling space, 1/m (0: none).
+    pub sigma_a_per_m: f64,
+    /// Refractive index of the medium filling space (1: vacuum).
+    pub n: f64,
 }
 
 impl Default for Plane {
@@ -44,6 +53,8 @@ impl Default for Plane {
             intensity_w_per_sr: 3.0,
             half_m: 50.0,
             fov_deg: 40.0,
+            sigma_a_per_m: 0.0,
+            n: 1.0,
         }
     }
 }
@@ -175,6 +186,17 @@ impl Plane {
             intensity_w_per_sr: i_w_per_sr,
             half_m,
             fov_deg,
+            sigma_a_per_m: 0.0,
+            n: 1.0,
+        }
+    }
+
+    /// The same, in a purely absorbing medium of absorption `sigma_a_per_m` and index `n`.
+    pub fn in_medium(self, sigma_a_per_m: f64, n: f64) -> Plane {
+        Plane {
+            sigma_a_per_m,
+            n,
+            ..self
         }
     }
 
@@ -195,6 +217,18 @@ impl Plane {
         }
         if !(self.intensity_w_per_sr.is_finite() && self.intensity_w_per_sr >= 0.0) {
             return Err("intensity must be finite and >= 0".into());
+        }
+        if !(self.sigma_a_per_m.is_finite() && self.sigma_a_per_m >= 0.0) {
+            return Err(format!(
+                "absorption {} /m must be finite and >= 0",
+                self.sigma_a_per_m
+            ));
+        }
+        if !(self.n.is_finite() && self.n >= 1.0) {
+            return Err(format!(
+                "refractive index {} must be finite and >= 1",
+                self.n
+            ));
         }
         Ok(())
     }
@@ -237,20 +271,35 @@ impl Plane {
             },
             ambient: Default::default(),
             objects: Vec::new(),
+            medium: (self.sigma_a_per_m > 0.0 || self.n != 1.0).then(|| {
+                crate::scene::Medium::grey(0.0, self.sigma_a_per_m as f32, 0.0, self.n as f32)
+            }),
             notes: Vec::new(),
         }
     }
 
-    /// Radiance of the ground at distance `q` from the foot, W / (m^2 sr).
-    pub fn radiance(&self, q: f64) -> f64 {
-        let l = self.light_height_m;
-        self.rho * self.intensity_w_per_sr * l / (std::f64::consts::PI * (l * l + q * q).powf(1.5))
+    /// Length of the light's path via the ground at distance `q` from the foot, m.
+    fn path_m(&self, q: f64) -> f64 {
+        let (h, l) = (self.camera_height_m, self.light_height_m);
+        (l * l + q * q).sqrt() + (h * h + q * q).sqrt()
     }
 
-    /// Arrival time of the light from the ground at distance `q`, seconds.
+    /// Radiance reaching the camera from the ground at distance `q` from the foot,
+    /// W / (m^2 sr): `rho I l / (pi (l^2 + q^2)^(3/2)) e^(-sigma_a path)`.
+    pub fn radiance(&self, q: f64) -> f64 {
+        let l = self.light_height_m;
+        let attenuation = if self.sigma_a_per_m > 0.0 {
+            (-self.sigma_a_per_m * self.path_m(q)).exp()
+        } else {
+            1.0
+        };
+        self.rho * self.intensity_w_per_sr * l / (std::f64::consts::PI * (l * l + q * q).powf(1.5))
+            * attenuation
+    }
+
+    /// Arrival time of the light from the ground at distance `q`, seconds: `n path / c`.
     pub fn arrival_s(&self, q: f64) -> f64 {
-        let (h, l) = (self.camera_height_m, self.light_height_m);
-        ((l * l + q * q).sqrt() + (h * h + q * q).sqrt()) / C_M_PER_S
+        self.n * self.path_m(q) / C_M_PER_S
     }
 
     /// The `q` with `arrival_s(q) = t_s` (bisection; `arrival_s` increases with q).

@@ -7,7 +7,8 @@ use super::{MemoryRefusal, MemoryStop, RenderRequest, RequestError, Session};
 use crate::export::ambient::{AMBIENT_NPY, AMBIENT_UNITS, AmbientMetadata};
 use crate::export::shard::{self, ShardInfo};
 use crate::export::{
-    self, BIN_VALUE, CameraMetadata, CubeFormat, CubeMetadata, RenderStopped, zarr,
+    self, BIN_VALUE, CameraMetadata, CubeFormat, CubeMetadata, MediumMetadata, RenderStopped,
+    zarr,
 };
 use crate::film::{FilmSnapshot, TprfFilm};
 use crate::transport::ambient::{AmbientImage, render_ambient};
@@ -377,6 +378,7 @@ pub fn cube_metadata(
         left_out,
         store: film.store_stats(),
         render_seconds: render_s,
+        media: media_metadata(session.scene()),
         notes: session.scene().notes.clone(),
         shard: match &spec {
             Some(spec) => {
@@ -451,4 +453,27 @@ fn render_ambient_image(
         error_estimate: image.error_estimate,
     };
     Ok(Some((image, meta)))
+}
+
+/// A scene's media as metadata: the scene-wide one, then those of the materials
+/// some triangle uses.
+fn media_metadata(scene: &crate::scene::Scene) -> Vec<MediumMetadata> {
+    let row = |region: String, m: &crate::scene::Medium| MediumMetadata {
+        region,
+        sigma_s_per_m: m.sigma_s_per_m,
+        sigma_a_per_m: m.sigma_a_per_m,
+        g: m.g,
+        n: m.n,
+    };
+    let used = |i: usize| scene.attrs.iter().any(|a| a.material as usize == i);
+    let materials = scene.materials.iter().enumerate();
+    scene
+        .medium
+        .iter()
+        .map(|m| row("scene".into(), m))
+        .chain(materials.filter_map(|(i, mat)| {
+            let m = mat.medium.as_ref().filter(|_| used(i))?;
+            Some(row(format!("material '{}'", mat.name), m))
+        }))
+        .collect()
 }

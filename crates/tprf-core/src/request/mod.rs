@@ -38,7 +38,7 @@ pub use session::Session;
 use crate::export::shard::{self, ShardError, ShardSpec};
 use crate::export::{CubeFormat, ExportError};
 use crate::film::{FilmError, MAX_BINS, TimeFilter};
-use crate::scene::{Channel, SceneError};
+use crate::scene::{Channel, Medium, SceneError};
 use crate::transport::progressive::{PassSize, Schedule};
 use crate::transport::{RenderSettings, WindowError, WindowRequest};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
@@ -136,6 +136,11 @@ pub struct RenderRequest {
     /// Samples per pixel of the ambient image (default: `spp`, or 64).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub ambient_spp: Option<u32>,
+    /// A participating medium filling the scene (the air: fog, haze, water), replacing
+    /// the scene's own: `sigma_s=0.05/m,sigma_a=0.001/m,g=0.9,n=1.0`, `visibility=30m`
+    /// or `none` (vacuum); [`crate::scene::Medium::parse_spec`] reads it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub medium: Option<String>,
     /// The camera's position, metres (`camera_position`; unset: the scene camera's).
     #[serde(rename = "camera_position", skip_serializing_if = "Option::is_none")]
     pub camera_position_m: Option<[f64; 3]>,
@@ -204,6 +209,7 @@ impl Default for RenderRequest {
             time_filter: TimeFilter::Box,
             sky_radiance_w_m2_sr: None,
             ambient_spp: None,
+            medium: None,
             camera_position_m: None,
             look_at_m: None,
             up: None,
@@ -438,6 +444,20 @@ impl RenderRequest {
         }
     }
 
+    /// The scene-wide medium `medium` puts in place of the scene's: `None` when not
+    /// set, `Some(None)` for `none` (vacuum).
+    pub fn medium_override(&self) -> Result<Option<Option<Medium>>, RequestError> {
+        match self.medium.as_deref().map(str::trim) {
+            None => Ok(None),
+            Some("none") => Ok(Some(None)),
+            Some(spec) => Medium::parse_spec(spec)
+                .map(|m| Some(Some(m)))
+                .map_err(|e| {
+                    RequestError::invalid(Problem::field("medium").text(format!(": {e}")))
+                }),
+        }
+    }
+
     /// Check every field and the fields together, before anything is loaded or
     /// rendered; the error names the field (`dt: bin width -1 ns must be > 0`).
     pub fn validate(&self) -> Result<(), RequestError> {
@@ -527,6 +547,7 @@ impl RenderRequest {
         if self.ambient_spp == Some(0) {
             return bad("ambient_spp", " must be at least 1".into());
         }
+        self.medium_override()?;
         if self.threads == Some(0) {
             return bad("threads", " must be at least 1".into());
         }

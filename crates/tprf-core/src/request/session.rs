@@ -71,6 +71,9 @@ impl Session {
             // Validated: finite, >= 0 and within f32.
             Arc::make_mut(&mut scene).ambient.sky_radiance = [l as f32; 3];
         }
+        if let Some(medium) = request.medium_override()? {
+            Arc::make_mut(&mut scene).medium = medium;
+        }
         let renderer = Arc::new(Renderer::new(scene.clone(), request.settings()));
         let axis = auto_window(&renderer, request.window())?;
         let layout = FilmLayout {

@@ -16,6 +16,8 @@
 //!
 //!   Both NLOS scenes have a point light at tal's device position and a camera looking at
 //!   the setup from the side, so a camera render shows it.
+//! - `fog`: a road in fog seen by a car's LiDAR: a pedestrian, two cars and a sign at
+//!   22-78 m, a pulsed laser beside the camera, fog of visibility 50 m ([`fog`]).
 //!
 //! World space is glTF's: metres, +Y up; the scenes are deterministic (a fixed-seed
 //! PRNG), so a render of them is reproducible. Triangles are stored grouped by material,
@@ -28,7 +30,9 @@ use super::{
 use glam::{Affine3A, Vec2, Vec3, Vec3A};
 
 /// Names accepted after `builtin:`.
-pub const NAMES: &[&str] = &["cornell", "canopy", "nlos-z", "nlos-shapes"];
+pub const NAMES: &[&str] = &["cornell", "canopy", "nlos-z", "nlos-shapes", "fog"];
+
+pub mod fog;
 
 /// Build a built-in scene.
 pub fn load(name: &str) -> Result<Scene, SceneError> {
@@ -37,6 +41,7 @@ pub fn load(name: &str) -> Result<Scene, SceneError> {
         "canopy" => canopy(),
         "nlos-z" => nlos_z(),
         "nlos-shapes" => nlos_shapes(),
+        "fog" => fog::fog(),
         _ => return Err(SceneError::UnknownBuiltin(name.to_string())),
     };
     scene.validate()?;
@@ -195,6 +200,7 @@ fn cornell() -> Scene {
         camera: Camera::look_at(eye, v(0.0, h, 0.0), 2.0 * (12.5f32 / 35.0).atan()),
         ambient: Default::default(),
         objects: Vec::new(),
+        medium: None,
         notes: Vec::new(),
     }
 }
@@ -447,6 +453,7 @@ fn canopy() -> Scene {
             ..Default::default()
         },
         objects: Vec::new(),
+        medium: None,
         notes: Vec::new(),
     }
 }
@@ -518,6 +525,7 @@ fn nlos_scene(name: &str, hidden: impl FnOnce(&mut Builder) -> Vec<(String, usiz
         camera: Camera::look_at(v(2.6, 1.4, 2.4), v(0.0, 0.0, 0.6), 40f32.to_radians()),
         ambient: AmbientLights::default(),
         objects,
+        medium: None,
         notes: Vec::new(),
     }
 }

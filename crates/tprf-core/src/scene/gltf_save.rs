@@ -13,7 +13,11 @@
 //!   doubleSided, emissive (`emissiveFactor` in [0, 1] times
 //!   `KHR_materials_emissive_strength` when the emitted radiance, W/(m^2 sr), exceeds 1),
 //!   `KHR_materials_specular` when the specular factor or colour is not the default,
-//!   `KHR_materials_transmission` and `KHR_materials_ior` when used.
+//!   `KHR_materials_transmission` and `KHR_materials_ior` when used; a material's medium
+//!   as its extras `{"tprf": {"medium": {...}}}` (every field, what tprf reads back) and,
+//!   on a transmissive material that absorbs, its absorption also as
+//!   `KHR_materials_volume` (`attenuationColor` after `attenuationDistance`, for other
+//!   tools; `thicknessFactor` 1 marks it a volume, tprf does not read it).
 //! - the camera: a node (its `matrix` is `world_from_camera`) with a perspective camera
 //!   (no aspect ratio: the image decides).
 //! - lights: `KHR_lights_punctual` point / spot lights, `intensity` = the largest channel
@@ -22,6 +26,7 @@
 //!   `{"tprf": {"ambient": true}}`, directional lights (`intensity` = the largest channel
 //!   of the irradiance, W/m^2; the node rotated so its -Z is the light's direction), and
 //!   the sky as the scene's extras `{"tprf": {"sky_radiance": [r, g, b]}}`.
+//! - the scene-wide medium as the scene's extras `{"tprf": {"medium": {...}}}`.
 
 use super::{AlphaMode, Material, Scene, SceneError, Texture, TextureRef, TriangleAttrs};
 use glam::{Mat4, Quat, Vec3};
@@ -192,10 +197,20 @@ pub fn to_gltf_json(scene: &Scene) -> Result<json::Root, SceneError> {
             ..Default::default()
         }));
     }
-    let scene_extras = if scene.ambient.sky_radiance.iter().any(|&v| v != 0.0) {
-        extras(&serde_json::json!({"tprf": {"sky_radiance": scene.ambient.sky_radiance}}))?
-    } else {
+    let mut tprf = serde_json::Map::new();
+    if scene.ambient.sky_radiance.iter().any(|&v| v != 0.0) {
+        tprf.insert(
+            "sky_radiance".into(),
+            serde_json::json!(scene.ambient.sky_radiance),
+        );
+    }
+    if let Some(m) = &scene.medium {
+        tprf.insert("medium".into(), m.to_json());
+    }
+    let scene_extras = if tprf.is_empty() {
         None
+    } else {
+        extras(&serde_json::json!({ "tprf": tprf }))?
     };
 
     let scene_index = w.root.push(json::Scene {
@@ -516,17 +531,42 @@ impl Writer {
         } else {
             None
         };
+        let absorbs = m
+            .medium
+            .is_some_and(|md| md.sigma_a_per_m.iter().any(|&s| s > 0.0));
+        let volume = match m.medium {
+            Some(md) if m.transmission > 0.0 && absorbs => {
+                self.used.insert("KHR_materials_volume");
+                let (color, distance_m) = super::medium::volume_attenuation(md.sigma_a_per_m);
+                Some(json::extensions::material::Volume {
+                    thickness_factor: json::extensions::material::ThicknessFactor(1.0),
+                    thickness_texture: None,
+                    attenuation_distance: json::extensions::material::AttenuationDistance(
+                        distance_m,
+                    ),
+                    attenuation_color: json::extensions::material::AttenuationColor(color),
+                    extras: Default::default(),
+                })
+            }
+            _ => None,
+        };
         let extensions = json::extensions::material::Material {
             transmission,
             specular,
             ior,
             emissive_strength,
+            volume,
             ..Default::default()
         };
         let any_extension = extensions.transmission.is_some()
             || extensions.specular.is_some()
             || extensions.ior.is_some()
-            || extensions.emissive_strength.is_some();
+            || extensions.emissive_strength.is_some()
+            || extensions.volume.is_some();
+        let material_extras = match &m.medium {
+            Some(md) => extras(&serde_json::json!({"tprf": {"medium": md.to_json()}}))?,
+            None => None,
+        };
         let material = json::Material {
             alpha_cutoff,
             alpha_mode: Valid(alpha_mode),
@@ -543,6 +583,7 @@ impl Writer {
             emissive_texture: info(&m.emissive_texture)?,
             emissive_factor: jm::EmissiveFactor(emissive_factor),
             extensions: any_extension.then_some(extensions),
+            extras: material_extras,
             ..Default::default()
         };
         self.root.push(material);
@@ -655,6 +696,7 @@ mod tests {
             camera: Camera::look_at(Vec3::new(0.5, 0.5, 5.0), Vec3::new(0.5, 0.5, 0.0), 0.7),
             ambient: Default::default(),
             objects: Vec::new(),
+            medium: None,
             notes: Vec::new(),
         }
     }
@@ -771,6 +813,137 @@ mod tests {
             } => assert_eq!((inner_cone_angle, outer_cone_angle), (0.2, 0.4)),
             _ => panic!("not a spot light"),
         }
+    }
+
+    /// The kitchen sink with media: fog in the air, an absorbing and scattering glass
+    /// (its medium's `n` its ior) and an index-matched box of smoke.
+    fn with_media() -> Scene {
+        let mut s = kitchen_sink();
+        s.medium = Some(crate::scene::Medium::grey(0.05, 0.001, 0.9, 1.0));
+        s.materials[1].medium = Some(crate::scene::Medium {
+            sigma_s_per_m: [0.5, 0.25, 0.125],
+            sigma_a_per_m: [2.0, 0.0, 1e-3],
+            g: -0.25,
+            n: 1.33,
+        });
+        s.materials[0].medium = Some(crate::scene::Medium::grey(3.0, 0.0, 0.5, 1.0));
+        s
+    }
+
+    fn save_and_load(scene: &Scene, edit: impl Fn(&mut serde_json::Value)) -> Scene {
+        let dir = std::env::temp_dir().join(format!(
+            "tprf-gltf-media-{}-{:?}",
+            std::process::id(),
+            std::thread::current().id()
+        ));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("media.gltf");
+        save_gltf(scene, &path).unwrap();
+        let mut v: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+        edit(&mut v);
+        std::fs::write(&path, serde_json::to_vec(&v).unwrap()).unwrap();
+        let back = crate::scene::gltf_load::load_gltf(&path);
+        std::fs::remove_dir_all(&dir).unwrap();
+        back.unwrap()
+    }
+
+    #[test]
+    fn media_read_back_exactly() {
+        let scene = with_media();
+        let back = save_and_load(&scene, |_| {});
+        assert_eq!(back.medium, scene.medium);
+        for (a, b) in back.materials.iter().zip(&scene.materials) {
+            assert_eq!(a.medium, b.medium, "material '{}'", a.name);
+        }
+    }
+
+    /// A reader that knows only KHR_materials_volume (the extras dropped) gets the glass's
+    /// absorption from `attenuationColor` and `attenuationDistance`, and `n` from its ior.
+    #[test]
+    fn volume_extension_alone_gives_the_absorption() {
+        let scene = with_media();
+        let back = save_and_load(&scene, |v| {
+            for m in v["materials"].as_array_mut().unwrap() {
+                m.as_object_mut().unwrap().remove("extras");
+            }
+            assert!(
+                v["extensionsUsed"]
+                    .to_string()
+                    .contains("KHR_materials_volume")
+            );
+        });
+        let glass = back.materials[1].medium.unwrap();
+        let want = scene.materials[1].medium.unwrap().sigma_a_per_m;
+        // The colours are f32: a channel is known to a few ulps of the largest's 1/e.
+        let max = want.into_iter().fold(0.0f32, f32::max);
+        for c in 0..3 {
+            assert!(
+                (glass.sigma_a_per_m[c] - want[c]).abs() <= 1e-6 * max,
+                "{:?} vs {want:?}",
+                glass.sigma_a_per_m
+            );
+        }
+        assert_eq!(
+            (glass.sigma_s_per_m, glass.g, glass.n),
+            ([0.0; 3], 0.0, 1.33)
+        );
+        // The untransmissive box has no volume extension: without extras, no medium.
+        assert_eq!(back.materials[0].medium, None);
+    }
+
+    #[test]
+    fn bad_media_are_refused_naming_the_field() {
+        let scene = with_media();
+        let dir = std::env::temp_dir().join(format!("tprf-gltf-badmedia-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("bad.gltf");
+        save_gltf(&scene, &path).unwrap();
+        let good: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+        let cases: [(&str, serde_json::Value, &str); 6] = [
+            (
+                "/scenes/0/extras/tprf/medium/g",
+                serde_json::json!(1.0),
+                "g = 1",
+            ),
+            (
+                "/scenes/0/extras/tprf/medium/sigma_s_per_m",
+                serde_json::json!(-0.5),
+                "sigma_s_per_m",
+            ),
+            (
+                "/scenes/0/extras/tprf/medium/n",
+                serde_json::json!(0.5),
+                "n = 0.5",
+            ),
+            (
+                "/materials/0/extras/tprf/medium/sigma_a_per_m",
+                serde_json::json!([0.1, -1, 0]),
+                "material 'grey' medium: sigma_a_per_m",
+            ),
+            (
+                "/materials/1/extras/tprf/medium/n",
+                serde_json::json!(1.1),
+                "differs from its ior",
+            ),
+            (
+                "/materials/0/extras/tprf/medium/sigma",
+                serde_json::json!(1),
+                "unknown key 'sigma'",
+            ),
+        ];
+        for (pointer, value, needle) in cases {
+            let mut v = good.clone();
+            let (parent, key) = pointer.rsplit_once('/').unwrap();
+            v.pointer_mut(parent).unwrap()[key] = value;
+            std::fs::write(&path, serde_json::to_vec(&v).unwrap()).unwrap();
+            let e = crate::scene::gltf_load::load_gltf(&path)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(needle), "{pointer}: {e}");
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

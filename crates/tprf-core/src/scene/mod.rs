@@ -7,6 +7,9 @@
 pub mod builtin;
 pub mod gltf_load;
 pub mod gltf_save;
+pub mod medium;
+
+pub use medium::Medium;
 
 use glam::{Affine3A, Vec2, Vec3};
 use serde::{Deserialize, Serialize};
@@ -95,6 +98,12 @@ pub struct Material {
     /// sRGB-encoded emissive texture (multiplies `emissive`).
     pub emissive_texture: Option<TextureRef>,
     pub double_sided: bool,
+    /// The medium filling the closed mesh this material bounds (its inside: the side
+    /// the front faces look away from). With `transmission > 0` the surface refracts as
+    /// a dielectric of index `ior` and the medium's `n` is `ior`; with `transmission` 0
+    /// the surface is an index-matched boundary (the paper's virtual interface: light
+    /// crosses it unchanged, undelayed) around a medium of its own `n`.
+    pub medium: Option<Medium>,
 }
 
 impl Default for Material {
@@ -117,6 +126,7 @@ impl Default for Material {
             emissive: [0.0; 3],
             emissive_texture: None,
             double_sided: true,
+            medium: None,
         }
     }
 }
@@ -327,6 +337,9 @@ pub struct Scene {
     pub lights: Vec<PunctualLight>,
     /// The ambient group: steady light, not pulsed (empty for most scenes).
     pub ambient: AmbientLights,
+    /// The scene-wide medium (the air: fog, haze, water) around everything, the camera
+    /// and the lights in it; `None`: vacuum.
+    pub medium: Option<Medium>,
     pub camera: Camera,
     /// Named parts (glTF nodes with meshes), in file order; may be empty.
     pub objects: Vec<SceneObject>,
@@ -397,8 +410,9 @@ impl Scene {
         Camera::look_at(b.center() + dir * dist, b.center(), yfov_rad)
     }
 
-    /// Uniform scale of everything about the origin (geometry, lights, camera position).
-    /// Used to check time-scale invariance: the TPRF stretches by `s`.
+    /// Uniform scale of everything about the origin (geometry, lights, camera position;
+    /// media coefficients over `s`, so optical depths stay). Used to check time-scale
+    /// invariance: the TPRF stretches by `s`.
     pub fn scaled(mut self, s: f32) -> Scene {
         for t in &mut self.triangles {
             for p in &mut t.p {
@@ -409,6 +423,10 @@ impl Scene {
             l.position *= s;
         }
         self.camera.world_from_camera.translation *= s;
+        self.medium = self.medium.map(|m| m.scaled(s));
+        for m in &mut self.materials {
+            m.medium = m.medium.map(|m| m.scaled(s));
+        }
         self
     }
 
@@ -491,6 +509,19 @@ impl Scene {
                     m.name, m.base_color
                 )));
             }
+            if let Some(medium) = &m.medium {
+                medium.validate(&format!("material '{}' medium", m.name))?;
+                if m.transmission > 0.0 && medium.n != m.ior {
+                    return Err(SceneError::Invalid(format!(
+                        "material '{}': its medium's n = {} differs from its ior {}: a \
+                         refracting boundary's inside has the material's index",
+                        m.name, medium.n, m.ior
+                    )));
+                }
+            }
+        }
+        if let Some(medium) = &self.medium {
+            medium.validate("scene medium")?;
         }
         for l in &self.lights {
             if !l.position.is_finite()

@@ -31,6 +31,7 @@ pub fn light_near_wall(size: Size) -> Vec<Row> {
         intensity_w_per_sr: 1.0,
         half_m: 1.0,
         fov_deg: 2.0,
+        ..Plane::default()
     };
     let axis = TimeAxis::new(0.9 / C_M_PER_S, 0.2 / C_M_PER_S, 2).expect("axis");
     let film = render(
@@ -168,6 +169,7 @@ fn plane_case(
         intensity_w_per_sr: i,
         half_m: half as f64,
         fov_deg: 10.0,
+        ..Plane::default()
     }
     .scene();
     scene.camera = cam;

@@ -7,8 +7,8 @@ use super::decode::Encoding;
 use super::validate::{SUPPORTED_EXTENSIONS, check_accessor, check_count, invalid, read_all};
 use crate::budget::{self, format_count};
 use crate::scene::{
-    AmbientLights, BYTES_PER_TRIANGLE, Camera, DirectionalLight, Material, PunctualLight, Scene,
-    SceneError, SceneObject, Spot, Texture, Triangle, TriangleAttrs,
+    AmbientLights, BYTES_PER_TRIANGLE, Camera, DirectionalLight, Material, Medium, PunctualLight,
+    Scene, SceneError, SceneObject, Spot, Texture, Triangle, TriangleAttrs,
 };
 use glam::{Affine3A, Mat3, Mat4, Vec2, Vec3};
 use gltf::accessor::{DataType, Dimensions};
@@ -166,7 +166,7 @@ fn scene_roots<'a>(doc: &'a Document) -> Option<Vec<gltf::Node<'a>>> {
 /// The `"tprf"` object of an element's glTF extras, if any (`None` without extras or
 /// without the key); extras that are not JSON objects are ignored, a `"tprf"` that is not
 /// an object is refused, naming `what`.
-fn tprf_extras(
+pub(super) fn tprf_extras(
     extras: &gltf::json::Extras,
     file: &str,
     what: &str,
@@ -219,6 +219,8 @@ pub(super) struct Builder<'a> {
     pub(super) lights: Vec<PunctualLight>,
     /// Directional lights, point/spot lights tagged ambient, the sky.
     pub(super) ambient: AmbientLights,
+    /// The scene-wide medium of the scene's extras.
+    pub(super) medium: Option<Medium>,
     /// The first camera node met, with its world transform.
     pub(super) camera: Option<(gltf::Camera<'a>, Mat4)>,
     pub(super) notes: Vec<String>,
@@ -248,6 +250,7 @@ impl<'a> Builder<'a> {
             texture_of_image: HashMap::new(),
             lights: Vec::new(),
             ambient: AmbientLights::default(),
+            medium: None,
             camera: None,
             notes: Vec::new(),
             degenerate: 0,
@@ -629,7 +632,8 @@ impl<'a> Builder<'a> {
     }
 
     /// The sky radiance of the scene's extras `{"tprf": {"sky_radiance": L}}` (a number
-    /// or `[r, g, b]`, W m^-2 sr^-1), when given.
+    /// or `[r, g, b]`, W m^-2 sr^-1) and the scene-wide medium `{"tprf": {"medium":
+    /// {...}}}` ([`Medium::from_json`]), when given.
     pub(super) fn read_scene_extras(&mut self) -> Result<(), SceneError> {
         let Some(scene) = self
             .doc
@@ -661,6 +665,12 @@ impl<'a> Builder<'a> {
             })?;
             self.ambient.sky_radiance = rgb.map(|x| x as f32);
         }
+        if let Some(v) = tprf.get("medium") {
+            let what = format!("{what} extras tprf.medium");
+            let medium =
+                Medium::from_json(v, [0.0; 3], &what).map_err(|m| invalid(self.file, m))?;
+            self.medium = Some(medium);
+        }
         Ok(())
     }
 
@@ -679,6 +689,7 @@ impl<'a> Builder<'a> {
             camera: Camera::look_at(Vec3::Z, Vec3::ZERO, FRAMED_YFOV_RAD),
             ambient: self.ambient,
             objects: self.objects,
+            medium: self.medium,
             notes: self.notes,
         };
         if scene.triangles.is_empty() {

@@ -1,12 +1,14 @@
 //! glTF materials as scene [`Material`]s: metallic-roughness factors and textures, the
 //! KHR_materials_{specular, transmission, ior, emissive_strength} factors, alpha modes,
-//! and images decoded to RGBA8 once each (once per encoding where reduced on load).
+//! and images decoded to RGBA8 once each (once per encoding where reduced on load), and
+//! the medium inside (KHR_materials_volume's absorption, the extras' scattering).
 
-use super::build::{Builder, name_or_index};
+use super::build::{Builder, name_or_index, tprf_extras};
 use super::decode::{Decoded, Encoded, Encoding, MAX_TEXTURE_SIDE, decode_texture};
 use super::resource::open_image;
 use super::validate::{invalid, uri_label};
-use crate::scene::{AlphaMode, Material, SceneError, TextureRef};
+use crate::scene::medium::volume_absorption_per_m;
+use crate::scene::{AlphaMode, Material, Medium, SceneError, TextureRef};
 
 impl Builder<'_> {
     /// The scene material for a glTF material (converted on first use); the glTF default
@@ -44,6 +46,7 @@ impl Builder<'_> {
             );
         }
         let strength = m.emissive_strength().unwrap_or(1.0);
+        let medium = self.medium_of(m)?;
         Ok(Material {
             name: name_or_index(m.name(), "materials", m.index().unwrap_or_default()),
             base_color: pbr.base_color_factor(),
@@ -68,7 +71,69 @@ impl Builder<'_> {
             emissive: m.emissive_factor().map(|e| e * strength),
             emissive_texture: self.texture(m.emissive_texture(), Encoding::Srgb)?,
             double_sided: m.double_sided(),
+            medium,
         })
+    }
+
+    /// The medium inside a material: `KHR_materials_volume`'s absorption on a
+    /// transmissive material (`sigma_a = -ln(attenuationColor) / attenuationDistance`,
+    /// `n` its ior), with the scattering, phase and index of the extras
+    /// `{"tprf": {"medium": {...}}}` (which win where both give absorption). `None`
+    /// without either, or with a volume that absorbs nothing on an untransmissive
+    /// material (the extension does nothing there).
+    fn medium_of(&mut self, m: &gltf::Material) -> Result<Option<Medium>, SceneError> {
+        let index = m.index().unwrap_or_default();
+        let what = format!("materials[{index}]");
+        let transmissive = m
+            .transmission()
+            .is_some_and(|t| t.transmission_factor() > 0.0);
+        let ior = m.ior().unwrap_or(1.5);
+        let volume = match m.volume() {
+            Some(v) if transmissive => {
+                let (color, d) = (v.attenuation_color(), v.attenuation_distance());
+                let sigma_a = volume_absorption_per_m(color, d).ok_or_else(|| {
+                    invalid(
+                        self.file,
+                        format!(
+                            "{what} KHR_materials_volume: attenuationColor {color:?} must be in \
+                             (0, 1] and attenuationDistance {d} > 0"
+                        ),
+                    )
+                })?;
+                Some(sigma_a)
+            }
+            Some(_) => {
+                self.note_once(
+                    "KHR_materials_volume on a material without transmission ignored (light \
+                     cannot enter it)"
+                        .into(),
+                );
+                None
+            }
+            None => None,
+        };
+        let extras = tprf_extras(m.extras(), self.file, &what)?;
+        let extra = extras.as_ref().and_then(|t| t.get("medium"));
+        let medium = match (volume, extra) {
+            (None, None) => return Ok(None),
+            (Some(sigma_a), None) => Medium {
+                sigma_s_per_m: [0.0; 3],
+                sigma_a_per_m: sigma_a,
+                g: 0.0,
+                n: ior,
+            },
+            (sigma_a, Some(v)) => {
+                let what = format!("{what} extras tprf.medium");
+                let mut medium = Medium::from_json(v, sigma_a.unwrap_or([0.0; 3]), &what)
+                    .map_err(|e| invalid(self.file, e))?;
+                let n_given = v.get("n").is_some();
+                if transmissive && !n_given {
+                    medium.n = ior;
+                }
+                medium
+            }
+        };
+        Ok(Some(medium))
     }
 
     /// The scene texture of a texture reference, decoding its image on first use (reduced

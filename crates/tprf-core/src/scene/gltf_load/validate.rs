@@ -16,6 +16,7 @@ pub(super) const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_ior",
     "KHR_materials_specular",
     "KHR_materials_transmission",
+    "KHR_materials_volume",
 ];
 
 /// A [`SceneError::Gltf`] for `file`.
