@@ -5,6 +5,7 @@
 use super::bsdf::{Bsdf, Frame, LobeKind};
 use super::connect::{EyeVertex, LazyLightVertex, connected_weight};
 use super::lights::Lights;
+use super::media::Media;
 use super::sampler::{Sampler, dim};
 use super::split::Strategy;
 use super::surface::{SurfacePoint, Surfaces};
@@ -147,6 +148,9 @@ pub struct Renderer {
     /// The sampling strategy in use: the settings', or the pilot's choice for the first
     /// film rendered ([`Renderer::strategy_for`]).
     strategy: OnceLock<Strategy>,
+    /// The scene's participating media; `None` for a scene in vacuum, which the surface
+    /// loop renders ([`super::media`] renders the others).
+    media: Option<Media>,
 }
 
 /// Whether a contribution arriving at `arrival_s` falls clearly outside `sink`'s window
@@ -226,6 +230,7 @@ impl Renderer {
             1e-6
         };
         let tan_half_yfov = (0.5 * scene.camera.yfov_rad).tan();
+        let media = Media::new(&scene, settings.channel);
         let surfaces = Surfaces::new(scene, settings.channel);
         Renderer {
             tan_half_yfov,
@@ -236,7 +241,17 @@ impl Renderer {
             eps_m,
             rays: AtomicU64::new(0),
             strategy: OnceLock::new(),
+            media,
         }
+    }
+
+    /// Whether the scene has participating media (rendered by [`super::media`]).
+    pub fn has_media(&self) -> bool {
+        self.media.is_some()
+    }
+
+    pub(super) fn lights(&self) -> &Lights {
+        &self.lights
     }
 
     pub fn scene(&self) -> &Scene {
@@ -260,17 +275,22 @@ impl Renderer {
     /// `width x height` film on `axis` ([`super::split`]), once (the first film rendered
     /// decides for the renderer's life, so every pass and thread uses the same).
     pub fn strategy_for(&self, axis: &TimeAxis, width: usize, height: usize) -> Strategy {
-        *self
-            .strategy
-            .get_or_init(|| super::split::choose(self, axis, width, height))
+        *self.strategy.get_or_init(|| match self.media {
+            // The media loop has neither splits nor light vertices.
+            Some(_) => Strategy::PLAIN,
+            None => super::split::choose(self, axis, width, height),
+        })
     }
 
     /// The strategy in use: as chosen by [`Renderer::strategy_for`], else the settings'
     /// (no split and light vertices on where automatic and not chosen yet).
     pub fn strategy(&self) -> Strategy {
-        self.strategy.get().copied().unwrap_or(Strategy {
-            splits: self.settings.first_bounce_splits.max(1),
-            light_vertex: self.settings.light_vertex.unwrap_or(true),
+        self.strategy.get().copied().unwrap_or(match self.media {
+            Some(_) => Strategy::PLAIN,
+            None => Strategy {
+                splits: self.settings.first_bounce_splits.max(1),
+                light_vertex: self.settings.light_vertex.unwrap_or(true),
+            },
         })
     }
 
@@ -375,6 +395,9 @@ impl Renderer {
         rng.start_sample();
         let (jx, jy) = rng.get2(dim::CAMERA);
         let (origin, dir) = self.camera_ray(x as f32 + jx, y as f32 + jy, w, h);
+        if let Some(media) = &self.media {
+            return self.walk_media(media, origin, dir, rng, sink);
+        }
         self.walk::<false>(
             &self.lights,
             Path::camera(origin, dir),
@@ -413,6 +436,9 @@ impl Renderer {
         rng: &mut Sampler,
         sink: &mut impl Sink,
     ) -> u64 {
+        if !AMBIENT && let Some(media) = &self.media {
+            return self.walk_media(media, origin, dir, rng, sink);
+        }
         let strategy = if AMBIENT {
             Strategy::PLAIN
         } else {

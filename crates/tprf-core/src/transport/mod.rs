@@ -9,6 +9,7 @@ pub mod bsdf;
 mod connect;
 mod integrator;
 pub mod lights;
+pub mod media;
 pub mod progressive;
 pub mod sampler;
 pub mod split;

@@ -1,0 +1,183 @@
+//! Transient volume rendering: the path tracer for scenes with participating media (the
+//! scene-wide medium, media filling closed meshes), a loop of its own beside the
+//! surface integrator's, so scenes without media run the surface loop as it was.
+//!
+//! The transient volume rendering equation along a ray from `x` in direction `w` (the
+//! paper's `R = R0 + S P R` with `P` through a medium) is
+//! `L(x, w, t) = integral_0^d T(s) sigma_s integral p(w', w) L(x_s, w', t - n s / c) dw' ds
+//!  + T(d) L_surface(x_d, w, t - n d / c)`, `T(s) = e^(-sigma_t s)`: a scattering event
+//! in the medium is one more vertex of the Neumann series (a bounce), and the light takes
+//! `n s / c` to cross `s` metres. Each segment of a path (a ray from a vertex to the next
+//! surface) is handled in three parts ([`walk`]):
+//!
+//! - **Single scattering of the punctual lights on the segment**, estimated on the whole
+//!   segment by one point drawn inside its *gate*: the distances whose scattered light
+//!   arrives inside the film's window ([`distance::gate`]), from a mixture of the
+//!   transmittance's and the light's `1 / r^2` densities, joined to the light by a
+//!   shadow ray. No free-flight luck decides whether a narrow gate is seen.
+//! - **The continuation**: the path passes to the surface with probability `q = T(d)`
+//!   (on the camera ray `max(T, min(20 T, 1/2))`, so a target behind fog is found by
+//!   more than the few samples the fog lets through) when the surface's light can still
+//!   arrive in the window (weight `T / q`), else scatters at a distance drawn from the transmittance's density
+//!   truncated to the part of the segment that can still arrive in the window (weight
+//!   `(1 - T) albedo / (1 - q)`). Unbiased; nothing is traced that could only arrive late.
+//! - **A medium vertex**: next-event estimation to the emitters (MIS against phase
+//!   sampling), then a new direction from the Henyey-Greenstein phase function
+//!   ([`phase`]), Russian roulette as on surfaces.
+//!
+//! Surfaces are as in the surface loop (emission with MIS, next-event estimation,
+//! BSDF sampling), with shadow rays attenuated by the media they cross and timed by
+//! their indices. Where the path is: the scene's medium, until it refracts into a
+//! transmissive material (its medium, or clear at its ior) or crosses into a medium's
+//! index-matched boundary; leaving either through a back face returns it to the scene's
+//! medium (media do not nest). The camera and the lights are in the scene's medium.
+//! Not here: light vertices and first-bounce splitting (the surface loop's strategies),
+//! the steady ambient image (rendered without media).
+
+mod distance;
+pub mod phase;
+mod walk;
+
+use crate::scene::{Channel, Medium, Scene};
+
+/// One region's medium reduced to the band the cube records.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct BandMedium {
+    pub sigma_s: f32,
+    pub sigma_t: f32,
+    pub g: f32,
+    /// Refractive index.
+    pub n: f32,
+}
+
+impl BandMedium {
+    /// Clear, of index `n`: the inside of a dielectric without a medium, or vacuum.
+    pub fn clear(n: f32) -> BandMedium {
+        BandMedium {
+            sigma_s: 0.0,
+            sigma_t: 0.0,
+            g: 0.0,
+            n,
+        }
+    }
+
+    fn new(m: &Medium, channel: Channel) -> BandMedium {
+        let sigma_s = channel.pick(m.sigma_s_per_m).max(0.0);
+        let sigma_a = channel.pick(m.sigma_a_per_m).max(0.0);
+        BandMedium {
+            sigma_s,
+            sigma_t: sigma_s + sigma_a,
+            g: m.g.clamp(-0.999, 0.999),
+            n: m.n.max(1.0),
+        }
+    }
+
+    /// `e^(-sigma_t d)`.
+    #[inline]
+    pub fn transmittance(&self, d_m: f32) -> f32 {
+        if self.sigma_t > 0.0 {
+            (-self.sigma_t * d_m).exp()
+        } else {
+            1.0
+        }
+    }
+}
+
+/// What a material's surface is to the media ([`Media::boundary`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Boundary {
+    /// Not a medium's boundary (an opaque or alpha-covered surface; a refracting one
+    /// without a medium has a clear inside at its ior).
+    Surface { inside: BandMedium },
+    /// An index-matched boundary: light crosses it unchanged, into `inside` through the
+    /// front face, back into the scene's medium through the back face.
+    IndexMatched { inside: BandMedium },
+}
+
+/// The scene's media in one band.
+pub(crate) struct Media {
+    /// The scene-wide medium (clear at index 1 when the scene has none).
+    pub scene: BandMedium,
+    /// Per scene material.
+    boundaries: Vec<Boundary>,
+    /// Whether some material is an index-matched boundary (else a shadow ray that is
+    /// not blocked stays in the medium it starts in).
+    pub has_index_matched: bool,
+    /// Least and greatest index of the media a shadow ray may cross: the scene's and the
+    /// index-matched ones'.
+    pub n_min: f32,
+    pub n_max: f32,
+}
+
+impl Media {
+    /// The media of `scene`, or `None` when it has none (a clear scene medium of index
+    /// 1 or none, and no material with a medium): then the surface loop renders it.
+    pub fn new(scene: &Scene, channel: Channel) -> Option<Media> {
+        let vacuum = scene.medium.is_none_or(|m| m.is_clear() && m.n == 1.0);
+        let used = |i: usize| scene.attrs.iter().any(|a| a.material as usize == i);
+        let any_mesh_medium = scene
+            .materials
+            .iter()
+            .enumerate()
+            .any(|(i, m)| m.medium.is_some() && used(i));
+        if vacuum && !any_mesh_medium {
+            return None;
+        }
+        let scene_medium = scene
+            .medium
+            .map_or(BandMedium::clear(1.0), |m| BandMedium::new(&m, channel));
+        let boundaries: Vec<Boundary> = scene
+            .materials
+            .iter()
+            .map(|m| {
+                let ior = if m.ior.is_finite() && m.ior >= 1.0 {
+                    m.ior
+                } else {
+                    1.5
+                };
+                match &m.medium {
+                    Some(md) if m.transmission <= 0.0 => Boundary::IndexMatched {
+                        inside: BandMedium::new(md, channel),
+                    },
+                    Some(md) => Boundary::Surface {
+                        inside: BandMedium {
+                            n: ior,
+                            ..BandMedium::new(md, channel)
+                        },
+                    },
+                    None => Boundary::Surface {
+                        inside: BandMedium::clear(ior),
+                    },
+                }
+            })
+            .collect();
+        let (mut n_min, mut n_max) = (scene_medium.n, scene_medium.n);
+        let mut has_index_matched = false;
+        for b in &boundaries {
+            if let Boundary::IndexMatched { inside } = b {
+                has_index_matched = true;
+                n_min = n_min.min(inside.n);
+                n_max = n_max.max(inside.n);
+            }
+        }
+        Some(Media {
+            scene: scene_medium,
+            boundaries,
+            has_index_matched,
+            n_min,
+            n_max,
+        })
+    }
+
+    /// What the surface of scene material `material` is (a material out of range: a
+    /// plain surface with a clear inside at the default ior).
+    #[inline]
+    pub fn boundary(&self, material: u32) -> Boundary {
+        self.boundaries
+            .get(material as usize)
+            .copied()
+            .unwrap_or(Boundary::Surface {
+                inside: BandMedium::clear(1.5),
+            })
+    }
+}

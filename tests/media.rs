@@ -1,0 +1,330 @@
+//! Participating media against answers derived by hand (issue 32): single scattering in
+//! an infinite medium, the white furnace filled with a scattering medium, the lit plane
+//! in an absorbing medium of index n, energy conservation with albedo 1, and the
+//! extremes (optically very thick, nearly white, millimetre and kilometre fog).
+
+mod common;
+use common::*;
+use glam::Vec3;
+use std::sync::Arc;
+use tprf_core::film::TimeAxis;
+use tprf_core::reference::furnace::Furnace;
+use tprf_core::reference::plane::Plane;
+use tprf_core::scene::{Camera, Medium, PunctualLight};
+use tprf_core::transport::sampler::Sampler;
+use tprf_core::transport::{RenderSettings, Renderer, Sink};
+
+/// Mean over pixels, and the standard error of that mean from the pixels' spread, per
+/// bin (every pixel of these scenes has the same expected TPRF).
+fn pixel_mean_and_se(film: &tprf_core::film::TprfFilm, w: usize, h: usize) -> (Vec<f64>, Vec<f64>) {
+    let n = (w * h) as f64;
+    let tprfs: Vec<Vec<f64>> = (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| film.pixel_tprf(x, y))
+        .collect();
+    let bins = tprfs[0].len();
+    let mean: Vec<f64> = (0..bins)
+        .map(|b| tprfs.iter().map(|t| t[b]).sum::<f64>() / n)
+        .collect();
+    let se = (0..bins)
+        .map(|b| {
+            let var = tprfs.iter().map(|t| (t[b] - mean[b]).powi(2)).sum::<f64>() / (n - 1.0);
+            (var / n).sqrt()
+        })
+        .collect();
+    (mean, se)
+}
+
+/// Henyey-Greenstein phase function, written out again (not the renderer's).
+fn hg(cos: f64, g: f64) -> f64 {
+    (1.0 - g * g) / (4.0 * std::f64::consts::PI * (1.0 + g * g - 2.0 * g * cos).powf(1.5))
+}
+
+/// Composite Simpson's rule with `n` (even) intervals.
+fn simpson(a: f64, b: f64, n: usize, f: impl Fn(f64) -> f64) -> f64 {
+    let h = (b - a) / n as f64;
+    let mut s = f(a) + f(b);
+    for i in 1..n {
+        s += f(a + i as f64 * h) * if i % 2 == 1 { 4.0 } else { 2.0 };
+    }
+    s * h / 3.0
+}
+
+/// Single scattering in an infinite homogeneous medium with a pulsed point light of
+/// intensity I at the eye: light scattered back from distance r arrives at
+/// `t = 2 n r / c`, and every pixel's TPRF integrates, over each bin's `r`,
+/// `sigma_s p(pi) I e^(-2 sigma_t r) / r^2`. With `--max-bounces 1` the renderer must
+/// give exactly this, per bin, within noise.
+#[test]
+fn single_scattering_in_an_infinite_medium_matches_the_closed_form() {
+    for (sigma_s, sigma_a, g, n) in [
+        (0.2, 0.05, 0.6, 1.33),
+        (0.5, 0.0, 0.0, 1.0),
+        (0.1, 0.2, -0.4, 1.0),
+    ] {
+        let i = 5.0;
+        let mut scene = empty_scene(Camera::look_at(Vec3::ZERO, Vec3::new(0.0, 0.0, -1.0), 0.8));
+        scene.medium = Some(Medium::grey(
+            sigma_s as f32,
+            sigma_a as f32,
+            g as f32,
+            n as f32,
+        ));
+        scene.lights.push(PunctualLight {
+            name: "laser".into(),
+            position: Vec3::ZERO,
+            intensity_w_per_sr: [i as f32; 3],
+            spot: None,
+        });
+        // Distances 1 m to 9 m, 40 bins.
+        let t_of = |r: f64| 2.0 * n * r / C;
+        let axis = TimeAxis::new(t_of(1.0), t_of(0.2), 40).unwrap();
+        let settings = RenderSettings {
+            max_bounces: 1,
+            seed: 3,
+            ..RenderSettings::default()
+        };
+        let (w, h) = (8, 8);
+        let r = render_with(scene, w, h, axis, 256, settings, 0);
+        let (mean, se) = pixel_mean_and_se(&r.film, w, h);
+        let sigma_t = sigma_s + sigma_a;
+        let p_back = hg(-1.0, g);
+        for (b, (got, se)) in mean.iter().zip(&se).enumerate() {
+            let (r0, r1) = (
+                axis.bin_start_s(b) * C / (2.0 * n),
+                axis.bin_start_s(b + 1) * C / (2.0 * n),
+            );
+            let want = sigma_s
+                * p_back
+                * i
+                * simpson(r0, r1, 200, |r| (-2.0 * sigma_t * r).exp() / (r * r));
+            assert!(
+                (got - want).abs() < 5.0 * se + 1e-4 * want,
+                "sigma_s {sigma_s} g {g} n {n}: bin {b} (r {r0:.2}-{r1:.2} m): {got} vs {want} \
+                 (se {se})"
+            );
+        }
+        // The gate puts every sample where it counts: the window's total is known to
+        // well under 1 % from 16384 samples.
+        let (total, total_se) = mean_and_se(&r.film.steady());
+        assert!(
+            total_se < 0.005 * total,
+            "standard error {total_se} of {total}"
+        );
+    }
+}
+
+/// A sink that sums every contribution whenever it arrives: the steady radiance.
+struct Steady {
+    sum: f64,
+}
+
+impl Sink for Steady {
+    fn add(&mut self, arrival_s: f64, value: f64, _scatterings: u32) {
+        assert!(value.is_finite() && arrival_s.is_finite());
+        self.sum += value;
+    }
+    fn window_end_s(&self) -> f64 {
+        f64::INFINITY
+    }
+}
+
+/// Per-pixel steady radiance (mean of `spp` samples) of a `w x h` image of `scene`.
+fn steady_pixels(
+    scene: tprf_core::scene::Scene,
+    w: usize,
+    h: usize,
+    spp: u32,
+    seed: u64,
+) -> Vec<f64> {
+    let settings = RenderSettings {
+        seed,
+        ..RenderSettings::default()
+    };
+    let renderer = Renderer::new(Arc::new(scene), settings);
+    (0..w * h)
+        .map(|p| {
+            let mut rng = Sampler::new(seed, 0, p as u64);
+            let mut sink = Steady { sum: 0.0 };
+            for _ in 0..spp {
+                renderer.trace_sample(p % w, p / w, w, h, &mut rng, &mut sink);
+            }
+            sink.sum / spp as f64
+        })
+        .collect()
+}
+
+fn mean_and_se(v: &[f64]) -> (f64, f64) {
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    (mean, (var / n).sqrt())
+}
+
+/// A closed furnace whose wall emits `Le` and reflects `rho` holds the uniform isotropic
+/// field `Le / (1 - rho)`; a non-absorbing medium scatters a uniform isotropic field into
+/// itself, so filling the furnace with one changes nothing of the steady radiance,
+/// whatever its density and phase function.
+#[test]
+fn a_white_medium_leaves_the_furnace_radiance_unchanged() {
+    let furnace = Furnace::emitting(1.0, 0.5, 1.0);
+    let want = furnace.energy();
+    assert_eq!(want, 2.0);
+    for (sigma_s, g) in [(0.5f32, 0.0f32), (2.0, 0.0), (2.0, 0.8), (1.0, -0.5)] {
+        let mut scene = furnace.scene();
+        scene.medium = Some(Medium::grey(sigma_s, 0.0, g, 1.0));
+        let pixels = steady_pixels(scene, 8, 8, 128, 9);
+        let (mean, se) = mean_and_se(&pixels);
+        assert!(
+            (mean - want).abs() < 4.0 * se + 2e-3 * want,
+            "sigma_s {sigma_s} g {g}: {mean} vs {want} (se {se})"
+        );
+    }
+    // The check can fail: an absorbing medium darkens the furnace.
+    let mut scene = furnace.scene();
+    scene.medium = Some(Medium::grey(1.0, 0.5, 0.0, 1.0));
+    let (mean, se) = mean_and_se(&steady_pixels(scene, 8, 8, 64, 9));
+    assert!(mean < want - 10.0 * se, "absorbing: {mean}");
+}
+
+/// The plane lit by a co-located point light, in a purely absorbing medium of index n:
+/// every footprint point's light is attenuated by `e^(-sigma_a path)` and arrives at
+/// `n path / c` (tprf_core::reference::plane, `in_medium`): per pixel the steady
+/// radiance, the mean arrival and every bin.
+#[test]
+fn plane_in_an_absorbing_medium_of_index_n() {
+    let (h_m, rho, i, fov) = (2.0, 0.5, 3.0, 40.0);
+    let plane = Plane::colocated(h_m, rho, i, 50.0, fov).in_medium(0.15, 1.5);
+    let (w, hp) = (12, 9);
+    let axis = plane.default_axis(w, hp, 60).unwrap();
+    let spp = 64;
+    let r = render_scene(plane.scene(), w, hp, axis, spp, 7, 0);
+    let vacuum = Plane::colocated(h_m, rho, i, 50.0, fov);
+    let se = |sd: f64| 4.0 * sd / (spp as f64).sqrt();
+    for y in 0..hp {
+        for x in 0..w {
+            let m = plane.pixel_moments(x, y, w, hp);
+            let tprf = r.film.pixel_tprf(x, y);
+            let steady: f64 = tprf.iter().sum();
+            assert!(
+                (steady - m.mean).abs() < se(m.sd) + 1e-4 * m.mean,
+                "pixel ({x},{y}): steady {steady} vs {}",
+                m.mean
+            );
+            let t = mean_arrival_s(&tprf, &axis);
+            assert!(
+                (t - m.mean_arrival_s).abs() < se(m.sd_arrival_s) + 0.5 * axis.dt_s,
+                "pixel ({x},{y}): mean arrival {t} vs {}",
+                m.mean_arrival_s
+            );
+            // Every sample lands in one bin: bin b holds about a share e / L of them, so
+            // its estimate scatters by about sqrt(e L / spp).
+            let want = plane.pixel_tprf(x, y, w, hp, &axis);
+            let peak = want.iter().cloned().fold(0.0, f64::max);
+            for (b, (g, e)) in tprf.iter().zip(&want).enumerate() {
+                let sd = (e * m.mean / spp as f64).sqrt();
+                assert!(
+                    (g - e).abs() < 5.0 * sd + 0.01 * peak,
+                    "pixel ({x},{y}) bin {b}: {g} vs {e}"
+                );
+            }
+            // The reference itself: n times later, and darker, than in vacuum.
+            let v = vacuum.pixel_moments(x, y, w, hp);
+            assert!(m.mean < v.mean * (-0.15f64 * 2.0 * h_m).exp() * 1.0001);
+            assert!((m.mean_arrival_s / v.mean_arrival_s - 1.5).abs() < 0.01);
+        }
+    }
+}
+
+/// Volume of a closed triangle mesh (divergence theorem), m^3.
+fn mesh_volume(scene: &tprf_core::scene::Scene) -> f64 {
+    scene
+        .triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.p.map(|p| p.as_dvec3());
+            a.dot(b.cross(c)) / 6.0
+        })
+        .sum::<f64>()
+        .abs()
+}
+
+/// Energy: in a closed furnace with white walls (albedo 1) filled with a white medium
+/// (albedo 1), the pulse's energy `4 pi I` stays in the volume V forever and settles
+/// into a uniform isotropic field: energy density `u = 4 pi I / V`, radiance
+/// `L = u c / (4 pi n) = I c / (n V)` at late times, in any medium of index n (and in
+/// vacuum). Nothing is lost but by the window's end.
+#[test]
+fn white_walls_and_a_white_medium_lose_nothing() {
+    let i = 1.0;
+    for medium in [
+        None,
+        Some(Medium::grey(1.0, 0.0, 0.5, 1.2)),
+        Some(Medium::grey(3.0, 0.0, -0.3, 1.0)),
+    ] {
+        let mut scene = Furnace::point(1.0, 1.0, i).scene();
+        scene.medium = medium;
+        let n = medium.map_or(1.0, |m| m.n as f64);
+        let volume = mesh_volume(&scene);
+        // Optical path 20 m to 36 m: long after the field has settled.
+        let axis = TimeAxis::new(20.0 * n / C, 2.0 * n / C, 8).unwrap();
+        let (w, h) = (8, 8);
+        let r = render_scene(scene, w, h, axis, 64, 5, 0);
+        let totals: Vec<f64> = r.film.steady();
+        let (got, se) = mean_and_se(&totals);
+        let window_s = axis.end_s() - axis.t0_s;
+        let want = i * C / (n * volume) * window_s;
+        assert!(
+            (got - want).abs() < 4.0 * se + 0.01 * want,
+            "{medium:?}: {got} vs {want} (se {se})"
+        );
+    }
+}
+
+/// Extremes stay finite: an optical depth of 1e4 across the scene, an albedo of 0.9999,
+/// fog in a millimetre-sized and in a ten-kilometre-sized box (time axes scaled alike).
+#[test]
+fn extreme_media_stay_finite() {
+    let cases = [
+        (
+            "optical depth 1e4",
+            1.0f32,
+            Medium::grey(5e3, 0.0, 0.0, 1.0),
+        ),
+        ("albedo 0.9999", 1.0, Medium::grey(2.0, 2e-4, 0.9, 1.0)),
+        (
+            "1 mm fog",
+            1e-3,
+            Medium::grey(2.0, 0.0, 0.9, 1.0).scaled(1e-3),
+        ),
+        (
+            "10 km fog",
+            1e4,
+            Medium::grey(2.0, 0.01, 0.9, 1.33).scaled(1e4),
+        ),
+    ];
+    for (what, scale, medium) in cases {
+        let mut scene = Furnace::point(1.0, 0.8, 1.0).scene().scaled(scale);
+        scene.medium = Some(medium);
+        // The window: 12.8 m of optical path, or 300 mean free paths in the dense case.
+        let sigma_t = medium.sigma_t_per_m()[0] as f64 * scale as f64;
+        let span_m = (300.0 / sigma_t).min(12.8);
+        let axis = TimeAxis::new(0.0, span_m / 64.0 * scale as f64 / C, 64).unwrap();
+        let r = render_scene(scene, 6, 6, axis, 16, 1, 0);
+        let cube = r.film.cube_f64();
+        assert!(cube.iter().all(|v| v.is_finite() && *v >= 0.0), "{what}");
+        assert!(cube.iter().any(|&v| v > 0.0), "{what}: no light at all");
+    }
+}
+
+/// A clear medium of index 1 (or none) leaves the scene to the surface loop.
+#[test]
+fn vacuum_is_rendered_by_the_surface_loop() {
+    let settings = RenderSettings::default();
+    let mut scene = Furnace::point(1.0, 0.5, 1.0).scene();
+    assert!(!Renderer::new(Arc::new(scene.clone()), settings).has_media());
+    scene.medium = Some(Medium::grey(0.0, 0.0, 0.3, 1.0));
+    assert!(!Renderer::new(Arc::new(scene.clone()), settings).has_media());
+    scene.medium = Some(Medium::grey(0.0, 0.0, 0.0, 1.33));
+    assert!(Renderer::new(Arc::new(scene), settings).has_media());
+}
