@@ -410,6 +410,25 @@ impl Scene {
         Camera::look_at(b.center() + dir * dist, b.center(), yfov_rad)
     }
 
+    /// A point light at the camera (a LiDAR-style co-located source), bright enough that
+    /// a white Lambertian facing it at the geometry's centre has radiance ~1 W/(m^2 sr):
+    /// `I = pi d^2` W/sr, since `L = (1/pi) I / d^2`. What a loader adds to a file with
+    /// no light.
+    pub fn colocated_light(&self) -> PunctualLight {
+        let eye = self.camera.position();
+        let d = self.geometry_bounds().map_or(1.0, |b| {
+            let d = eye.distance(b.center());
+            if d > 0.0 { d } else { 0.5 * b.diagonal_m() }
+        });
+        let d = if d > 0.0 && d.is_finite() { d } else { 1.0 };
+        PunctualLight {
+            name: "co-located".into(),
+            position: eye,
+            intensity_w_per_sr: [std::f32::consts::PI * d * d; 3],
+            spot: None,
+        }
+    }
+
     /// Uniform scale of everything about the origin (geometry, lights, camera position;
     /// media coefficients over `s`, so optical depths stay). Used to check time-scale
     /// invariance: the TPRF stretches by `s`.

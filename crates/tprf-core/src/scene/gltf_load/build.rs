@@ -138,24 +138,6 @@ fn file_camera(camera: &gltf::Camera, world: &Mat4, file: &str) -> Result<Camera
     }
 }
 
-/// A point light at the camera (a LiDAR-style co-located source), bright enough that a white
-/// Lambertian facing it at the geometry's centre has radiance ~1 W/(m^2 sr):
-/// `I = pi d^2` W/sr, since `L = (1/pi) I / d^2`.
-fn colocated_light(scene: &Scene) -> PunctualLight {
-    let eye = scene.camera.position();
-    let d = scene.geometry_bounds().map_or(1.0, |b| {
-        let d = eye.distance(b.center());
-        if d > 0.0 { d } else { 0.5 * b.diagonal_m() }
-    });
-    let d = if d > 0.0 && d.is_finite() { d } else { 1.0 };
-    PunctualLight {
-        name: "co-located".into(),
-        position: eye,
-        intensity_w_per_sr: [std::f32::consts::PI * d * d; 3],
-        spot: None,
-    }
-}
-
 /// The roots to load: the default scene's, else scene 0's, else every node without a parent
 /// (`None`).
 fn scene_roots<'a>(doc: &'a Document) -> Option<Vec<gltf::Node<'a>>> {
@@ -715,7 +697,7 @@ impl<'a> Builder<'a> {
                 .is_some_and(Material::is_emissive)
         });
         if scene.lights.is_empty() && !emits {
-            let light = colocated_light(&scene);
+            let light = scene.colocated_light();
             scene.notes.push(format!(
                 "no light in {file}: added a point light at the camera ({:.3} W/sr: a white Lambertian at the scene centre has radiance ~1)",
                 light.intensity_w_per_sr[0]
