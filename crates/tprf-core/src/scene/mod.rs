@@ -8,6 +8,7 @@ pub mod builtin;
 pub mod gltf_load;
 pub mod gltf_save;
 pub mod medium;
+pub mod mitsuba;
 
 pub use medium::Medium;
 
@@ -637,6 +638,10 @@ pub enum SceneError {
     Gltf { path: String, message: String },
     #[error("{path}: requires extension {extension}, which tprf does not support")]
     UnsupportedExtension { path: String, extension: String },
+    /// A Mitsuba 3 XML scene that cannot be read as tprf renders it: `location` is
+    /// `FILE:LINE` of the element (or the file alone).
+    #[error("{location}: {message}")]
+    Mitsuba { location: String, message: String },
     #[error("unknown built-in scene '{0}' (known: {known})", known = builtin::NAMES.join(", "))]
     UnknownBuiltin(String),
     #[error("invalid scene: {0}")]
@@ -646,10 +651,79 @@ pub enum SceneError {
     Budget(#[from] crate::budget::BudgetError),
 }
 
-/// Load a scene by name: `builtin:NAME` or a path to a `.gltf` / `.glb` file.
+/// Render settings a scene file carries beside its scene (a Mitsuba XML file's film,
+/// sampler and integrator): a front end uses each where its user gave none. glTF files
+/// and built-in scenes carry none.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FileSettings {
+    /// Image width and height, pixels.
+    pub width: Option<FileSetting<u64>>,
+    pub height: Option<FileSetting<u64>>,
+    /// Number of time bins.
+    pub bins: Option<FileSetting<u64>>,
+    /// Start of the time window, metres of optical path (t0 = start / c).
+    pub t0_opl_m: Option<FileSetting<f64>>,
+    /// Bin width, metres of optical path (dt = width / c).
+    pub dt_opl_m: Option<FileSetting<f64>>,
+    /// Samples per pixel.
+    pub spp: Option<FileSetting<u64>>,
+    /// Largest number of scattering events on a path.
+    pub max_bounces: Option<FileSetting<u32>>,
+}
+
+/// One setting of a scene file: its value and where it was read (`scene.xml:31
+/// <integer name="width">`), for messages about it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FileSetting<T> {
+    pub value: T,
+    pub from: String,
+}
+
+impl FileSettings {
+    /// The settings in words, one per line, for notes and metadata: `width 400
+    /// (scene.xml:26 <integer name="width">)`.
+    pub fn describe(&self) -> Vec<String> {
+        fn line<T: std::fmt::Display>(name: &str, s: &Option<FileSetting<T>>) -> Option<String> {
+            s.as_ref()
+                .map(|s| format!("{name} {} ({})", s.value, s.from))
+        }
+        [
+            line("width", &self.width),
+            line("height", &self.height),
+            line("bins", &self.bins),
+            line("t0 (m of optical path)", &self.t0_opl_m),
+            line("dt (m of optical path)", &self.dt_opl_m),
+            line("spp", &self.spp),
+            line("max bounces", &self.max_bounces),
+        ]
+        .into_iter()
+        .flatten()
+        .collect()
+    }
+}
+
+/// Whether `name` is a path to a Mitsuba XML scene (its extension is `.xml`, any case).
+pub fn is_mitsuba_path(name: &str) -> bool {
+    std::path::Path::new(name)
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("xml"))
+}
+
+/// Load a scene by name: `builtin:NAME`, a path to a `.gltf` / `.glb` file, or a path
+/// to a Mitsuba 3 `.xml` scene.
 pub fn load(name: &str) -> Result<Scene, SceneError> {
+    load_with_settings(name).map(|(scene, _)| scene)
+}
+
+/// [`load`], with the render settings the file carries (only a Mitsuba XML scene has
+/// any: see [`mitsuba`]).
+pub fn load_with_settings(name: &str) -> Result<(Scene, FileSettings), SceneError> {
     match name.strip_prefix("builtin:") {
-        Some(b) => builtin::load(b),
-        None => gltf_load::load_gltf(std::path::Path::new(name)),
+        Some(b) => builtin::load(b).map(|s| (s, FileSettings::default())),
+        None if is_mitsuba_path(name) => mitsuba::load_mitsuba(std::path::Path::new(name)),
+        None => {
+            gltf_load::load_gltf(std::path::Path::new(name)).map(|s| (s, FileSettings::default()))
+        }
     }
 }
