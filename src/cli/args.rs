@@ -40,21 +40,26 @@ pub fn check_out(flag: &str, out: &std::path::Path, inputs: &[&std::path::Path])
 /// arguments (`#[command(flatten)]`), with the request's defaults.
 #[derive(clap::Args, Debug, Clone)]
 pub struct RequestArgs {
-    /// A .gltf/.glb path or builtin:NAME (builtin:cornell, builtin:canopy).
+    /// A .gltf/.glb path, a Mitsuba 3 / mitransient .xml scene, or builtin:NAME
+    /// (builtin:cornell, builtin:canopy). An XML scene's film (size, temporal_bins,
+    /// start_opl, bin_width_opl), sample_count and max_depth stand in for the options
+    /// below that are not given.
     pub scene: String,
-    #[arg(long, default_value_t = 256)]
-    pub width: usize,
-    #[arg(long, default_value_t = 256)]
-    pub height: usize,
+    /// Image width in pixels (default 256).
+    #[arg(long)]
+    pub width: Option<usize>,
+    /// Image height in pixels (default 256).
+    #[arg(long)]
+    pub height: Option<usize>,
     /// Samples per pixel (default 64 unless --seconds is given).
     #[arg(long, conflicts_with = "seconds")]
     pub spp: Option<u64>,
     /// Render for this many seconds of wall time instead of a fixed spp.
     #[arg(long)]
     pub seconds: Option<f64>,
-    /// Number of time bins.
-    #[arg(long, default_value_t = 256)]
-    pub bins: usize,
+    /// Number of time bins (default 256).
+    #[arg(long)]
+    pub bins: Option<usize>,
     /// Start of the time window, with a unit: s ms us ns ps fs, or m cm mm km of optical
     /// path (default: just before the first arrival).
     #[arg(long, value_parser = time_value)]
@@ -63,9 +68,10 @@ pub struct RequestArgs {
     /// render's energy, divided into --bins).
     #[arg(long, value_parser = time_value)]
     pub dt: Option<f64>,
-    /// Largest number of scattering events on a path (Russian roulette ends most earlier).
-    #[arg(long, default_value_t = 1024)]
-    pub max_bounces: u32,
+    /// Largest number of scattering events on a path (Russian roulette ends most earlier;
+    /// default 1024).
+    #[arg(long)]
+    pub max_bounces: Option<u32>,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Worker threads (default: all cores). The output does not depend on it.
@@ -144,16 +150,70 @@ pub struct RequestArgs {
 impl RequestArgs {
     /// The request these arguments describe (not yet validated).
     pub fn request(&self) -> RenderRequest {
-        RenderRequest {
+        self.request_with(&tprf_core::scene::FileSettings::default())
+            .0
+    }
+
+    /// The request, each option not given taken from `file` (a scene file's settings:
+    /// see `tprf_core::scene::load_with_settings`), else the request's default; with what
+    /// came from the file, in words.
+    pub fn request_with(
+        &self,
+        file: &tprf_core::scene::FileSettings,
+    ) -> (RenderRequest, Vec<String>) {
+        use tprf_core::scene::FileSetting;
+        let default = RenderRequest::default();
+        let mut used = Vec::new();
+        let mut pick =
+            |flag: &str, given: Option<u64>, f: &Option<FileSetting<u64>>| match (given, f) {
+                (Some(v), _) => Some(v),
+                (None, Some(s)) => {
+                    used.push(format!("{flag} {} ({})", s.value, s.from));
+                    Some(s.value)
+                }
+                (None, None) => None,
+            };
+        // A file's value too large for the field saturates: the request's check refuses it by name.
+        let width = pick("--width", self.width.map(|v| v as u64), &file.width);
+        let height = pick("--height", self.height.map(|v| v as u64), &file.height);
+        let bins = pick("--bins", self.bins.map(|v| v as u64), &file.bins);
+        let spp = match self.seconds {
+            Some(_) => self.spp,
+            None => pick("--spp", self.spp, &file.spp),
+        };
+        let max_bounces = pick(
+            "--max-bounces",
+            self.max_bounces.map(u64::from),
+            &file.max_bounces.as_ref().map(|s| FileSetting {
+                value: u64::from(s.value),
+                from: s.from.clone(),
+            }),
+        );
+        let mut opl =
+            |flag: &str, given: Option<f64>, f: &Option<FileSetting<f64>>| match (given, f) {
+                (Some(v), _) => Some(v),
+                (None, Some(s)) => {
+                    used.push(format!("{flag} {}m of optical path ({})", s.value, s.from));
+                    Some(s.value / tprf_core::units::C_M_PER_S)
+                }
+                (None, None) => None,
+            };
+        let t0_s = opl("--t0", self.t0, &file.t0_opl_m);
+        let dt_s = opl("--dt", self.dt, &file.dt_opl_m);
+        let size =
+            |v: Option<u64>, d: usize| v.map_or(d, |v| usize::try_from(v).unwrap_or(usize::MAX));
+        let request = RenderRequest {
             scene: self.scene.clone(),
-            width: self.width,
-            height: self.height,
-            bins: self.bins,
-            t0_s: self.t0,
-            dt_s: self.dt,
-            spp: self.spp,
+            width: size(width, default.width),
+            height: size(height, default.height),
+            bins: size(bins, default.bins),
+            t0_s,
+            dt_s,
+            spp,
             seconds: self.seconds,
-            max_bounces: self.max_bounces,
+            max_bounces: max_bounces.map_or(default.max_bounces, |v| {
+                u32::try_from(v).unwrap_or(u32::MAX)
+            }),
             bounces_separate: self.bounces_separate,
             seed: self.seed,
             channel: self.channel,
@@ -172,7 +232,8 @@ impl RequestArgs {
             band_rows: self.band_rows,
             max_memory_bytes: self.max_memory,
             ..RenderRequest::default()
-        }
+        };
+        (request, used)
     }
 }
 

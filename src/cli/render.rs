@@ -6,7 +6,7 @@
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use tprf_core::film::TprfFilm;
@@ -23,13 +23,42 @@ pub struct RenderArgs {
     /// the render is written: the files go into a new folder beside it and are swapped
     /// in, so a reader never sees half of a render). A folder holding anything tprf did
     /// not write, a file, a link, a device or the current folder is refused up front.
-    #[arg(long)]
-    pub out: PathBuf,
+    #[arg(long, required_unless_present = "save_gltf")]
+    pub out: Option<PathBuf>,
+    /// Also write the loaded scene (a Mitsuba XML scene's too) as a self-contained .gltf
+    /// file, before rendering; without --out, write it and stop.
+    #[arg(long, value_name = "FILE.gltf")]
+    pub save_gltf: Option<PathBuf>,
 }
 
 /// `tprf render`.
 pub fn run(a: &RenderArgs) -> Result<()> {
-    render_request(&a.request.request(), &a.out, request_error)
+    let scene_name = &a.request.scene;
+    // A Mitsuba XML scene's film, sampler and integrator settings stand in for the
+    // options not given (the file is read here for them, and again by the render).
+    let request = if a.save_gltf.is_some() || tprf_core::scene::is_mitsuba_path(scene_name) {
+        let (scene, file) = tprf_core::scene::load_with_settings(scene_name)?;
+        if let Some(path) = &a.save_gltf {
+            tprf_core::scene::gltf_save::save_gltf(&scene, path)
+                .with_context(|| format!("--save-gltf {}", path.display()))?;
+            eprintln!(
+                "wrote {} ({} triangles)",
+                path.display(),
+                scene.triangles.len()
+            );
+        }
+        let (request, used) = a.request.request_with(&file);
+        for line in used {
+            eprintln!("from the scene file: {line}");
+        }
+        request
+    } else {
+        a.request.request()
+    };
+    let Some(out) = &a.out else {
+        return Ok(());
+    };
+    render_request(&request, out, request_error)
 }
 
 /// Render `request` into the folder `out` with a progress bar and the render's lines
