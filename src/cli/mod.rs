@@ -66,7 +66,8 @@ pub enum Command {
     /// grid of relay-wall points (tal's nlos.hdf5, H.npy, nlos.json).
     Nlos(nlos::NlosArgs),
     /// Open the viewer on a cube folder written by `tprf render` (no rendering), or on a
-    /// scene to render (a .gltf/.glb path or builtin:NAME). No argument: the last scene.
+    /// scene to render (a .gltf/.glb or Mitsuba .xml path, or builtin:NAME). No argument:
+    /// the last scene.
     View(ViewArgs),
 }
 

@@ -9,7 +9,7 @@ use crate::viewer::Start;
 
 #[derive(Args, Debug)]
 pub struct ViewArgs {
-    /// A cube folder, a glTF file or builtin:NAME.
+    /// A cube folder, a glTF or Mitsuba XML file, or builtin:NAME.
     pub what: Option<String>,
 }
 

@@ -27,7 +27,7 @@ impl FileAction {
     /// The window's title.
     fn title(self) -> &'static str {
         match self {
-            FileAction::OpenScene => "Open a glTF scene (.gltf, .glb)",
+            FileAction::OpenScene => "Open a scene (.gltf, .glb, or Mitsuba .xml)",
             FileAction::OpenCube => "Open a cube folder (written by tprf render)",
             FileAction::SaveSlicePng => "Save the time slice as PNG",
             FileAction::SaveSteadyPng => "Save the steady image as PNG",
@@ -45,7 +45,7 @@ impl FileAction {
     fn dialog(self) -> Option<PathBuf> {
         let d = rfd::FileDialog::new();
         match self {
-            FileAction::OpenScene => d.add_filter("glTF", &["gltf", "glb"]).pick_file(),
+            FileAction::OpenScene => d.add_filter("scene", &["gltf", "glb", "xml"]).pick_file(),
             FileAction::OpenCube | FileAction::SaveVideo => d.pick_folder(),
             FileAction::SaveSlicePng | FileAction::SaveSteadyPng => d
                 .add_filter("PNG", &["png"])

@@ -133,7 +133,8 @@ impl TprfApp {
         self.apply_pending();
     }
 
-    /// Files dropped on the window: a folder opens as a cube, a .gltf/.glb renders.
+    /// Files dropped on the window: a folder opens as a cube, a .gltf/.glb or Mitsuba .xml
+    /// scene renders.
     pub(super) fn handle_dropped_files(&mut self, ctx: &egui::Context) {
         let dropped: Vec<PathBuf> = ctx.input(|i| {
             i.raw
@@ -151,12 +152,12 @@ impl TprfApp {
                     .and_then(|e| e.to_str())
                     .map(|e| e.to_ascii_lowercase())
                     .as_deref(),
-                Some("gltf" | "glb")
+                Some("gltf" | "glb" | "xml")
             ) {
                 self.open_scene(path.display().to_string());
             } else {
                 self.messages.push(format!(
-                    "{}: drop a .gltf/.glb file or a cube folder",
+                    "{}: drop a .gltf/.glb or Mitsuba .xml file or a cube folder",
                     path.display()
                 ));
             }

@@ -21,7 +21,9 @@ impl TprfApp {
             ui.separator();
             if ui
                 .button("Open glTF…")
-                .on_hover_text("Render a .gltf/.glb scene (or drop one on the window)")
+                .on_hover_text(
+                    "Render a .gltf/.glb or Mitsuba .xml scene (or drop one on the window)",
+                )
                 .clicked()
             {
                 self.choose_file(FileAction::OpenScene);
