@@ -1,0 +1,59 @@
+"""Render a Mitsuba XML scene with mitransient, for tests/mitsuba_mitransient.rs.
+
+    python mitsuba_mitransient.py check
+    python mitsuba_mitransient.py render SCENE.xml OUT_DIR WIDTH HEIGHT SPP SEED...
+
+`check` exits 0 when mitsuba (its llvm_ad_mono variant) and mitransient load, else
+prints why and exits 3. `render` loads the file as mitransient's users do
+(`mi.load_file`, the film's width and height overridden through Mitsuba's
+`<default>` parameters where the file has them, else by loading the film at its own size
+and failing), renders it once per seed and writes OUT_DIR/mt_SEED_cube.npy (float32
+[H, W, T], the transient film's one channel) and OUT_DIR/mt_SEED_steady.npy (float32
+[H, W]: mitransient's steady image, every arrival time).
+"""
+
+import os
+import sys
+
+LLVM = "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1"
+
+
+def load():
+    if "DRJIT_LIBLLVM_PATH" not in os.environ and os.path.exists(LLVM):
+        os.environ["DRJIT_LIBLLVM_PATH"] = LLVM
+    import numpy as np
+    import mitsuba as mi
+
+    mi.set_variant("llvm_ad_mono")
+    import drjit as dr
+    import mitransient  # noqa: F401  (registers transient_path, transient_hdr_film)
+
+    dr.set_thread_count(int(os.environ.get("MITRANSIENT_THREADS", "2")))
+    return np, mi
+
+
+def main(argv):
+    if argv[:1] == ["check"]:
+        try:
+            load()
+        except Exception as e:  # noqa: BLE001
+            print(f"{type(e).__name__}: {e}")
+            return 3
+        return 0
+    xml, out, width, height, spp, *seeds = argv[1:]
+    np, mi = load()
+    scene = mi.load_file(xml, res=int(width), spp=int(spp))
+    size = scene.sensors()[0].film().size()
+    if (size.x, size.y) != (int(width), int(height)):
+        raise SystemExit(f"{xml}: film {size.x} x {size.y}, asked {width} x {height}")
+    for seed in seeds:
+        steady, cube = mi.render(scene, spp=int(spp), seed=int(seed))
+        cube = np.array(cube, dtype=np.float32)[..., 0]
+        steady = np.array(steady, dtype=np.float32)[..., 0]
+        np.save(os.path.join(out, f"mt_{seed}_cube.npy"), np.ascontiguousarray(cube))
+        np.save(os.path.join(out, f"mt_{seed}_steady.npy"), np.ascontiguousarray(steady))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
