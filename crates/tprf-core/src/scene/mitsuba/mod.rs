@@ -263,6 +263,8 @@ impl<'a> Builder<'a> {
             lights: self.lights,
             camera: Camera::look_at(Vec3::Z, Vec3::ZERO, FRAMED_YFOV_RAD),
             ambient: self.ambient,
+            // Media are refused above (`unsupported`).
+            medium: None,
             objects: self.objects,
             notes,
         };
