@@ -69,6 +69,16 @@ pub struct TprfApp {
     pub(super) path_prompt: Option<PathPrompt>,
     /// Input events held back for the next frame ([`super::input::split_at_tab`]).
     pub(super) deferred_input: Vec<egui::Event>,
+    /// The film of the camera before the last camera move, on screen until the new
+    /// render's first pass.
+    pub(super) held: Option<std::sync::Arc<FilmSnapshot>>,
+    /// A camera gesture on the images not yet rendered.
+    pub(super) camera_gesture: Option<super::panels::CameraGesture>,
+    /// The rendered scene's camera and bounds, found once per scene.
+    pub(super) scene_view: super::panels::SceneView,
+    /// The camera's pose as typed, and what is wrong with it.
+    pub(super) pose_text: super::camera::PoseText,
+    pub(super) pose_error: Option<String>,
     pub(super) ctx: egui::Context,
 }
 
@@ -124,15 +134,17 @@ impl TprfApp {
             file_dialogs: super::files::dialogs_enabled(),
             path_prompt: None,
             deferred_input: Vec::new(),
+            held: None,
+            camera_gesture: None,
+            scene_view: Default::default(),
+            pose_text: Default::default(),
+            pose_error: None,
             ctx: cc.egui_ctx.clone(),
         };
         app.sensor.set_waker(cc.egui_ctx.clone());
         match start {
             Start::Default => app.restart(),
-            Start::Scene(s) => {
-                app.pending.scene = s;
-                app.apply_pending();
-            }
+            Start::Scene(s) => app.open_scene(s),
             Start::Cube(dir) => app.open_cube(&dir),
         }
         app
@@ -221,6 +233,8 @@ impl eframe::App for TprfApp {
         let ctx = ui.ctx().clone();
         self.messages.extend(self.exports.finished());
         self.handle_dropped_files(&ctx);
+        self.release_held_film();
+        self.settle_camera_gesture(&ctx);
         let snap = self.snapshot();
         // A film without pixels or bins has nothing to draw (and no texture can be made
         // of it): said in the window instead.

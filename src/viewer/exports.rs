@@ -40,7 +40,7 @@ impl Exports {
     /// Run `write` on a thread named `tprf-export`; when it ends, its message ("saved
     /// WHAT" or the error) is sent back and the window repainted. Returns an error
     /// message when no thread could be started.
-    fn spawn(
+    pub(super) fn spawn(
         &mut self,
         ctx: &egui::Context,
         what: String,

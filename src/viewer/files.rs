@@ -21,6 +21,7 @@ pub enum FileAction {
     SaveCsv,
     LoadSensor,
     SaveSensor,
+    SaveSceneGltf,
 }
 
 impl FileAction {
@@ -37,6 +38,7 @@ impl FileAction {
             FileAction::SaveCsv => "Save the plotted curves as CSV",
             FileAction::LoadSensor => "Load a sensor file (TOML)",
             FileAction::SaveSensor => "Save the sensor as TOML",
+            FileAction::SaveSceneGltf => "Save the scene with this camera as glTF (.gltf)",
         }
     }
 
@@ -59,6 +61,10 @@ impl FileAction {
             FileAction::SaveSensor => d
                 .add_filter("sensor", &["toml"])
                 .set_file_name("sensor.toml")
+                .save_file(),
+            FileAction::SaveSceneGltf => d
+                .add_filter("glTF", &["gltf"])
+                .set_file_name("scene.gltf")
                 .save_file(),
         }
     }
@@ -137,6 +143,7 @@ impl TprfApp {
                 Some(s) => self.export_csv(s, path),
                 None => need_film(self),
             },
+            FileAction::SaveSceneGltf => self.save_scene_gltf(path),
             FileAction::LoadSensor => match Sensor::from_path(path) {
                 Ok(s) => self.settings.sensor = s,
                 Err(e) => self

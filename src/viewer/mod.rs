@@ -15,6 +15,8 @@
 //!   background;
 //! - [`colormap`], [`timeline`], [`axes`], [`layout`]: pure colour, time-axis, tick and
 //!   number, and image-layout mappings (tested without a window);
+//! - [`camera`]: the camera pose as numbers and what the mouse does to it (orbit, pan,
+//!   dolly, field of view; tested without a window), the request's camera override;
 //! - `colorbar`, `plotting`: the colour bar under every image, and egui_plot set up
 //!   with readable ticks and units;
 //! - `input`: a frame's keyboard input cut at a Tab, so typing never lands in the next
@@ -25,6 +27,7 @@
 
 mod app;
 pub mod axes;
+pub mod camera;
 mod colorbar;
 pub mod colormap;
 mod exports;
@@ -43,6 +46,7 @@ pub mod timeline;
 mod tone;
 
 pub use app::{FrameTiming, TprfApp};
+pub use camera::CameraPose;
 pub use files::FileAction;
 pub use selection::Selection;
 pub use settings::{Mode, SteadyBlock, ViewerSettings};

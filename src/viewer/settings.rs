@@ -1,6 +1,7 @@
 //! What the window remembers between runs ([`ViewerSettings`], eframe storage), its
 //! sanitizing, and the render job the settings describe.
 
+use super::camera::CameraPose;
 use super::colormap::{ColorMap, ExposureMode};
 use serde::{Deserialize, Serialize};
 use tprf_core::request::{RenderRequest, parse_time_field};
@@ -51,6 +52,9 @@ pub struct ViewerSettings {
     pub mode: Mode,
     /// The sensor being edited (Light, gates, noise).
     pub sensor: Sensor,
+    /// The camera the window moved to (the request's camera override); `None`: the
+    /// scene's own camera.
+    pub camera: Option<CameraPose>,
 }
 
 /// What the steady block of the transient view shows.
@@ -101,6 +105,7 @@ impl Default for ViewerSettings {
             steady_block: SteadyBlock::Steady,
             mode: Mode::Transient,
             sensor: Sensor::builtin("lidar").expect("the built-in LiDAR preset parses"),
+            camera: None,
         }
     }
 }
@@ -128,6 +133,10 @@ impl ViewerSettings {
         if self.sky_radiance_w_m2_sr.is_some() && sky.validate().is_err() {
             self.sky_radiance_w_m2_sr = None;
         }
+        // A stored pose the request would refuse: the scene's camera instead.
+        if self.camera.is_some_and(|c| c.problem().is_some()) {
+            self.camera = None;
+        }
         // No film has more bounce layers than bounces, nor the window more than this.
         self.bounces_shown.truncate(1024);
         if !self.ev.is_finite() {
@@ -154,7 +163,7 @@ impl ViewerSettings {
     }
 
     /// These settings with the render ones (scene, size, window, spp, bounces, band,
-    /// seed, sampling, sky) taken from `other`: what "Apply & restart" applies. Display
+    /// seed, sampling, sky, camera) taken from `other`: what "Apply & restart" applies. Display
     /// and sensor settings take effect at once and are not part of it.
     pub(super) fn with_render_of(&self, other: &ViewerSettings) -> ViewerSettings {
         ViewerSettings {
@@ -171,6 +180,7 @@ impl ViewerSettings {
             seed: other.seed,
             uniform_sampling: other.uniform_sampling,
             sky_radiance_w_m2_sr: other.sky_radiance_w_m2_sr,
+            camera: other.camera,
             ..self.clone()
         }
     }
@@ -197,6 +207,10 @@ impl ViewerSettings {
             until_stopped: true,
             sky_radiance_w_m2_sr: self.sky_radiance_w_m2_sr,
             ..RenderRequest::default()
+        };
+        let request = match &self.camera {
+            Some(pose) => pose.into_request(request),
+            None => request,
         };
         request.validate().map_err(named)?;
         Ok(request)

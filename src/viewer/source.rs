@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use tprf_core::export::{self, CubeMetadata};
 use tprf_core::film::FilmSnapshot;
-use tprf_core::request::worker::{RenderWorker, WorkerStatus};
+use tprf_core::request::worker::{RenderWorker, WorkerState, WorkerStatus};
 use tprf_core::transport::ambient::AmbientImage;
 
 /// Where the film comes from.
@@ -30,7 +30,7 @@ impl TprfApp {
     /// The film on screen now.
     pub fn snapshot(&self) -> Option<Arc<FilmSnapshot>> {
         match &self.source {
-            Source::Live(w) => w.latest(),
+            Source::Live(w) => w.latest().or_else(|| self.held.clone()),
             Source::Cube { snapshot, .. } => Some(snapshot.clone()),
             Source::None => None,
         }
@@ -42,6 +42,42 @@ impl TprfApp {
             Source::Live(w) => w.ambient(),
             Source::Cube { ambient, .. } => ambient.clone(),
             Source::None => None,
+        }
+    }
+
+    /// The request being rendered (None for a loaded cube).
+    pub fn request(&self) -> Option<tprf_core::request::RenderRequest> {
+        match &self.source {
+            Source::Live(w) => Some(w.job().clone()),
+            _ => None,
+        }
+    }
+
+    /// Whether the film on screen is the one before a camera move (the new render has
+    /// no pass yet).
+    pub fn showing_previous_camera(&self) -> bool {
+        matches!(&self.source, Source::Live(w) if w.latest().is_none()) && self.held.is_some()
+    }
+
+    /// Let go of the film kept over a camera move once the new render has one (or
+    /// failed).
+    pub(super) fn release_held_film(&mut self) {
+        if let Source::Live(w) = &self.source
+            && self.held.is_some()
+            && (w.latest().is_some()
+                || matches!(w.status().map(|s| s.state), Some(WorkerState::Failed(_))))
+        {
+            self.held = None;
+        }
+    }
+
+    /// Restart with the current settings, the film on screen kept there until the new
+    /// render's first pass (a camera move: the same scene, size and window).
+    pub(super) fn restart_keeping_film(&mut self) {
+        let film = self.snapshot();
+        self.restart();
+        if matches!(self.source, Source::Live(_)) {
+            self.held = film;
         }
     }
 
@@ -69,6 +105,8 @@ impl TprfApp {
     /// (Re)start the render of the current settings; the old worker is dropped (it ends
     /// by itself after its pass) and the window goes on drawing.
     pub(super) fn restart(&mut self) {
+        self.held = None;
+        self.camera_gesture = None;
         match self.settings.job() {
             Ok(job) => {
                 // A new scene or window opens where its light is; a restart of the same
@@ -106,6 +144,8 @@ impl TprfApp {
                 self.bin = self.bin.min(snapshot.axis().bins.saturating_sub(1));
                 self.seek_light = true;
                 self.light_key = None;
+                self.held = None;
+                self.camera_gesture = None;
                 self.source = Source::Cube {
                     dir: dir.to_path_buf(),
                     snapshot: Arc::new(snapshot),
@@ -127,6 +167,8 @@ impl TprfApp {
     /// Render `scene` (`builtin:NAME` or a glTF path) with the other settings kept.
     pub(super) fn open_scene(&mut self, scene: String) {
         self.pending.scene = scene;
+        // A pose belongs to the scene it was made in.
+        self.pending.camera = None;
         self.selection = None;
         self.selection_film = None;
         self.pins.clear();

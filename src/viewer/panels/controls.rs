@@ -1,4 +1,4 @@
-//! The left panel: the scene, the render settings (applied with "Apply & restart"), the
+//! The left panel: the scene, its camera, the render settings (applied with "Apply & restart"), the
 //! display settings (at once), saving images and video, and the messages. In sensor
 //! mode the sensor's controls come first.
 
@@ -106,6 +106,8 @@ impl TprfApp {
                     ui.label(RichText::new(format!("note: {n}")).weak());
                 }
             }
+            ui.separator();
+            self.camera_ui(ui);
         }
         ui.separator();
         self.render_settings_ui(ui);

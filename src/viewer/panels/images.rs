@@ -1,6 +1,7 @@
 //! The central panel in transient mode: the time slice, the steady image and the
 //! rainbow image, each with its colour bar and unit, laid out to grow with the window;
-//! pixel picking (click a pixel, drag a box); and a readout of the pixel under the
+//! pixel picking (click a pixel, drag a box) and the camera's gestures (other buttons,
+//! the wheel: `camera`); and a readout of the pixel under the
 //! cursor (value with its unit, peak arrival time) under the images and at the pointer.
 
 use super::PIN_COLORS;
@@ -83,13 +84,14 @@ impl TprfApp {
                 (p.y.max(0.0) as usize).min(snap.height().saturating_sub(1)),
             )
         };
-        if response.drag_started()
+        // The left button picks pixels; the others move the camera.
+        if response.drag_started_by(egui::PointerButton::Primary)
             && let Some(pos) = response.interact_pointer_pos()
         {
             self.drag_start = Some(to_pixel(pos));
         }
         if let (Some(start), Some(pos)) = (self.drag_start, response.interact_pointer_pos())
-            && response.dragged()
+            && response.dragged_by(egui::PointerButton::Primary)
         {
             let end = to_pixel(pos);
             self.select(
@@ -103,8 +105,18 @@ impl TprfApp {
                 snap,
             );
         }
-        if response.drag_stopped() {
+        if response.drag_stopped_by(egui::PointerButton::Primary) {
             self.drag_start = None;
+        }
+        self.camera_gestures(ui, &response, snap.width() as f64 / snap.height().max(1) as f64);
+        if self.showing_previous_camera() && self.camera_gesture.is_none() {
+            ui.painter_at(response.rect).text(
+                response.rect.left_top() + Vec2::new(6.0, 6.0),
+                egui::Align2::LEFT_TOP,
+                "the previous camera's film, until the new one has light",
+                egui::FontId::proportional(13.0),
+                Color32::from_rgb(0x4e, 0xc9, 0xff),
+            );
         }
         if response.clicked()
             && let Some(pos) = response.interact_pointer_pos()
@@ -477,7 +489,10 @@ impl TprfApp {
             (None, Some(s)) if s.x0 == s.x1 && s.y0 == s.y1 => {
                 format!("selected {}", self.pixel_readout(snap, s.x0, s.y0))
             }
-            _ => "Hover a pixel to read its value".to_string(),
+            _ => format!(
+                "Hover a pixel to read its value · {}",
+                super::GESTURES_HINT
+            ),
         };
         ui.scope_builder(UiBuilder::new().max_rect(readout_rect), |ui| {
             let label = egui::Label::new(RichText::new(text));

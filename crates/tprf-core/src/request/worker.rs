@@ -6,6 +6,7 @@
 
 use super::{RenderRequest, RequestError, Session};
 use crate::film::{FilmSnapshot, LeftOutCounts, StoreStats, TimeAxis};
+use crate::scene::Scene;
 use crate::transport::ambient::{AmbientImage, has_ambient, render_ambient_cancellable};
 use std::ops::ControlFlow;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -78,6 +79,8 @@ pub struct WorkerStatus {
 struct Shared {
     snapshot: Mutex<Option<Arc<FilmSnapshot>>>,
     ambient: Mutex<Option<Arc<AmbientImage>>>,
+    /// The scene as rendered (the request's sky and camera applied), once loaded.
+    scene: Mutex<Option<Arc<Scene>>>,
     status: Mutex<WorkerStatus>,
     paused: AtomicBool,
     stop: AtomicBool,
@@ -114,6 +117,7 @@ impl RenderWorker {
         let shared = Arc::new(Shared {
             snapshot: Mutex::new(None),
             ambient: Mutex::new(None),
+            scene: Mutex::new(None),
             status: Mutex::new(WorkerStatus {
                 state: WorkerState::Loading,
                 spp: 0,
@@ -176,6 +180,13 @@ impl RenderWorker {
     /// `None` before, and for a scene without ambient light.
     pub fn ambient(&self) -> Option<Arc<AmbientImage>> {
         self.shared.ambient.lock().ok().and_then(|a| a.clone())
+    }
+
+    /// The scene as rendered: loaded, with the request's sky and camera applied (the
+    /// viewer's camera controls start from its camera; saved as glTF from the window).
+    /// `None` while loading and after a failed load. The session's own scene, shared.
+    pub fn scene(&self) -> Option<Arc<Scene>> {
+        self.shared.scene.lock().ok().and_then(|s| s.clone())
     }
 
     pub fn status(&self) -> Option<WorkerStatus> {
@@ -261,6 +272,9 @@ fn render(
     setup_start: Instant,
 ) -> Result<(), RequestError> {
     let mut session = Session::new(job)?;
+    if let Ok(mut slot) = shared.scene.lock() {
+        *slot = Some(session.scene().clone());
+    }
     let notes = session.scene().notes.clone();
     let triangles = session.scene().triangles.len();
     let mut ambient_pending = has_ambient(session.renderer());
