@@ -1942,3 +1942,264 @@ fn the_steady_block_shows_the_ambient_image_of_the_sky_set_in_the_window() {
     assert!(h.state().ambient().is_none());
     h.get_by_label("steady image");
 }
+
+/// A right-drag on the window from `from` to `to`, as a mouse makes it: press, moves of
+/// at most 10 points a frame, release.
+fn right_drag(h: &mut Harness<'static, TprfApp>, from: Pos2, to: Pos2) {
+    h.hover_at(from);
+    h.step();
+    let button = |pos, pressed| Event::PointerButton {
+        pos,
+        button: PointerButton::Secondary,
+        pressed,
+        modifiers: Modifiers::NONE,
+    };
+    h.event(button(from, true));
+    h.step();
+    let steps = ((to - from).length() / 10.0).ceil().max(1.0) as usize;
+    for i in 1..=steps {
+        h.event(Event::PointerMoved(
+            from + (to - from) * (i as f32 / steps as f32),
+        ));
+        h.step();
+    }
+    h.event(button(to, false));
+    h.step();
+}
+
+/// Per pixel, the sum over bins (the steady image).
+fn steady_of(snap: &FilmSnapshot) -> Vec<f64> {
+    (0..snap.height())
+        .flat_map(|y| (0..snap.width()).map(move |x| (x, y)))
+        .map(|(x, y)| snap.pixel(x, y).iter().map(|&v| f64::from(v)).sum())
+        .collect()
+}
+
+/// Step until the render is done, asserting every frame that a film is on screen (the
+/// old camera's until the new one has light).
+fn wait_done_never_blank(h: &mut Harness<'static, TprfApp>, old: &Arc<FilmSnapshot>) {
+    let start = Instant::now();
+    loop {
+        h.step();
+        let snap = h
+            .state()
+            .snapshot()
+            .expect("a film on screen after a camera move");
+        if h.state().showing_previous_camera() {
+            assert!(Arc::ptr_eq(&snap, old), "the film kept is not the old one");
+        }
+        match h.state().status().map(|s| s.state) {
+            Some(WorkerState::Done) if !h.state().showing_previous_camera() => break,
+            Some(WorkerState::Failed(e)) => panic!("render failed: {e}"),
+            _ => {}
+        }
+        assert!(start.elapsed() < Duration::from_secs(120), "no new film");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    h.run_steps(2);
+}
+
+/// Issue 34, item 1: a right-drag on the time slice orbits the camera about its look-at
+/// point, half a turn per image height (checked against the pose before the drag: the
+/// same look-at point and distance, turned about +Y by -pi dx / h, the camera going to
+/// its left), the render restarts with that pose as the request's camera override, the
+/// old film stays on screen until the new one has light, and the new image is another
+/// view. A click still selects a pixel and moves no camera.
+#[test]
+fn orbiting_on_the_image_moves_the_camera_and_renders_again() {
+    use glam::DVec3;
+    use tprf::viewer::CameraPose;
+    let side = 24;
+    let mut h = harness(small_settings("builtin:cornell", side, 48, 4));
+    wait_done(&mut h, Duration::from_secs(120));
+    h.state_mut().playing = false;
+    assert_eq!(h.state().request().unwrap().camera_position_m, None);
+    let before = h
+        .state_mut()
+        .camera_pose()
+        .expect("the scene's camera as a pose");
+    let old = h.state().snapshot().unwrap();
+    let rect = h.get_by_label("time slice").rect();
+    let dx = rect.height() / 4.0;
+    right_drag(&mut h, rect.center(), rect.center() + Vec2::new(dx, 0.0));
+    let pose = h.state().settings.camera.expect("a pose after the drag");
+    let request = h.state().request().unwrap();
+    assert_eq!(CameraPose::of_request(&request), Some(pose));
+    assert_eq!(
+        (pose.look_at_m, pose.up, pose.fov_deg),
+        (before.look_at_m, before.up, before.fov_deg)
+    );
+    let offset = |p: &CameraPose| DVec3::from(p.position_m) - DVec3::from(p.look_at_m);
+    let (a, b) = (offset(&before), offset(&pose));
+    assert!(
+        (a.length() - b.length()).abs() < 1e-9 * a.length(),
+        "{a} {b}"
+    );
+    assert!(
+        (a.y - b.y).abs() < 1e-9,
+        "an orbit about +Y keeps the height: {a} {b}"
+    );
+    let turn = (a.z * b.x - a.x * b.z).atan2(a.x * b.x + a.z * b.z);
+    let expected = -std::f64::consts::PI * f64::from(dx / rect.height());
+    // Within one frame's move (egui starts a drag after a few points).
+    let frame = std::f64::consts::PI * 10.0 / f64::from(rect.height());
+    assert!(
+        (turn - expected).abs() <= frame,
+        "turned {turn} rad, expected {expected}"
+    );
+    wait_done_never_blank(&mut h, &old);
+    let new = h.state().snapshot().unwrap();
+    let (s0, s1) = (steady_of(&old), steady_of(&new));
+    let diff: f64 = s0.iter().zip(&s1).map(|(a, b)| (a - b).abs()).sum();
+    let total: f64 = s0.iter().sum();
+    assert!(
+        diff > 0.2 * total,
+        "the image hardly changed: {diff} of {total}"
+    );
+    let pos = pixel_pos(&h, "time slice", 5, 7, side, side);
+    click_at(&mut h, pos);
+    assert_eq!(h.state().selection, Some(Selection::pixel(5, 7)));
+    assert_eq!(h.state().settings.camera, Some(pose));
+}
+
+/// Focus the field labelled `label` and replace its text with `text`.
+fn retype(h: &mut Harness<'static, TprfApp>, label: &str, text: &str) {
+    h.get_by_label(label).focus();
+    h.step();
+    h.event(Event::Key {
+        key: Key::A,
+        physical_key: None,
+        pressed: true,
+        repeat: false,
+        modifiers: Modifiers::COMMAND,
+    });
+    h.step();
+    h.get_by_label(label).type_text(text);
+    h.step();
+}
+
+/// The pose typed in the Camera section is the request's camera exactly (the fields not
+/// edited keep their exact values), `tprf render` of that request records it in
+/// tprf.json (position, field of view, the view along look-at - position), bad input is
+/// a message naming the field (no camera change), "save the scene with this camera"
+/// writes a glTF whose camera is the one rendered, and "reset" renders the scene's own
+/// camera again.
+#[test]
+fn a_typed_pose_round_trips_is_recorded_saved_and_reset() {
+    use glam::DVec3;
+    use tprf::viewer::CameraPose;
+    let mut h = harness(small_settings("builtin:cornell", 16, 32, 2));
+    h.state_mut().file_dialogs = false;
+    wait_done(&mut h, Duration::from_secs(120));
+    let scene_pose = h.state_mut().camera_pose().unwrap();
+    let old = h.state().snapshot().unwrap();
+
+    retype(&mut h, "Position (m)", "1, 2");
+    h.get_by_label("Set camera").click();
+    h.run_steps(2);
+    assert!(
+        h.query_by_label_contains("position: \"1, 2\" is not three numbers")
+            .is_some(),
+        "no message for a bad position"
+    );
+    assert_eq!(h.state().settings.camera, None);
+
+    retype(&mut h, "Position (m)", "0.1, 0.35, 1.2");
+    retype(&mut h, "Field of view (°)", "50");
+    h.get_by_label("Set camera").click();
+    h.run_steps(2);
+    let typed = CameraPose {
+        position_m: [0.1, 0.35, 1.2],
+        fov_deg: 50.0,
+        ..scene_pose
+    };
+    assert_eq!(h.state().settings.camera, Some(typed));
+    let request = h.state().request().unwrap();
+    assert_eq!(CameraPose::of_request(&request), Some(typed));
+    wait_done_never_blank(&mut h, &old);
+    assert!(
+        h.query_by_label_contains("--camera-position 0.1,0.35,1.2")
+            .is_some(),
+        "the command line's options for the pose"
+    );
+
+    // The request renders to a folder whose tprf.json records the pose.
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("viewer-camera-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let small = tprf_core::request::RenderRequest {
+        width: 8,
+        height: 8,
+        bins: 16,
+        spp: Some(1),
+        until_stopped: false,
+        pass_seconds: None,
+        ..request.clone()
+    };
+    struct Quiet;
+    impl tprf_core::request::Observer for Quiet {}
+    tprf_core::request::render_to_folder(&small, &dir.join("cube"), &mut Quiet).unwrap();
+    let meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("cube/tprf.json")).unwrap())
+            .unwrap();
+    let cam = &meta["camera"];
+    let num = |v: &serde_json::Value| v.as_f64().unwrap();
+    let position: Vec<f64> = cam["position_m"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(num)
+        .collect();
+    assert!(
+        (DVec3::from_slice(&position) - DVec3::from(typed.position_m)).length() < 1e-6,
+        "{position:?}"
+    );
+    assert!((num(&cam["yfov_deg"]) - 50.0).abs() < 1e-4);
+    let m: Vec<f64> = cam["world_from_camera"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(num)
+        .collect();
+    let view = -DVec3::new(m[8], m[9], m[10]);
+    let want = (DVec3::from(typed.look_at_m) - DVec3::from(typed.position_m)).normalize();
+    assert!((view - want).length() < 1e-6, "{view} vs {want}");
+
+    // Saved as glTF: the camera read back is the one rendered.
+    h.get_by_label("Save scene with this camera…").click();
+    h.run_steps(2);
+    let path = dir.join("scene.gltf");
+    h.get_by_label("path").focus();
+    h.step();
+    h.get_by_label("path")
+        .type_text(&path.display().to_string());
+    h.step();
+    h.get_by_label("OK").click();
+    let start = Instant::now();
+    while !h.state().messages().iter().any(|m| m.starts_with("saved ")) {
+        h.step();
+        assert!(
+            start.elapsed() < Duration::from_secs(30),
+            "{:?}",
+            h.state().messages()
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let saved = tprf_core::scene::load(&path.display().to_string()).unwrap();
+    let rendered = tprf_core::request::apply_camera(&request, &saved.camera).unwrap();
+    assert!(
+        glam::Mat4::from(saved.camera.world_from_camera)
+            .abs_diff_eq(glam::Mat4::from(rendered.world_from_camera), 1e-6)
+    );
+    assert!((saved.camera.yfov_rad - 50f32.to_radians()).abs() < 1e-6);
+
+    // Reset: the scene's camera again, as before any move.
+    let old = h.state().snapshot().unwrap();
+    h.get_by_label("Reset to the scene's camera").click();
+    h.step();
+    assert_eq!(h.state().settings.camera, None);
+    assert_eq!(h.state().request().unwrap().camera_position_m, None);
+    wait_done_never_blank(&mut h, &old);
+    assert_eq!(h.state_mut().camera_pose(), Some(scene_pose));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -410,7 +410,9 @@ mod tests {
         assert!(close(p.position_m, [-s, s, 0.0], 1e-12), "{p:?}");
         assert_eq!((p.look_at_m, p.up, p.fov_deg), ([0.0; 3], pose.up, 40.0));
         let top = pose.orbit(0.0, 10.0);
-        let polar = (DVec3::from(top.position_m).normalize().y).acos().to_degrees();
+        let polar = (DVec3::from(top.position_m).normalize().y)
+            .acos()
+            .to_degrees();
         assert!((polar - 0.5).abs() < 1e-9, "{polar}");
         assert!(top.problem().is_none());
         assert!((DVec3::from(top.position_m).length() - 2.0).abs() < 1e-12);
@@ -472,13 +474,25 @@ mod tests {
         t.follow(&pose);
         assert_eq!(t.fov, "30°");
         for (field, text, want) in [
-            ("position", "1, 2", "position: \"1, 2\" is not three numbers"),
-            ("position", "1, 2, inf", "position: \"inf\" is not a finite number"),
+            (
+                "position",
+                "1, 2",
+                "position: \"1, 2\" is not three numbers",
+            ),
+            (
+                "position",
+                "1, 2, inf",
+                "position: \"inf\" is not a finite number",
+            ),
             ("fov", "wide", "field of view: \"wide\" is not a number"),
             ("fov", "180", "fov = 180 degrees"),
             ("up", "0, 0, 0", "up = 0,0,0 is no direction"),
             ("up", "-0.123456789, 0, -3", "lies along the view direction"),
-            ("look_at", "0.123456789, 1, 3", "look_at = 0.123456789,1,3 is the"),
+            (
+                "look_at",
+                "0.123456789, 1, 3",
+                "look_at = 0.123456789,1,3 is the",
+            ),
         ] {
             let mut t = PoseText::default();
             t.follow(&pose);

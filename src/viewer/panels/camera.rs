@@ -201,10 +201,7 @@ impl TprfApp {
                 }
             }
         }
-        let text = if self
-            .camera_gesture
-            .is_some_and(|g| g.render_at.is_some())
-        {
+        let text = if self.camera_gesture.is_some_and(|g| g.render_at.is_some()) {
             "renders from here when the wheel rests"
         } else {
             "let go to render from here"
@@ -230,40 +227,42 @@ impl TprfApp {
         self.pose_text.follow(&pose);
         let mut submit = false;
         let t = &mut self.pose_text;
-        egui::Grid::new("camera-grid").num_columns(2).show(ui, |ui| {
-            for (name, hover, text) in [
-                (
-                    "Position (m)",
-                    "where the camera stands: x, y, z in metres",
-                    &mut t.position,
-                ),
-                (
-                    "Look at (m)",
-                    "the point at the image's centre (orbits turn about it): x, y, z in \
+        egui::Grid::new("camera-grid")
+            .num_columns(2)
+            .show(ui, |ui| {
+                for (name, hover, text) in [
+                    (
+                        "Position (m)",
+                        "where the camera stands: x, y, z in metres",
+                        &mut t.position,
+                    ),
+                    (
+                        "Look at (m)",
+                        "the point at the image's centre (orbits turn about it): x, y, z in \
                      metres",
-                    &mut t.look_at,
-                ),
-                (
-                    "Up",
-                    "the direction shown upward (any length, across the view)",
-                    &mut t.up,
-                ),
-                (
-                    "Field of view (°)",
-                    "vertical, in degrees (0 to 180, not included)",
-                    &mut t.fov,
-                ),
-            ] {
-                let l = ui.label(name).on_hover_text(hover);
-                let r = ui
-                    .add(egui::TextEdit::singleline(text).desired_width(130.0))
-                    .labelled_by(l.id);
-                if r.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter)) {
-                    submit = true;
+                        &mut t.look_at,
+                    ),
+                    (
+                        "Up",
+                        "the direction shown upward (any length, across the view)",
+                        &mut t.up,
+                    ),
+                    (
+                        "Field of view (°)",
+                        "vertical, in degrees (0 to 180, not included)",
+                        &mut t.fov,
+                    ),
+                ] {
+                    let l = ui.label(name).on_hover_text(hover);
+                    let r = ui
+                        .add(egui::TextEdit::singleline(text).desired_width(130.0))
+                        .labelled_by(l.id);
+                    if r.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter)) {
+                        submit = true;
+                    }
+                    ui.end_row();
                 }
-                ui.end_row();
-            }
-        });
+            });
         let edited = self.pose_text.edited();
         ui.horizontal_wrapped(|ui| {
             if ui

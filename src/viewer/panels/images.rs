@@ -108,7 +108,11 @@ impl TprfApp {
         if response.drag_stopped_by(egui::PointerButton::Primary) {
             self.drag_start = None;
         }
-        self.camera_gestures(ui, &response, snap.width() as f64 / snap.height().max(1) as f64);
+        self.camera_gestures(
+            ui,
+            &response,
+            snap.width() as f64 / snap.height().max(1) as f64,
+        );
         if self.showing_previous_camera() && self.camera_gesture.is_none() {
             ui.painter_at(response.rect).text(
                 response.rect.left_top() + Vec2::new(6.0, 6.0),
@@ -489,10 +493,7 @@ impl TprfApp {
             (None, Some(s)) if s.x0 == s.x1 && s.y0 == s.y1 => {
                 format!("selected {}", self.pixel_readout(snap, s.x0, s.y0))
             }
-            _ => format!(
-                "Hover a pixel to read its value · {}",
-                super::GESTURES_HINT
-            ),
+            _ => format!("Hover a pixel to read its value · {}", super::GESTURES_HINT),
         };
         ui.scope_builder(UiBuilder::new().max_rect(readout_rect), |ui| {
             let label = egui::Label::new(RichText::new(text));
