@@ -2117,10 +2117,10 @@ fn a_typed_pose_round_trips_is_recorded_saved_and_reset() {
     let request = h.state().request().unwrap();
     assert_eq!(CameraPose::of_request(&request), Some(typed));
     wait_done_never_blank(&mut h, &old);
+    let flags = h.state_mut().camera_pose().unwrap().flags();
     assert!(
-        h.query_by_label_contains("--camera-position 0.1,0.35,1.2")
-            .is_some(),
-        "the command line's options for the pose"
+        flags.starts_with("--camera-position 0.1,0.35,1.2 --look-at "),
+        "{flags}"
     );
 
     // The request renders to a folder whose tprf.json records the pose.

@@ -54,11 +54,15 @@ impl CameraPose {
         } else {
             up_c
         };
+        // The camera holds f32s: each number is the shortest one that f32 reads back
+        // (0.2775, not 0.2775000035762787), the same camera to f32 precision.
+        let short = |v: f64| (v as f32).to_string().parse::<f64>().unwrap_or(v);
+        let short3 = |v: DVec3| v.to_array().map(short);
         CameraPose {
-            position_m: position.to_array(),
-            look_at_m: (position + forward * distance_m).to_array(),
-            up: up.to_array(),
-            fov_deg: f64::from(camera.yfov_rad).to_degrees(),
+            position_m: short3(position),
+            look_at_m: short3(position + forward * distance_m),
+            up: short3(up),
+            fov_deg: short(f64::from(camera.yfov_rad).to_degrees()),
         }
     }
 

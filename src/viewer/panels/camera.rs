@@ -216,7 +216,7 @@ impl TprfApp {
     }
 
     /// The Camera section: the pose as numbers (Enter or "Set camera" renders it), the
-    /// options that give `tprf render` the same view, "Reset to the scene's camera" and
+    /// options that give `tprf render` the same view (copied), "Reset to the scene's camera" and
     /// "Save scene with this camera…".
     pub(crate) fn camera_ui(&mut self, ui: &mut egui::Ui) {
         ui.heading("Camera");
@@ -308,12 +308,15 @@ impl TprfApp {
         {
             self.choose_file(FileAction::SaveSceneGltf);
         }
+        let flags = pose.flags();
+        if ui
+            .button("Copy as tprf render options")
+            .on_hover_text(format!("the same view from the command line: {flags}"))
+            .clicked()
+        {
+            ui.ctx().copy_text(flags);
+        }
         ui.label(RichText::new(GESTURES_HINT).weak().small());
-        ui.add(
-            egui::Label::new(RichText::new(format!("tprf render {}", pose.flags())).monospace())
-                .wrap(),
-        )
-        .on_hover_text("the same view from the command line");
     }
 
     /// Write the scene as rendered (the window's camera in it) to `path` as glTF, in the
