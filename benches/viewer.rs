@@ -198,6 +198,73 @@ fn main() {
     if part("throughput") {
         throughput();
     }
+    if part("paint") {
+        paint();
+    }
+}
+
+/// The whole frame: our `ui()` with egui's layout and tessellation, then the paint of
+/// the 1280 x 800 window by wgpu on whatever adapter there is (Mesa's lavapipe, on the
+/// CPU, where there is no GPU) with egui-wgpu's default options (eframe's), read back (kittest reads
+/// the image; 4 MB), while the renderer runs, playback on, the pointer on the slice.
+/// `cargo bench --bench viewer -- paint`.
+fn paint() {
+    println!(
+        "\nWhole frame (UI + layout + tessellation, then wgpu paint and read-back of 1280 x 800), \
+         128 x 128 x 256 cornell while rendering\n"
+    );
+    println!(
+        "| tab | frames | UI p50 ms | paint p50 ms | paint p95 ms | whole p50 ms | whole p95 ms | adapter |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
+    for mode in [Mode::Transient, Mode::Sensor] {
+        let settings = ViewerSettings {
+            mode,
+            ..ViewerSettings::default()
+        };
+        let mut h = Harness::builder()
+            .with_size(Vec2::new(1280.0, 800.0))
+            .with_render_options(eframe::egui_wgpu::RendererOptions::default())
+            .build_eframe(move |cc| TprfApp::with_settings(cc, settings, Start::Default));
+        let start = Instant::now();
+        while h.state().snapshot().is_none() {
+            assert!(start.elapsed() < Duration::from_secs(120), "no film");
+            h.step();
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        h.run_steps(3);
+        if let Some(n) = h.query_by_label("time slice") {
+            let c = n.rect().center();
+            h.hover_at(Pos2::new(c.x, c.y));
+        }
+        if let Err(e) = h.render() {
+            println!("| {mode:?} | - | - | - | - | - | - | none: {e} |");
+            continue;
+        }
+        let frames = 60;
+        let (mut ui_ms, mut paint_ms, mut whole_ms) = (vec![], vec![], vec![]);
+        for _ in 0..frames {
+            let t = Instant::now();
+            h.step();
+            let ui = t.elapsed();
+            let _ = h.render();
+            let whole = t.elapsed();
+            ui_ms.push(ui.as_secs_f64() * 1e3);
+            paint_ms.push((whole - ui).as_secs_f64() * 1e3);
+            whole_ms.push(whole.as_secs_f64() * 1e3);
+        }
+        for v in [&mut ui_ms, &mut paint_ms, &mut whole_ms] {
+            v.sort_by(f64::total_cmp);
+        }
+        println!(
+            "| {mode:?} | {frames} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | wgpu (kittest) |",
+            quantile(&ui_ms, 0.5),
+            quantile(&paint_ms, 0.5),
+            quantile(&paint_ms, 0.95),
+            quantile(&whole_ms, 0.5),
+            quantile(&whole_ms, 0.95),
+        );
+    }
 }
 
 /// The SPAD preset after an edit: the UI thread's frame, then the wall time until the
