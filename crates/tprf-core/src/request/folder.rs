@@ -7,8 +7,7 @@ use super::{MemoryRefusal, MemoryStop, RenderRequest, RequestError, Session};
 use crate::export::ambient::{AMBIENT_NPY, AMBIENT_UNITS, AmbientMetadata};
 use crate::export::shard::{self, ShardInfo};
 use crate::export::{
-    self, BIN_VALUE, CameraMetadata, CubeFormat, CubeMetadata, MediumMetadata, RenderStopped,
-    zarr,
+    self, BIN_VALUE, CameraMetadata, CubeFormat, CubeMetadata, MediumMetadata, RenderStopped, zarr,
 };
 use crate::film::{FilmSnapshot, TprfFilm};
 use crate::transport::ambient::{AmbientImage, render_ambient};
