@@ -21,7 +21,12 @@
 //!   stored bin has cost so far (values, run headers, bounce layers);
 //! - readers' copies: rows a published snapshot still shares are rebuilt beside it
 //!   (the window's worker keeps two snapshots: `2 G`);
-//! - per thread, a pass's working rows and scratch.
+//! - per thread, a pass's working rows and scratch, and the Zarr writer's tile after
+//!   the pass.
+//!
+//! It is compared with `max_memory`, and with the heap the film holds now plus what the
+//! process may still allocate: the fixed part's snapshot images, exported steady image
+//! and file row, allocated only when the files are written, must fit in that room too.
 
 use super::{Problem, RequestError};
 use crate::budget::{self, Limit, format_bytes};
@@ -43,6 +48,9 @@ const SLACK: f64 = 1.25;
 /// Memory kept free beside the film when the limit is the system's (what the rest of
 /// the process needs: its threads' stacks, the files being written).
 const RESERVE_BYTES: u64 = 64 << 20;
+/// What the room the system leaves is divided by before a pass is foreseen to fit in it
+/// (`max_memory`, a budget for the film's own bytes, is compared as it is).
+const SYSTEM_HEADROOM: f64 = 1.25;
 /// Pixels of the pilot that foresees the first pass.
 const PILOT_PIXELS: usize = 1024;
 
@@ -312,8 +320,9 @@ impl MemoryBudget {
         self.bins_per_sample
     }
 
-    /// Bytes `film` is foreseen to need while a pass of `spp` samples per pixel runs,
-    /// and what it holds now (both with its fixed part).
+    /// Bytes `film` is foreseen to need while a pass of `spp` samples per pixel runs and
+    /// while its files are written after it (with the whole fixed part: the parts a
+    /// snapshot and the writer allocate only then included), and the heap it holds now.
     fn foresee(&self, film: &TprfFilm, spp: u32) -> (u64, u64) {
         let layout: FilmLayout = *film.layout();
         let fixed = layout.fixed_bytes().unwrap_or(u64::MAX);
@@ -333,11 +342,21 @@ impl MemoryBudget {
         let scratch = layout.axis.bins as f64 * 8.0 * (2.0 + layers + 1.0)
             + layout.width as f64 * 32.0 * 16.0;
         let per_thread = 2.0 * row_bytes + scratch;
+        // The Zarr writer, per thread, after the pass: a 32 x 32 tile's values (f32, in a
+        // vector that may have doubled; four times the mean pixel's bins, at most the
+        // tile's dense size), a decoded chunk and its compressed copy. (The `.npy`
+        // writer's dense row is in the fixed part.)
+        let bins_after = (stats.stored_bins as f64 + new_bins) / pixels.max(1.0);
+        let tile_values = (4.0 * bins_after).min(layout.axis.bins as f64) * 1024.0;
+        let writer = 2.0 * 4.0 * tile_values + 2.0 * crate::export::zarr::CHUNK_BYTES as f64;
         let during = grown as f64 * (1 + self.reader_copies) as f64
             + new_bytes
-            + self.threads as f64 * per_thread;
+            + self.threads as f64 * (per_thread + writer);
         let need = (fixed as f64 + during).min(u64::MAX as f64) as u64;
-        (need, fixed.saturating_add(grown))
+        // What the film holds now: its rows' heap. The fixed part's snapshot images,
+        // exported steady image and file row are not allocated yet, so the room left must
+        // cover them.
+        (need, stats.bytes)
     }
 
     /// Whether a pass of `spp` samples per pixel fits: `Err` with what it would need and
@@ -390,7 +409,13 @@ impl MemoryBudget {
     /// rest of the process (`None`: no limit known).
     fn limit(&self, film: &TprfFilm) -> Option<(u64, MemoryLimit)> {
         let system = budget::available().map(|a| {
-            let room = a.bytes.saturating_sub(RESERVE_BYTES.min(a.bytes / 10));
+            // A part of the room is kept for what the estimate does not see: the
+            // allocator's reservations and fragmentation, address space the threads
+            // reserve (a first pass of 4096 x 4096 x 65536 bins under `ulimit -v`
+            // foreseen at 3.4 GiB took 3.7 GiB).
+            let room =
+                a.bytes.saturating_sub(RESERVE_BYTES.min(a.bytes / 10)) as f64 / SYSTEM_HEADROOM;
+            let room = room as u64;
             let held = self.foresee(film, 0).1;
             (
                 held.saturating_add(room),
