@@ -24,9 +24,10 @@
 //! - per thread, a pass's working rows and scratch, and the Zarr writer's tile after
 //!   the pass.
 //!
-//! It is compared with `max_memory`, and with the heap the film holds now plus what the
-//! process may still allocate: the fixed part's snapshot images, exported steady image
-//! and file row, allocated only when the files are written, must fit in that room too.
+//! The film's need is compared with `max_memory`; the film's need and the writer's
+//! scratch with the heap the film holds now plus what the process may still allocate
+//! (less a reserve, over a headroom): the fixed part's snapshot images, exported steady
+//! image and file row, allocated only when the files are written, must fit in that room.
 
 use super::{Problem, RequestError};
 use crate::budget::{self, Limit, format_bytes};
@@ -204,6 +205,16 @@ pub(super) struct MemoryBudget {
     before_pass: Option<(u64, u32)>,
 }
 
+/// What a pass is foreseen to need, bytes.
+struct Foreseen {
+    /// The film during the pass (its whole fixed part included).
+    film: u64,
+    /// The writer's scratch after it, beyond the film.
+    writer: u64,
+    /// The film's heap now.
+    held: u64,
+}
+
 /// Bins of the halves and of the bounce layers one sample of a pixel touches.
 struct CountingSink {
     axis: TimeAxis,
@@ -323,7 +334,7 @@ impl MemoryBudget {
     /// Bytes `film` is foreseen to need while a pass of `spp` samples per pixel runs and
     /// while its files are written after it (with the whole fixed part: the parts a
     /// snapshot and the writer allocate only then included), and the heap it holds now.
-    fn foresee(&self, film: &TprfFilm, spp: u32) -> (u64, u64) {
+    fn foresee(&self, film: &TprfFilm, spp: u32) -> Foreseen {
         let layout: FilmLayout = *film.layout();
         let fixed = layout.fixed_bytes().unwrap_or(u64::MAX);
         let stats = film.store_stats();
@@ -351,12 +362,16 @@ impl MemoryBudget {
         let writer = 2.0 * 4.0 * tile_values + 2.0 * crate::export::zarr::CHUNK_BYTES as f64;
         let during = grown as f64 * (1 + self.reader_copies) as f64
             + new_bytes
-            + self.threads as f64 * (per_thread + writer);
-        let need = (fixed as f64 + during).min(u64::MAX as f64) as u64;
-        // What the film holds now: its rows' heap. The fixed part's snapshot images,
-        // exported steady image and file row are not allocated yet, so the room left must
-        // cover them.
-        (need, stats.bytes)
+            + self.threads as f64 * per_thread;
+        let bytes = |b: f64| b.min(u64::MAX as f64) as u64;
+        Foreseen {
+            film: bytes(fixed as f64 + during),
+            writer: bytes(self.threads as f64 * writer),
+            // What the film holds now: its rows' heap. The fixed part's snapshot images,
+            // exported steady image and file row are not allocated yet, so the room left
+            // must cover them.
+            held: stats.bytes,
+        }
     }
 
     /// Whether a pass of `spp` samples per pixel fits: `Err` with what it would need and
@@ -372,11 +387,19 @@ impl MemoryBudget {
         shrink: bool,
     ) -> Result<u32, (u64, u64, MemoryLimit)> {
         self.after_pass(film);
-        let limit = self.limit(film);
+        let system = self.system_limit(film);
+        // `max_memory` bounds the film; what the system leaves bounds the process: the
+        // film and the writer's scratch after the pass.
         let fits = |s: u32| {
-            let need = self.foresee(film, s).0;
-            match limit {
-                Some((max, by)) if need > max => Err((need, max, by)),
+            let f = self.foresee(film, s);
+            if let Some(max) = self.max_bytes
+                && f.film > max
+            {
+                return Err((f.film, max, MemoryLimit::MaxMemory));
+            }
+            let need = f.film.saturating_add(f.writer);
+            match system {
+                Some((limit, by)) if need > limit => Err((need, limit, by)),
                 _ => Ok(()),
             }
         };
@@ -404,29 +427,23 @@ impl MemoryBudget {
         Ok(pass_spp)
     }
 
-    /// The bytes the film may take and what sets them: `max_memory` or, where lower,
-    /// what it holds plus what the process may still allocate, less a reserve for the
-    /// rest of the process (`None`: no limit known).
-    fn limit(&self, film: &TprfFilm) -> Option<(u64, MemoryLimit)> {
-        let system = budget::available().map(|a| {
+    /// The bytes the process may give the film and its writer, and what sets them: what
+    /// the film holds plus what the process may still allocate, less a reserve for the
+    /// rest of the process and a headroom (`None`: no limit known).
+    fn system_limit(&self, film: &TprfFilm) -> Option<(u64, MemoryLimit)> {
+        budget::available().map(|a| {
             // A part of the room is kept for what the estimate does not see: the
             // allocator's reservations and fragmentation, address space the threads
             // reserve (a first pass of 4096 x 4096 x 65536 bins under `ulimit -v`
             // foreseen at 3.4 GiB took 3.7 GiB).
             let room =
                 a.bytes.saturating_sub(RESERVE_BYTES.min(a.bytes / 10)) as f64 / SYSTEM_HEADROOM;
-            let room = room as u64;
-            let held = self.foresee(film, 0).1;
+            let held = self.foresee(film, 0).held;
             (
-                held.saturating_add(room),
+                held.saturating_add(room as u64),
                 MemoryLimit::from_budget(a.limited_by),
             )
-        });
-        let max = self.max_bytes.map(|m| (m, MemoryLimit::MaxMemory));
-        match (max, system) {
-            (Some(m), Some(s)) => Some(if s.0 < m.0 { s } else { m }),
-            (m, s) => m.or(s),
-        }
+        })
     }
 
     /// After a pass: the rate of new bins and their cost, as seen.
