@@ -80,3 +80,8 @@ fn sensor_noise_and_huge_values_stay_finite_and_non_negative() {
 fn spad_at_1e9_cycles_and_saturation_stays_exact() {
     all_pass(tprf_core::report::stability::spad_extremes(Size::Test));
 }
+
+#[test]
+fn extreme_media_match_single_scattering_and_the_white_furnace_decay() {
+    all_pass(tprf_core::report::stability::extreme_media(Size::Test));
+}

@@ -3,7 +3,8 @@
 //! 1 m and 10 km, 1 and 100 000 time bins, 10^8 samples in one bin, a point light 1e-6 m
 //! from a wall, grazing light and view, coincident faces and degenerate triangles, and
 //! the sensor on hand-made TPRFs (pulses, gates, noise, huge values, a SPAD at 10^9
-//! cycles with saturating returns and ambient).
+//! cycles with saturating returns and ambient), and extreme participating media (an
+//! optical depth of 1e4, an albedo of 0.9999, fog at 1 mm and at 10 km).
 //!
 //! Most rows compare with an answer derived independently of the renderer (a closed
 //! form, a quadrature, the renewal equation, an exact sum): [`Kind::Reference`]. The
@@ -21,6 +22,7 @@
 mod cases_bins;
 mod cases_furnace;
 mod cases_geometry;
+mod cases_media;
 mod cases_scales;
 mod cases_sensor;
 mod common;
@@ -29,6 +31,7 @@ mod verdict;
 pub use cases_bins::bins;
 pub use cases_furnace::stiff_furnace;
 pub use cases_geometry::{bad_faces, grazing, light_near_wall};
+pub use cases_media::extreme_media;
 pub use cases_scales::scales;
 pub use cases_sensor::{pulses_and_gates, sensor_extremes, spad_extremes};
 pub use common::Size;
@@ -49,6 +52,7 @@ pub fn cases() -> Vec<(&'static str, Case)> {
         ("pulses and gates", pulses_and_gates),
         ("sensor extremes", sensor_extremes),
         ("SPAD extremes", spad_extremes),
+        ("extreme media", extreme_media),
     ]
 }
 
