@@ -98,10 +98,12 @@ impl Builder<'_> {
         &mut self,
         bsdf: Option<usize>,
         radiance: Option<[f64; 3]>,
+        medium: Option<usize>,
     ) -> Result<MaterialSlot, SceneError> {
         let key = MaterialKey {
             bsdf,
             radiance_bits: radiance.map(|r| r.map(f64::to_bits)),
+            medium,
         };
         if let Some(slot) = self.material_of.get(&key) {
             return Ok(*slot);
@@ -121,6 +123,15 @@ impl Builder<'_> {
             let (index, uv) = self.texture(t)?;
             c.material.base_color_texture = Some(TextureRef { texture: index });
             to_uv = uv;
+        }
+        if let Some(k) = medium {
+            // Mitsuba keeps the index on the boundary: a dielectric's, else index-matched.
+            let n = if c.material.transmission > 0.0 {
+                c.material.ior
+            } else {
+                1.0
+            };
+            c.material.medium = Some(self.medium(k, n)?);
         }
         if let Some(r) = radiance {
             c.material.emissive = r.map(|v| v as f32);

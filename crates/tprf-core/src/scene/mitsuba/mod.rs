@@ -32,11 +32,14 @@
 //!   (tprf's ambient group: steady light, never pulsed);
 //! - the sensor `perspective` (`thinlens` as a pinhole), its film (`hdrfilm`,
 //!   `transient_hdr_film`), sampler and the integrator (`path`, `transient_path`, and
-//!   the volumetric path tracers, read as `path` since a scene with media is refused).
+//!   the volumetric path tracers, `transient_prbvolpath` among them: tprf renders a
+//!   scene with media by its media path loop whatever the integrator);
+//! - homogeneous media (`media`): a sensor's medium as the scene's, a shape's interior
+//!   filling it, with an `isotropic` or `hg` phase.
 //!
 //! **The rule for what is not read.** An element whose plugin tprf has no counterpart
 //! for (`<bsdf type="hair">`, `<emitter type="envmap">`, `<film type="phasor_hdr_film">`,
-//! `<integrator type="transient_nlos_path">`, any `<medium>`) refuses the scene, with
+//! `<integrator type="transient_nlos_path">`, a heterogeneous `<medium>`) refuses the scene, with
 //! the file, line and type: rendering it without would change what light exists or what
 //! is measured. A property tprf does not use (a `<string name="filter_type">`, a
 //! sensor's `near_clip`) or one whose meaning tprf approximates is loaded with a note
@@ -44,6 +47,7 @@
 
 mod bsdf;
 mod emitters;
+mod media;
 mod meshes;
 mod sensor;
 mod shapes;
@@ -87,6 +91,8 @@ pub(super) struct MaterialSlot {
 struct MaterialKey {
     bsdf: Option<usize>,
     radiance_bits: Option<[u64; 3]>,
+    /// The `<medium>` object filling the shape.
+    medium: Option<usize>,
 }
 
 /// Accumulates the scene while the parsed objects are converted.
@@ -105,6 +111,8 @@ pub(super) struct Builder<'a> {
     lights: Vec<PunctualLight>,
     ambient: AmbientLights,
     camera: Option<Camera>,
+    /// The medium the sensor sits in: the scene's.
+    medium: Option<crate::scene::Medium>,
     settings: FileSettings,
     notes: Vec<String>,
     /// Approximations and ignored properties, grouped: (what, first place, count).
@@ -129,6 +137,7 @@ impl<'a> Builder<'a> {
             lights: Vec::new(),
             ambient: AmbientLights::default(),
             camera: None,
+            medium: None,
             settings: FileSettings::default(),
             notes: Vec::new(),
             grouped: BTreeMap::new(),
@@ -193,11 +202,16 @@ impl<'a> Builder<'a> {
                 }
                 // Used where they are referenced.
                 "bsdf" | "texture" => o.visited.set(false),
+                // Used where they are referenced (a sensor, a shape, a medium).
+                "medium" | "phase" | "volume" if o.id.is_some() => o.visited.set(false),
                 "medium" | "phase" | "volume" => {
-                    return Err(Self::unsupported(
-                        o,
-                        "participating media are not rendered by tprf",
-                    ));
+                    self.note_at(
+                        &o.loc,
+                        format!(
+                            "{} at the scene's top level without an id ignored (a medium is used from a sensor or a shape)",
+                            o.describe()
+                        ),
+                    );
                 }
                 _ => {
                     self.note_at(
@@ -263,8 +277,7 @@ impl<'a> Builder<'a> {
             lights: self.lights,
             camera: Camera::look_at(Vec3::Z, Vec3::ZERO, FRAMED_YFOV_RAD),
             ambient: self.ambient,
-            // Media are refused above (`unsupported`).
-            medium: None,
+            medium: self.medium,
             objects: self.objects,
             notes,
         };

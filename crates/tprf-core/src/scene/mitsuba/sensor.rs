@@ -112,6 +112,8 @@ impl Builder<'_> {
                     }
                     let _ = child.integer("seed", 0)?;
                 }
+                // The medium the camera sits in: the scene's (the air).
+                "medium" => self.medium = Some(self.medium(c, 1.0)?),
                 _ => {
                     return Err(err(
                         &child.loc,

@@ -362,6 +362,7 @@ impl Builder<'_> {
         // Sub-objects: the BSDF, an area emitter; anything else refuses the shape.
         let mut bsdf = None;
         let mut radiance = None;
+        let mut interior = None;
         for (p, c) in o.children() {
             p.used.set(true);
             let child = self.object(c);
@@ -385,11 +386,14 @@ impl Builder<'_> {
                         ),
                     ));
                 }
+                "medium" if p.name == "interior" => interior = Some(c),
                 "medium" => {
-                    return Err(Builder::unsupported(
-                        child,
-                        "participating media are not rendered by tprf",
-                    ));
+                    let what = format!(
+                        "{} named \"{}\" of a shape taken to be the scene's medium (the sensor's): tprf's media are a shape's interior and the scene's",
+                        child.describe(),
+                        p.name
+                    );
+                    self.note_at(&child.loc, what);
                 }
                 _ => {
                     return Err(err(
@@ -403,7 +407,7 @@ impl Builder<'_> {
                 }
             }
         }
-        let slot = self.material(bsdf, radiance)?;
+        let slot = self.material(bsdf, radiance, interior)?;
         let _ = file_mesh;
         let first = self.triangles.len();
         self.place(mesh, &to_world, flip_normals, face_normals, slot, &what)?;
