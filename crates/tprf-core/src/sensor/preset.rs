@@ -176,10 +176,18 @@ impl Sensor {
         Sensor::from_toml_str(text)
     }
 
-    /// `builtin:NAME` or the path of a TOML file.
+    /// `builtin:NAME` or the path of a TOML file. A bare preset name that names no file
+    /// (`lidar`) is refused with the spelling that loads the preset.
     pub fn load(spec: &str) -> Result<Sensor, SensorError> {
         match spec.strip_prefix("builtin:") {
             Some(name) => Sensor::builtin(name),
+            None if !Path::new(spec).exists()
+                && BUILTIN_PRESETS.iter().any(|(n, _)| *n == spec) =>
+            {
+                Err(SensorError::Invalid(format!(
+                    "no sensor file '{spec}': the built-in preset is builtin:{spec}"
+                )))
+            }
             None => Sensor::from_path(Path::new(spec)),
         }
     }
@@ -292,6 +300,11 @@ mod tests {
             assert_eq!(Sensor::from_toml_str(&text), Ok(s), "{name}:\n{text}");
         }
         assert!(Sensor::builtin("nope").is_err());
+        // A bare preset name (no such file here) names the spelling that loads it.
+        match Sensor::load("lidar") {
+            Err(SensorError::Invalid(m)) => assert!(m.contains("builtin:lidar"), "{m}"),
+            other => panic!("{other:?}"),
+        }
     }
 
     #[test]
