@@ -4,32 +4,10 @@
 //! samples writes, bit for bit) and exits with status 3; the window's worker pauses with
 //! the same message instead.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
+
+use common::cli::{json, stderr, tempdir, tprf};
 use std::time::{Duration, Instant};
-
-fn tprf(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tprf"))
-        .args(args)
-        .output()
-        .expect("run tprf")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn tempdir(name: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join(format!("memory-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn json(path: &Path) -> serde_json::Value {
-    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
-}
 
 /// The film: cornell at 32 x 32 pixels and 1024 bins, whose store grows with every pass
 /// (its dense cube is 32 x 32 x 1024 x 16 B = 16 MiB of halves), asked for far more

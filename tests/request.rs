@@ -2,31 +2,9 @@
 //! manifest's keys make the same request (the same files, bit for bit), the camera
 //! override is applied and recorded, and a bad field is named where it was given.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn tprf(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tprf"))
-        .args(args)
-        .output()
-        .expect("run tprf")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn tempdir(name: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join(format!("request-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn json(path: &Path) -> serde_json::Value {
-    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
-}
+use common::cli::{json, stderr, tempdir, tprf};
 
 fn vec3(v: &serde_json::Value) -> [f64; 3] {
     let a: Vec<f64> = v

@@ -4,26 +4,10 @@
 //! shards of another render, missing, repeated or truncated shards are refused.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn tprf(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tprf"))
-        .args(args)
-        .output()
-        .expect("run tprf")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn tempdir(name: &str) -> PathBuf {
-    let d =
-        Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("shard-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
+use common::cli::{json, stderr, tempdir, tprf};
+use std::process::Output;
 
 /// `tprf render SCENE --out OUT ARGS...`, which must succeed.
 fn render(scene: &str, out: &Path, args: &[&str]) {
@@ -53,10 +37,6 @@ fn shards(dir: &Path, scene: &str, args: &[&str], n: usize) -> Vec<PathBuf> {
             out
         })
         .collect()
-}
-
-fn json(path: &Path) -> serde_json::Value {
-    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
 }
 
 /// `tprf.json` without what depends on the machine's speed and cores.

@@ -1,6 +1,8 @@
 //! Scenes built by hand for the analytic tests, and a one-call render.
 #![allow(dead_code)]
 
+pub mod cli;
+
 use glam::{Vec2, Vec3};
 use std::sync::Arc;
 use tprf_core::film::{FilmLayout, TimeAxis, TprfFilm};
