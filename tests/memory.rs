@@ -133,6 +133,44 @@ fn a_first_pass_that_cannot_fit_is_refused_up_front() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// The issue's own case: 4096 x 4096 pixels x 65536 bins under a 4 GB address-space
+/// limit. A new film's rows are one shared empty row; counting it once per row (0.7 GiB
+/// the process had not allocated) once let the first pass through, which then outgrew
+/// the limit and the process aborted. Under `ulimit -v 4200000` (4.0 GiB) the pilot's
+/// 3.4 GiB first pass must be refused up front (a fifth of the room is kept back), and
+/// a limit this tight is one the old count let through (0.7 GiB more room).
+#[cfg(target_os = "linux")]
+#[test]
+fn the_issues_4096_square_film_under_ulimit_v_is_refused_not_aborted() {
+    let dir = tempdir("ulimit");
+    let out = dir.join("never");
+    let o = std::process::Command::new("sh")
+        .args([
+            "-c",
+            "ulimit -v 4200000 && exec \"$0\" \"$@\"",
+            env!("CARGO_BIN_EXE_tprf"),
+            "render",
+            "builtin:cornell",
+            "--width",
+            "4096",
+            "--height",
+            "4096",
+            "--bins",
+            "65536",
+            "--spp",
+            "64",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .expect("run tprf under ulimit -v");
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "refused, not aborted: {err}");
+    assert!(err.contains("would need about"), "{err}");
+    assert!(!out.exists(), "nothing written");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// The window's worker: its paced passes shrink to what fits, and when not even one
 /// sample per pixel more fits the render pauses by itself with the message (never
 /// fails, never aborts), its last snapshot holding the passes made; resumed, it tries

@@ -393,6 +393,22 @@ impl TprfFilm {
         s
     }
 
+    /// Heap bytes the film's rows hold in memory now: a row shared by several places
+    /// (a new film's rows are one empty row; a snapshot's rows are the film's until a
+    /// pass rebuilds them) counted once, the list of rows included. [`TprfFilm::store_stats`]
+    /// counts every row as its own (what the rows will hold once a pass has rebuilt
+    /// each); this is what the process has allocated for them.
+    pub fn held_bytes(&self) -> u64 {
+        let mut seen = std::collections::HashSet::with_capacity(self.rows.len());
+        self.row_list_bytes()
+            + self
+                .rows
+                .iter()
+                .filter(|r| seen.insert(Arc::as_ptr(r)))
+                .map(|r| r.heap_bytes() as u64)
+                .sum::<u64>()
+    }
+
     /// Heap bytes of the film's list of rows (in [`TprfFilm::store_stats`]'s `bytes`).
     pub fn row_list_bytes(&self) -> u64 {
         (self.rows.capacity() * std::mem::size_of::<Arc<FilmRow>>()) as u64
@@ -427,4 +443,35 @@ pub fn half_error_from_terms(
         return Some(0.0);
     }
     Some((diff2.sqrt() * (na * nb).sqrt() / n) / norm2.sqrt())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::film::TimeAxis;
+
+    fn layout(width: usize, height: usize) -> FilmLayout {
+        FilmLayout {
+            width,
+            height,
+            axis: TimeAxis {
+                t0_s: 0.0,
+                dt_s: 1e-12,
+                bins: 64,
+            },
+            bounces_separate: 0,
+        }
+    }
+
+    /// A new film's rows are one shared empty row: held once, while the store's
+    /// statistics count it per row (what the rows hold once each is rebuilt).
+    #[test]
+    fn a_shared_row_is_held_once() {
+        let film = TprfFilm::new(layout(100, 300)).unwrap();
+        let one_row = film.rows[0].heap_bytes() as u64;
+        assert!(one_row >= 100 * 8, "a row holds at least its steady sums");
+        let list = film.row_list_bytes();
+        assert_eq!(film.held_bytes(), one_row + list);
+        assert_eq!(film.store_stats().bytes, 300 * one_row + list);
+    }
 }

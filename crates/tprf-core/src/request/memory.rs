@@ -93,6 +93,20 @@ impl MemoryLimit {
         }
     }
 
+    /// What a need went over, in words: `max_memory (2.0 GiB)`, or, for the system's
+    /// limits, the part of the room they leave that the film may take (a part is kept
+    /// for the rest of the process).
+    fn over(self, limit_bytes: u64, name: impl Fn(&str) -> String) -> String {
+        let limit = self.describe().text_with(name);
+        match self {
+            MemoryLimit::MaxMemory => format!("{limit} ({})", format_bytes(limit_bytes)),
+            _ => format!(
+                "the {} that {limit} leaves the film",
+                format_bytes(limit_bytes)
+            ),
+        }
+    }
+
     fn describe(self) -> Problem {
         match self {
             MemoryLimit::MaxMemory => Problem::field("max_memory"),
@@ -127,13 +141,12 @@ impl MemoryStop {
     pub fn text_with(&self, name: impl Fn(&str) -> String) -> String {
         format!(
             "stopped at {} spp after {} passes: the next pass ({} more spp) would take the \
-             film to {}, over {} ({}); the output holds the passes made",
+             film to {}, over {}; the output holds the passes made",
             self.spp,
             self.passes,
             self.next_pass_spp,
             format_bytes(self.need_bytes),
-            self.limited_by.describe().text_with(&name),
-            format_bytes(self.limit_bytes)
+            self.limited_by.over(self.limit_bytes, &name),
         )
     }
 }
@@ -163,15 +176,14 @@ impl MemoryRefusal {
     pub fn text_with(&self, name: impl Fn(&str) -> String) -> String {
         format!(
             "a film of {} x {} pixels x {} bins would need about {} in its first pass \
-             ({:.1} bins stored per pixel and sample in a pilot render), over {} ({}): lower \
+             ({:.1} bins stored per pixel and sample in a pilot render), over {}: lower \
              the resolution or the bins{}",
             self.width,
             self.height,
             self.bins,
             format_bytes(self.need_bytes),
             self.bins_per_sample,
-            self.limited_by.describe().text_with(&name),
-            format_bytes(self.limit_bytes),
+            self.limited_by.over(self.limit_bytes, &name),
             match self.limited_by {
                 MemoryLimit::MaxMemory => format!(", or raise {}", name("max_memory")),
                 _ => String::new(),
@@ -211,8 +223,6 @@ struct Foreseen {
     film: u64,
     /// The writer's scratch after it, beyond the film.
     writer: u64,
-    /// The film's heap now.
-    held: u64,
 }
 
 /// Bins of the halves and of the bounce layers one sample of a pixel touches.
@@ -333,7 +343,7 @@ impl MemoryBudget {
 
     /// Bytes `film` is foreseen to need while a pass of `spp` samples per pixel runs and
     /// while its files are written after it (with the whole fixed part: the parts a
-    /// snapshot and the writer allocate only then included), and the heap it holds now.
+    /// snapshot and the writer allocate only then included).
     fn foresee(&self, film: &TprfFilm, spp: u32) -> Foreseen {
         let layout: FilmLayout = *film.layout();
         let fixed = layout.fixed_bytes().unwrap_or(u64::MAX);
@@ -367,10 +377,6 @@ impl MemoryBudget {
         Foreseen {
             film: bytes(fixed as f64 + during),
             writer: bytes(self.threads as f64 * writer),
-            // What the film holds now: its rows' heap. The fixed part's snapshot images,
-            // exported steady image and file row are not allocated yet, so the room left
-            // must cover them.
-            held: stats.bytes,
         }
     }
 
@@ -438,7 +444,13 @@ impl MemoryBudget {
             // foreseen at 3.4 GiB took 3.7 GiB).
             let room =
                 a.bytes.saturating_sub(RESERVE_BYTES.min(a.bytes / 10)) as f64 / SYSTEM_HEADROOM;
-            let held = self.foresee(film, 0).held;
+            // What the film holds now: its rows' heap, a row shared by several rows or
+            // by a snapshot counted once (a new film's rows are one empty row: counting
+            // it per row let a 4096 x 4096 first pass through that then outgrew
+            // `ulimit -v`). The rest of the fixed part (each row made its own, the
+            // snapshot images, exported steady image and file row) is not allocated yet,
+            // so the room left must cover it.
+            let held = film.held_bytes();
             (
                 held.saturating_add(room as u64),
                 MemoryLimit::from_budget(a.limited_by),
