@@ -579,3 +579,88 @@ fn includes_defaults_and_ply_meshes_ascii_and_binary() {
     );
     assert!(e.contains("short.ply"), "{e}");
 }
+
+/// `serialized` shapes: files written as Mitsuba's documentation describes the format
+/// (tests/common/serialized.rs), in versions 4 and 3, each holding a decoy triangle
+/// (mesh 0) and a square pyramid (mesh 1) picked by `shape_index`: the pyramid is read,
+/// placed by `to_world`, with its area 4 + 4 sqrt(2) scaled; the decoy is not. A wrong
+/// index, a file that is not one and a cut stream are refused by name.
+#[test]
+fn serialized_meshes_are_read_by_their_index_in_both_versions() {
+    use common::serialized::{
+        DECOY_FACES, DECOY_POSITIONS, SerMesh, decoy_then_pyramid, serialized,
+    };
+    let dir = tmp("serialized");
+    std::fs::write(dir.join("v4.serialized"), decoy_then_pyramid(4)).unwrap();
+    std::fs::write(dir.join("v3.serialized"), decoy_then_pyramid(3)).unwrap();
+    let xml = write(
+        &dir,
+        "scene.xml",
+        r#"<scene version="3.0.0">
+    <shape type="serialized" id="p4">
+        <string name="filename" value="v4.serialized"/>
+        <integer name="shape_index" value="1"/>
+        <transform name="to_world"><scale value="0.5"/><translate x="2" y="1" z="-3"/></transform>
+    </shape>
+    <shape type="serialized" id="p3">
+        <string name="filename" value="v3.serialized"/>
+        <integer name="shape_index" value="1"/>
+    </shape>
+    <shape type="serialized" id="d">
+        <string name="filename" value="v4.serialized"/>
+    </shape>
+</scene>
+"#,
+    );
+    let s = scene::load(&xml).unwrap();
+    let pyramid_area = 4.0 + 4.0 * 2f64.sqrt();
+    let (lo, hi) = object_bounds(&s, "p4");
+    assert!(
+        lo.abs_diff_eq(Vec3::new(1.5, 0.5, -3.0), 1e-6)
+            && hi.abs_diff_eq(Vec3::new(2.5, 1.5, -2.5), 1e-6),
+        "{lo} {hi}"
+    );
+    assert!((area(&s, "p4") - 0.25 * pyramid_area).abs() < 1e-5);
+    let (lo, hi) = object_bounds(&s, "p3");
+    assert!(
+        lo.abs_diff_eq(Vec3::new(-1.0, -1.0, 0.0), 1e-6)
+            && hi.abs_diff_eq(Vec3::new(1.0, 1.0, 1.0), 1e-6),
+        "{lo} {hi}"
+    );
+    assert!((area(&s, "p3") - pyramid_area).abs() < 1e-5);
+    // shape_index 0 (the default) is the decoy: one triangle of area 100 x 100 / 2.
+    assert!((area(&s, "d") - 5000.0).abs() < 1e-2);
+
+    let shape = |file: &str, index: u32| {
+        format!(
+            r#"<scene version="3.0.0"><shape type="serialized"><string name="filename" value="{file}"/>
+            <integer name="shape_index" value="{index}"/></shape></scene>"#
+        )
+    };
+    let e = refusal(&dir, "index.xml", &shape("v4.serialized", 2));
+    assert!(
+        e.contains("shape_index 2") && e.contains("holds 2 meshes"),
+        "{e}"
+    );
+    std::fs::write(dir.join("not.serialized"), b"ply\nformat ascii 1.0\n").unwrap();
+    let e = refusal(&dir, "not.xml", &shape("not.serialized", 0));
+    assert!(e.contains("not a Mitsuba serialized mesh"), "{e}");
+    // A stream cut in the middle of its positions (the table at the end kept whole).
+    let whole = serialized(
+        &[SerMesh {
+            name: "decoy",
+            positions: &DECOY_POSITIONS,
+            normals: None,
+            faces: &DECOY_FACES,
+        }],
+        4,
+    );
+    let table = 8 + 4;
+    let body = &whole[..whole.len() - table];
+    let mut cut = body[..body.len() / 2].to_vec();
+    cut.extend(0u64.to_le_bytes());
+    cut.extend(1u32.to_le_bytes());
+    std::fs::write(dir.join("cut.serialized"), cut).unwrap();
+    let e = refusal(&dir, "cut.xml", &shape("cut.serialized", 0));
+    assert!(e.contains("cut.serialized") && e.contains("mesh 0"), "{e}");
+}

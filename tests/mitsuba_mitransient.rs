@@ -1,6 +1,6 @@
 //! tprf against mitransient on the same Mitsuba XML files: the vendored cornell boxes
 //! (diffuse, mirror) and a scene written here (a point light in W/sr, a mirror box, a
-//! two-sided wall, a tessellated sphere). Each renderer renders each file twice (two
+//! two-sided wall, a tessellated sphere, a mesh from a `.serialized` file). Each renderer renders each file twice (two
 //! seeds); the cubes are compared against the two renderers' own noise:
 //!
 //! - chi = |A - B|^2 / ((|A1 - A2|^2 + |B1 - B2|^2) / 4), A and B the two-seed means of
@@ -16,6 +16,8 @@
 //! `$TPRF_MITRANSIENT_PYTHON` names, else `target/race-venv/bin/python` (installed as
 //! benches/race/README.md says). Where it is missing the test prints `skipped: ...`
 //! and passes: CI does not install it.
+
+mod common;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -267,6 +269,20 @@ const WRITTEN: &str = r#"<scene version="3.0.0">
         </transform>
         <bsdf type="conductor"/>
     </shape>
+    <!-- A square pyramid from a .serialized file the test writes (mesh 1 of 2: both
+         readers must pick it by shape_index), standing on the floor. -->
+    <shape type="serialized" id="pyramid">
+        <string name="filename" value="pyramid.serialized"/>
+        <integer name="shape_index" value="1"/>
+        <transform name="to_world">
+            <rotate x="1" angle="-90"/>
+            <scale value="0.35"/>
+            <translate x="0.1" z="1.3"/>
+        </transform>
+        <bsdf type="diffuse">
+            <rgb name="reflectance" value="0.7, 0.6, 0.5"/>
+        </bsdf>
+    </shape>
     <shape type="sphere" id="ball">
         <point name="center" x="0.7" y="0.4" z="0.3"/>
         <float name="radius" value="0.4"/>
@@ -293,6 +309,11 @@ fn tprf_matches_mitransient_on_the_same_xml_files() {
     std::fs::create_dir_all(&dir).unwrap();
     let written = dir.join("written.xml");
     std::fs::write(&written, WRITTEN).unwrap();
+    std::fs::write(
+        dir.join("pyramid.serialized"),
+        common::serialized::decoy_then_pyramid(4),
+    )
+    .unwrap();
     let cbox = repo().join("assets/mitsuba/mitransient/cornell-box");
     for (name, xml, bins) in [
         ("cbox_diffuse", cbox.join("cbox_diffuse.xml"), 400),

@@ -2,6 +2,7 @@
 #![allow(dead_code)]
 
 pub mod cli;
+pub mod serialized;
 
 use glam::{Vec2, Vec3};
 use std::sync::Arc;
