@@ -133,6 +133,8 @@ fn a_scene_written_by_hand_loads_as_worked_out_and_renders_its_single_bounce() {
     let dir = tmp("by-hand");
     let path = write(&dir, "by_hand.xml", BY_HAND);
     let (s, file) = scene::load_with_settings(&path).unwrap();
+    // What the window reads before the scene loads: the same settings.
+    assert_eq!(scene::file_settings(&path).unwrap(), file);
 
     // The rectangle [-1, 1]^2: scaled (2, 3), turned 90 degrees about +Z ((x, y) ->
     // (-y, x)), moved by (1, 0, -1): x in [-2, 4], y in [-2, 2], z = -1; area 6 x 4.
@@ -224,6 +226,17 @@ fn a_scene_written_by_hand_loads_as_worked_out_and_renders_its_single_bounce() {
 
 #[test]
 fn the_vendored_cornell_boxes_load_their_meshes_and_light() {
+    // Each file's <default name="res">: 400, 400, 256.
+    for (name, res) in [
+        ("cbox_diffuse.xml", 400),
+        ("cbox_mirror.xml", 400),
+        ("cbox_volumetric.xml", 256),
+    ] {
+        let settings = scene::file_settings(&cbox(name)).unwrap();
+        assert_eq!(settings, scene::load_with_settings(&cbox(name)).unwrap().1);
+        assert_eq!(settings.width.map(|w| w.value), Some(res), "{name}: $res");
+        assert_eq!(settings.bins.map(|b| b.value), Some(400), "{name}");
+    }
     // Faces of the OBJ files, counted here (each `f` line a polygon of n vertices is
     // n - 2 triangles).
     let mesh_dir =

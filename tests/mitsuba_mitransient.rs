@@ -1,5 +1,5 @@
 //! tprf against mitransient on the same Mitsuba XML files: the vendored cornell boxes
-//! (diffuse, mirror) and a scene written here (a point light in W/sr, a mirror box, a
+//! (diffuse, mirror, volumetric: two boxes of homogeneous media) and a scene written here (a point light in W/sr, a mirror box, a
 //! two-sided wall, a tessellated sphere, a mesh from a `.serialized` file). Each renderer renders each file twice (two
 //! seeds); the cubes are compared against the two renderers' own noise:
 //!
@@ -318,6 +318,8 @@ fn tprf_matches_mitransient_on_the_same_xml_files() {
     for (name, xml, bins) in [
         ("cbox_diffuse", cbox.join("cbox_diffuse.xml"), 400),
         ("cbox_mirror", cbox.join("cbox_mirror.xml"), 400),
+        // Two boxes of homogeneous media (transient_prbvolpath in mitransient).
+        ("cbox_volumetric", cbox.join("cbox_volumetric.xml"), 400),
         ("written", written, 200),
     ] {
         let d = dir.join(name);

@@ -2203,3 +2203,80 @@ fn a_typed_pose_round_trips_is_recorded_saved_and_reset() {
     assert_eq!(h.state_mut().camera_pose(), Some(scene_pose));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A Mitsuba XML scene opened in the window renders with its file's film (size, time
+/// window: start_opl + near_clip, bin_width_opl) and its integrator's depth (max_depth
+/// counts the camera segment: one less scattering event), says so, and does not take
+/// its sample count; a time window set for another scene is not carried over.
+#[test]
+fn a_mitsuba_scene_opens_with_its_files_film_settings() {
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("viewer-xml");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let xml = dir.join("small.xml");
+    std::fs::write(
+        &xml,
+        r#"<scene version="3.0.0">
+    <integrator type="transient_path"><integer name="max_depth" value="4"/></integrator>
+    <sensor type="perspective">
+        <float name="fov" value="40"/>
+        <float name="near_clip" value="0.1"/>
+        <transform name="to_world"><lookat origin="0, 0, 3" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <sampler type="independent"><integer name="sample_count" value="8"/></sampler>
+        <film type="transient_hdr_film">
+            <integer name="width" value="24"/>
+            <integer name="height" value="16"/>
+            <integer name="temporal_bins" value="50"/>
+            <float name="start_opl" value="5.5"/>
+            <float name="bin_width_opl" value="0.02"/>
+        </film>
+    </sensor>
+    <shape type="rectangle">
+        <emitter type="area"><rgb name="radiance" value="1, 1, 1"/></emitter>
+    </shape>
+</scene>
+"#,
+    )
+    .unwrap();
+    let settings = ViewerSettings {
+        t0: "5ns".into(),
+        dt: "10ps".into(),
+        ..small_settings("builtin:cornell", 8, 8, 0)
+    };
+    let path = xml.display().to_string();
+    let mut h = Harness::builder()
+        .with_size(Vec2::new(1280.0, 800.0))
+        .build_eframe(move |cc| TprfApp::with_settings(cc, settings, Start::Scene(path)));
+    h.run_steps(2);
+    let r = h.state().request().expect("a render of the file");
+    let c = 299_792_458.0;
+    assert_eq!((r.width, r.height, r.bins), (24, 16, 50));
+    assert!((r.t0_s.unwrap() - 5.6 / c).abs() < 1e-18, "{:?}", r.t0_s);
+    assert!((r.dt_s.unwrap() - 0.02 / c).abs() < 1e-20, "{:?}", r.dt_s);
+    assert_eq!(r.max_bounces, 3);
+    let m = h.state().messages().join("\n");
+    assert!(
+        m.contains("from the scene file: width 24") && m.contains("8 spp not taken"),
+        "{m}"
+    );
+
+    // A built-in scene opened with a window set: it starts automatic (None), the size kept.
+    let settings = ViewerSettings {
+        t0: "5ns".into(),
+        dt: "10ps".into(),
+        ..small_settings("builtin:cornell", 8, 8, 0)
+    };
+    let mut h = Harness::builder()
+        .with_size(Vec2::new(1280.0, 800.0))
+        .build_eframe(move |cc| {
+            TprfApp::with_settings(cc, settings, Start::Scene("builtin:cornell".into()))
+        });
+    h.run_steps(2);
+    let r = h.state().request().expect("a render");
+    assert_eq!((r.width, r.t0_s, r.dt_s), (8, None, None));
+    assert!(
+        h.state().messages().is_empty(),
+        "{:?}",
+        h.state().messages()
+    );
+}

@@ -164,8 +164,55 @@ impl TprfApp {
         }
     }
 
-    /// Render `scene` (`builtin:NAME` or a glTF path) with the other settings kept.
+    /// Render `scene` (`builtin:NAME`, a glTF or a Mitsuba XML path) with the other
+    /// settings kept, but the time window (automatic) and those a scene file carries (a Mitsuba film's size and time
+    /// window, its integrator's depth: [`tprf_core::scene::file_settings`]), which it
+    /// takes and says so. Its sample count is not taken: the window keeps rendering
+    /// until the spp target set here.
     pub(super) fn open_scene(&mut self, scene: String) {
+        // A time window belongs to the scene it was set for (as a camera pose does):
+        // a new scene starts automatic, or with its file's.
+        self.pending.t0.clear();
+        self.pending.dt.clear();
+        // Errors in the file are the render's to report (the worker loads it).
+        if let Ok(file) = tprf_core::scene::file_settings(&scene) {
+            let p = &mut self.pending;
+            let size = |v: u64| usize::try_from(v).unwrap_or(usize::MAX);
+            let mut taken = Vec::new();
+            if let Some(w) = &file.width {
+                p.width = size(w.value);
+                taken.push(format!("width {}", w.value));
+            }
+            if let Some(h) = &file.height {
+                p.height = size(h.value);
+                taken.push(format!("height {}", h.value));
+            }
+            if let Some(b) = &file.bins {
+                p.bins = size(b.value);
+                taken.push(format!("bins {}", b.value));
+            }
+            if let Some(t0) = &file.t0_opl_m {
+                p.t0 = format!("{}m", t0.value);
+                taken.push(format!("t0 {} m of optical path", t0.value));
+            }
+            if let Some(dt) = &file.dt_opl_m {
+                p.dt = format!("{}m", dt.value);
+                taken.push(format!("dt {} m of optical path", dt.value));
+            }
+            if let Some(m) = &file.max_bounces {
+                p.max_bounces = m.value;
+                taken.push(format!("max bounces {}", m.value));
+            }
+            if !taken.is_empty() {
+                let spp = file
+                    .spp
+                    .as_ref()
+                    .map(|s| format!(" (its {} spp not taken: the window renders on)", s.value))
+                    .unwrap_or_default();
+                self.messages
+                    .push(format!("from the scene file: {}{spp}", taken.join(", ")));
+            }
+        }
         self.pending.scene = scene;
         // A pose belongs to the scene it was made in.
         self.pending.camera = None;

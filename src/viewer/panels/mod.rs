@@ -17,7 +17,7 @@ use eframe::egui::{self, Color32};
 
 /// A message's colour: a file written is news, anything else a warning.
 fn message_color(ui: &egui::Ui, m: &str) -> Color32 {
-    if m.starts_with("saved ") {
+    if m.starts_with("saved ") || m.starts_with("from the scene file") {
         ui.visuals().strong_text_color()
     } else {
         ui.visuals().warn_fg_color

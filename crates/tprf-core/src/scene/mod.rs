@@ -710,6 +710,16 @@ pub fn is_mitsuba_path(name: &str) -> bool {
         .is_some_and(|e| e.eq_ignore_ascii_case("xml"))
 }
 
+/// The render settings the scene file `name` carries, read without loading the scene
+/// (only a Mitsuba XML scene has any: [`mitsuba::mitsuba_file_settings`]; built-in and
+/// glTF scenes: none).
+pub fn file_settings(name: &str) -> Result<FileSettings, SceneError> {
+    if name.starts_with("builtin:") || !is_mitsuba_path(name) {
+        return Ok(FileSettings::default());
+    }
+    mitsuba::mitsuba_file_settings(std::path::Path::new(name))
+}
+
 /// Load a scene by name: `builtin:NAME`, a path to a `.gltf` / `.glb` file, or a path
 /// to a Mitsuba 3 `.xml` scene.
 pub fn load(name: &str) -> Result<Scene, SceneError> {

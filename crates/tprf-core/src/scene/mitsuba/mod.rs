@@ -77,6 +77,31 @@ pub fn load_mitsuba(path: &Path) -> Result<(Scene, FileSettings), SceneError> {
     b.finish()
 }
 
+/// The render settings a Mitsuba 3 XML scene carries (its first sensor's film and
+/// sampler, its integrator), read without loading its meshes or textures: what a front
+/// end shows before the scene itself is loaded (the window's Open). The same values, and
+/// the same errors for them, as [`load_mitsuba`]'s.
+pub fn mitsuba_file_settings(path: &Path) -> Result<FileSettings, SceneError> {
+    let parsed = xml::parse(path)?;
+    let mut b = Builder::new(&parsed, path.display().to_string());
+    let root = b.object(0);
+    let (mut sensor, mut integrator) = (None, None);
+    for (_, k) in root.children() {
+        match b.object(k).tag {
+            "sensor" if sensor.is_none() => sensor = Some(k),
+            "integrator" => integrator = Some(k),
+            _ => {}
+        }
+    }
+    if let Some(k) = sensor {
+        b.read_sensor(k)?;
+    }
+    if let Some(k) = integrator {
+        b.read_integrator(k)?;
+    }
+    Ok(b.settings)
+}
+
 /// A converted material and the `to_uv` of its texture (applied to the texture
 /// coordinates of the triangles that use it).
 #[derive(Clone, Copy, Debug)]
