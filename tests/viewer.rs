@@ -1946,11 +1946,16 @@ fn the_steady_block_shows_the_ambient_image_of_the_sky_set_in_the_window() {
 /// A right-drag on the window from `from` to `to`, as a mouse makes it: press, moves of
 /// at most 10 points a frame, release.
 fn right_drag(h: &mut Harness<'static, TprfApp>, from: Pos2, to: Pos2) {
+    drag_with(h, PointerButton::Secondary, from, to);
+}
+
+/// [`right_drag`] with any button.
+fn drag_with(h: &mut Harness<'static, TprfApp>, which: PointerButton, from: Pos2, to: Pos2) {
     h.hover_at(from);
     h.step();
     let button = |pos, pressed| Event::PointerButton {
         pos,
-        button: PointerButton::Secondary,
+        button: which,
         pressed,
         modifiers: Modifiers::NONE,
     };
@@ -2279,4 +2284,107 @@ fn a_mitsuba_scene_opens_with_its_files_film_settings() {
         "{:?}",
         h.state().messages()
     );
+}
+
+/// Issue 34, item 1: the other camera gestures on the time slice, each against the pose
+/// before it. The wheel dollies: the same look-at point and direction, nearer (wheel
+/// forward), the field of view kept; ctrl + wheel changes only the field of view; a
+/// middle-drag pans: position and look-at move by the same vector, across the view
+/// (perpendicular to it), the field of view kept. Each renders once the gesture rests.
+#[test]
+fn wheel_ctrl_wheel_and_middle_drag_dolly_zoom_and_pan() {
+    use glam::DVec3;
+    use tprf::viewer::CameraPose;
+    let mut h = harness(small_settings("builtin:cornell", 16, 32, 2));
+    wait_done(&mut h, Duration::from_secs(120));
+    h.state_mut().playing = false;
+    let rect = h.get_by_label("time slice").rect();
+    let offset = |p: &CameraPose| DVec3::from(p.position_m) - DVec3::from(p.look_at_m);
+    // Step until the gesture has rested and the request carries the new pose.
+    let settle = |h: &mut Harness<'static, TprfApp>, before: &CameraPose| -> CameraPose {
+        let start = Instant::now();
+        loop {
+            h.step();
+            let req = h.state().request().unwrap();
+            if let Some(p) = CameraPose::of_request(&req)
+                && p != *before
+                && h.state().settings.camera == Some(p)
+            {
+                return p;
+            }
+            assert!(start.elapsed() < Duration::from_secs(10), "no camera move");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    };
+    let wheel = |h: &mut Harness<'static, TprfApp>, modifiers: Modifiers| {
+        h.hover_at(rect.center());
+        h.step();
+        h.event(Event::MouseWheel {
+            unit: eframe::egui::MouseWheelUnit::Point,
+            delta: Vec2::new(0.0, 120.0),
+            phase: eframe::egui::TouchPhase::Move,
+            source: eframe::egui::MouseWheelSource::Unknown,
+            modifiers,
+        });
+    };
+
+    let p0 = h.state_mut().camera_pose().unwrap();
+    // The scrubber on the light's last third: after the dolly it shows the same time,
+    // though the new camera's automatic window starts elsewhere.
+    let old = h.state().snapshot().unwrap();
+    let side = old.width();
+    let light_bins: Vec<usize> = (0..old.axis().bins)
+        .filter(|&b| (0..side * side).any(|i| old.pixel(i % side, i / side)[b] > 0.0))
+        .collect();
+    h.state_mut().bin = light_bins[2 * light_bins.len() / 3];
+    let t_before = old.axis().bin_center_s(h.state().bin);
+    wheel(&mut h, Modifiers::NONE);
+    let p1 = settle(&mut h, &p0);
+    wait_done_never_blank(&mut h, &old);
+    let new = h.state().snapshot().unwrap();
+    assert!(
+        new.axis().t0_s != old.axis().t0_s,
+        "the same window: {:?}",
+        new.axis()
+    );
+    match new.axis().bin_of(t_before) {
+        Some(b) => assert_eq!(h.state().bin, b, "the scrubber keeps its time"),
+        None => panic!("the new window lost the time {t_before} s"),
+    }
+    let (a, b) = (offset(&p0), offset(&p1));
+    assert_eq!((p1.look_at_m, p1.fov_deg), (p0.look_at_m, p0.fov_deg));
+    assert!(
+        b.length() < a.length(),
+        "nearer: {} -> {}",
+        a.length(),
+        b.length()
+    );
+    assert!(
+        (a.normalize() - b.normalize()).length() < 1e-9,
+        "same direction: {a} {b}"
+    );
+
+    wheel(&mut h, Modifiers::CTRL);
+    let p2 = settle(&mut h, &p1);
+    assert_eq!(
+        (p2.position_m, p2.look_at_m, p2.up),
+        (p1.position_m, p1.look_at_m, p1.up)
+    );
+    assert!(p2.fov_deg != p1.fov_deg, "{} -> {}", p1.fov_deg, p2.fov_deg);
+
+    let c = rect.center();
+    drag_with(&mut h, PointerButton::Middle, c, c + Vec2::new(30.0, 20.0));
+    let p3 = settle(&mut h, &p2);
+    let moved = DVec3::from(p3.look_at_m) - DVec3::from(p2.look_at_m);
+    let (o2, o3) = (offset(&p2), offset(&p3));
+    assert!(
+        (o2 - o3).length() < 1e-9 * o2.length(),
+        "the same offset: {o2} {o3}"
+    );
+    assert!(moved.length() > 1e-6, "the pan moved nothing");
+    assert!(
+        moved.normalize().dot(o2.normalize()).abs() < 1e-9,
+        "across the view: {moved} vs {o2}"
+    );
+    assert_eq!(p3.fov_deg, p2.fov_deg);
 }

@@ -30,6 +30,10 @@ pub struct TprfApp {
     pub(super) seek_light: bool,
     /// The scene and window the scrubber's bin was chosen for.
     pub(super) light_key: Option<String>,
+    /// The scrubber's time (s) when the camera moved: the new film's automatic window
+    /// may start elsewhere, so its first film puts the scrubber at the bin of this time
+    /// (or where the light is, when the window no longer holds it).
+    pub(super) keep_time_s: Option<f64>,
     pub playing: bool,
     /// Bins of playback not yet stepped (a fraction of one).
     pub(super) play_accum: f32,
@@ -113,6 +117,7 @@ impl TprfApp {
             bin: 0,
             seek_light: true,
             light_key: None,
+            keep_time_s: None,
             // Light starts to move at once.
             playing: true,
             play_accum: 0.0,
@@ -261,6 +266,15 @@ impl eframe::App for TprfApp {
         }
         if let Some(s) = &snap {
             self.follow_film_size(s.width(), s.height());
+            if let Some(t) = self.keep_time_s
+                && !self.showing_previous_camera()
+            {
+                match s.axis().bin_of(t) {
+                    Some(b) => self.bin = b,
+                    None => self.seek_light = true,
+                }
+                self.keep_time_s = None;
+            }
             if self.seek_light
                 && let Some(b) = super::timeline::light_bin(s.peak_bins())
             {

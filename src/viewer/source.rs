@@ -77,6 +77,9 @@ impl TprfApp {
         let film = self.snapshot();
         self.restart();
         if matches!(self.source, Source::Live(_)) {
+            // The scrubber keeps its time, not its bin number (a new camera's automatic
+            // window starts where its light does).
+            self.keep_time_s = film.as_ref().map(|f| f.axis().bin_center_s(self.bin));
             self.held = film;
         }
     }
@@ -106,6 +109,7 @@ impl TprfApp {
     /// by itself after its pass) and the window goes on drawing.
     pub(super) fn restart(&mut self) {
         self.held = None;
+        self.keep_time_s = None;
         self.camera_gesture = None;
         match self.settings.job() {
             Ok(job) => {
