@@ -1,7 +1,8 @@
 //! The window's Fog section on `builtin:fog`, driven as a user would with egui_kittest:
 //! a visibility typed (and the slider) restarts the render with the request's medium of
 //! extinction 3.912 / V, the old film on screen until the new one has light; a bad value
-//! is a message and restarts nothing; "The scene's fog" renders the scene's own again.
+//! is a message and restarts nothing; "The scene's fog" renders the scene's own again;
+//! "Window out to 2 V" renders the time axis out to twice the visibility.
 //! With `TPRF_SCREENSHOTS=1` the ignored test `fog_screenshot` writes `screenshots/fog.png`.
 
 use eframe::egui::{Event, Key, Modifiers, Vec2};
@@ -15,6 +16,7 @@ use tprf_core::request::worker::WorkerState;
 use tprf_core::scene::Medium;
 use tprf_core::scene::medium::MOR_EXTINCTION;
 use tprf_core::sensor::Sensor;
+use tprf_core::units::C_M_PER_S;
 
 fn fog_settings(width: usize, height: usize, bins: usize, spp: u64) -> ViewerSettings {
     ViewerSettings {
@@ -180,6 +182,15 @@ fn the_fog_visibility_restarts_with_its_extinction_and_bad_values_are_messages()
         h.get_by_label("Visibility (m)").value().as_deref(),
         Some("50")
     );
+
+    // The window out to 2 V = 100 m: light's round trip 200 m from t = 0.
+    h.get_by_label("Window out to 100 m (2 V)").click();
+    h.run_steps(2);
+    let r = h.state().request().unwrap();
+    assert_eq!(r.t0_s, Some(0.0));
+    let range_m = r.dt_s.unwrap() * r.bins as f64 * C_M_PER_S / 2.0;
+    assert!((range_m - 100.0).abs() < 1e-9, "{range_m} m");
+    wait_done(&mut h, None);
 }
 
 /// A scene in clear air has no Fog section.
@@ -210,12 +221,21 @@ fn fog_screenshot() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("screenshots");
     std::fs::create_dir_all(&dir).unwrap();
     let (w, hgt) = (160, 96);
-    let (x, y) = pixel_env("TPRF_FOG_PIXEL", (80, 60));
-    let bin = pixel_env("TPRF_FOG_BIN", (60, 0)).0;
-    let mut h = harness(ViewerSettings {
+    // A pixel on the car at 35 m in the next lane, and the bin of its return (out and
+    // back 70 m: 233 ns, bins of 2.5 ns); the window 0 … 96 m.
+    let (x, y) = pixel_env("TPRF_FOG_PIXEL", (54, 50));
+    let bin = pixel_env("TPRF_FOG_BIN", (93, 0)).0;
+    let settings = ViewerSettings {
         plot_log: true,
-        ..fog_settings(w, hgt, 256, 256)
-    });
+        log_image: true,
+        t0: "0 ns".into(),
+        dt: "2.5 ns".into(),
+        ..fog_settings(w, hgt, 256, 512)
+    };
+    // Taller than the other screenshots: the SPAD's histogram under the pixel's plots.
+    let mut h = Harness::builder()
+        .with_size(Vec2::new(1280.0, 1000.0))
+        .build_eframe(move |cc| TprfApp::with_settings(cc, settings, Start::Default));
     wait_done(&mut h, None);
     {
         let app = h.state_mut();

@@ -3,7 +3,8 @@
 //! `V`: extinction `3.912 / V` per metre) as a number and a slider, its albedo and
 //! Henyey-Greenstein `g`. A new fog restarts the render with it as the request's
 //! `medium` (the old film stays on screen until the new one has light); a bad value is
-//! a message and renders nothing.
+//! a message and renders nothing. "Window out to 2 V" renders the time axis that holds
+//! the targets' returns through the fog (the automatic one ends with its backscatter).
 
 use crate::viewer::app::TprfApp;
 use crate::viewer::camera::number_text;
@@ -11,6 +12,7 @@ use crate::viewer::fog::{Fog, parse_visibility_m};
 use crate::viewer::source::Source;
 use eframe::egui::{self, RichText};
 use tprf_core::scene::medium::MOR_EXTINCTION;
+use tprf_core::units::C_M_PER_S;
 
 /// The slider's range of visibility, metres (the fields take any visibility > 0).
 const SLIDER_VISIBILITY_M: std::ops::RangeInclusive<f64> = 5.0..=2000.0;
@@ -128,6 +130,29 @@ impl TprfApp {
                 self.set_fog(None);
             }
         });
+        // The automatic window holds 99.5 % of the light, which in fog is the backscatter
+        // near the sensor: the targets' returns come later. Out to 2 V a return keeps
+        // e^(-4 x 3.912) = 2e-7 of its light; farther is lost in the fog.
+        // (The range as the button writes it: the scene's f32 extinction makes 50 m fog
+        // 50.0000002 m.)
+        let range_m = number_text(2.0 * fog.visibility_m)
+            .parse::<f64>()
+            .unwrap_or(2.0 * fog.visibility_m);
+        if ui
+            .button(format!("Window out to {} m (2 V)", number_text(range_m)))
+            .on_hover_text(
+                "render the time axis 0 … 4 V / c: the targets' returns through the fog. \
+                 The automatic window holds 99.5 % of the light, which in fog is its \
+                 backscatter near the sensor",
+            )
+            .clicked()
+        {
+            let bins = self.settings.bins.max(1) as f64;
+            let dt_ps = 2.0 * range_m * fog.n / C_M_PER_S / bins * 1e12;
+            self.pending.t0 = "0 ns".into();
+            self.pending.dt = format!("{dt_ps} ps");
+            self.apply_pending();
+        }
         if submit && self.fog_text.edited() {
             match self.fog_text.parse() {
                 Ok(f) => self.set_fog(Some(f)),
