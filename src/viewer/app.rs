@@ -83,6 +83,8 @@ pub struct TprfApp {
     /// The camera's pose as typed, and what is wrong with it.
     pub(super) pose_text: super::camera::PoseText,
     pub(super) pose_error: Option<String>,
+    /// The fog's fields as typed (the Fog section).
+    pub(super) fog_text: super::fog::FogText,
     pub(super) ctx: egui::Context,
 }
 
@@ -144,6 +146,7 @@ impl TprfApp {
             scene_view: Default::default(),
             pose_text: Default::default(),
             pose_error: None,
+            fog_text: Default::default(),
             ctx: cc.egui_ctx.clone(),
         };
         app.sensor.set_waker(cc.egui_ctx.clone());

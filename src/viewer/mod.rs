@@ -17,6 +17,8 @@
 //!   number, and image-layout mappings (tested without a window);
 //! - [`camera`]: the camera pose as numbers and what the mouse does to it (orbit, pan,
 //!   dolly, field of view; tested without a window), the request's camera override;
+//! - [`fog`]: the scene-wide fog as the window edits it (visibility, albedo, g) and the
+//!   request's `medium` spec it becomes (tested without a window);
 //! - `colorbar`, `plotting`: the colour bar under every image, and egui_plot set up
 //!   with readable ticks and units;
 //! - `input`: a frame's keyboard input cut at a Tab, so typing never lands in the next
@@ -32,6 +34,7 @@ mod colorbar;
 pub mod colormap;
 mod exports;
 mod files;
+pub mod fog;
 mod input;
 pub mod layout;
 mod panels;
@@ -48,6 +51,7 @@ mod tone;
 pub use app::{FrameTiming, TprfApp};
 pub use camera::CameraPose;
 pub use files::FileAction;
+pub use fog::Fog;
 pub use selection::Selection;
 pub use settings::{Mode, SteadyBlock, ViewerSettings};
 

@@ -55,6 +55,9 @@ pub struct ViewerSettings {
     /// The camera the window moved to (the request's camera override); `None`: the
     /// scene's own camera.
     pub camera: Option<CameraPose>,
+    /// The scene-wide medium the window set (the request's `medium` spec: the fog
+    /// control's `visibility=...`); `None`: the scene's own.
+    pub medium: Option<String>,
 }
 
 /// What the steady block of the transient view shows.
@@ -106,6 +109,7 @@ impl Default for ViewerSettings {
             mode: Mode::Transient,
             sensor: Sensor::builtin("lidar").expect("the built-in LiDAR preset parses"),
             camera: None,
+            medium: None,
         }
     }
 }
@@ -137,6 +141,14 @@ impl ViewerSettings {
         if self.camera.is_some_and(|c| c.problem().is_some()) {
             self.camera = None;
         }
+        // A stored medium the request would refuse: the scene's own instead.
+        let medium = RenderRequest {
+            medium: self.medium.clone(),
+            ..RenderRequest::new("medium")
+        };
+        if medium.medium_override().is_err() {
+            self.medium = None;
+        }
         // No film has more bounce layers than bounces, nor the window more than this.
         self.bounces_shown.truncate(1024);
         if !self.ev.is_finite() {
@@ -163,7 +175,7 @@ impl ViewerSettings {
     }
 
     /// These settings with the render ones (scene, size, window, spp, bounces, band,
-    /// seed, sampling, sky, camera) taken from `other`: what "Apply & restart" applies. Display
+    /// seed, sampling, sky, camera, medium) taken from `other`: what "Apply & restart" applies. Display
     /// and sensor settings take effect at once and are not part of it.
     pub(super) fn with_render_of(&self, other: &ViewerSettings) -> ViewerSettings {
         ViewerSettings {
@@ -181,6 +193,7 @@ impl ViewerSettings {
             uniform_sampling: other.uniform_sampling,
             sky_radiance_w_m2_sr: other.sky_radiance_w_m2_sr,
             camera: other.camera,
+            medium: other.medium.clone(),
             ..self.clone()
         }
     }
@@ -206,6 +219,7 @@ impl ViewerSettings {
             error_target: (self.error_target_pct > 0.0).then(|| self.error_target_pct / 100.0),
             until_stopped: true,
             sky_radiance_w_m2_sr: self.sky_radiance_w_m2_sr,
+            medium: self.medium.clone(),
             ..RenderRequest::default()
         };
         let request = match &self.camera {

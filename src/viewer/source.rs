@@ -218,8 +218,9 @@ impl TprfApp {
             }
         }
         self.pending.scene = scene;
-        // A pose belongs to the scene it was made in.
+        // A pose and a fog belong to the scene they were made in.
         self.pending.camera = None;
+        self.pending.medium = None;
         self.selection = None;
         self.selection_film = None;
         self.pins.clear();

@@ -1,4 +1,4 @@
-//! The left panel: the scene, its camera, the render settings (applied with "Apply & restart"), the
+//! The left panel: the scene, its camera and fog, the render settings (applied with "Apply & restart"), the
 //! display settings (at once), saving images and video, and the messages. In sensor
 //! mode the sensor's controls come first.
 
@@ -108,6 +108,7 @@ impl TprfApp {
             }
             ui.separator();
             self.camera_ui(ui);
+            self.fog_ui(ui);
         }
         ui.separator();
         self.render_settings_ui(ui);

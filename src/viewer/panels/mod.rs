@@ -1,11 +1,12 @@
 //! The window's panels, one file each: the top bar, the status line, the controls on
 //! the left, the time scrubber, the images in the centre, the TPRF and error plots on
-//! the right, the camera (its pose typed, and the mouse on the images). Each extends [`TprfApp`](super::app::TprfApp) with its `*_ui` method.
+//! the right, the camera (its pose typed, and the mouse on the images), the scene's fog. Each extends [`TprfApp`](super::app::TprfApp) with its `*_ui` method.
 
 mod camera;
 mod controls;
 mod error_plot;
 mod images;
+mod medium;
 mod plot;
 mod scrubber;
 mod status_line;

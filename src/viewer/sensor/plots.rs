@@ -190,10 +190,24 @@ fn spad_plot_ui(
     };
     let curve = |v: &[f32]| bin_steps(centres, width_s, v.iter().map(|&v| f64::from(v)));
     let shown = centres.get(state.gate).copied();
+    let spad = model.sensor().spad.as_ref();
+    let cycle_s = width_s * centres.len() as f64;
+    // Early light (a fog's backscatter) takes the detections of later light (the target
+    // behind it) only within a dead time of each detection: say so when it is short.
+    let dead = spad
+        .filter(|s| s.dead_time_s < 0.5 * cycle_s)
+        .map_or(String::new(), |s| {
+            format!(
+                ". Each detection blinds the pixel for its dead time ({}): early light \
+                 (fog) steals only the detections within it; a dead time of one cycle \
+                 (first photon) lets it steal the target's",
+                tprf_core::units::format_time(s.dead_time_s)
+            )
+        });
     ui.label(RichText::new(format!(
         "SPAD histogram of pixel (row {y}, column {x}) over {} cycles: expected (piled up), one \
-             realisation, its Coates estimate, and N r_k without pile-up",
-        model.sensor().spad.as_ref().map_or(0, |s| s.cycles)
+             realisation, its Coates estimate, and N r_k without pile-up{dead}",
+        spad.map_or(0, |s| s.cycles)
     )));
     // Head room above the highest curve for the legend, which would hide the peak.
     let top = [&counts[..], &expected[..], &coates[..]]

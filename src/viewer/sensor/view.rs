@@ -264,7 +264,25 @@ pub fn fitted_on_open(
     };
     let mut fitted = sensor.clone();
     let note = match (seen.iter().position(|&s| s), seen.iter().rposition(|&s| s)) {
-        (Some(0), Some(last)) if last + 1 == n => return None,
+        (Some(0), Some(last)) if last + 1 == n => {
+            // A TDC whose whole cycle sees only the window's first half: the light after
+            // it (the targets behind fog) would never be histogrammed.
+            let seen_to_s = gates
+                .iter()
+                .filter_map(|g| needed_arrivals(g, pulse))
+                .fold(f64::NEG_INFINITY, |a, (_, b)| a.max(b));
+            let half_s = axis.t0_s + 0.5 * (axis.end_s() - axis.t0_s);
+            if !matches!(sensor.exposure, Exposure::Tdc { .. }) || seen_to_s >= half_s {
+                return None;
+            }
+            fitted.exposure = gates_fitted(&sensor.exposure, axis)?;
+            format!(
+                "Fitted {name} to the rendered window {window}: its {n} TDC bins saw only \
+                 its light up to {}, so they now tile it (bins of {}).",
+                format_time(seen_to_s),
+                format_time((axis.end_s() - axis.t0_s) / n.max(1) as f64)
+            )
+        }
         (Some(first), Some(last)) => {
             fitted.exposure = sensor
                 .exposure
@@ -457,6 +475,28 @@ mod tests {
         let (fitted, note) = fitted_on_open(&late, &axis, false).expect("fitted");
         assert_eq!(Some(fitted.exposure), gates_fitted(&late.exposure, &axis));
         assert!(note.contains("none of its 8 gates"), "{note}");
+    }
+
+    /// The SPAD preset's TDC (512 bins of 100 ps from the window's start - 2 ns: a
+    /// 51.2 ns cycle) on `builtin:fog`'s window out to 96 m (640 ns): every bin sees the
+    /// window, but only its first 49 ns, so the bins are stretched to tile it (1.25 ns
+    /// each). On an 80 ns window the cycle sees more than its first half: left alone.
+    #[test]
+    fn a_tdc_cycle_short_of_the_window_is_stretched_over_it() {
+        let spad = Sensor::builtin("spad").unwrap();
+        let fog = TimeAxis::new(0.0, 2.5e-9, 256).unwrap();
+        let (fitted, note) = fitted_on_open(&spad, &fog, true).expect("fitted");
+        let Exposure::Tdc {
+            bin_width_s, bins, ..
+        } = fitted.exposure
+        else {
+            panic!("{:?}", fitted.exposure)
+        };
+        assert_eq!(bins, 512);
+        assert!((bin_width_s - 1.25e-9).abs() < 1e-21, "{bin_width_s}");
+        assert!(note.contains("512 TDC bins saw only"), "{note}");
+        let short = TimeAxis::new(0.0, 0.5e-9, 160).unwrap();
+        assert!(fitted_on_open(&spad, &short, true).is_none());
     }
 
     #[test]

@@ -1,0 +1,281 @@
+//! The window's Fog section on `builtin:fog`, driven as a user would with egui_kittest:
+//! a visibility typed (and the slider) restarts the render with the request's medium of
+//! extinction 3.912 / V, the old film on screen until the new one has light; a bad value
+//! is a message and restarts nothing; "The scene's fog" renders the scene's own again;
+//! "Window out to 2 V" renders the time axis out to twice the visibility.
+//! With `TPRF_SCREENSHOTS=1` the ignored test `fog_screenshot` writes `screenshots/fog.png`.
+
+use eframe::egui::{Event, Key, Modifiers, Vec2};
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+use tprf::viewer::{Mode, Selection, Start, TprfApp, ViewerSettings};
+use tprf_core::film::FilmSnapshot;
+use tprf_core::request::worker::WorkerState;
+use tprf_core::scene::Medium;
+use tprf_core::scene::medium::MOR_EXTINCTION;
+use tprf_core::sensor::Sensor;
+use tprf_core::units::C_M_PER_S;
+
+fn fog_settings(width: usize, height: usize, bins: usize, spp: u64) -> ViewerSettings {
+    ViewerSettings {
+        scene: "builtin:fog".into(),
+        width,
+        height,
+        bins,
+        spp_target: spp,
+        ..ViewerSettings::default()
+    }
+}
+
+fn harness(settings: ViewerSettings) -> Harness<'static, TprfApp> {
+    Harness::builder()
+        .with_size(Vec2::new(1280.0, 800.0))
+        .build_eframe(move |cc| TprfApp::with_settings(cc, settings, Start::Default))
+}
+
+/// Step until the render is done; with `old`, assert every frame that a film is on
+/// screen and, while the new render has none, that it is `old`.
+fn wait_done(h: &mut Harness<'static, TprfApp>, old: Option<&Arc<FilmSnapshot>>) {
+    let start = Instant::now();
+    loop {
+        h.step();
+        if let Some(old) = old {
+            let snap = h
+                .state()
+                .snapshot()
+                .expect("a film on screen after a fog change");
+            if h.state().showing_previous_camera() {
+                assert!(Arc::ptr_eq(&snap, old), "the film kept is not the old one");
+            }
+        }
+        match h.state().status().map(|s| s.state) {
+            Some(WorkerState::Done)
+                if h.state().snapshot().is_some() && !h.state().showing_previous_camera() =>
+            {
+                break;
+            }
+            Some(WorkerState::Failed(e)) => panic!("render failed: {e}"),
+            _ => {}
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(300),
+            "the render did not finish"
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    h.run_steps(2);
+}
+
+/// Focus the field labelled `label`, replace its text with `text` and press Enter.
+fn type_and_enter(h: &mut Harness<'static, TprfApp>, label: &str, text: &str) {
+    h.get_by_label(label).focus();
+    h.step();
+    let key = |key, modifiers| Event::Key {
+        key,
+        physical_key: None,
+        pressed: true,
+        repeat: false,
+        modifiers,
+    };
+    h.event(key(Key::A, Modifiers::COMMAND));
+    h.step();
+    h.get_by_label(label).type_text(text);
+    h.step();
+    h.event(key(Key::Enter, Modifiers::NONE));
+    h.run_steps(2);
+}
+
+/// The request's scene-wide medium (`None`: the scene's own).
+fn request_medium(h: &Harness<'static, TprfApp>) -> Option<Medium> {
+    h.state()
+        .request()
+        .expect("a render")
+        .medium_override()
+        .expect("a medium the request accepts")
+        .flatten()
+}
+
+/// The sum of the film: every pixel's steady radiance.
+fn total(snap: &FilmSnapshot) -> f64 {
+    (0..snap.height())
+        .flat_map(|y| (0..snap.width()).map(move |x| (x, y)))
+        .map(|(x, y)| snap.pixel(x, y).iter().map(|&v| f64::from(v)).sum::<f64>())
+        .sum()
+}
+
+#[test]
+fn the_fog_visibility_restarts_with_its_extinction_and_bad_values_are_messages() {
+    let mut h = harness(fog_settings(24, 16, 64, 2));
+    wait_done(&mut h, None);
+    assert_eq!(
+        request_medium(&h),
+        None,
+        "the scene's own fog to start with"
+    );
+    assert_eq!(
+        h.get_by_label("Visibility (m)").value().as_deref(),
+        Some("50")
+    );
+    let old = h.state().snapshot().unwrap();
+
+    // A thicker fog: the request's medium is 3.912 / V, all scattering, g kept.
+    let v = 17.5;
+    type_and_enter(&mut h, "Visibility (m)", &v.to_string());
+    let m = request_medium(&h).expect("the window's fog in the request");
+    assert_eq!(m.sigma_t_per_m(), [(MOR_EXTINCTION / v) as f32; 3]);
+    assert_eq!(m.sigma_a_per_m, [0.0; 3]);
+    assert_eq!(m.g, 0.9);
+    wait_done(&mut h, Some(&old));
+    let new = h.state().snapshot().unwrap();
+    assert!(!Arc::ptr_eq(&new, &old));
+    // Denser fog: more of the laser's light comes back from it (its backscatter) than
+    // from the targets it now hides; the film changed.
+    let (t0, t1) = (total(&old), total(&new));
+    assert!((t1 - t0).abs() > 0.05 * t0, "film totals {t0} and {t1}");
+    assert_eq!(
+        h.get_by_label("Visibility (m)").value().as_deref(),
+        Some("17.5")
+    );
+
+    // Bad values: a message naming the field, no restart (the render stays done, with
+    // the same request).
+    let request = h.state().request().unwrap();
+    for (label, text, named) in [
+        ("Visibility (m)", "-5", "fog visibility '-5'"),
+        ("Visibility (m)", "far", "fog visibility 'far'"),
+        ("g", "1", "fog g '1'"),
+        ("Albedo", "2", "fog albedo '2'"),
+    ] {
+        let before = h.state().messages().len();
+        type_and_enter(&mut h, label, text);
+        let messages = &h.state().messages()[before..];
+        assert!(
+            messages.iter().any(|m| m.starts_with(named)),
+            "{text}: {messages:?}"
+        );
+        assert_eq!(h.state().request().unwrap(), request);
+        assert!(
+            matches!(h.state().status().map(|s| s.state), Some(WorkerState::Done)),
+            "a bad value restarted the render"
+        );
+        h.get_by_label("Revert fog").click();
+        h.run_steps(2);
+    }
+
+    // Albedo and g typed: the request's medium has them, the visibility kept exactly.
+    type_and_enter(&mut h, "g", "0");
+    let m = request_medium(&h).unwrap();
+    assert_eq!(
+        (m.g, m.sigma_t_per_m()),
+        (0.0, [(MOR_EXTINCTION / v) as f32; 3])
+    );
+    wait_done(&mut h, None);
+
+    // The scene's own fog again.
+    h.get_by_label("The scene's fog").click();
+    h.run_steps(2);
+    assert_eq!(request_medium(&h), None);
+    wait_done(&mut h, None);
+    assert_eq!(
+        h.get_by_label("Visibility (m)").value().as_deref(),
+        Some("50")
+    );
+
+    // The window out to 2 V = 100 m: light's round trip 200 m from t = 0.
+    h.get_by_label("Window out to 100 m (2 V)").click();
+    h.run_steps(2);
+    let r = h.state().request().unwrap();
+    assert_eq!(r.t0_s, Some(0.0));
+    let range_m = r.dt_s.unwrap() * r.bins as f64 * C_M_PER_S / 2.0;
+    assert!((range_m - 100.0).abs() < 1e-9, "{range_m} m");
+    wait_done(&mut h, None);
+}
+
+/// A scene in clear air has no Fog section.
+#[test]
+fn a_scene_without_a_medium_has_no_fog_section() {
+    let mut h = harness(ViewerSettings {
+        scene: "builtin:cornell".into(),
+        width: 8,
+        height: 8,
+        bins: 16,
+        spp_target: 1,
+        ..ViewerSettings::default()
+    });
+    wait_done(&mut h, None);
+    assert!(h.query_by_label("Visibility (m)").is_none());
+}
+
+/// `TPRF_SCREENSHOTS=1 cargo test --release --test viewer_fog -- --ignored fog_screenshot`
+/// writes `screenshots/fog.png` (the transient view) and `screenshots/fog-spad.png` (the
+/// SPAD preset on the same film).
+#[test]
+#[ignore = "writes screenshots/; run by hand"]
+fn fog_screenshot() {
+    if std::env::var_os("TPRF_SCREENSHOTS").is_none() {
+        eprintln!("set TPRF_SCREENSHOTS=1 to write screenshots/");
+        return;
+    }
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("screenshots");
+    std::fs::create_dir_all(&dir).unwrap();
+    let (w, hgt) = (160, 96);
+    // A pixel on the car at 35 m in the next lane, and the bin of its return (out and
+    // back 70 m: 233 ns, bins of 2.5 ns); the window 0 … 96 m.
+    let (x, y) = pixel_env("TPRF_FOG_PIXEL", (54, 50));
+    let bin = pixel_env("TPRF_FOG_BIN", (93, 0)).0;
+    let settings = ViewerSettings {
+        plot_log: true,
+        log_image: true,
+        t0: "0 ns".into(),
+        dt: "2.5 ns".into(),
+        ..fog_settings(w, hgt, 256, 512)
+    };
+    // Taller than the other screenshots: the SPAD's histogram under the pixel's plots.
+    let mut h = Harness::builder()
+        .with_size(Vec2::new(1280.0, 1000.0))
+        .build_eframe(move |cc| TprfApp::with_settings(cc, settings, Start::Default));
+    wait_done(&mut h, None);
+    {
+        let app = h.state_mut();
+        app.playing = false;
+        app.selection = Some(Selection::pixel(x, y));
+        app.bin = bin;
+    }
+    h.remove_cursor();
+    h.run_steps(3);
+    let img = h.render().expect("a wgpu adapter for screenshots");
+    img.save(dir.join("fog.png")).unwrap();
+
+    {
+        let app = h.state_mut();
+        app.settings.mode = Mode::Sensor;
+        app.settings.sensor = Sensor::builtin("spad").unwrap();
+        app.sensor.gate = 0;
+        app.sensor.preset_picked();
+    }
+    h.run_steps(2);
+    let snap = h.state().snapshot().unwrap();
+    let start = Instant::now();
+    while (!h.state().sensor.is_current(&snap) || h.state().sensor.spad_sampling())
+        && start.elapsed() < Duration::from_secs(120)
+    {
+        h.step();
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    h.run_steps(4);
+    let img = h.render().expect("a wgpu adapter for screenshots");
+    img.save(dir.join("fog-spad.png")).unwrap();
+}
+
+/// `x,y` from the environment variable `name`, else `default`.
+fn pixel_env(name: &str, default: (usize, usize)) -> (usize, usize) {
+    std::env::var(name)
+        .ok()
+        .and_then(|s| {
+            let (a, b) = s.split_once(',')?;
+            Some((a.trim().parse().ok()?, b.trim().parse().ok()?))
+        })
+        .unwrap_or(default)
+}
