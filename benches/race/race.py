@@ -454,6 +454,54 @@ def mitsuba_dict(mi, s: Scene, plys, width, height, bins, bin_width_opl, max_dep
     return d
 
 
+def write_mitsuba_xml(s: Scene, plys, path: Path, width, height, bins, bin_width_opl):
+    """The scene as a Mitsuba 3 XML file both renderers read (`tprf render FILE.xml`,
+    mitransient's `mi.load_file`): what `mitsuba_dict` builds, for scenes in vacuum;
+    `max_depth` a `<default>` that mitransient's runs set when they load it (tprf's runs
+    give `--max-bounces`). The fog scene stays two files: tprf reads a shape's exterior
+    medium as the whole scene's, mitransient's camera rays start in vacuum."""
+    v = lambda x: ", ".join(repr(float(c)) for c in x)  # noqa: E731
+    shapes = "".join(
+        f"""    <shape type="ply">
+        <string name="filename" value="{ply.name}"/>
+        <boolean name="face_normals" value="true"/>
+        <bsdf type="diffuse"><spectrum name="reflectance" value="{float(albedo)!r}"/></bsdf>
+    </shape>
+"""
+        for (albedo, _), ply in zip(s.groups, plys)
+    )
+    path.write_text(f"""<scene version="3.0.0">
+    <default name="max_depth" value="-1"/>
+    <integrator type="transient_path">
+        <integer name="max_depth" value="$max_depth"/>
+        <boolean name="camera_unwarp" value="false"/>
+    </integrator>
+    <sensor type="perspective">
+        <string name="fov_axis" value="y"/>
+        <float name="fov" value="{float(s.yfov_deg)!r}"/>
+        <!-- mitransient counts the optical path from the near plane: keep it negligible -->
+        <float name="near_clip" value="0.0001"/>
+        <transform name="to_world">
+            <lookat origin="{v(s.cam_origin)}" target="{v(s.cam_target)}" up="{v(s.cam_up)}"/>
+        </transform>
+        <sampler type="independent"><integer name="sample_count" value="1"/></sampler>
+        <film type="transient_hdr_film">
+            <integer name="width" value="{width}"/>
+            <integer name="height" value="{height}"/>
+            <integer name="temporal_bins" value="{bins}"/>
+            <float name="start_opl" value="0"/>
+            <float name="bin_width_opl" value="{float(bin_width_opl)!r}"/>
+            <rfilter type="box"/>
+        </film>
+    </sensor>
+    <emitter type="point">
+        <point name="position" value="{v(s.light_pos)}"/>
+        <spectrum name="intensity" value="{float(s.light_w_per_sr)!r}"/>
+    </emitter>
+{shapes}</scene>
+""")
+
+
 # --------------------------------------------------------------------------------------
 # Renderers
 # --------------------------------------------------------------------------------------
@@ -476,8 +524,8 @@ class Run:
 class Tprf:
     name = "tprf"
 
-    def __init__(self, exe, gltf: Path, work: Path, width, height, bins, bin_width_opl, threads):
-        self.exe, self.gltf, self.work = exe, gltf, work
+    def __init__(self, exe, scene: Path, work: Path, width, height, bins, bin_width_opl, threads):
+        self.exe, self.scene, self.work = exe, scene, work
         self.args = [
             "--width", str(width), "--height", str(height), "--bins", str(bins),
             "--t0", "0m", "--dt", f"{bin_width_opl:.9f}m", "--threads", str(threads),
@@ -485,7 +533,7 @@ class Tprf:
 
     def run(self, spp, seed, max_bounces=None) -> Run:
         out = self.work / "tprf_run"
-        cmd = [str(self.exe), "render", str(self.gltf), "--out", str(out), "--spp", str(spp)]
+        cmd = [str(self.exe), "render", str(self.scene), "--out", str(out), "--spp", str(spp)]
         cmd += self.args + ["--seed", str(seed)]
         if max_bounces is not None:
             cmd += ["--max-bounces", str(max_bounces)]
@@ -507,9 +555,9 @@ class Tprf:
 class Mitransient:
     name = "mitransient"
 
-    def __init__(self, mi, dr, scene_dict_for_depth, threads, max_lanes=1 << 26):
+    def __init__(self, mi, dr, scene_for_depth, threads, max_lanes=1 << 26):
         self.mi, self.dr = mi, dr
-        self.make = scene_dict_for_depth
+        self.make = scene_for_depth
         self.scenes = {}
         self.max_lanes = max_lanes
         dr.set_thread_count(threads)
@@ -517,7 +565,7 @@ class Mitransient:
 
     def scene(self, max_depth):
         if max_depth not in self.scenes:
-            self.scenes[max_depth] = self.mi.load_dict(self.make(max_depth))
+            self.scenes[max_depth] = self.make(max_depth)
         return self.scenes[max_depth]
 
     def run(self, spp, seed, max_depth=-1) -> Run:
@@ -1191,8 +1239,6 @@ def main(argv=None):
         bw = s.window_opl / cfg.bins
         sdir = out / n
         sdir.mkdir(exist_ok=True)
-        gltf = sdir / f"{n}.gltf"
-        write_gltf(s, gltf, cfg.width, cfg.height)
         plys = []
         for i, (_, tris) in enumerate(s.groups):
             ply = sdir / f"{n}_walls{i}.ply"
@@ -1202,12 +1248,19 @@ def main(argv=None):
         if s.fog_box:
             fog_ply = sdir / f"{n}_fogbox.ply"
             write_ply(s.fog_box, fog_ply)
-        tprf = Tprf(exe, gltf, sdir, cfg.width, cfg.height, cfg.bins, bw, cfg.threads)
-        mt = Mitransient(
-            mi, dr, lambda depth, s=s, plys=plys, fp=fog_ply: mitsuba_dict(
-                mi, s, plys, cfg.width, cfg.height, cfg.bins, bw, depth, fp),
-            cfg.threads,
-        )
+        if s.medium:
+            # Two files (see write_mitsuba_xml): glTF for tprf, a dict for mitransient.
+            scene_file = sdir / f"{n}.gltf"
+            write_gltf(s, scene_file, cfg.width, cfg.height)
+            make = lambda depth, s=s, plys=plys, fp=fog_ply: mi.load_dict(mitsuba_dict(  # noqa: E731
+                mi, s, plys, cfg.width, cfg.height, cfg.bins, bw, depth, fp))
+        else:
+            # One Mitsuba XML file that both renderers read.
+            scene_file = sdir / f"{n}.xml"
+            write_mitsuba_xml(s, plys, scene_file, cfg.width, cfg.height, cfg.bins, bw)
+            make = lambda depth, f=scene_file: mi.load_file(str(f), max_depth=depth)  # noqa: E731
+        tprf = Tprf(exe, scene_file, sdir, cfg.width, cfg.height, cfg.bins, bw, cfg.threads)
+        mt = Mitransient(mi, dr, make, cfg.threads)
         rep = {"scene": n, "about": s.about, "window_opl": s.window_opl, "bin_width_opl": bw}
         log(f"\n[{n}] {s.about}; {cfg.width} x {cfg.height}, {cfg.bins} bins of {100 * bw:.3f} cm "
             f"(0 to {s.window_opl:.2f} m of optical path = {1e9 * s.window_opl / C:.3f} ns); files in {sdir}")
@@ -1217,7 +1270,7 @@ def main(argv=None):
             reports.append(rep)
             continue
         key = hashlib.sha256(
-            json.dumps([gltf.read_text(), cfg.width, cfg.height, cfg.bins, versions, tprf_version]).encode()
+            json.dumps([scene_file.read_text(), cfg.width, cfg.height, cfg.bins, versions, tprf_version]).encode()
         ).hexdigest()
         ref, ref_err, sref_err = reference(s, tprf, mt, cfg, rep, sdir / "reference.npz", key)
         rows = race(s, tprf, mt, cfg, ref, ref_err, sref_err, out / f"race_{n}.csv", rep)
