@@ -69,8 +69,12 @@ pub fn time_unit(seconds: f64) -> (f64, &'static str) {
     }
 }
 
-/// A readable time: picks fs/ps/ns/us/ms/s so the number is in [1, 1000).
+/// A readable time: picks fs/ps/ns/us/ms/s so the number is in [1, 1000); zero is
+/// `0 ns` (beside the nanoseconds a transient's times are read in, not `0.0000 s`).
 pub fn format_time(seconds: f64) -> String {
+    if seconds == 0.0 {
+        return "0 ns".into();
+    }
     let (scale, unit) = time_unit(seconds);
     format!("{:.4} {unit}", seconds * scale)
 }
@@ -93,5 +97,13 @@ mod tests {
         assert!((parse_time_s("2E-3m").unwrap() * C_M_PER_S - 2e-3).abs() < 1e-15);
         assert!(parse_time_s("1e9").is_err());
         assert!(parse_time_s("inf s").is_err());
+    }
+
+    #[test]
+    fn times_format_in_their_unit() {
+        assert_eq!(format_time(0.0), "0 ns");
+        assert_eq!(format_time(640e-9), "640.0000 ns");
+        assert_eq!(format_time(1.25e-12), "1.2500 ps");
+        assert_eq!(format_time(2.0), "2.0000 s");
     }
 }
