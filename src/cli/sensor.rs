@@ -11,7 +11,6 @@ use tprf_core::export::sensor::{
     DEFAULT_TILE_BYTES, SensorCube, SensorRun, measure_cube, write_sensor_outputs, write_spad_files,
 };
 use tprf_core::sensor::{Derived, Draws, Exposure, LightPulse, Pipeline, Sensor, SensorModel};
-use tprf_core::units::format_time;
 
 #[derive(Args, Debug)]
 pub struct SensorArgs {
@@ -189,25 +188,9 @@ pub fn run(a: &SensorArgs) -> Result<()> {
     let noise_s = t_noise.elapsed().as_secs_f64();
     let n = model.gate_count();
 
-    let unread = model
-        .kernels()
-        .iter()
-        .filter(|k| k.weights.is_empty())
-        .count();
-    if unread > 0 {
-        let (what, rest) = if spad.is_some() {
-            (
-                "TDC bins",
-                "they count ambient light, dark counts and afterpulses only",
-            )
-        } else {
-            ("gates", "their measurements are noise only")
-        };
-        eprintln!(
-            "note: {unread} of {n} {what} see no light from the cube's window ({} .. {}); {rest}",
-            format_time(axis.t0_s),
-            format_time(axis.end_s())
-        );
+    if let Some(note) = tprf_core::sensor::pipeline::unlit_gates_note(&model, spad.is_some(), &axis)
+    {
+        eprintln!("note: {note}");
     }
 
     let written = write_sensor_outputs(

@@ -812,27 +812,11 @@ fn measure(
         _ => None,
     };
     let noise_s = t_noise.elapsed().as_secs_f64();
-    let unread = model
-        .kernels()
-        .iter()
-        .filter(|k| k.weights.is_empty())
-        .count();
-    if unread > 0 {
-        let (what, rest) = if spad.is_some() {
-            (
-                "TDC bins",
-                "they count ambient light, dark counts and afterpulses only",
-            )
-        } else {
-            ("gates", "their measurements are noise only")
-        };
-        notes.push(format!(
-            "{unread} of {} {what} see no light from the cube's window ({} .. {}); {rest}",
-            model.gate_count(),
-            format_time(cube.axis.t0_s),
-            format_time(cube.axis.end_s())
-        ));
-    }
+    notes.extend(tprf_core::sensor::pipeline::unlit_gates_note(
+        &model,
+        spad.is_some(),
+        &cube.axis,
+    ));
     let multipath = match (&gates.amcw, &measured.true_depth) {
         (Some(amcw), Some((reference, _))) => Some(multipath_error(amcw, reference)),
         _ => None,

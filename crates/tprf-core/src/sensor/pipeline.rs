@@ -137,6 +137,37 @@ pub fn add_ambient_to_gate(model: &SensorModel, gate: usize, values: &mut [f32],
     }
 }
 
+/// What to say when some of `model`'s gates (TDC bins, for a SPAD: `spad`) see no
+/// light from the cube's window `axis`: their measurements are noise (or ambient, dark
+/// and afterpulse counts) only. `None` when every gate sees some.
+pub fn unlit_gates_note(
+    model: &SensorModel,
+    spad: bool,
+    axis: &crate::film::TimeAxis,
+) -> Option<String> {
+    let unlit = model
+        .kernels()
+        .iter()
+        .filter(|k| k.weights.is_empty())
+        .count();
+    (unlit > 0).then(|| {
+        let (what, rest) = if spad {
+            (
+                "TDC bins",
+                "they count ambient light, dark counts and afterpulses only",
+            )
+        } else {
+            ("gates", "their measurements are noise only")
+        };
+        format!(
+            "{unlit} of {} {what} see no light from the cube's window ({} .. {}); {rest}",
+            model.gate_count(),
+            crate::units::format_time(axis.t0_s),
+            crate::units::format_time(axis.end_s())
+        )
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
