@@ -338,3 +338,14 @@ pub(crate) fn flip_rows(values: &[f32], width: usize, height: usize) -> Vec<f32>
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn flipped_rows_put_the_last_row_first() {
+        let v = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0];
+        assert_eq!(super::flip_rows(&v, 3, 2), [4.0, 5.0, 6.0, 1.0, 2.0, 3.0]);
+        // A short buffer gives what it has, no panic.
+        assert_eq!(super::flip_rows(&v[..4], 3, 2), [1.0, 2.0, 3.0]);
+    }
+}

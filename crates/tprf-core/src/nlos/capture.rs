@@ -17,6 +17,10 @@
 //! the optical path `d_l + d_s` (plus the device legs when they count). A bin holds the
 //! integral of `L_s` over the bin (W m^-2 sr^-1 s per joule: DESIGN.md's convention).
 //!
+//! The triangle and the point in it come from one 2-D Sobol point (`Hidden::sample_point`:
+//! stratified over the whole hidden area), and in a confocal scan the first vertex's
+//! shadow segment to the laser spot, the sensor point itself, is traced once.
+//!
 //! Work is split by sensor point (one task each, its sample stream keyed by (seed,
 //! point)), so a capture is identical for any thread count. Each task accumulates its
 //! transients in f64 and stores them as f32.
