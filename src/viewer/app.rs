@@ -243,6 +243,20 @@ impl eframe::App for TprfApp {
         self.handle_dropped_files(&ctx);
         self.release_held_film();
         self.settle_camera_gesture(&ctx);
+        // An NLOS capture has a view of its own (taken out of the source for the frame,
+        // put back unless the frame opened something else).
+        if matches!(self.source, Source::Nlos(_))
+            && let Source::Nlos(mut view) = std::mem::replace(&mut self.source, Source::None)
+        {
+            self.nlos_ui(ui, &mut view);
+            if matches!(self.source, Source::None) {
+                self.source = Source::Nlos(view);
+            }
+            self.path_prompt_ui(&ctx);
+            let ui_ms = started.elapsed().as_secs_f32() * 1e3;
+            self.timing.ui_ms = FrameTiming::smooth(self.timing.ui_ms, ui_ms);
+            return;
+        }
         let snap = self.snapshot();
         // A film without pixels or bins has nothing to draw (and no texture can be made
         // of it): said in the window instead.

@@ -29,7 +29,9 @@ impl FileAction {
     fn title(self) -> &'static str {
         match self {
             FileAction::OpenScene => "Open a scene (.gltf, .glb, or Mitsuba .xml)",
-            FileAction::OpenCube => "Open a cube folder (written by tprf render)",
+            FileAction::OpenCube => {
+                "Open a cube folder (tprf render) or an NLOS capture folder (tprf nlos)"
+            }
             FileAction::SaveSlicePng => "Save the time slice as PNG",
             FileAction::SaveSteadyPng => "Save the steady image as PNG",
             FileAction::SaveVideo => {

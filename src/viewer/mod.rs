@@ -25,7 +25,9 @@
 //!   field;
 //! - `files`: choosing a file: the system dialog, or a path typed in the window when
 //!   the dialog cannot open;
-//! - [`sensor`]: the sensor tab (model, background measurement, envelope editor).
+//! - [`sensor`]: the sensor tab (model, background measurement, envelope editor);
+//! - [`nlos`]: the view of an NLOS capture folder (time slices on the wall grid, a wall
+//!   point's transient, the reconstruction's projections from a thread of its own).
 
 mod app;
 pub mod axes;
@@ -37,6 +39,7 @@ mod files;
 pub mod fog;
 mod input;
 pub mod layout;
+pub mod nlos;
 mod panels;
 mod playback;
 mod plotting;
@@ -65,7 +68,8 @@ pub enum Start {
     Default,
     /// Render this scene (`builtin:NAME` or a glTF path).
     Scene(String),
-    /// Show a cube written by `tprf render` (no rendering).
+    /// Show a cube written by `tprf render`, or an NLOS capture written by `tprf nlos`
+    /// (no rendering).
     Cube(PathBuf),
 }
 

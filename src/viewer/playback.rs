@@ -48,6 +48,11 @@ impl TprfApp {
             }
             return;
         }
+        self.bin_keys(left, right, space, bins);
+    }
+
+    /// The scrubber's keys: the arrows step a bin and pause, space plays or pauses.
+    pub(super) fn bin_keys(&mut self, left: bool, right: bool, space: bool, bins: usize) {
         if left {
             self.playing = false;
             self.step(-1, bins);

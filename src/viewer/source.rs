@@ -22,6 +22,8 @@ pub(super) enum Source {
         /// `ambient.npy` (or `tprf.zarr/ambient`) when the folder has one.
         ambient: Option<Arc<AmbientImage>>,
     },
+    /// An NLOS capture (`nlos.hdf5`) and its reconstruction thread: no renderer runs.
+    Nlos(Box<super::nlos::NlosView>),
     /// Nothing yet (the settings could not start a render).
     None,
 }
@@ -32,7 +34,7 @@ impl TprfApp {
         match &self.source {
             Source::Live(w) => w.latest().or_else(|| self.held.clone()),
             Source::Cube { snapshot, .. } => Some(snapshot.clone()),
-            Source::None => None,
+            Source::Nlos(_) | Source::None => None,
         }
     }
 
@@ -41,7 +43,23 @@ impl TprfApp {
         match &self.source {
             Source::Live(w) => w.ambient(),
             Source::Cube { ambient, .. } => ambient.clone(),
-            Source::None => None,
+            Source::Nlos(_) | Source::None => None,
+        }
+    }
+
+    /// The NLOS capture on screen, if one is open.
+    pub fn nlos(&self) -> Option<&super::nlos::NlosView> {
+        match &self.source {
+            Source::Nlos(v) => Some(v),
+            _ => None,
+        }
+    }
+
+    /// The NLOS capture on screen, to change what it shows (tests, screenshots).
+    pub fn nlos_mut(&mut self) -> Option<&mut super::nlos::NlosView> {
+        match &mut self.source {
+            Source::Nlos(v) => Some(v),
+            _ => None,
         }
     }
 
@@ -128,8 +146,12 @@ impl TprfApp {
         }
     }
 
-    /// Show the cube in `dir` instead of rendering; an unreadable one is a message.
+    /// Show the cube in `dir` (or the NLOS capture there) instead of rendering; an
+    /// unreadable one is a message.
     pub(super) fn open_cube(&mut self, dir: &Path) {
+        if super::nlos::is_capture(dir) {
+            return self.open_nlos(dir);
+        }
         let loaded = export::load_snapshot(dir).and_then(|(meta, snapshot)| {
             let ambient = export::ambient::load_ambient(dir, &meta)?.map(|radiance| {
                 Arc::new(AmbientImage {
@@ -165,6 +187,24 @@ impl TprfApp {
                 dir.display(),
                 anyhow::Error::from(e)
             )),
+        }
+    }
+
+    /// Show the NLOS capture at `path` (a folder of `tprf nlos`, or a tal HDF5 file); an
+    /// unreadable one is a message.
+    pub(super) fn open_nlos(&mut self, path: &Path) {
+        let ctx = self.ctx.clone();
+        match super::nlos::NlosView::open(path, move || ctx.request_repaint()) {
+            Ok(view) => {
+                self.held = None;
+                self.camera_gesture = None;
+                self.seek_light = true;
+                self.light_key = None;
+                self.source = Source::Nlos(Box::new(view));
+            }
+            Err(e) => self
+                .messages
+                .push(format!("cannot open NLOS capture {}: {e}", path.display())),
         }
     }
 
@@ -227,8 +267,8 @@ impl TprfApp {
         self.apply_pending();
     }
 
-    /// Files dropped on the window: a folder opens as a cube, a .gltf/.glb or Mitsuba .xml
-    /// scene renders.
+    /// Files dropped on the window: a folder opens as a cube (or an NLOS capture), an
+    /// HDF5 file as an NLOS capture, a .gltf/.glb or Mitsuba .xml scene renders.
     pub(super) fn handle_dropped_files(&mut self, ctx: &egui::Context) {
         let dropped: Vec<PathBuf> = ctx.input(|i| {
             i.raw
@@ -241,6 +281,8 @@ impl TprfApp {
         for path in dropped {
             if path.is_dir() {
                 self.open_cube(&path);
+            } else if super::nlos::is_capture(&path) {
+                self.open_nlos(&path);
             } else if matches!(
                 path.extension()
                     .and_then(|e| e.to_str())
@@ -251,7 +293,8 @@ impl TprfApp {
                 self.open_scene(path.display().to_string());
             } else {
                 self.messages.push(format!(
-                    "{}: drop a .gltf/.glb or Mitsuba .xml file or a cube folder",
+                    "{}: drop a .gltf/.glb or Mitsuba .xml file, a cube or NLOS capture folder or a \
+                     tal .hdf5 capture",
                     path.display()
                 ));
             }

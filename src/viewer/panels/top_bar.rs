@@ -30,7 +30,7 @@ impl TprfApp {
             }
             if ui
                 .button("Open cube…")
-                .on_hover_text("Show a folder written by `tprf render`")
+                .on_hover_text("Show a folder written by `tprf render` or `tprf nlos`")
                 .clicked()
             {
                 self.choose_file(FileAction::OpenCube);
@@ -56,6 +56,9 @@ impl TprfApp {
                 }
                 Source::Cube { dir, .. } => {
                     ui.label(format!("cube: {}", dir.display()));
+                }
+                Source::Nlos(v) => {
+                    ui.label(format!("NLOS capture: {}", v.path.display()));
                 }
                 Source::None => {}
             }

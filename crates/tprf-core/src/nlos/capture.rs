@@ -17,6 +17,10 @@
 //! the optical path `d_l + d_s` (plus the device legs when they count). A bin holds the
 //! integral of `L_s` over the bin (W m^-2 sr^-1 s per joule: DESIGN.md's convention).
 //!
+//! The triangle and the point in it come from one 2-D Sobol point (`Hidden::sample_point`:
+//! stratified over the whole hidden area), and in a confocal scan the first vertex's
+//! shadow segment to the laser spot, the sensor point itself, is traced once.
+//!
 //! Work is split by sensor point (one task each, its sample stream keyed by (seed,
 //! point)), so a capture is identical for any thread count. Each task accumulates its
 //! transients in f64 and stores them as f32.
@@ -145,16 +149,25 @@ impl Hidden {
         self.eps_m + p.abs().max_element() * 4.0 * f32::EPSILON
     }
 
-    /// A point uniformly distributed by area on the hidden geometry: triangle, barycentrics.
-    fn sample_point(&self, u_select: f32, (u1, u2): (f32, f32)) -> Option<(u32, f32, f32)> {
-        let target = u_select as f64 * self.total_area_m2;
+    /// A point uniformly distributed by area on the hidden geometry, from one point of
+    /// the unit square: triangle, barycentrics. `u_a` chooses the triangle by its share
+    /// of the area and, rescaled to that share, is also the point's first coordinate in
+    /// it (`sqrt(u) (1 - v), sqrt(u) v`): the map from the square to the hidden surface
+    /// is continuous within each triangle, so stratified (Sobol) points of the square
+    /// stay stratified over the whole hidden area, which one coordinate for the choice
+    /// and two others for the point did not.
+    fn sample_point(&self, (u_a, u_b): (f32, f32)) -> Option<(u32, f32, f32)> {
+        let target = u_a as f64 * self.total_area_m2;
         let k = self
             .cdf
             .partition_point(|&c| c <= target)
             .min(self.cdf.len().checked_sub(1)?);
         let tri = *self.triangles.get(k)?;
+        let lo = if k == 0 { 0.0 } else { self.cdf[k - 1] };
+        let hi = self.cdf[k];
+        let u1 = (((target - lo) / (hi - lo)) as f32).clamp(0.0, 1.0);
         let r = u1.sqrt();
-        Some((tri, r * (1.0 - u2), r * u2))
+        Some((tri, r * (1.0 - u_b), r * u_b))
     }
 
     fn position(&self, tri: u32, u: f32, v: f32) -> Vec3 {
@@ -182,23 +195,42 @@ impl Hidden {
         if blocked { 0.0 } else { tr }
     }
 
-    /// The wall's BSDF value at `p` for light from direction `wi` leaving along `wo`
-    /// (both unit, away from the wall), and `cos` of `wo` (the projected-area factor),
-    /// or zeros when either is behind it.
-    fn wall_f(&self, p: &WallPoint, normal: Vec3, wi: Vec3, wo: Vec3) -> f32 {
-        if wi.dot(normal) <= 0.0 || wo.dot(normal) <= 0.0 {
-            return 0.0;
-        }
+    /// The wall's surface at `p` seen from the side `normal` faces (the hidden
+    /// scene's): made once per wall point, used for every sample's [`WallSpot::f`].
+    fn wall_spot(&self, p: &WallPoint, normal: Vec3) -> WallSpot {
         let hit = Hit {
             t_m: 0.0,
             triangle: p.triangle,
             u: p.u,
             v: p.v,
         };
-        // A ray arriving along -wo sees the side `normal` faces.
-        let sp = self.surfaces.at(&hit, p.position + wo, -wo);
-        let frame = Frame::new(sp.n_shading);
-        sp.bsdf.eval(frame.to_local(wo), frame.to_local(wi)).0
+        // A ray arriving along -normal sees the side `normal` faces.
+        let sp = self.surfaces.at(&hit, p.position + normal, -normal);
+        WallSpot {
+            normal,
+            frame: Frame::new(sp.n_shading),
+            bsdf: sp.bsdf,
+        }
+    }
+}
+
+/// A wall point's shading frame and BSDF, on the hidden scene's side.
+struct WallSpot {
+    normal: Vec3,
+    frame: Frame,
+    bsdf: crate::transport::bsdf::Bsdf,
+}
+
+impl WallSpot {
+    /// The wall's BSDF value for light from direction `wi` leaving along `wo` (both
+    /// unit, away from the wall), 0 when either is behind it.
+    fn f(&self, wi: Vec3, wo: Vec3) -> f32 {
+        if wi.dot(self.normal) <= 0.0 || wo.dot(self.normal) <= 0.0 {
+            return 0.0;
+        }
+        self.bsdf
+            .eval(self.frame.to_local(wo), self.frame.to_local(wi))
+            .0
     }
 }
 
@@ -286,9 +318,9 @@ pub fn render_capture(
     })
 }
 
-/// Slots of a capture sample: the hidden point (triangle choice, point in it), then per
-/// hidden vertex `k` (0: the first) the camera integrator's per-vertex slots.
-const SLOT_SELECT: u32 = 0;
+/// Slots of a capture sample: the hidden point (one 2-D point: the triangle and the point
+/// in it), then per hidden vertex `k` (0: the first) the camera integrator's per-vertex
+/// slots (from `dim::vertex(2, _)`, after these).
 const SLOT_POINT: u32 = 1;
 
 /// All samples of sensor point `s`: adds `spp` times the transients' mean into `acc`
@@ -334,6 +366,11 @@ fn trace_point(
         .iter()
         .map(|l| (g.laser_origin - l.position).normalize_or_zero())
         .collect();
+    let sensor_spot = hidden.wall_spot(sensor, n);
+    let laser_spots: Vec<WallSpot> = lasers.iter().map(|l| hidden.wall_spot(l, n)).collect();
+    // The laser spot at the sensor point itself (a confocal scan): the first hidden
+    // vertex's shadow segment to it is the one to the sensor point, traced once.
+    let colocated = lasers.iter().position(|l| l.position == sp_pos);
     let end_opl_m = axis.end_s() * C_M_PER_S;
     let start_opl_m = axis.t0_s * C_M_PER_S;
     let min_leg = laser_legs.iter().copied().fold(f64::INFINITY, f64::min);
@@ -341,8 +378,7 @@ fn trace_point(
     let mut rays = 0u64;
     for _ in 0..settings.spp {
         rng.start_sample();
-        let Some((tri, u, v)) = hidden.sample_point(rng.get1(SLOT_SELECT), rng.get2(SLOT_POINT))
-        else {
+        let Some((tri, u, v)) = hidden.sample_point(rng.get2(SLOT_POINT)) else {
             break;
         };
         let x = hidden.position(tri, u, v);
@@ -357,7 +393,7 @@ fn trace_point(
         if cos_s <= 0.0 {
             continue;
         }
-        let f_s = hidden.wall_f(sensor, n, dir, to_spad);
+        let f_s = sensor_spot.f(dir, to_spad);
         if f_s <= 0.0 {
             continue;
         }
@@ -424,13 +460,19 @@ fn trace_point(
                     }
                     // The spot's intensity toward x: Phi f_w(laser, -wi) cos theta.
                     let cos_l = (-wi).dot(n);
-                    let f_l = hidden.wall_f(l, n, to_laser_dev[li], -wi);
+                    let f_l = laser_spots[li].f(to_laser_dev[li], -wi);
                     let intensity = f_l * cos_l;
                     if intensity <= 0.0 {
                         continue;
                     }
-                    rays += 1;
-                    let tr = hidden.transmittance(x_out, laser_outs[li]);
+                    let tr = if k == 0 && colocated == Some(li) {
+                        // The segment x1 - s, already traced (`vis`): the same ray's
+                        // answer.
+                        vis
+                    } else {
+                        rays += 1;
+                        hidden.transmittance(x_out, laser_outs[li])
+                    };
                     if tr <= 0.0 {
                         continue;
                     }
