@@ -442,7 +442,10 @@ def markdown(cfg, report):
           f"noise of each mean tprf {tw['tprf_noise_rel']:.4f}, mitransient {tw['mitransient_noise_rel']:.4f}, "
           f"|diff|^2 / noise {tw['chi2_per_noise']:.2f}; mean arrival per point: rms difference "
           f"{tw['mean_arrival_rms_bin_difference']:.2f} bin (against its noise {tw['mean_arrival_chi2_per_noise']:.2f}); "
-          f"no light before the analytic first return, the first lit bin after it [median, max]: "
+          + (f"light before the analytic first return by up to {max(early.values())} bins {early}"
+             if max((early := tw['light_before_the_first_return_bins']).values()) > 0
+             else "no light before the analytic first return")
+          + f", the first lit bin after it [median, max]: "
           f"{tw['first_lit_bin_after_analytic_max']}; per-point sum ratio (median) "
           f"{tw['sum_ratio_mt_over_tprf'][1]:.4f}.", "",
           f"Reference: {report['reference']['how']}; own error {report['reference']['own_error']:.4f}.", "",
