@@ -677,3 +677,110 @@ fn serialized_meshes_are_read_by_their_index_in_both_versions() {
     let e = refusal(&dir, "cut.xml", &shape("cut.serialized", 0));
     assert!(e.contains("cut.serialized") && e.contains("mesh 0"), "{e}");
 }
+
+/// A mitransient NLOS scene as tal writes one (a relay wall `<shape>` holding an
+/// `nlos_capture_meter`, `transient_nlos_path`, a `projector` laser): `tprf nlos` takes
+/// its capture from the file (the relay wall by its id, the confocal grid of
+/// `original_film_width/height`, the film's time axis, the legs left out as
+/// `account_first_and_last_bounces` false says, max_depth 4 = one hidden bounce, the
+/// devices' positions), and every wall point's first return lies in the bin of its least
+/// path to the hidden square worked out here (2 |s - nearest point of the square|, the
+/// legs left out). `tprf render` refuses the file, naming `tprf nlos`.
+#[test]
+fn a_mitransient_nlos_scene_is_captured_by_tprf_nlos_with_its_settings() {
+    let dir = tmp("nlos");
+    let xml = write(
+        &dir,
+        "nlos.xml",
+        r#"<scene version="3.0.0">
+    <integrator type="transient_nlos_path">
+        <integer name="max_depth" value="4"/>
+        <string name="capture_type" value="confocal"/>
+        <boolean name="nlos_laser_sampling" value="true"/>
+        <boolean name="nlos_hidden_geometry_sampling" value="true"/>
+        <boolean name="account_first_and_last_bounces" value="false"/>
+    </integrator>
+    <emitter type="projector" id="laser">
+        <transform name="to_world"><translate x="-0.5" y="0" z="0.25"/></transform>
+        <rgb name="irradiance" value="1, 1, 1"/>
+        <float name="fov" value="0.2"/>
+    </emitter>
+    <shape type="rectangle" id="wall">
+        <bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.8, 0.8"/></bsdf>
+        <sensor type="nlos_capture_meter">
+            <sampler type="independent"><integer name="sample_count" value="4096"/></sampler>
+            <integer name="original_film_width" value="8"/>
+            <integer name="original_film_height" value="6"/>
+            <point name="sensor_origin" x="-0.5" y="0" z="0.25"/>
+            <film type="transient_hdr_film">
+                <integer name="width" value="1"/>
+                <integer name="height" value="1"/>
+                <integer name="temporal_bins" value="400"/>
+                <float name="bin_width_opl" value="0.01"/>
+                <float name="start_opl" value="0"/>
+                <rfilter type="box"/>
+            </film>
+        </sensor>
+    </shape>
+    <shape type="rectangle" id="hidden">
+        <transform name="to_world">
+            <scale value="0.05"/>
+            <rotate y="1" angle="180"/>
+            <translate z="1"/>
+        </transform>
+        <bsdf type="diffuse"><rgb name="reflectance" value="0.7, 0.7, 0.7"/></bsdf>
+    </shape>
+</scene>
+"#,
+    );
+    let out = dir.join("capture");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_tprf"))
+        .args(["nlos", &xml, "--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    for said in [
+        "--grid 8x6",
+        "--spp 4096",
+        "the scan confocal",
+        "--bins 400",
+        "--max-bounces 1",
+        "--relay-wall wall",
+        "device legs left out",
+    ] {
+        assert!(err.contains(said), "'{said}' not said: {err}");
+    }
+    let c = tprf_core::nlos::files::read_capture(&out).unwrap();
+    assert!(c.is_confocal());
+    assert_eq!(c.sensor_shape, [8, 6]);
+    assert_eq!(c.bins(), 400);
+    assert!((c.delta_t_m - 0.01).abs() < 1e-9 && c.t_start_m.abs() < 1e-9);
+    assert!(!c.device_legs);
+    let sensor = c.sensor_xyz.expect("the sensor's position");
+    assert!(
+        (sensor - Vec3::new(-0.5, 0.0, 0.25)).length() < 1e-6,
+        "{sensor}"
+    );
+    // The hidden square: [-0.05, 0.05]^2 at z = 1.
+    let n = c.sensor_grid.len();
+    assert_eq!(n, 48);
+    for (i, s) in c.sensor_grid.iter().enumerate() {
+        let near = Vec3::new(s.x.clamp(-0.05, 0.05), s.y.clamp(-0.05, 0.05), 1.0);
+        let want = (2.0 * f64::from((*s - near).length()) / 0.01).floor() as usize;
+        let first = (0..c.bins())
+            .position(|t| c.h[t * n + i] > 0.0)
+            .unwrap_or_else(|| panic!("no light at wall point {i} {s}"));
+        assert!(
+            first.abs_diff(want) <= 1,
+            "wall point {i} {s}: first return in bin {first}, the least path in bin {want}"
+        );
+    }
+    // tprf render refuses it, pointing to tprf nlos.
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_tprf"))
+        .args(["render", &xml, "--out", dir.join("r").to_str().unwrap()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("tprf nlos"), "{err}");
+}

@@ -13,7 +13,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use tprf_core::nlos::capture::{Progress, render_capture};
 use tprf_core::nlos::files::write_capture_folder;
 use tprf_core::nlos::{CaptureSettings, Scan};
-use tprf_core::scene::{self, Channel};
+use tprf_core::scene::{self, Channel, FileSetting, NlosFileSettings};
 use tprf_core::units::{C_M_PER_S, format_time};
 
 use super::args::{thread_pool, time_s};
@@ -92,12 +92,14 @@ pub struct CaptureArgs {
     /// tprf output (replaced whole); anything else is refused up front.
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Name of the relay wall's object (its glTF node, else its mesh).
-    #[arg(long, default_value = "relay_wall")]
-    pub relay_wall: String,
-    /// Sensor points on the wall, along its u and v axes: NXxNY.
-    #[arg(long, default_value = "64x64")]
-    pub grid: String,
+    /// Name of the relay wall's object (its glTF node, else its mesh; a Mitsuba scene's
+    /// shape holding the nlos_capture_meter). Default relay_wall.
+    #[arg(long)]
+    pub relay_wall: Option<String>,
+    /// Sensor points on the wall, along its u and v axes: NXxNY. Default 64x64 (a
+    /// Mitsuba NLOS scene: its capture meter's).
+    #[arg(long)]
+    pub grid: Option<String>,
     /// The laser at each sensor point in turn (the default is one fixed laser point).
     #[arg(long, conflicts_with_all = ["exhaustive", "laser_point"])]
     pub confocal: bool,
@@ -120,24 +122,29 @@ pub struct CaptureArgs {
     /// Number of time bins (default: up to the longest three-bounce path).
     #[arg(long)]
     pub bins: Option<usize>,
-    /// Bin width, with a unit: s ms us ns ps fs, or m cm mm km of optical path.
-    #[arg(long, default_value = "3mm")]
-    pub dt: String,
-    /// Start of the time axis, with a unit as --dt.
-    #[arg(long, default_value = "0m")]
-    pub t0: String,
+    /// Bin width, with a unit: s ms us ns ps fs, or m cm mm km of optical path. Default
+    /// 3mm (a Mitsuba NLOS scene: its film's bin_width_opl).
+    #[arg(long)]
+    pub dt: Option<String>,
+    /// Start of the time axis, with a unit as --dt. Default 0m (a Mitsuba NLOS scene: its
+    /// film's start_opl).
+    #[arg(long)]
+    pub t0: Option<String>,
     /// Times start when the pulse hits the wall and end when light returns to it (tal's
-    /// default): the device-to-wall legs are left out. Without it they count.
+    /// default): the device-to-wall legs are left out. Without it they count (a Mitsuba
+    /// NLOS scene: as its account_first_and_last_bounces says).
     #[arg(long)]
     pub unwarped: bool,
     /// Samples per sensor point (an exhaustive scan's samples serve every laser point).
-    #[arg(long, default_value_t = 256)]
-    pub spp: u32,
+    /// Default 256 (a Mitsuba NLOS scene: its capture meter's sample_count).
+    #[arg(long)]
+    pub spp: Option<u32>,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Largest number of scattering events in the hidden scene (the two on the wall not counted).
-    #[arg(long, default_value_t = 1024)]
-    pub max_bounces: u32,
+    /// Largest number of scattering events in the hidden scene (the two on the wall not
+    /// counted). Default 1024 (a Mitsuba NLOS scene: its max_depth - 3).
+    #[arg(long)]
+    pub max_bounces: Option<u32>,
     /// The spectral band: red, green, blue or gray.
     #[arg(long, default_value_t = Channel::Gray, value_parser = parse_channel)]
     pub channel: Channel,
@@ -186,41 +193,148 @@ pub fn run(a: &NlosArgs) -> Result<()> {
     }
 }
 
-fn settings_of(a: &CaptureArgs) -> Result<CaptureSettings> {
-    let grid = parse_grid(&a.grid, "--grid")?;
-    let scan = if a.confocal {
-        Scan::Confocal
-    } else if a.exhaustive {
-        let [lx, ly] = parse_grid(&a.laser_grid, "--laser-grid")?;
-        Scan::Exhaustive { lx, ly }
-    } else {
-        Scan::Single {
+/// The capture the flags ask for, each flag not given taken from `file` (a Mitsuba NLOS
+/// scene's settings), else its default; with what came from the file, in words.
+fn settings_of(a: &CaptureArgs, file: &NlosFileSettings) -> Result<(CaptureSettings, Vec<String>)> {
+    let mut used = Vec::new();
+    let mut from_file = |flag: &str, value: String, at: &str| {
+        used.push(format!("{flag} {value} ({at})"));
+    };
+    let grid = match (&a.grid, &file.grid) {
+        (Some(g), _) => parse_grid(g, "--grid")?,
+        (None, Some(g)) => {
+            from_file("--grid", format!("{}x{}", g.value[0], g.value[1]), &g.from);
+            g.value.map(|n| usize::try_from(n).unwrap_or(usize::MAX))
+        }
+        (None, None) => [64, 64],
+    };
+    let flagged_scan = a.confocal || a.exhaustive || a.laser_point.is_some();
+    let kind = match (&file.capture_type, flagged_scan) {
+        (Some(k), false) => {
+            from_file("the scan", k.value.clone(), &k.from);
+            k.value.as_str()
+        }
+        _ if a.confocal => "confocal",
+        _ if a.exhaustive => "exhaustive",
+        _ => "single",
+    };
+    let scan = match kind {
+        "confocal" => Scan::Confocal,
+        "exhaustive" if a.exhaustive => {
+            let [lx, ly] = parse_grid(&a.laser_grid, "--laser-grid")?;
+            Scan::Exhaustive { lx, ly }
+        }
+        // mitransient's exhaustive scan lights the sensor grid's points.
+        "exhaustive" => Scan::Exhaustive {
+            lx: grid[0],
+            ly: grid[1],
+        },
+        _ => Scan::Single {
             laser_point: a
                 .laser_point
                 .as_deref()
                 .map(|p| parse_point(p, "--laser-point"))
                 .transpose()?,
-        }
+        },
     };
     let point = |p: &Option<String>, flag| p.as_deref().map(|p| parse_point(p, flag)).transpose();
+    let mut origin = |given: Option<[f32; 3]>, f: &Option<FileSetting<[f64; 3]>>, flag: &str| {
+        given.or_else(|| {
+            f.as_ref().map(|f| {
+                from_file(flag, format!("{:?}", f.value), &f.from);
+                f.value.map(|c| c as f32)
+            })
+        })
+    };
+    let laser_origin = origin(
+        point(&a.laser_origin, "--laser-origin")?,
+        &file.laser_origin,
+        "--laser-origin",
+    );
+    let sensor_origin = origin(
+        point(&a.sensor_origin, "--sensor-origin")?,
+        &file.sensor_origin,
+        "--sensor-origin",
+    );
     if a.bins == Some(0) {
         bail!("--bins 0: a capture needs at least one time bin");
     }
-    Ok(CaptureSettings {
-        relay_wall: a.relay_wall.clone(),
-        grid,
-        scan,
-        laser_origin: point(&a.laser_origin, "--laser-origin")?,
-        sensor_origin: point(&a.sensor_origin, "--sensor-origin")?,
-        bins: a.bins,
-        dt_s: time_s(&a.dt, "--dt")?,
-        t0_s: time_s(&a.t0, "--t0")?,
-        device_legs: !a.unwarped,
-        spp: a.spp,
-        seed: a.seed,
-        max_bounces: a.max_bounces,
-        channel: a.channel,
-    })
+    let mut opl = |given: &Option<String>,
+                   f: &Option<FileSetting<f64>>,
+                   flag: &str,
+                   default: &str|
+     -> Result<f64> {
+        match (given, f) {
+            (Some(t), _) => time_s(t, flag),
+            (None, Some(f)) => {
+                from_file(flag, format!("{}m of optical path", f.value), &f.from);
+                Ok(f.value / C_M_PER_S)
+            }
+            (None, None) => time_s(default, flag),
+        }
+    };
+    let dt_s = opl(&a.dt, &file.dt_opl_m, "--dt", "3mm")?;
+    let t0_s = opl(&a.t0, &file.t0_opl_m, "--t0", "0m")?;
+    let bins = a.bins.or_else(|| {
+        file.bins.as_ref().map(|b| {
+            from_file("--bins", b.value.to_string(), &b.from);
+            usize::try_from(b.value).unwrap_or(usize::MAX)
+        })
+    });
+    let device_legs = if a.unwarped {
+        false
+    } else if let Some(l) = &file.device_legs {
+        from_file(
+            "device legs",
+            if l.value { "included" } else { "left out" }.into(),
+            &l.from,
+        );
+        l.value
+    } else {
+        true
+    };
+    let spp = match (a.spp, &file.spp) {
+        (Some(s), _) => s,
+        (None, Some(f)) => {
+            from_file("--spp", f.value.to_string(), &f.from);
+            u32::try_from(f.value).unwrap_or(u32::MAX)
+        }
+        (None, None) => 256,
+    };
+    let max_bounces = match (a.max_bounces, &file.hidden_bounces) {
+        (Some(m), _) => m,
+        (None, Some(f)) => {
+            from_file("--max-bounces", f.value.to_string(), &f.from);
+            f.value
+        }
+        (None, None) => 1024,
+    };
+    let relay_wall = match (&a.relay_wall, &file.relay_wall) {
+        (Some(r), _) => r.clone(),
+        (None, Some(f)) => {
+            from_file("--relay-wall", f.value.clone(), &f.from);
+            f.value.clone()
+        }
+        (None, None) => "relay_wall".into(),
+    };
+    Ok((
+        CaptureSettings {
+            relay_wall,
+            grid,
+            scan,
+            laser_origin,
+            sensor_origin,
+            bins,
+            dt_s,
+            t0_s,
+            device_legs,
+            spp,
+            seed: a.seed,
+            max_bounces,
+            channel: a.channel,
+        },
+        used,
+    ))
 }
 
 fn capture(a: &CaptureArgs) -> Result<()> {
@@ -230,10 +344,15 @@ fn capture(a: &CaptureArgs) -> Result<()> {
     let Some(out) = a.out.as_deref() else {
         bail!("tprf nlos {scene_name}: give the output folder with --out DIR");
     };
-    let settings = settings_of(a)?;
+    // The flags first, so a bad one is refused before the scene loads.
+    settings_of(a, &NlosFileSettings::default())?;
     let scene_path = std::path::Path::new(scene_name);
     super::args::check_out("--out", out, &[scene_path])?;
-    let scene = scene::load(scene_name)?;
+    let (scene, file) = scene::load_with_settings(scene_name)?;
+    let (settings, used) = settings_of(a, &file.nlos.unwrap_or_default())?;
+    for u in used {
+        eprintln!("from the scene file: {u}");
+    }
     for note in &scene.notes {
         eprintln!("note: {note}");
     }

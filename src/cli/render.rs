@@ -47,6 +47,11 @@ pub fn run(a: &RenderArgs) -> Result<()> {
                 scene.triangles.len()
             );
         }
+        if file.nlos.is_some() && a.out.is_some() {
+            anyhow::bail!(
+                "{scene_name} is an NLOS capture scene (mitransient's transient_nlos_path): render it with tprf nlos {scene_name} --out DIR"
+            );
+        }
         let (request, used) = a.request.request_with(&file);
         for line in used {
             eprintln!("from the scene file: {line}");

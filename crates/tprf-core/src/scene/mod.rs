@@ -669,6 +669,36 @@ pub struct FileSettings {
     pub spp: Option<FileSetting<u64>>,
     /// Largest number of scattering events on a path.
     pub max_bounces: Option<FileSetting<u32>>,
+    /// An NLOS capture's settings (mitransient's `transient_nlos_path` with an
+    /// `nlos_capture_meter` on the relay wall), for `tprf nlos`.
+    pub nlos: Option<NlosFileSettings>,
+}
+
+/// What a Mitsuba NLOS scene says of its capture (see `scene::mitsuba`'s NLOS part):
+/// each field where the file gives it, for the `tprf nlos` flags not given.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct NlosFileSettings {
+    /// The relay wall's object (its shape's `id`; `relay_wall` without one).
+    pub relay_wall: Option<FileSetting<String>>,
+    /// Sensor points along the wall's u and v (the capture meter's film, or its
+    /// `original_film_width/height` for a confocal scan).
+    pub grid: Option<FileSetting<[u64; 2]>>,
+    /// `single`, `confocal` or `exhaustive` (the integrator's `capture_type`).
+    pub capture_type: Option<FileSetting<String>>,
+    /// SPAD and laser device positions, metres.
+    pub sensor_origin: Option<FileSetting<[f64; 3]>>,
+    pub laser_origin: Option<FileSetting<[f64; 3]>>,
+    /// Times include the device-to-wall legs (`account_first_and_last_bounces`).
+    pub device_legs: Option<FileSetting<bool>>,
+    /// Time bins, bin width and start (metres of optical path) of the capture meter's film.
+    pub bins: Option<FileSetting<u64>>,
+    pub dt_opl_m: Option<FileSetting<f64>>,
+    pub t0_opl_m: Option<FileSetting<f64>>,
+    /// Samples per sensor point.
+    pub spp: Option<FileSetting<u64>>,
+    /// Scattering events in the hidden scene (the two on the wall not counted):
+    /// `max_depth - 3`.
+    pub hidden_bounces: Option<FileSetting<u32>>,
 }
 
 /// One setting of a scene file: its value and where it was read (`scene.xml:31

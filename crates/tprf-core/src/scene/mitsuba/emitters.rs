@@ -151,6 +151,7 @@ impl Builder<'_> {
                     "<emitter type=\"area\"> outside a shape: put it inside the <shape> that emits",
                 ));
             }
+            "projector" => return self.read_projector(k),
             _ => return Err(Builder::unsupported(o, "")),
         }
         Ok(())

@@ -37,9 +37,12 @@
 //! - homogeneous media (`media`): a sensor's medium as the scene's, a shape's interior
 //!   filling it, with an `isotropic` or `hg` phase.
 //!
+//! - mitransient's NLOS scenes (`transient_nlos_path`, an `nlos_capture_meter` on the
+//!   relay wall, a `projector` laser): their capture settings for `tprf nlos` ([`nlos`]).
+//!
 //! **The rule for what is not read.** An element whose plugin tprf has no counterpart
 //! for (`<bsdf type="hair">`, `<emitter type="envmap">`, `<film type="phasor_hdr_film">`,
-//! `<integrator type="transient_nlos_path">`, a heterogeneous `<medium>`) refuses the scene, with
+//! a heterogeneous `<medium>`) refuses the scene, with
 //! the file, line and type: rendering it without would change what light exists or what
 //! is measured. A property tprf does not use (a `<string name="filter_type">`, a
 //! sensor's `near_clip`) or one whose meaning tprf approximates is loaded with a note
@@ -49,6 +52,7 @@ mod bsdf;
 mod emitters;
 mod media;
 mod meshes;
+mod nlos;
 mod sensor;
 mod shapes;
 mod transform;

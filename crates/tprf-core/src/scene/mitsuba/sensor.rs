@@ -77,9 +77,12 @@ impl Builder<'_> {
                 );
             }
             "nlos_capture_meter" => {
-                return Err(Builder::unsupported(
-                    o,
-                    "NLOS captures (a relay wall's scan) are not rendered by tprf yet",
+                return Err(err(
+                    &o.loc,
+                    format!(
+                        "{} at the scene's top level: mitransient's capture meter belongs inside the relay wall's <shape>",
+                        o.describe()
+                    ),
                 ));
             }
             _ => {
@@ -422,12 +425,7 @@ impl Builder<'_> {
             "path" | "volpath" | "volpathmis" => -1,
             "transient_path" | "transient_prbvolpath" | "prb" | "prb_basic" | "prbvolpath" => 6,
             "direct" => 2,
-            "transient_nlos_path" => {
-                return Err(Builder::unsupported(
-                    o,
-                    "NLOS captures (a relay wall's scan) are not rendered by tprf yet",
-                ));
-            }
+            "transient_nlos_path" => return self.read_nlos_integrator(k),
             _ => {
                 return Err(Builder::unsupported(
                     o,

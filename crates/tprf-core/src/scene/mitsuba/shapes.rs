@@ -363,10 +363,12 @@ impl Builder<'_> {
         let mut bsdf = None;
         let mut radiance = None;
         let mut interior = None;
+        let mut capture_meter = None;
         for (p, c) in o.children() {
             p.used.set(true);
             let child = self.object(c);
             match child.tag {
+                "sensor" if child.plugin == "nlos_capture_meter" => capture_meter = Some(c),
                 "bsdf" | "texture" if child.tag == "bsdf" => {
                     if bsdf.is_some() {
                         self.note_at(&child.loc, "a second <bsdf> of a shape ignored".into());
@@ -411,6 +413,23 @@ impl Builder<'_> {
         let _ = file_mesh;
         let first = self.triangles.len();
         self.place(mesh, &to_world, flip_normals, face_normals, slot, &what)?;
+        // The relay wall of an NLOS capture: named by its id, else `relay_wall`.
+        if let Some(meter) = capture_meter {
+            let (name, from) = match &o.id {
+                Some(id) => (id.clone(), format!("{} {} id", o.loc, o.describe())),
+                None => (
+                    "relay_wall".to_string(),
+                    format!("{} {} (no id)", o.loc, o.describe()),
+                ),
+            };
+            self.read_capture_meter(meter, &name, from)?;
+            if o.id.is_none() {
+                self.objects.push(SceneObject {
+                    name,
+                    triangles: first..self.triangles.len(),
+                });
+            }
+        }
         // A shape's id names it, as a glTF node's name does (what NLOS captures find a
         // relay wall by).
         if let Some(id) = &o.id {

@@ -1,0 +1,281 @@
+//! mitransient's NLOS scenes (as tal writes them, `tal/render/mitsuba3_transient_nlos.py`),
+//! read into [`NlosFileSettings`] for `tprf nlos`:
+//!
+//! - the relay wall is the shape holding a `<sensor type="nlos_capture_meter">`: its
+//!   `id` names the wall (`relay_wall` without one); the meter's film gives the scan grid
+//!   (`width` x `height`, or `original_film_width/height` beside a 1 x 1 film for a
+//!   confocal scan) and the time axis (`temporal_bins`, `bin_width_opl`, `start_opl`:
+//!   mitransient counts an NLOS path's length from the wall, no near plane), its sampler
+//!   the samples per sensor point, `sensor_origin` the SPAD's position;
+//! - `<integrator type="transient_nlos_path">`: `capture_type` (single, confocal,
+//!   exhaustive: the laser grid the sensor grid, as its `force_equal_illumination_scanning`
+//!   default), `account_first_and_last_bounces` (the device legs; mitransient's default
+//!   false), `max_depth` (it counts the sensor's segment and the two wall vertices:
+//!   `max_depth - 3` scattering events in the hidden scene; -1 every one); its sampling
+//!   switches (laser sampling, hidden-geometry sampling, filters) are noted, since
+//!   `tprf nlos` samples the hidden geometry from each wall point itself;
+//! - `<emitter type="projector">`: the laser device at its `to_world` translation, not a
+//!   light of the scene (`tprf nlos` models the laser). Where it points is set per scan
+//!   point by tal's Python, not by the file: a single scan's laser point is the wall's
+//!   centre unless `--laser-point` gives it.
+
+use super::xml::{Object, err};
+use super::{Builder, SceneError};
+use crate::scene::{FileSetting, NlosFileSettings};
+use glam::DVec3;
+
+/// Where a property of `o` was read, or the object whose default it is.
+fn from(o: &Object, name: &str) -> String {
+    match o.prop(name) {
+        Some(p) => format!("{} <{} name=\"{}\">", p.loc, p.value.tag(), p.name),
+        None => format!("{} {} (mitransient's default)", o.loc, o.describe()),
+    }
+}
+
+impl Builder<'_> {
+    fn nlos(&mut self) -> &mut NlosFileSettings {
+        self.settings.nlos.get_or_insert_with(Default::default)
+    }
+
+    /// The `<sensor type="nlos_capture_meter">` `k` of the relay wall shape named `wall`.
+    pub(super) fn read_capture_meter(
+        &mut self,
+        k: usize,
+        wall: &str,
+        wall_from: String,
+    ) -> Result<(), SceneError> {
+        let o = self.object(k);
+        if self
+            .settings
+            .nlos
+            .as_ref()
+            .is_some_and(|n| n.relay_wall.is_some())
+        {
+            return Err(err(
+                &o.loc,
+                "a second nlos_capture_meter: tprf captures one relay wall",
+            ));
+        }
+        let mut grid = None;
+        let (w, wp) = o.integer("original_film_width", 0)?;
+        let (h, hp) = o.integer("original_film_height", 0)?;
+        if wp.is_some() || hp.is_some() {
+            if w < 1 || h < 1 {
+                return Err(err(
+                    &o.loc,
+                    format!(
+                        "original_film_width {w} and original_film_height {h} must be at least 1"
+                    ),
+                ));
+            }
+            grid = Some(FileSetting {
+                value: [w as u64, h as u64],
+                from: from(o, "original_film_width"),
+            });
+        }
+        if o.prop("account_first_and_last_bounces").is_some() {
+            let legs = o.boolean("account_first_and_last_bounces", false)?;
+            self.nlos().device_legs.get_or_insert(FileSetting {
+                value: legs,
+                from: from(o, "account_first_and_last_bounces"),
+            });
+        }
+        if let Some(p) = o.vector("sensor_origin")? {
+            self.nlos().sensor_origin = Some(FileSetting {
+                value: p,
+                from: from(o, "sensor_origin"),
+            });
+        }
+        let _ = o.prop("laser_bounce_opl");
+        for (p, c) in o.children() {
+            p.used.set(true);
+            let child = self.object(c);
+            match child.tag {
+                "sampler" => {
+                    let (spp, at) = child.integer("sample_count", 4)?;
+                    if spp < 1 {
+                        return Err(err(
+                            &child.loc,
+                            format!("sample_count {spp} must be at least 1"),
+                        ));
+                    }
+                    let _ = child.integer("seed", 0)?;
+                    self.nlos().spp = Some(FileSetting {
+                        value: spp as u64,
+                        from: at.map_or_else(
+                            || from(child, "sample_count"),
+                            |p| format!("{} <integer name=\"sample_count\">", p.loc),
+                        ),
+                    });
+                }
+                "film" if child.plugin == "transient_hdr_film" => {
+                    let (fw, _) = child.integer("width", 1)?;
+                    let (fh, _) = child.integer("height", 1)?;
+                    if grid.is_none() {
+                        if fw < 1 || fh < 1 {
+                            return Err(err(
+                                &child.loc,
+                                format!(
+                                    "the capture meter's film {fw} x {fh} must be at least 1 x 1"
+                                ),
+                            ));
+                        }
+                        grid = Some(FileSetting {
+                            value: [fw as u64, fh as u64],
+                            from: from(child, "width"),
+                        });
+                    }
+                    let (bins, bp) = child.integer("temporal_bins", 2048)?;
+                    if bins < 1 {
+                        return Err(err(
+                            &child.loc,
+                            format!("temporal_bins {bins} must be at least 1"),
+                        ));
+                    }
+                    let dt = child.float("bin_width_opl", 0.003)?;
+                    if !(dt > 0.0 && dt.is_finite()) {
+                        return Err(err(&child.loc, format!("bin_width_opl {dt} must be > 0")));
+                    }
+                    let t0 = child.float("start_opl", 0.0)?;
+                    let n = self.nlos();
+                    n.bins = Some(FileSetting {
+                        value: bins as u64,
+                        from: bp.map_or_else(
+                            || from(child, "temporal_bins"),
+                            |p| format!("{} <integer name=\"temporal_bins\">", p.loc),
+                        ),
+                    });
+                    n.dt_opl_m = Some(FileSetting {
+                        value: dt,
+                        from: from(child, "bin_width_opl"),
+                    });
+                    n.t0_opl_m = Some(FileSetting {
+                        value: t0,
+                        from: from(child, "start_opl"),
+                    });
+                    for quiet in ["auto_detect_bins", "pixel_format", "component_format"] {
+                        let _ = child.prop(quiet);
+                    }
+                    for (q, _) in child.children() {
+                        q.used.set(true);
+                    }
+                }
+                "film" => {
+                    return Err(Builder::unsupported(
+                        child,
+                        "an NLOS capture is read from a transient_hdr_film",
+                    ));
+                }
+                _ => {
+                    return Err(err(
+                        &child.loc,
+                        format!(
+                            "{} inside {} is not supported",
+                            child.describe(),
+                            o.describe()
+                        ),
+                    ));
+                }
+            }
+        }
+        let n = self.nlos();
+        n.grid = grid;
+        n.relay_wall = Some(FileSetting {
+            value: wall.to_string(),
+            from: wall_from,
+        });
+        Ok(())
+    }
+
+    /// `<integrator type="transient_nlos_path">`.
+    pub(super) fn read_nlos_integrator(&mut self, k: usize) -> Result<(), SceneError> {
+        let o = self.object(k);
+        let kind = match o.prop("capture_type") {
+            None => "single".to_string(),
+            Some(p) => match o.string("capture_type") {
+                Ok(Some(s)) => s.to_ascii_lowercase(),
+                _ => match o.integer("capture_type", 0)? {
+                    (0, _) => "single".into(),
+                    (1, _) => "confocal".into(),
+                    (2, _) => "exhaustive".into(),
+                    (v, _) => {
+                        return Err(err(
+                            &p.loc,
+                            format!(
+                                "capture_type {v}: mitransient's are 0 (single), 1 (confocal), 2 (exhaustive)"
+                            ),
+                        ));
+                    }
+                },
+            },
+        };
+        if !["single", "confocal", "exhaustive"].contains(&kind.as_str()) {
+            return Err(err(
+                &o.loc,
+                format!(
+                    "capture_type \"{kind}\": mitransient's are single, confocal and exhaustive"
+                ),
+            ));
+        }
+        let kind_from = from(o, "capture_type");
+        let legs = o.boolean("account_first_and_last_bounces", false)?;
+        let legs_from = from(o, "account_first_and_last_bounces");
+        let (depth, dp) = o.integer("max_depth", -1)?;
+        let hidden = match depth {
+            -1 => None,
+            d if d >= 4 => Some(FileSetting { value: u32::try_from(d - 3).unwrap_or(u32::MAX), from: dp.map_or_else(|| from(o, "max_depth"), |p| format!("{} <integer name=\"max_depth\"> - 3 (the sensor's segment and the two wall vertices)", p.loc)) }),
+            d => return Err(err(&o.loc, format!("max_depth {d}: an NLOS path needs at least 4 (sensor, wall, hidden surface, wall), or -1"))),
+        };
+        let mut hints = Vec::new();
+        for name in [
+            "nlos_laser_sampling",
+            "nlos_hidden_geometry_sampling",
+            "nlos_hidden_geometry_sampling_do_rroulette",
+            "nlos_hidden_geometry_sampling_includes_relay_wall",
+            "nlos_hidden_geometry_sampling_max_depth",
+            "filter_depth",
+            "filter_bounces",
+            "discard_direct_paths",
+            "force_equal_illumination_scanning",
+            "illumination_scan_fov",
+            "rr_depth",
+            "temporal_filter",
+            "gaussian_stddev",
+            "camera_unwarp",
+        ] {
+            if o.prop(name).is_some() {
+                hints.push(name);
+            }
+        }
+        if !hints.is_empty() {
+            self.note_at(&o.loc, format!("<integrator type=\"transient_nlos_path\">: {} not applied: tprf nlos samples the hidden geometry from each wall point itself and records every path its settings allow", hints.join(", ")));
+        }
+        let n = self.nlos();
+        n.capture_type = Some(FileSetting {
+            value: kind,
+            from: kind_from,
+        });
+        n.device_legs = Some(FileSetting {
+            value: legs,
+            from: legs_from,
+        });
+        n.hidden_bounces = hidden;
+        Ok(())
+    }
+
+    /// `<emitter type="projector">`: the NLOS laser's device position.
+    pub(super) fn read_projector(&mut self, k: usize) -> Result<(), SceneError> {
+        let o = self.object(k);
+        let to_world = o.transform("to_world")?;
+        let p = to_world.transform_point3(DVec3::ZERO);
+        for quiet in ["irradiance", "intensity", "fov", "scale"] {
+            let _ = o.prop(quiet);
+        }
+        self.note_at(&o.loc, "<emitter type=\"projector\"> read as the NLOS laser's position (tprf nlos models the laser; where it points is the scan's)".into());
+        self.nlos().laser_origin = Some(FileSetting {
+            value: p.to_array(),
+            from: format!("{} {} to_world", o.loc, o.describe()),
+        });
+        Ok(())
+    }
+}
