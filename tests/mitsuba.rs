@@ -678,8 +678,10 @@ fn serialized_meshes_are_read_by_their_index_in_both_versions() {
     assert!(e.contains("cut.serialized") && e.contains("mesh 0"), "{e}");
 }
 
-/// A mitransient NLOS scene as tal writes one (a relay wall `<shape>` holding an
-/// `nlos_capture_meter`, `transient_nlos_path`, a `projector` laser): `tprf nlos` takes
+/// A mitransient NLOS scene as tal writes one (tal/render/mitsuba3_transient_nlos.py: a
+/// relay wall `<shape>` holding an `nlos_capture_meter` with a 1 x 1 film and the
+/// confocal grid beside it, `transient_nlos_path` without a capture_type, a `projector`
+/// laser): `tprf nlos` takes
 /// its capture from the file (the relay wall by its id, the confocal grid of
 /// `original_film_width/height`, the film's time axis, the legs left out as
 /// `account_first_and_last_bounces` false says, max_depth 4 = one hidden bounce, the
@@ -694,11 +696,12 @@ fn a_mitransient_nlos_scene_is_captured_by_tprf_nlos_with_its_settings() {
         "nlos.xml",
         r#"<scene version="3.0.0">
     <integrator type="transient_nlos_path">
+        <integer name="block_size" value="1"/>
         <integer name="max_depth" value="4"/>
-        <string name="capture_type" value="confocal"/>
+        <integer name="filter_bounces" value="-1"/>
         <boolean name="nlos_laser_sampling" value="true"/>
         <boolean name="nlos_hidden_geometry_sampling" value="true"/>
-        <boolean name="account_first_and_last_bounces" value="false"/>
+        <string name="temporal_filter" value="box"/>
     </integrator>
     <emitter type="projector" id="laser">
         <transform name="to_world"><translate x="-0.5" y="0" z="0.25"/></transform>
@@ -711,6 +714,7 @@ fn a_mitransient_nlos_scene_is_captured_by_tprf_nlos_with_its_settings() {
             <sampler type="independent"><integer name="sample_count" value="4096"/></sampler>
             <integer name="original_film_width" value="8"/>
             <integer name="original_film_height" value="6"/>
+            <boolean name="account_first_and_last_bounces" value="false"/>
             <point name="sensor_origin" x="-0.5" y="0" z="0.25"/>
             <film type="transient_hdr_film">
                 <integer name="width" value="1"/>

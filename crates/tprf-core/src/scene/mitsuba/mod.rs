@@ -313,12 +313,17 @@ impl<'a> Builder<'a> {
         if scene.triangles.is_empty() {
             scene.notes.push(format!("no triangles in {file}"));
         }
+        // An NLOS capture scene has its capture meter and laser instead (tprf nlos):
+        // the framed camera and the light below are not said to its user.
+        let nlos = self.settings.nlos.is_some();
         match self.camera {
             Some(c) => scene.camera = c,
             None => {
-                scene.notes.push(format!(
-                    "no sensor in {file}: framed a camera from the scene bounds"
-                ));
+                if !nlos {
+                    scene.notes.push(format!(
+                        "no sensor in {file}: framed a camera from the scene bounds"
+                    ));
+                }
                 scene.camera = scene.framed_camera(FRAMED_YFOV_RAD);
             }
         }
@@ -328,7 +333,7 @@ impl<'a> Builder<'a> {
                 .get(a.material as usize)
                 .is_some_and(Material::is_emissive)
         });
-        if scene.lights.is_empty() && !emits {
+        if scene.lights.is_empty() && !emits && !nlos {
             let light = emitters::colocated_light(&scene);
             scene.notes.push(format!(
                 "no pulsed emitter in {file}: added a point light at the camera ({:.3} W/sr: a white Lambertian at the scene centre has radiance ~1)",

@@ -9,8 +9,9 @@
 //!   the samples per sensor point, `sensor_origin` the SPAD's position;
 //! - `<integrator type="transient_nlos_path">`: `capture_type` (single, confocal,
 //!   exhaustive: the laser grid the sensor grid, as its `force_equal_illumination_scanning`
-//!   default), `account_first_and_last_bounces` (the device legs; mitransient's default
-//!   false), `max_depth` (it counts the sensor's segment and the two wall vertices:
+//!   default; without it, confocal where the meter has `original_film_width/height`, as
+//!   tal writes a confocal scan, else single), `account_first_and_last_bounces` (the
+//!   device legs; mitransient's default false; tal writes it on the meter), `max_depth` (it counts the sensor's segment and the two wall vertices:
 //!   `max_depth - 3` scattering events in the hidden scene; -1 every one); its sampling
 //!   switches (laser sampling, hidden-geometry sampling, filters) are noted, since
 //!   `tprf nlos` samples the hidden geometry from each wall point itself;
@@ -73,13 +74,14 @@ impl Builder<'_> {
                 from: from(o, "original_film_width"),
             });
         }
-        if o.prop("account_first_and_last_bounces").is_some() {
-            let legs = o.boolean("account_first_and_last_bounces", false)?;
-            self.nlos().device_legs.get_or_insert(FileSetting {
-                value: legs,
-                from: from(o, "account_first_and_last_bounces"),
-            });
-        }
+        // tal writes it here (mitransient 1.3 reads it from the integrator, which wins);
+        // absent from both, mitransient's default, false.
+        let legs = o.boolean("account_first_and_last_bounces", false)?;
+        let legs_from = from(o, "account_first_and_last_bounces");
+        self.nlos().device_legs.get_or_insert(FileSetting {
+            value: legs,
+            from: legs_from,
+        });
         if let Some(p) = o.vector("sensor_origin")? {
             self.nlos().sensor_origin = Some(FileSetting {
                 value: p,
@@ -179,6 +181,17 @@ impl Builder<'_> {
             }
         }
         let n = self.nlos();
+        // A confocal scan is a 1 x 1 film with the grid beside it (as tal writes it; the
+        // integrator's capture_type, where given, wins).
+        if let Some(g) = grid
+            .as_ref()
+            .filter(|g| g.from.contains("original_film_width"))
+        {
+            n.capture_type.get_or_insert(FileSetting {
+                value: "confocal".into(),
+                from: g.from.clone(),
+            });
+        }
         n.grid = grid;
         n.relay_wall = Some(FileSetting {
             value: wall.to_string(),
@@ -191,8 +204,8 @@ impl Builder<'_> {
     pub(super) fn read_nlos_integrator(&mut self, k: usize) -> Result<(), SceneError> {
         let o = self.object(k);
         let kind = match o.prop("capture_type") {
-            None => "single".to_string(),
-            Some(p) => match o.string("capture_type") {
+            None => None,
+            Some(p) => Some(match o.string("capture_type") {
                 Ok(Some(s)) => s.to_ascii_lowercase(),
                 _ => match o.integer("capture_type", 0)? {
                     (0, _) => "single".into(),
@@ -207,9 +220,11 @@ impl Builder<'_> {
                         ));
                     }
                 },
-            },
+            }),
         };
-        if !["single", "confocal", "exhaustive"].contains(&kind.as_str()) {
+        if let Some(kind) = &kind
+            && !["single", "confocal", "exhaustive"].contains(&kind.as_str())
+        {
             return Err(err(
                 &o.loc,
                 format!(
@@ -218,8 +233,14 @@ impl Builder<'_> {
             ));
         }
         let kind_from = from(o, "capture_type");
-        let legs = o.boolean("account_first_and_last_bounces", false)?;
-        let legs_from = from(o, "account_first_and_last_bounces");
+        let legs = match o.prop("account_first_and_last_bounces") {
+            Some(_) => Some(FileSetting {
+                value: o.boolean("account_first_and_last_bounces", false)?,
+                from: from(o, "account_first_and_last_bounces"),
+            }),
+            None => None,
+        };
+        let _ = o.integer("block_size", 0)?;
         let (depth, dp) = o.integer("max_depth", -1)?;
         let hidden = match depth {
             -1 => None,
@@ -251,14 +272,15 @@ impl Builder<'_> {
             self.note_at(&o.loc, format!("<integrator type=\"transient_nlos_path\">: {} not applied: tprf nlos samples the hidden geometry from each wall point itself and records every path its settings allow", hints.join(", ")));
         }
         let n = self.nlos();
-        n.capture_type = Some(FileSetting {
-            value: kind,
-            from: kind_from,
-        });
-        n.device_legs = Some(FileSetting {
-            value: legs,
-            from: legs_from,
-        });
+        if let Some(kind) = kind {
+            n.capture_type = Some(FileSetting {
+                value: kind,
+                from: kind_from,
+            });
+        }
+        if legs.is_some() {
+            n.device_legs = legs;
+        }
         n.hidden_bounces = hidden;
         Ok(())
     }
