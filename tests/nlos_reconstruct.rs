@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{C, empty_scene, push_tri};
+use common::C;
 use glam::Vec3;
 use std::path::PathBuf;
 use std::process::Command;
@@ -14,47 +14,6 @@ use tprf_core::nlos::capture::{Progress, render_capture};
 use tprf_core::nlos::files::{LoadedCapture, read_capture, write_capture_folder};
 use tprf_core::nlos::reconstruct::{GridFrame, Method, Volume, reconstruct};
 use tprf_core::nlos::{CaptureSettings, Scan};
-use tprf_core::scene::{Camera, Material, Scene, SceneObject};
-
-/// The 2 m wall at z = 0 and one square patch of side `side` at `c`, facing the wall.
-fn patch_scene(c: Vec3, side: f32) -> Scene {
-    let mut s = empty_scene(Camera::look_at(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 0.8));
-    s.materials = vec![
-        Material::lambertian("wall", [0.8; 3]),
-        Material::lambertian("patch", [0.8; 3]),
-    ];
-    let v = Vec3::new;
-    push_tri(
-        &mut s,
-        [v(-1.0, -1.0, 0.0), v(1.0, -1.0, 0.0), v(1.0, 1.0, 0.0)],
-        0,
-    );
-    push_tri(
-        &mut s,
-        [v(-1.0, -1.0, 0.0), v(1.0, 1.0, 0.0), v(-1.0, 1.0, 0.0)],
-        0,
-    );
-    let h = side / 2.0;
-    let q = [
-        c + v(-h, -h, 0.0),
-        c + v(h, -h, 0.0),
-        c + v(h, h, 0.0),
-        c + v(-h, h, 0.0),
-    ];
-    push_tri(&mut s, [q[0], q[2], q[1]], 1);
-    push_tri(&mut s, [q[0], q[3], q[2]], 1);
-    s.objects = vec![
-        SceneObject {
-            name: "relay_wall".into(),
-            triangles: 0..2,
-        },
-        SceneObject {
-            name: "patch".into(),
-            triangles: 2..4,
-        },
-    ];
-    s
-}
 
 fn out_dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("tprf-nlosrec-{}-{name}", std::process::id()));
@@ -73,7 +32,12 @@ fn captured(c: Vec3, scan: Scan, legs: bool, name: &str) -> (LoadedCapture, Path
         max_bounces: 1,
         ..CaptureSettings::default()
     };
-    let cap = render_capture(Arc::new(patch_scene(c, 0.12)), &set, &Progress::default()).unwrap();
+    let cap = render_capture(
+        Arc::new(common::nlos_patch_scene(c, 0.12)),
+        &set,
+        &Progress::default(),
+    )
+    .unwrap();
     let dir = out_dir(name);
     write_capture_folder(&cap, &dir, &[]).unwrap();
     (read_capture(&dir).unwrap(), dir)

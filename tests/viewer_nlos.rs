@@ -10,7 +10,7 @@
 
 mod common;
 
-use common::{C, empty_scene, push_tri};
+use common::C;
 use eframe::egui::{Event, Modifiers, PointerButton, Pos2, Vec2};
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
@@ -23,53 +23,11 @@ use tprf_core::nlos::capture::{Progress, render_capture};
 use tprf_core::nlos::files::write_capture_folder;
 use tprf_core::nlos::reconstruct::{Method, Volume};
 use tprf_core::nlos::{CaptureSettings, Scan};
-use tprf_core::scene::{Camera, Material, Scene, SceneObject};
 
 /// Side of the hidden patch, metres.
 const SIDE_M: f32 = 0.12;
 /// Bin width as optical path, metres.
 const DT_M: f64 = 0.01;
-
-/// The 2 m wall at z = 0 (object `relay_wall`) and a square patch of side [`SIDE_M`]
-/// centred at `c`, parallel to the wall and facing it.
-fn patch_scene(c: Vec3) -> Scene {
-    let mut s = empty_scene(Camera::look_at(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 0.8));
-    s.materials = vec![
-        Material::lambertian("wall", [0.8; 3]),
-        Material::lambertian("patch", [0.8; 3]),
-    ];
-    let v = Vec3::new;
-    push_tri(
-        &mut s,
-        [v(-1.0, -1.0, 0.0), v(1.0, -1.0, 0.0), v(1.0, 1.0, 0.0)],
-        0,
-    );
-    push_tri(
-        &mut s,
-        [v(-1.0, -1.0, 0.0), v(1.0, 1.0, 0.0), v(-1.0, 1.0, 0.0)],
-        0,
-    );
-    let h = SIDE_M / 2.0;
-    let q = [
-        c + v(-h, -h, 0.0),
-        c + v(h, -h, 0.0),
-        c + v(h, h, 0.0),
-        c + v(-h, h, 0.0),
-    ];
-    push_tri(&mut s, [q[0], q[2], q[1]], 1);
-    push_tri(&mut s, [q[0], q[3], q[2]], 1);
-    s.objects = vec![
-        SceneObject {
-            name: "relay_wall".into(),
-            triangles: 0..2,
-        },
-        SceneObject {
-            name: "patch".into(),
-            triangles: 2..4,
-        },
-    ];
-    s
-}
 
 /// A confocal capture of the patch at `c` written to a fresh folder.
 fn capture_folder(c: Vec3, device_legs: bool, name: &str) -> PathBuf {
@@ -82,7 +40,12 @@ fn capture_folder(c: Vec3, device_legs: bool, name: &str) -> PathBuf {
         max_bounces: 1,
         ..CaptureSettings::default()
     };
-    let cap = render_capture(Arc::new(patch_scene(c)), &set, &Progress::default()).unwrap();
+    let cap = render_capture(
+        Arc::new(common::nlos_patch_scene(c, SIDE_M)),
+        &set,
+        &Progress::default(),
+    )
+    .unwrap();
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("viewer-nlos-{name}"));
     let _ = std::fs::remove_dir_all(&dir);
     write_capture_folder(&cap, &dir, &[]).unwrap();

@@ -281,10 +281,12 @@ def write_gltf(s: Scene, path: Path, width: int, height: int):
     metallic 0 + KHR_materials_specular specularFactor 0, double-sided."""
     buf = bytearray()
     accessors, views, prims, materials = [], [], [], []
-    for albedo, tris in s.groups:
+
+    def add_positions(tris):
+        """The triangles' corners as a buffer view and a VEC3 float accessor."""
         flat = [x for t in tris for v in t for x in v]
         off = len(buf)
-        buf += struct.pack(f"<{len(flat)}f", *flat)
+        buf.extend(struct.pack(f"<{len(flat)}f", *flat))
         views.append({"buffer": 0, "byteOffset": off, "byteLength": 4 * len(flat)})
         xs, ys, zs = flat[0::3], flat[1::3], flat[2::3]
         accessors.append(
@@ -297,6 +299,9 @@ def write_gltf(s: Scene, path: Path, width: int, height: int):
                 "max": [max(xs), max(ys), max(zs)],
             }
         )
+
+    for albedo, tris in s.groups:
+        add_positions(tris)
         materials.append(
             {
                 "name": f"grey {albedo}",
@@ -312,21 +317,7 @@ def write_gltf(s: Scene, path: Path, width: int, height: int):
         prims.append({"attributes": {"POSITION": len(accessors) - 1}, "material": len(materials) - 1})
     if s.fog_box:
         sigma_s, sigma_a, g = s.medium
-        flat = [x for t in s.fog_box for v in t for x in v]
-        off = len(buf)
-        buf += struct.pack(f"<{len(flat)}f", *flat)
-        views.append({"buffer": 0, "byteOffset": off, "byteLength": 4 * len(flat)})
-        xs, ys, zs = flat[0::3], flat[1::3], flat[2::3]
-        accessors.append(
-            {
-                "bufferView": len(views) - 1,
-                "componentType": 5126,
-                "count": len(flat) // 3,
-                "type": "VEC3",
-                "min": [min(xs), min(ys), min(zs)],
-                "max": [max(xs), max(ys), max(zs)],
-            }
-        )
+        add_positions(s.fog_box)
         # Untransmissive with a medium: an index-matched boundary (docs/media.md).
         materials.append(
             {

@@ -17,6 +17,25 @@ fn stepped_bin(bin: usize, delta: i64, bins: usize, looping: bool) -> usize {
 }
 
 impl TprfApp {
+    /// A time plot (x in ns after the pulse on `axis`) dragged or clicked at `pointer`:
+    /// the scrubber goes to the bin under it and playback stops.
+    pub(crate) fn scrub_from_plot(
+        &mut self,
+        response: &egui::Response,
+        pointer: Option<egui_plot::PlotPoint>,
+        axis: &tprf_core::film::TimeAxis,
+    ) {
+        if (response.dragged() || response.clicked())
+            && let Some(p) = pointer
+        {
+            let b = ((p.x * 1e-9 - axis.t0_s) / axis.dt_s).floor();
+            if b.is_finite() {
+                self.bin = (b.max(0.0) as usize).min(axis.bins.saturating_sub(1));
+                self.playing = false;
+            }
+        }
+    }
+
     /// Move the scrubber `delta` bins in a window of `bins` (nothing when there are none).
     pub(super) fn step(&mut self, delta: i64, bins: usize) {
         if bins > 0 {

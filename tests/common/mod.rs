@@ -9,7 +9,7 @@ use std::sync::Arc;
 use tprf_core::film::{FilmLayout, TimeAxis, TprfFilm};
 use tprf_core::reference::furnace::Furnace;
 use tprf_core::reference::plane::Plane;
-use tprf_core::scene::{Camera, Scene, Triangle, TriangleAttrs};
+use tprf_core::scene::{Camera, Material, Scene, SceneObject, Triangle, TriangleAttrs};
 use tprf_core::transport::progressive::{Schedule, render};
 use tprf_core::transport::{RenderSettings, Renderer};
 
@@ -117,4 +117,45 @@ pub fn mean_arrival_s(tprf: &[f64], axis: &TimeAxis) -> f64 {
         .map(|(b, v)| v * axis.bin_center_s(b))
         .sum::<f64>()
         / total
+}
+
+/// An NLOS scene: the 2 m relay wall at z = 0 (object `relay_wall`) and one square patch
+/// of side `side` (object `patch`) centred at `c`, parallel to the wall and facing it.
+pub fn nlos_patch_scene(c: Vec3, side: f32) -> Scene {
+    let mut s = empty_scene(Camera::look_at(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 0.8));
+    s.materials = vec![
+        Material::lambertian("wall", [0.8; 3]),
+        Material::lambertian("patch", [0.8; 3]),
+    ];
+    let v = Vec3::new;
+    push_tri(
+        &mut s,
+        [v(-1.0, -1.0, 0.0), v(1.0, -1.0, 0.0), v(1.0, 1.0, 0.0)],
+        0,
+    );
+    push_tri(
+        &mut s,
+        [v(-1.0, -1.0, 0.0), v(1.0, 1.0, 0.0), v(-1.0, 1.0, 0.0)],
+        0,
+    );
+    let h = side / 2.0;
+    let q = [
+        c + v(-h, -h, 0.0),
+        c + v(h, -h, 0.0),
+        c + v(h, h, 0.0),
+        c + v(-h, h, 0.0),
+    ];
+    push_tri(&mut s, [q[0], q[2], q[1]], 1);
+    push_tri(&mut s, [q[0], q[3], q[2]], 1);
+    s.objects = vec![
+        SceneObject {
+            name: "relay_wall".into(),
+            triangles: 0..2,
+        },
+        SceneObject {
+            name: "patch".into(),
+            triangles: 2..4,
+        },
+    ];
+    s
 }

@@ -181,15 +181,8 @@ impl TprfApp {
             );
             p.pointer_coordinate()
         });
-        if (response.response.dragged() || response.response.clicked())
-            && let Some(p) = response.inner
-        {
-            let b = ((p.x * 1e-9 - axis.t0_s) / axis.dt_s).floor();
-            if b.is_finite() {
-                self.bin = (b.max(0.0) as usize).min(axis.bins.saturating_sub(1));
-                self.playing = false;
-            }
-        }
+        // Drag on the plot moves the scrubber.
+        self.scrub_from_plot(&response.response, response.inner, &axis);
         response
             .response
             .widget_info(|| egui::WidgetInfo::labeled(egui::Role::Figure, true, "transient plot"));

@@ -194,15 +194,7 @@ impl TprfApp {
             plot_ui.pointer_coordinate()
         });
         // Drag on the plot moves the scrubber.
-        if (response.response.dragged() || response.response.clicked())
-            && let Some(p) = response.inner
-        {
-            let b = ((p.x * 1e-9 - axis.t0_s) / axis.dt_s).floor();
-            if b.is_finite() {
-                self.bin = (b.max(0.0) as usize).min(axis.bins.saturating_sub(1));
-                self.playing = false;
-            }
-        }
+        self.scrub_from_plot(&response.response, response.inner, &axis);
         response
             .response
             .widget_info(|| egui::WidgetInfo::labeled(egui::Role::Figure, true, "tprf plot"));
