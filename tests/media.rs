@@ -7,6 +7,7 @@
 mod common;
 use common::*;
 use glam::Vec3;
+use std::f64::consts::PI;
 use std::sync::Arc;
 use tprf_core::film::TimeAxis;
 use tprf_core::reference::furnace::Furnace;
@@ -38,7 +39,7 @@ fn pixel_mean_and_se(film: &tprf_core::film::TprfFilm, w: usize, h: usize) -> (V
 
 /// Henyey-Greenstein phase function, written out again (not the renderer's).
 fn hg(cos: f64, g: f64) -> f64 {
-    (1.0 - g * g) / (4.0 * std::f64::consts::PI * (1.0 + g * g - 2.0 * g * cos).powf(1.5))
+    (1.0 - g * g) / (4.0 * PI * (1.0 + g * g - 2.0 * g * cos).powf(1.5))
 }
 
 /// Composite Simpson's rule with `n` (even) intervals.
@@ -280,6 +281,31 @@ fn white_walls_and_a_white_medium_lose_nothing() {
             "{medium:?}: {got} vs {want} (se {se})"
         );
     }
+    // Walls that also emit a pulse of radiance Le (energy pi Le A into the volume) beside
+    // the lamp: L = (4 pi I + pi Le A) c / (4 pi n V). Emitter sampling at the vertices
+    // then shares its MIS with the phase function's and the lamp's glow's directions.
+    let le = 0.05;
+    let mut scene = Furnace::emitting(1.0, 1.0, le).scene();
+    scene.lights = Furnace::point(1.0, 1.0, i).scene().lights;
+    scene.medium = Some(Medium::grey(1.5, 0.0, 0.8, 1.0));
+    let volume = mesh_volume(&scene);
+    let area: f64 = scene
+        .triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.p.map(|p| p.as_dvec3());
+            0.5 * (b - a).cross(c - a).length()
+        })
+        .sum();
+    let axis = TimeAxis::new(20.0 / C, 2.0 / C, 8).unwrap();
+    let r = render_scene(scene, 8, 8, axis, 64, 5, 0);
+    let (got, se) = mean_and_se(&r.film.steady());
+    let energy = 4.0 * PI * i + PI * le * area;
+    let want = energy * C / (4.0 * PI * volume) * (axis.end_s() - axis.t0_s);
+    assert!(
+        (got - want).abs() < 4.0 * se + 0.01 * want,
+        "emitting walls and a lamp: {got} vs {want} (se {se})"
+    );
 }
 
 /// Extremes stay finite: an optical depth of 1e4 across the scene, an albedo of 0.9999,
@@ -353,7 +379,6 @@ fn vacuum_is_rendered_by_the_surface_loop() {
 /// light integrated over the surface; in the diffusion (P1) approximation the radiance is
 /// `(phi + 3 J . w) / (4 pi)`, so the pixels see `E (Phi(t) + 3 R(t)) / (4 pi)`.
 fn diffusion_normal_radiance_per_irradiance(t_s: f64, mu_s_red: f64, mu_a: f64, n: f64) -> f64 {
-    use std::f64::consts::PI;
     let v = C / n;
     let d = 1.0 / (3.0 * mu_s_red);
     let z0 = 1.0 / mu_s_red;

@@ -78,7 +78,8 @@ pub struct RenderSettings {
     /// Next-event estimation (shadow rays to lights). Off: lights are reached only by
     /// hitting emissive surfaces (punctual lights then contribute nothing).
     pub nee: bool,
-    /// Scattering events before Russian roulette starts.
+    /// Scattering events before Russian roulette starts (in scenes with media, a few
+    /// more: `MEDIA_RR_DELAY` in transport/media/walk.rs).
     pub rr_start: u32,
     /// Smallest survival probability of Russian roulette. 0 (the default): a path
     /// survives with its throughput capped at 1; 1: no roulette (paths end only at

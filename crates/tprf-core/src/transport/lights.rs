@@ -43,6 +43,18 @@ impl Punctual {
         }
     }
 
+    /// A point light of 1 W/sr at `position` (for tests).
+    #[cfg(test)]
+    pub(crate) fn point_at(position: Vec3) -> Punctual {
+        Punctual {
+            position,
+            intensity_w_per_sr: 1.0,
+            spot: None,
+            cone_axis: Vec3::Z,
+            cos_cone: -1.0,
+        }
+    }
+
     /// Solid angle of the cone holding the emission, sr: 4 pi for a point light.
     fn cone_sr(&self) -> f32 {
         2.0 * std::f32::consts::PI * (1.0 - self.cos_cone)

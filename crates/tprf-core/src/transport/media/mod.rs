@@ -23,7 +23,9 @@
 //!   `(1 - T) albedo / (1 - q)`). Unbiased; nothing is traced that could only arrive late.
 //! - **A medium vertex**: next-event estimation to the emitters (MIS against phase
 //!   sampling), then a new direction from the Henyey-Greenstein phase function
-//!   ([`phase`]), Russian roulette as on surfaces.
+//!   ([`phase`]) or, in a one-sample MIS mixture, toward the glow that the medium makes
+//!   around each punctual light ([`glow`]; surface vertices in a medium mix it with the
+//!   BSDF alike), Russian roulette a few scatterings later than on surfaces.
 //!
 //! Surfaces are as in the surface loop (emission with MIS, next-event estimation,
 //! BSDF sampling), with shadow rays attenuated by the media they cross and timed by
@@ -35,6 +37,7 @@
 //! the steady ambient image (rendered without media).
 
 mod distance;
+mod glow;
 pub mod phase;
 mod walk;
 

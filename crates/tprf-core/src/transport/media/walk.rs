@@ -1,6 +1,7 @@
 //! The path loop for scenes with media (see the module doc of [`super`]).
 
 use super::distance::{Equiangular, Exponential, PathLength, gate};
+use super::glow::{GLOW_SHARE, Glow};
 use super::phase::{hg, sample_hg};
 use super::{BandMedium, Boundary, Media};
 use crate::film::LeftOut;
@@ -26,6 +27,16 @@ const MAX_PASS_THROUGH: u32 = 1024;
 const PASS_BOOST: f32 = 20.0;
 const PASS_MAX: f32 = 0.5;
 
+/// How many scatterings after the surface loop's `rr_start` Russian roulette begins in
+/// media. A survivor of the roulette carries weight 1 however unlikely its path, and in
+/// fog the light it may meet next (the glow around a lamp, [`super::glow`]) is far
+/// brighter than the pixel's mean: the race's fog scene had 70 % of its cube variance in
+/// paths of 4 or more scatterings, with 2 % of the light. Measured on it (256 spp, four
+/// seeds, glow directions on): starting at 8 instead of 3 cut the cube variance 4.2x for the same rays and
+/// time (the window and the open road end the paths, not the roulette); on
+/// builtin:cornell filled with fog (sigma_s 0.5 /m, g 0.9) 4.3x for 1.3x the time.
+const MEDIA_RR_DELAY: u32 = 5;
+
 /// Share of the gate's samples drawn in proportion to the light's `1 / r^2`
 /// (equiangular), the rest in proportion to the transmittance of both legs.
 const EQUIANGULAR_SHARE: f64 = 0.5;
@@ -50,6 +61,12 @@ struct MediaPath {
     /// Straight crossings (alpha coverage, index-matched boundaries) since the last
     /// scattering.
     pass_throughs: u32,
+    /// MIS weight of the single scattering that the segment's next-event estimation
+    /// finds, against the glow technique that estimates it from the same vertex
+    /// ([`Renderer::glow_segment`]); 1 where that did not run (the camera ray, a delta
+    /// lobe, a refraction) and on the pieces after a straight crossing, which the glow
+    /// technique's segment does not reach.
+    nee_weight: f32,
 }
 
 /// How a segment's path continues ([`Renderer::continue_segment`]).
@@ -97,6 +114,7 @@ impl Renderer {
             last_pdf: None,
             last_position: origin,
             pass_throughs: 0,
+            nee_weight: 1.0,
         };
         let mut rays = 0u64;
         loop {
@@ -162,6 +180,7 @@ impl Renderer {
             if let Boundary::IndexMatched { inside } = boundary {
                 path.region = if sp.front { inside } else { media.scene };
                 path.pass_throughs += 1;
+                path.nee_weight = 1.0;
                 if path.pass_throughs > MAX_PASS_THROUGH {
                     break;
                 }
@@ -171,6 +190,7 @@ impl Renderer {
             // Virtual interface: the uncovered fraction passes straight through, undelayed.
             if sp.coverage < 1.0 && draw(rng, &path, dim::COVERAGE) >= sp.coverage {
                 path.pass_throughs += 1;
+                path.nee_weight = 1.0;
                 if path.pass_throughs > MAX_PASS_THROUGH {
                     break;
                 }
@@ -203,6 +223,22 @@ impl Renderer {
             let p_out = sp.position + sp.n_face * self.offset_m(sp.position);
             if s.nee && sp.bsdf.has_smooth_lobe() {
                 rays += self.surface_nee(media, &path, &sp, &frame, wo, p_out, rng, sink);
+                if let Some(glow) = self.surface_glow(&path, &sp) {
+                    // The BSDF's f cos and pdf toward a direction on the side it left by.
+                    let eval = |wi_world: Vec3| {
+                        if wi_world.dot(sp.n_face) <= 0.0 {
+                            return (0.0, 0.0);
+                        }
+                        let wi = frame.to_local(wi_world);
+                        let (f, pdf) = sp.bsdf.eval(wo, wi);
+                        (f * wi.z, pdf)
+                    };
+                    let leaving = MediaPath {
+                        scatterings: path.scatterings + 1,
+                        ..path
+                    };
+                    rays += self.glow_segment(media, &leaving, &glow, p_out, eval, rng, sink);
+                }
             }
             let inside = match boundary {
                 Boundary::Surface { inside } | Boundary::IndexMatched { inside } => inside,
@@ -322,7 +358,20 @@ impl Renderer {
             }
         }
         let dir = sample_hg(path.dir, region.g, rng.get2(slot(dim::BSDF_DIRECTION)));
-        path.last_pdf = Some(hg(path.dir.dot(dir), region.g));
+        let f = hg(path.dir.dot(dir), region.g);
+        path.last_pdf = Some(f);
+        path.nee_weight = 1.0;
+        let glow = Glow::new(x, &lights.punctual, region.g);
+        if let Some(glow) = glow.filter(|_| s.nee && path.scatterings < s.max_bounces) {
+            let incoming = path.dir;
+            let eval = |d: Vec3| {
+                let f = hg(incoming.dot(d), region.g);
+                (f, f)
+            };
+            let leaving = MediaPath { origin: x, ..*path };
+            rays += self.glow_segment(media, &leaving, &glow, x, eval, rng, sink);
+            path.nee_weight = f / (GLOW_SHARE * glow.pdf(dir) + f);
+        }
         path.last_position = x;
         path.pass_throughs = 0;
         path.origin = x;
@@ -341,7 +390,7 @@ impl Renderer {
                 return (false, rays);
             }
         }
-        if path.scatterings >= s.rr_start {
+        if path.scatterings >= s.rr_start + MEDIA_RR_DELAY {
             let q = path.throughput.min(1.0).max(s.rr_min_survival.min(1.0));
             if !(q > 0.0) || rng.get1(slot(dim::ROULETTE)) >= q {
                 return (false, rays);
@@ -349,6 +398,75 @@ impl Renderer {
             path.throughput /= q;
         }
         (path.throughput.is_finite() && path.throughput > 0.0, rays)
+    }
+
+    /// The lights' glow at a surface vertex, where the path leaves it in a scattering
+    /// medium and next-event estimation is on ([`super::glow`]).
+    fn surface_glow<'a>(&'a self, path: &MediaPath, sp: &SurfacePoint) -> Option<Glow<'a>> {
+        let region = path.region;
+        if !(self.settings().nee && region.sigma_s > 0.0) {
+            return None;
+        }
+        Glow::new(sp.position, &self.lights().punctual, region.g)
+    }
+
+    /// The glow technique of a vertex: the single scattering of the punctual lights on a
+    /// segment drawn toward their glow ([`super::glow`]), the second technique beside
+    /// the segment of the vertex's own direction, combined by the balance heuristic. It
+    /// runs with probability `GLOW_SHARE` (its expected sample count), so a direction
+    /// `w` of density `p_glow` weighs `f(w) / (GLOW_SHARE p_glow(w) + p_own(w))` and
+    /// the own segment's estimate `p_own / (GLOW_SHARE p_glow + p_own)`
+    /// ([`MediaPath::nee_weight`]). The path itself does not follow the glow, so the
+    /// weights do not multiply along it. `leaving` is the path leaving the vertex
+    /// (scatterings counted, throughput up to the vertex), `origin` the segment's start,
+    /// `eval(w)` the vertex's `f |cos|` (the phase function in a medium) and own pdf
+    /// toward `w`, `f` 0 where the path cannot go. Returns the rays traced.
+    #[allow(clippy::too_many_arguments)]
+    fn glow_segment(
+        &self,
+        media: &Media,
+        leaving: &MediaPath,
+        glow: &Glow,
+        origin: Vec3,
+        eval: impl Fn(Vec3) -> (f32, f32),
+        rng: &Sampler,
+        sink: &mut impl Sink,
+    ) -> u64 {
+        let key = ((leaving.scatterings as u64) << 32) + 0x61f0;
+        if leaving.scatterings >= self.settings().max_bounces || rng.get1_hashed(key) >= GLOW_SHARE
+        {
+            return 0;
+        }
+        let u = (rng.get1_hashed(key + 2), rng.get1_hashed(key + 3));
+        let Some(dir) = glow.sample(rng.get1_hashed(key + 1), u) else {
+            return 0;
+        };
+        let (f, pdf_own) = eval(dir);
+        let p = GLOW_SHARE * glow.pdf(dir) + pdf_own;
+        if !(f > 0.0 && p > 0.0) {
+            return 0;
+        }
+        sink.ray(origin, dir, f32::INFINITY, RayKind::Path);
+        let t_hit = self
+            .accel()
+            .closest_hit(origin, dir, f32::INFINITY)
+            .map_or(f32::INFINITY, |h| h.t_m);
+        let region = leaving.region;
+        let window_end_opl_m = sink.window_end_s() * C_M_PER_S;
+        let t_window = ((window_end_opl_m - leaving.opl_m) / region.n as f64) as f32;
+        if !(t_window > 0.0) {
+            return 1;
+        }
+        let segment = MediaPath {
+            origin,
+            dir,
+            throughput: leaving.throughput * f / p,
+            pass_throughs: 0,
+            nee_weight: 1.0,
+            ..*leaving
+        };
+        let u = (rng.get1_hashed(key + 4), rng.get1_hashed(key + 5));
+        1 + self.segment_nee(media, &segment, t_hit.min(t_window), u, rng, sink)
     }
 
     /// Single scattering of every punctual light on the path's segment `[0, span_m)`:
@@ -457,9 +575,10 @@ impl Renderer {
                 continue;
             };
             let t_cam = (-sigma_t * s_m).exp();
-            let value =
-                path.throughput as f64 * (region.sigma_s * f * intensity * tr / r2) as f64 * t_cam
-                    / pdf;
+            let value = (path.throughput * path.nee_weight) as f64
+                * (region.sigma_s * f * intensity * tr / r2) as f64
+                * t_cam
+                / pdf;
             sink.add(opl_m / C_M_PER_S, value, path.scatterings + 1);
         }
         rays
@@ -594,11 +713,17 @@ impl Renderer {
             path.region = if sp.front { inside } else { media.scene };
         }
         path.last_pdf = (!bs.is_delta()).then_some(bs.pdf);
+        path.nee_weight = match self.surface_glow(path, sp) {
+            Some(glow) if !bs.is_delta() && !refracted => {
+                bs.pdf / (GLOW_SHARE * glow.pdf(wi_world) + bs.pdf)
+            }
+            _ => 1.0,
+        };
         path.last_position = sp.position;
         path.pass_throughs = 0;
         path.origin = sp.position + sp.n_face * self.offset_m(sp.position) * geo.signum();
         path.dir = wi_world.normalize();
-        if path.scatterings >= s.rr_start {
+        if path.scatterings >= s.rr_start + MEDIA_RR_DELAY {
             let q = path.throughput.min(1.0).max(s.rr_min_survival.min(1.0));
             if !(q > 0.0) || rng.get1(u_roulette) >= q {
                 return false;
