@@ -656,7 +656,10 @@ fn a_bad_scene_is_reported_in_the_window() {
 /// Renders the window where a wgpu adapter exists; skips (with a note) where none does.
 fn render(h: &mut Harness<'static, TprfApp>) -> Option<image::RgbaImage> {
     match h.render() {
-        Ok(img) => Some(img),
+        Ok(mut img) => {
+            tprf::viewer::over_background(&mut img, &h.ctx.global_style().visuals);
+            Some(img)
+        }
         Err(e) => {
             eprintln!("no wgpu adapter, window image not checked: {e}");
             None
@@ -726,7 +729,8 @@ fn screenshots() {
     }
     h.remove_cursor();
     h.run_steps(3);
-    let img = h.render().expect("a wgpu adapter for screenshots");
+    let mut img = h.render().expect("a wgpu adapter for screenshots");
+    tprf::viewer::over_background(&mut img, &h.ctx.global_style().visuals);
     img.save(dir.join("cornell.png")).unwrap();
 
     // Canopy: airborne LiDAR over a partly covered foliage layer.
@@ -750,7 +754,8 @@ fn screenshots() {
     }
     h.remove_cursor();
     h.run_steps(3);
-    let img = h.render().expect("a wgpu adapter for screenshots");
+    let mut img = h.render().expect("a wgpu adapter for screenshots");
+    tprf::viewer::over_background(&mut img, &h.ctx.global_style().visuals);
     img.save(dir.join("canopy.png")).unwrap();
 
     // The sensor over the Cornell box: the full-waveform LiDAR preset with a pulse
@@ -790,7 +795,8 @@ fn screenshots() {
         std::thread::sleep(Duration::from_millis(20));
     }
     h.run_steps(4);
-    let img = h.render().expect("a wgpu adapter for screenshots");
+    let mut img = h.render().expect("a wgpu adapter for screenshots");
+    tprf::viewer::over_background(&mut img, &h.ctx.global_style().visuals);
     img.save(dir.join("sensor.png")).unwrap();
 
     // The SPAD preset on the same film: a bin of the histogram, its depth, and the
@@ -811,7 +817,8 @@ fn screenshots() {
         std::thread::sleep(Duration::from_millis(20));
     }
     h.run_steps(4);
-    let img = h.render().expect("a wgpu adapter for screenshots");
+    let mut img = h.render().expect("a wgpu adapter for screenshots");
+    tprf::viewer::over_background(&mut img, &h.ctx.global_style().visuals);
     img.save(dir.join("spad.png")).unwrap();
 }
 
