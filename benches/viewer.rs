@@ -207,13 +207,15 @@ fn main() {
 /// sides, then the shoelace formula), square pixels.
 fn clipped_area(t: [Pos2; 3], clip: egui::Rect) -> f64 {
     let mut poly: Vec<Pos2> = t.to_vec();
-    let sides: [(fn(Pos2) -> f32, f32, bool); 4] = [
-        (|p| p.x, clip.min.x, true),
-        (|p| p.x, clip.max.x, false),
-        (|p| p.y, clip.min.y, true),
-        (|p| p.y, clip.max.y, false),
+    // (along y, the side's coordinate, inside above it).
+    let sides = [
+        (false, clip.min.x, true),
+        (false, clip.max.x, false),
+        (true, clip.min.y, true),
+        (true, clip.max.y, false),
     ];
-    for (coord, edge, keep_above) in sides {
+    for (along_y, edge, keep_above) in sides {
+        let coord = |p: Pos2| if along_y { p.y } else { p.x };
         let inside = |p: Pos2| (coord(p) >= edge) == keep_above || coord(p) == edge;
         let mut out = Vec::with_capacity(poly.len() + 2);
         for i in 0..poly.len() {
