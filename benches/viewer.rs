@@ -7,7 +7,7 @@
 //! tessellation. The GPU paint is not included (it runs on the GPU, or on Mesa's
 //! software rasteriser where none exists, which measures the rasteriser, not tprf).
 
-use eframe::egui::{Pos2, Vec2};
+use eframe::egui::{self, Pos2, Vec2};
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use std::time::{Duration, Instant};
@@ -203,6 +203,65 @@ fn main() {
     }
 }
 
+/// Area of triangle `t` inside `clip` (Sutherland-Hodgman against the rectangle's four
+/// sides, then the shoelace formula), square pixels.
+fn clipped_area(t: [Pos2; 3], clip: egui::Rect) -> f64 {
+    let mut poly: Vec<Pos2> = t.to_vec();
+    // (along y, the side's coordinate, inside above it).
+    let sides = [
+        (false, clip.min.x, true),
+        (false, clip.max.x, false),
+        (true, clip.min.y, true),
+        (true, clip.max.y, false),
+    ];
+    for (along_y, edge, keep_above) in sides {
+        let coord = |p: Pos2| if along_y { p.y } else { p.x };
+        let inside = |p: Pos2| (coord(p) >= edge) == keep_above || coord(p) == edge;
+        let mut out = Vec::with_capacity(poly.len() + 2);
+        for i in 0..poly.len() {
+            let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
+            if inside(a) {
+                out.push(a);
+            }
+            if inside(a) != inside(b) {
+                let f = (edge - coord(a)) / (coord(b) - coord(a));
+                out.push(a + (b - a) * f);
+            }
+        }
+        poly = out;
+        if poly.len() < 3 {
+            return 0.0;
+        }
+    }
+    let twice: f64 = (0..poly.len())
+        .map(|i| {
+            let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
+            f64::from(a.x) * f64::from(b.y) - f64::from(b.x) * f64::from(a.y)
+        })
+        .sum();
+    0.5 * twice.abs()
+}
+
+/// Pixels the rasteriser shades for a frame's meshes, as a multiple of the window's
+/// pixels (1 = every pixel once): the area of every triangle inside its clip rectangle.
+/// What a software rasteriser's time follows; egui has no depth test, so every layer
+/// of a pixel is shaded and blended.
+fn overdraw(prims: &[egui::ClippedPrimitive], window: Vec2) -> f64 {
+    let mut area = 0.0;
+    for p in prims {
+        if let egui::epaint::Primitive::Mesh(m) = &p.primitive {
+            let clip = p
+                .clip_rect
+                .intersect(egui::Rect::from_min_size(Pos2::ZERO, window));
+            for t in m.indices.chunks_exact(3) {
+                let v = |i: u32| m.vertices[i as usize].pos;
+                area += clipped_area([v(t[0]), v(t[1]), v(t[2])], clip);
+            }
+        }
+    }
+    area / f64::from(window.x * window.y)
+}
+
 /// The whole frame: our `ui()` with egui's layout and tessellation, then the paint of
 /// the 1280 x 800 window by wgpu on whatever adapter there is (Mesa's lavapipe, on the
 /// CPU, where there is no GPU) with egui-wgpu's default options (eframe's), read back (kittest reads
@@ -214,9 +273,9 @@ fn paint() {
          128 x 128 x 256 cornell while rendering\n"
     );
     println!(
-        "| tab | frames | UI p50 ms | paint p50 ms | paint p95 ms | whole p50 ms | whole p95 ms | adapter |"
+        "| tab | frames | UI p50 ms | paint p50 ms | paint p95 ms | whole p50 ms | whole p95 ms | pixels shaded / window | adapter |"
     );
-    println!("|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|");
     for mode in [Mode::Transient, Mode::Sensor] {
         let settings = ViewerSettings {
             mode,
@@ -238,32 +297,69 @@ fn paint() {
             h.hover_at(Pos2::new(c.x, c.y));
         }
         if let Err(e) = h.render() {
-            println!("| {mode:?} | - | - | - | - | - | - | none: {e} |");
+            println!("| {mode:?} | - | - | - | - | - | - | - | none: {e} |");
             continue;
         }
         let frames = 60;
         let (mut ui_ms, mut paint_ms, mut whole_ms) = (vec![], vec![], vec![]);
+        let mut shaded = vec![];
         for _ in 0..frames {
             let t = Instant::now();
             h.step();
             let ui = t.elapsed();
             let _ = h.render();
             let whole = t.elapsed();
+            let prims = h.ctx.tessellate(h.output().shapes.clone(), 1.0);
+            shaded.push(overdraw(&prims, Vec2::new(1280.0, 800.0)));
             ui_ms.push(ui.as_secs_f64() * 1e3);
             paint_ms.push((whole - ui).as_secs_f64() * 1e3);
             whole_ms.push(whole.as_secs_f64() * 1e3);
         }
-        for v in [&mut ui_ms, &mut paint_ms, &mut whole_ms] {
+        for v in [&mut ui_ms, &mut paint_ms, &mut whole_ms, &mut shaded] {
             v.sort_by(f64::total_cmp);
         }
         println!(
-            "| {mode:?} | {frames} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | wgpu (kittest) |",
+            "| {mode:?} | {frames} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.2} | wgpu (kittest) |",
             quantile(&ui_ms, 0.5),
             quantile(&paint_ms, 0.5),
             quantile(&paint_ms, 0.95),
             quantile(&whole_ms, 0.5),
             quantile(&whole_ms, 0.95),
+            quantile(&shaded, 0.5),
         );
+        if std::env::var_os("TPRF_BENCH_LAYERS").is_some() {
+            layers(&h.ctx, h.output().shapes.clone());
+        }
+    }
+}
+
+/// The largest meshes of a frame (`TPRF_BENCH_LAYERS=1`): area as a share of the window,
+/// clip rectangle, first vertex colour and texture, to see which layers a pixel has.
+fn layers(ctx: &egui::Context, shapes: Vec<egui::epaint::ClippedShape>) {
+    let window = Vec2::new(1280.0, 800.0);
+    let mut big: Vec<(f64, String)> = ctx
+        .tessellate(shapes, 1.0)
+        .iter()
+        .filter_map(|p| match &p.primitive {
+            egui::epaint::Primitive::Mesh(m) => {
+                let a = overdraw(std::slice::from_ref(p), window);
+                let c = m.vertices.first().map(|v| v.color);
+                Some((
+                    a,
+                    format!(
+                        "clip {:?} colour {c:?} texture {:?} triangles {}",
+                        p.clip_rect,
+                        m.texture_id,
+                        m.indices.len() / 3
+                    ),
+                ))
+            }
+            _ => None,
+        })
+        .collect();
+    big.sort_by(|a, b| b.0.total_cmp(&a.0));
+    for (a, what) in big.iter().take(20) {
+        println!("    {a:.3} {what}");
     }
 }
 

@@ -656,7 +656,10 @@ fn a_bad_scene_is_reported_in_the_window() {
 /// Renders the window where a wgpu adapter exists; skips (with a note) where none does.
 fn render(h: &mut Harness<'static, TprfApp>) -> Option<image::RgbaImage> {
     match h.render() {
-        Ok(img) => Some(img),
+        Ok(mut img) => {
+            tprf::viewer::over_background(&mut img, &h.ctx.global_style().visuals);
+            Some(img)
+        }
         Err(e) => {
             eprintln!("no wgpu adapter, window image not checked: {e}");
             None
@@ -726,7 +729,8 @@ fn screenshots() {
     }
     h.remove_cursor();
     h.run_steps(3);
-    let img = h.render().expect("a wgpu adapter for screenshots");
+    let mut img = h.render().expect("a wgpu adapter for screenshots");
+    tprf::viewer::over_background(&mut img, &h.ctx.global_style().visuals);
     img.save(dir.join("cornell.png")).unwrap();
 
     // Canopy: airborne LiDAR over a partly covered foliage layer.
@@ -750,7 +754,8 @@ fn screenshots() {
     }
     h.remove_cursor();
     h.run_steps(3);
-    let img = h.render().expect("a wgpu adapter for screenshots");
+    let mut img = h.render().expect("a wgpu adapter for screenshots");
+    tprf::viewer::over_background(&mut img, &h.ctx.global_style().visuals);
     img.save(dir.join("canopy.png")).unwrap();
 
     // The sensor over the Cornell box: the full-waveform LiDAR preset with a pulse
@@ -790,7 +795,8 @@ fn screenshots() {
         std::thread::sleep(Duration::from_millis(20));
     }
     h.run_steps(4);
-    let img = h.render().expect("a wgpu adapter for screenshots");
+    let mut img = h.render().expect("a wgpu adapter for screenshots");
+    tprf::viewer::over_background(&mut img, &h.ctx.global_style().visuals);
     img.save(dir.join("sensor.png")).unwrap();
 
     // The SPAD preset on the same film: a bin of the histogram, its depth, and the
@@ -811,7 +817,8 @@ fn screenshots() {
         std::thread::sleep(Duration::from_millis(20));
     }
     h.run_steps(4);
-    let img = h.render().expect("a wgpu adapter for screenshots");
+    let mut img = h.render().expect("a wgpu adapter for screenshots");
+    tprf::viewer::over_background(&mut img, &h.ctx.global_style().visuals);
     img.save(dir.join("spad.png")).unwrap();
 }
 
@@ -2206,6 +2213,63 @@ fn a_typed_pose_round_trips_is_recorded_saved_and_reset() {
     assert_eq!(h.state().request().unwrap().camera_position_m, None);
     wait_done_never_blank(&mut h, &old);
     assert_eq!(h.state_mut().camera_pose(), Some(scene_pose));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A camera move renders the scene the window has loaded, not the file again: with the
+/// glTF file deleted after the first render, a typed pose still renders (the scene's
+/// triangles, the camera the request's pose makes of the file's camera, another image),
+/// while "⟲ Restart" reads the file again (and so fails here).
+#[test]
+fn a_camera_move_renders_the_loaded_scene_without_reading_it_again() {
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("viewer-keep-scene-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("cornell.gltf");
+    let cornell = tprf_core::scene::load("builtin:cornell").unwrap();
+    tprf_core::scene::gltf_save::save_gltf(&cornell, &path).unwrap();
+    let mut h = harness(small_settings(&path.display().to_string(), 16, 32, 2));
+    wait_done(&mut h, Duration::from_secs(120));
+    h.state_mut().playing = false;
+    let old = h.state().snapshot().unwrap();
+    std::fs::remove_file(&path).unwrap();
+
+    retype(&mut h, "Position (m)", "0.1, 0.35, 1.2");
+    h.get_by_label("Set camera").click();
+    h.run_steps(2);
+    wait_done_never_blank(&mut h, &old);
+    let request = h.state().request().unwrap();
+    assert_eq!(request.camera_position_m, Some([0.1, 0.35, 1.2]));
+    assert_eq!(
+        h.state().rendered_camera(),
+        Some(tprf_core::request::apply_camera(&request, &cornell.camera).unwrap())
+    );
+    assert_eq!(
+        h.state().status().unwrap().triangles,
+        cornell.triangles.len()
+    );
+    let (s0, s1) = (steady_of(&old), steady_of(&h.state().snapshot().unwrap()));
+    let diff: f64 = s0.iter().zip(&s1).map(|(a, b)| (a - b).abs()).sum();
+    assert!(
+        diff > 0.1 * s0.iter().sum::<f64>(),
+        "the image hardly changed"
+    );
+
+    h.get_by_label("⟲ Restart").click();
+    let start = Instant::now();
+    loop {
+        h.step();
+        if let Some(WorkerState::Failed(e)) = h.state().status().map(|s| s.state) {
+            assert!(e.contains("cornell.gltf"), "{e}");
+            break;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "a restart rendered a deleted file"
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 

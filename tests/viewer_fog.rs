@@ -245,7 +245,8 @@ fn fog_screenshot() {
     }
     h.remove_cursor();
     h.run_steps(3);
-    let img = h.render().expect("a wgpu adapter for screenshots");
+    let mut img = h.render().expect("a wgpu adapter for screenshots");
+    tprf::viewer::over_background(&mut img, &h.ctx.global_style().visuals);
     img.save(dir.join("fog.png")).unwrap();
 
     {
@@ -265,7 +266,8 @@ fn fog_screenshot() {
         std::thread::sleep(Duration::from_millis(20));
     }
     h.run_steps(4);
-    let img = h.render().expect("a wgpu adapter for screenshots");
+    let mut img = h.render().expect("a wgpu adapter for screenshots");
+    tprf::viewer::over_background(&mut img, &h.ctx.global_style().visuals);
     img.save(dir.join("fog-spad.png")).unwrap();
 }
 

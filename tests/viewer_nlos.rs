@@ -320,7 +320,8 @@ fn screenshot() {
     wait_reconstruction(&mut h);
     h.remove_cursor();
     h.run_steps(3);
-    let img = h.render().expect("a wgpu adapter for screenshots");
+    let mut img = h.render().expect("a wgpu adapter for screenshots");
+    tprf::viewer::over_background(&mut img, &h.ctx.global_style().visuals);
     img.save(shots.join("nlos.png")).unwrap();
     std::fs::remove_dir_all(dir).unwrap();
 }

@@ -37,6 +37,8 @@ pub struct TprfApp {
     pub playing: bool,
     /// Bins of playback not yet stepped (a fraction of one).
     pub(super) play_accum: f32,
+    /// egui's time (s) of the last frame that played; `None` while not playing.
+    pub(super) play_time_s: Option<f64>,
     /// The selected pixel or box, and pinned ones.
     pub selection: Option<Selection>,
     pub pins: Vec<Selection>,
@@ -123,6 +125,7 @@ impl TprfApp {
             // Light starts to move at once.
             playing: true,
             play_accum: 0.0,
+            play_time_s: None,
             selection: None,
             pins: Vec::new(),
             selection_film: None,
@@ -311,9 +314,14 @@ impl eframe::App for TprfApp {
             self.sensor.update(&self.settings.sensor, s);
         }
         let window_w = ui.available_width();
-        egui::Panel::top("top").show(ui, |ui| self.top_bar_ui(ui));
-        egui::Panel::bottom("status").show(ui, |ui| self.status_bar_ui(ui, snap.as_ref()));
+        egui::Panel::top("top")
+            .frame(super::panel_frame(ui))
+            .show(ui, |ui| self.top_bar_ui(ui));
+        egui::Panel::bottom("status")
+            .frame(super::panel_frame(ui))
+            .show(ui, |ui| self.status_bar_ui(ui, snap.as_ref()));
         egui::Panel::left("controls")
+            .frame(super::panel_frame(ui))
             .resizable(true)
             .default_size(250.0)
             .show(ui, |ui| {
@@ -326,6 +334,7 @@ impl eframe::App for TprfApp {
                 });
             });
         egui::Panel::right("plot")
+            .frame(super::panel_frame(ui))
             .resizable(true)
             .default_size((window_w * 0.3).clamp(320.0, 720.0))
             .show(ui, |ui| {
@@ -344,52 +353,62 @@ impl eframe::App for TprfApp {
             && !sensor_mode
         {
             let axis = *s.axis();
-            egui::Panel::bottom("timeline").show(ui, |ui| self.scrubber_ui(ui, &axis));
+            egui::Panel::bottom("timeline")
+                .frame(super::panel_frame(ui))
+                .show(ui, |ui| self.scrubber_ui(ui, &axis));
         }
-        egui::CentralPanel::default().show(ui, |ui| match &snap {
-            Some(s) if sensor_mode => {
-                let out = sensor::images_ui(ui, &mut self.sensor, s);
-                if let Some((x, y)) = out.clicked {
-                    self.select(Selection::pixel(x, y), s);
-                }
-                match out.action {
-                    Some(sensor::CoverageAction::ExtendWindow { t0_s, dt_s, bins }) => {
-                        self.pending.t0 = format!("{:.6} ns", t0_s * 1e9);
-                        self.pending.dt = format!("{:.6} ps", dt_s * 1e12);
-                        self.pending.bins = bins;
-                        self.messages.push(format!(
-                            "rendering again over {:.3} … {:.3} ns to cover the gates",
-                            t0_s * 1e9,
-                            (t0_s + dt_s * bins as f64) * 1e9
-                        ));
-                        self.apply_pending();
+        egui::CentralPanel::default()
+            .frame(super::central_frame(ui))
+            .show(ui, |ui| match &snap {
+                Some(s) if sensor_mode => {
+                    let out = sensor::images_ui(ui, &mut self.sensor, s);
+                    if let Some((x, y)) = out.clicked {
+                        self.select(Selection::pixel(x, y), s);
                     }
-                    Some(sensor::CoverageAction::FitGates(e)) => self.settings.sensor.exposure = e,
-                    Some(sensor::CoverageAction::Restore(s)) => self.settings.sensor = *s,
-                    None => {}
+                    match out.action {
+                        Some(sensor::CoverageAction::ExtendWindow { t0_s, dt_s, bins }) => {
+                            self.pending.t0 = format!("{:.6} ns", t0_s * 1e9);
+                            self.pending.dt = format!("{:.6} ps", dt_s * 1e12);
+                            self.pending.bins = bins;
+                            self.messages.push(format!(
+                                "rendering again over {:.3} … {:.3} ns to cover the gates",
+                                t0_s * 1e9,
+                                (t0_s + dt_s * bins as f64) * 1e9
+                            ));
+                            self.apply_pending();
+                        }
+                        Some(sensor::CoverageAction::FitGates(e)) => {
+                            self.settings.sensor.exposure = e
+                        }
+                        Some(sensor::CoverageAction::Restore(s)) => self.settings.sensor = *s,
+                        None => {}
+                    }
                 }
-            }
-            Some(s) => self.images_ui(ui, s),
-            None => {
-                ui.centered_and_justified(|ui| match (self.status().map(|s| s.state), &empty) {
-                    (Some(WorkerState::Failed(e)), _) => ui.label(
-                        RichText::new(format!("Render failed: {e}"))
-                            .color(ui.visuals().error_fg_color),
-                    ),
-                    (_, Some(m)) => ui.label(RichText::new(m).color(ui.visuals().error_fg_color)),
-                    // No render runs and no cube is open (it could not be read): nothing
-                    // is coming, so no spinner.
-                    _ if matches!(self.source, Source::None) => ui.label(
-                        RichText::new(self.messages.last().map_or(
-                            "Nothing to show: open a glTF scene or a cube.",
-                            String::as_str,
-                        ))
-                        .color(ui.visuals().error_fg_color),
-                    ),
-                    _ => ui.spinner(),
-                });
-            }
-        });
+                Some(s) => self.images_ui(ui, s),
+                None => {
+                    ui.centered_and_justified(|ui| {
+                        match (self.status().map(|s| s.state), &empty) {
+                            (Some(WorkerState::Failed(e)), _) => ui.label(
+                                RichText::new(format!("Render failed: {e}"))
+                                    .color(ui.visuals().error_fg_color),
+                            ),
+                            (_, Some(m)) => {
+                                ui.label(RichText::new(m).color(ui.visuals().error_fg_color))
+                            }
+                            // No render runs and no cube is open (it could not be read): nothing
+                            // is coming, so no spinner.
+                            _ if matches!(self.source, Source::None) => ui.label(
+                                RichText::new(self.messages.last().map_or(
+                                    "Nothing to show: open a glTF scene or a cube.",
+                                    String::as_str,
+                                ))
+                                .color(ui.visuals().error_fg_color),
+                            ),
+                            _ => ui.spinner(),
+                        }
+                    });
+                }
+            });
         self.path_prompt_ui(&ctx);
         if let Some(WorkerState::Failed(e)) = self.status().map(|s| s.state) {
             let m = format!("render failed: {e}");
@@ -414,6 +433,11 @@ impl eframe::App for TprfApp {
         if !self.deferred_input.is_empty() {
             ctx.request_repaint();
         }
+    }
+
+    /// The panels' colour, which they leave to the clear ([`super::background`]).
+    fn clear_color(&self, visuals: &egui::Visuals) -> [f32; 4] {
+        super::background(visuals).to_normalized_gamma_f32()
     }
 
     fn save(&mut self, storage: &mut dyn eframe::Storage) {

@@ -73,6 +73,39 @@ pub enum Start {
     Cube(PathBuf),
 }
 
+/// What the window is cleared to before each frame is painted: the panels' colour.
+/// The panels are drawn without a fill of their own ([`panel_frame`]): the clear is
+/// free, where their fills were a layer over every pixel of the window that a software
+/// rasteriser (Mesa's llvmpipe, without a GPU) shaded and blended, a million fragments
+/// a frame at 1280 x 800 (`cargo bench --bench viewer -- paint` counts them).
+pub fn background(visuals: &egui::Visuals) -> egui::Color32 {
+    visuals.panel_fill
+}
+
+/// A side, top or bottom panel's frame: egui's, without its fill ([`background`]).
+pub(crate) fn panel_frame(ui: &egui::Ui) -> egui::Frame {
+    egui::Frame::side_top_panel(ui.style()).fill(egui::Color32::TRANSPARENT)
+}
+
+/// The central panel's frame: egui's, without its fill ([`background`]).
+pub(crate) fn central_frame(ui: &egui::Ui) -> egui::Frame {
+    egui::Frame::central_panel(ui.style()).fill(egui::Color32::TRANSPARENT)
+}
+
+/// A frame painted over transparency (as egui_kittest renders one: premultiplied
+/// colours, as blended) put over the window's [`background`]: the image the window
+/// shows, `c + (1 - a) background` per channel.
+pub fn over_background(image: &mut image::RgbaImage, visuals: &egui::Visuals) {
+    let bg = background(visuals).to_array();
+    for p in image.pixels_mut() {
+        let a = u32::from(p[3]);
+        for (c, b) in p.0.iter_mut().zip(bg) {
+            let v = u32::from(*c) + (u32::from(b) * (255 - a) + 127) / 255;
+            *c = v.min(255) as u8;
+        }
+    }
+}
+
 /// Open the window and run until it is closed.
 pub fn run(start: Start) -> eframe::Result {
     let options = eframe::NativeOptions {

@@ -85,15 +85,27 @@ impl TprfApp {
         }
     }
 
-    /// While playing, advance by `play_bins_per_s` times the frame time (at most 0.1 s
-    /// a frame), whole bins at a time; without looping, stop at the last bin. Asks for
-    /// the next frame.
+    /// While playing, advance by `play_bins_per_s` times the time since the last frame
+    /// that played (at most 0.1 s a frame; the first frame of a playback counts one
+    /// predicted frame), whole bins at a time; without looping, stop at the last bin.
+    /// Asks for the frame where the next bin is due, not the next frame: frames between
+    /// would show the same picture (at the default 30 bins a second, every other frame
+    /// of a 60 Hz display).
     pub(super) fn advance_playback(&mut self, ctx: &egui::Context, bins: usize) {
+        let (now_s, predicted_s) = ctx.input(|i| (i.time, i.predicted_dt));
+        let last_s = self.play_time_s.take();
         if !self.playing || bins == 0 {
             return;
         }
-        let dt = ctx.input(|i| i.stable_dt).min(0.1);
-        self.play_accum += dt * self.settings.play_bins_per_s;
+        self.play_time_s = Some(now_s);
+        let dt = last_s
+            .map_or(predicted_s, |t| (now_s - t) as f32)
+            .clamp(0.0, 0.1);
+        let rate = match self.settings.play_bins_per_s {
+            r if r.is_finite() && r > 0.0 => r,
+            _ => 30.0,
+        };
+        self.play_accum += dt * rate;
         let steps = self.play_accum.floor();
         if steps >= 1.0 {
             self.play_accum -= steps;
@@ -101,9 +113,13 @@ impl TprfApp {
             self.step(steps as i64, bins);
             if !self.settings.looping && self.bin == before {
                 self.playing = false;
+                return;
             }
         }
-        ctx.request_repaint();
+        // When the accumulator reaches 1.
+        let due = std::time::Duration::try_from_secs_f32((1.0 - self.play_accum) / rate)
+            .unwrap_or_default();
+        ctx.request_repaint_after(due);
     }
 }
 

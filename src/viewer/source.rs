@@ -90,15 +90,26 @@ impl TprfApp {
     }
 
     /// Restart with the current settings, the film on screen kept there until the new
-    /// render's first pass (a camera move: the same scene, size and window).
+    /// render's first pass (a camera move: the same scene, size and window). The scene
+    /// the old render loaded and prepared is rendered again from the new camera, not
+    /// read again ([`RenderWorker::spawn_after`]; a new fog or sky loads it).
     pub(super) fn restart_keeping_film(&mut self) {
         let film = self.snapshot();
-        self.restart();
+        self.start_render(true);
         if matches!(self.source, Source::Live(_)) {
             // The scrubber keeps its time, not its bin number (a new camera's automatic
             // window starts where its light does).
             self.keep_time_s = film.as_ref().map(|f| f.axis().bin_center_s(self.bin));
             self.held = film;
+        }
+    }
+
+    /// The camera the render worker renders: the scene's own with the window's pose
+    /// applied (`None` while the scene loads, and for a cube).
+    pub fn rendered_camera(&self) -> Option<tprf_core::scene::Camera> {
+        match &self.source {
+            Source::Live(w) => w.camera(),
+            _ => None,
         }
     }
 
@@ -123,9 +134,16 @@ impl TprfApp {
         }
     }
 
-    /// (Re)start the render of the current settings; the old worker is dropped (it ends
-    /// by itself after its pass) and the window goes on drawing.
+    /// (Re)start the render of the current settings, the scene read again; the old
+    /// worker is dropped (it ends by itself after its pass) and the window goes on
+    /// drawing.
     pub(super) fn restart(&mut self) {
+        self.start_render(false);
+    }
+
+    /// [`TprfApp::restart`]; with `keep_scene`, on the old render's scene where it
+    /// is the same (see [`TprfApp::restart_keeping_film`]).
+    fn start_render(&mut self, keep_scene: bool) {
         self.held = None;
         self.keep_time_s = None;
         self.camera_gesture = None;
@@ -140,7 +158,11 @@ impl TprfApp {
                     self.light_key = Some(key);
                 }
                 let ctx = self.ctx.clone();
-                self.source = Source::Live(RenderWorker::spawn(job, move || ctx.request_repaint()));
+                let wake = move || ctx.request_repaint();
+                self.source = Source::Live(match &self.source {
+                    Source::Live(old) if keep_scene => RenderWorker::spawn_after(job, old, wake),
+                    _ => RenderWorker::spawn(job, wake),
+                });
             }
             Err(e) => self.messages.push(e),
         }

@@ -66,15 +66,21 @@ impl TprfApp {
         }
         self.advance_playback(&ctx, bins);
         let window_w = ui.available_width();
-        egui::Panel::top("top").show(ui, |ui| self.top_bar_ui(ui));
-        egui::Panel::bottom("status").show(ui, |ui| self.nlos_status_ui(ui, v));
+        egui::Panel::top("top")
+            .frame(crate::viewer::panel_frame(ui))
+            .show(ui, |ui| self.top_bar_ui(ui));
+        egui::Panel::bottom("status")
+            .frame(crate::viewer::panel_frame(ui))
+            .show(ui, |ui| self.nlos_status_ui(ui, v));
         egui::Panel::left("controls")
+            .frame(crate::viewer::panel_frame(ui))
             .resizable(true)
             .default_size(270.0)
             .show(ui, |ui| {
                 egui::ScrollArea::vertical().show(ui, |ui| nlos_controls_ui(ui, v));
             });
         egui::Panel::right("plot")
+            .frame(crate::viewer::panel_frame(ui))
             .resizable(true)
             .default_size((window_w * 0.3).clamp(320.0, 720.0))
             .show(ui, |ui| {
@@ -82,8 +88,12 @@ impl TprfApp {
                 self.nlos_transient_ui(ui, v);
             });
         let axis = v.axis;
-        egui::Panel::bottom("timeline").show(ui, |ui| self.scrubber_ui(ui, &axis));
-        egui::CentralPanel::default().show(ui, |ui| self.nlos_images_ui(ui, v));
+        egui::Panel::bottom("timeline")
+            .frame(crate::viewer::panel_frame(ui))
+            .show(ui, |ui| self.scrubber_ui(ui, &axis));
+        egui::CentralPanel::default()
+            .frame(crate::viewer::central_frame(ui))
+            .show(ui, |ui| self.nlos_images_ui(ui, v));
     }
 
     /// The status bar: the capture, the reconstruction's state, the latest message.

@@ -35,19 +35,18 @@ pub(crate) struct CameraGesture {
     pub(crate) render_at: Option<Instant>,
 }
 
-/// The scene as rendered, held weakly (its address cannot be reused while held), with
-/// its camera and the bounds of its geometry (the orbit's pivot, the outline drawn
-/// during a gesture), found once per scene.
+/// The scene rendered, held weakly (its address cannot be reused while held), with
+/// the bounds of its geometry (the orbit's pivot, the outline drawn during a gesture),
+/// found once per scene (a camera move renders the same scene).
 #[derive(Debug, Default)]
 pub(crate) struct SceneView {
     scene: Weak<Scene>,
-    camera: Option<Camera>,
     bounds: Option<Bounds>,
 }
 
 impl TprfApp {
-    /// The rendered scene's camera and geometry bounds (`None` while it loads, and for a
-    /// cube).
+    /// The camera rendered and the scene's geometry bounds (`None` while it loads, and
+    /// for a cube).
     fn scene_view(&mut self) -> Option<(Camera, Option<Bounds>)> {
         let Source::Live(w) = &self.source else {
             return None;
@@ -56,11 +55,10 @@ impl TprfApp {
         if !Weak::ptr_eq(&self.scene_view.scene, &Arc::downgrade(&scene)) {
             self.scene_view = SceneView {
                 scene: Arc::downgrade(&scene),
-                camera: Some(scene.camera),
                 bounds: scene.geometry_bounds(),
             };
         }
-        self.scene_view.camera.map(|c| (c, self.scene_view.bounds))
+        Some((w.camera()?, self.scene_view.bounds))
     }
 
     /// The pose shown: a gesture's, else the window's camera, else the scene's own
@@ -323,10 +321,10 @@ impl TprfApp {
     /// background.
     pub(crate) fn save_scene_gltf(&mut self, path: &std::path::Path) {
         let scene = match &self.source {
-            Source::Live(w) => w.scene(),
+            Source::Live(w) => w.scene().zip(w.camera()),
             _ => None,
         };
-        let Some(scene) = scene else {
+        let Some((scene, camera)) = scene else {
             self.messages.push(
                 "no scene to save: a cube holds no scene, or the scene is still loading".into(),
             );
@@ -347,6 +345,12 @@ impl TprfApp {
         let what = path.display().to_string();
         let named = what.clone();
         let write = move || {
+            // The scene keeps its own camera (the renderer has the one rendered): a
+            // copy with the camera rendered is written.
+            let scene = tprf_core::scene::Scene {
+                camera,
+                ..(*scene).clone()
+            };
             tprf_core::scene::gltf_save::save_gltf(&scene, &path)
                 .map_err(|e| anyhow::Error::from(e).context(format!("cannot save {named}")))
         };

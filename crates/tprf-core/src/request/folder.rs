@@ -333,7 +333,7 @@ pub fn cube_metadata(
     let (width, height) = (request.width, request.height);
     let axis = session.axis();
     let film = session.film();
-    let cam = &session.scene().camera;
+    let cam = session.camera();
     let renderer = session.renderer();
     let spec = session.shard();
     let lasts = runs.iter().filter_map(|r| r.last());

@@ -620,6 +620,17 @@ impl RenderRequest {
         }
     }
 
+    /// Whether `other` renders the same prepared scene as this request (the same scene,
+    /// sky, medium and estimator settings: [`Session::with_renderer`] may reuse this
+    /// request's renderer for it), whatever its camera, film, window, schedule and
+    /// files. The scene is named, not read: whether its file changed is not looked at.
+    pub fn same_scene(&self, other: &RenderRequest) -> bool {
+        self.scene == other.scene
+            && self.sky_radiance_w_m2_sr == other.sky_radiance_w_m2_sr
+            && self.medium == other.medium
+            && self.settings() == other.settings()
+    }
+
     /// These estimator settings (`max_bounces`, `seed`, `channel`, `nee`, the roulette,
     /// `splits`, `light_vertex`, `uniform`) taken from `settings`.
     pub fn with_settings(self, settings: RenderSettings) -> RenderRequest {

@@ -4,17 +4,18 @@ use super::memory::{MemoryBudget, MemoryStop};
 use super::{RenderRequest, RequestError, apply_camera};
 use crate::export::shard::ShardSpec;
 use crate::film::{FilmLayout, TimeAxis, TimeFilter, TprfFilm};
-use crate::scene::{self, Scene};
+use crate::scene::{self, Camera, Scene};
 use crate::transport::progressive::{self, PassReport, PassSize};
 use crate::transport::{Renderer, auto_window};
 use std::ops::ControlFlow;
 use std::sync::Arc;
 use std::time::Instant;
 
-/// A request made ready: its scene loaded (with the request's sky and camera), the
-/// renderer, the time axis (chosen by a pilot render where the request does not fix
-/// it), and an empty film of the request's shape (a shard's rows only, with its time
-/// filter). Runs in the caller's rayon pool (the pilot render is parallel).
+/// A request made ready: its scene loaded (with the request's sky and medium), the
+/// renderer seen from the request's camera, the time axis (chosen by a pilot render
+/// where the request does not fix it), and an empty film of the request's shape (a
+/// shard's rows only, with its time filter). Runs in the caller's rayon pool (the pilot
+/// render is parallel).
 pub struct Session {
     request: RenderRequest,
     scene: Arc<Scene>,
@@ -58,15 +59,32 @@ impl Session {
         Session::prepared(request, scene, start)
     }
 
+    /// Validate `request` and make it ready on the scene `previous` has prepared (its
+    /// BVH, lights and media shared, seen from the request's camera): nothing is loaded
+    /// or built. `previous` must have been made for a request that differs from this one
+    /// only where [`RenderRequest::same_scene`] allows (a new camera, film, window or
+    /// schedule); the caller checks. The film is the one [`Session::new`] would render,
+    /// bit for bit.
+    pub fn with_renderer(
+        request: &RenderRequest,
+        previous: &Renderer,
+    ) -> Result<Session, RequestError> {
+        let start = Instant::now();
+        request.validate()?;
+        // The scene's own camera: the request's pose is applied to it as on a load.
+        let camera = apply_camera(request, &previous.scene().camera)?;
+        let renderer = Arc::new(previous.with_camera(camera));
+        Session::ready(request, renderer, start)
+    }
+
     fn prepared(
         request: &RenderRequest,
         mut scene: Arc<Scene>,
         start: Instant,
     ) -> Result<Session, RequestError> {
+        // The camera is the renderer's, not written into the scene: a scene shared with
+        // its loader (the window's worker keeps it for the next camera) is not copied.
         let camera = apply_camera(request, &scene.camera)?;
-        if camera != scene.camera {
-            Arc::make_mut(&mut scene).camera = camera;
-        }
         if let Some(l) = request.sky_radiance_w_m2_sr {
             // Validated: finite, >= 0 and within f32.
             Arc::make_mut(&mut scene).ambient.sky_radiance = [l as f32; 3];
@@ -74,7 +92,17 @@ impl Session {
         if let Some(medium) = request.medium_override()? {
             Arc::make_mut(&mut scene).medium = medium;
         }
-        let renderer = Arc::new(Renderer::new(scene.clone(), request.settings()));
+        let renderer = Arc::new(Renderer::seen_from(scene, camera, request.settings()));
+        Session::ready(request, renderer, start)
+    }
+
+    /// The window, the empty film and its memory budget for `renderer`.
+    fn ready(
+        request: &RenderRequest,
+        renderer: Arc<Renderer>,
+        start: Instant,
+    ) -> Result<Session, RequestError> {
+        let scene = renderer.scene_shared().clone();
         let axis = auto_window(&renderer, request.window())?;
         let layout = FilmLayout {
             width: request.width,
@@ -182,9 +210,15 @@ impl Session {
         &self.request
     }
 
-    /// The scene as rendered (the request's sky and camera applied).
+    /// The scene rendered (the request's sky and medium applied); its camera is the
+    /// scene's own, the one rendered is [`Session::camera`].
     pub fn scene(&self) -> &Arc<Scene> {
         &self.scene
+    }
+
+    /// The camera rendered: the scene's, with the request's pose applied.
+    pub fn camera(&self) -> &Camera {
+        self.renderer.camera()
     }
 
     pub fn renderer(&self) -> &Renderer {

@@ -6,7 +6,8 @@
 
 use super::{RenderRequest, RequestError, Session};
 use crate::film::{FilmSnapshot, LeftOutCounts, StoreStats, TimeAxis};
-use crate::scene::Scene;
+use crate::scene::{Camera, Scene};
+use crate::transport::Renderer;
 use crate::transport::ambient::{AmbientImage, has_ambient, render_ambient_cancellable};
 use std::ops::ControlFlow;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -79,8 +80,8 @@ pub struct WorkerStatus {
 struct Shared {
     snapshot: Mutex<Option<Arc<FilmSnapshot>>>,
     ambient: Mutex<Option<Arc<AmbientImage>>>,
-    /// The scene as rendered (the request's sky and camera applied), once loaded.
-    scene: Mutex<Option<Arc<Scene>>>,
+    /// The scene prepared and seen from the request's camera, once loaded.
+    renderer: Mutex<Option<Arc<Renderer>>>,
     status: Mutex<WorkerStatus>,
     paused: AtomicBool,
     stop: AtomicBool,
@@ -109,6 +110,30 @@ impl RenderWorker {
     /// `error_target`; `seconds`); `on_update` is called after each published change
     /// (the viewer passes its repaint request).
     pub fn spawn(job: RenderRequest, on_update: impl Fn() + Send + Sync + 'static) -> RenderWorker {
+        RenderWorker::start(job, None, on_update)
+    }
+
+    /// [`RenderWorker::spawn`], but on the scene `previous` has loaded and prepared
+    /// (its BVH too) where `job` differs from `previous`'s request only in what
+    /// [`RenderRequest::same_scene`] allows (a new camera): the scene is not read again.
+    /// Otherwise, or while `previous` is still loading, `job` loads its scene as
+    /// [`RenderWorker::spawn`] does. The window's camera moves restart this way.
+    pub fn spawn_after(
+        job: RenderRequest,
+        previous: &RenderWorker,
+        on_update: impl Fn() + Send + Sync + 'static,
+    ) -> RenderWorker {
+        let reuse = previous
+            .renderer()
+            .filter(|_| previous.job().same_scene(&job));
+        RenderWorker::start(job, reuse, on_update)
+    }
+
+    fn start(
+        job: RenderRequest,
+        reuse: Option<Arc<Renderer>>,
+        on_update: impl Fn() + Send + Sync + 'static,
+    ) -> RenderWorker {
         let job = Arc::new(RenderRequest {
             pass_seconds: job.pass_seconds.or(Some(PASS_TARGET_S)),
             until_stopped: true,
@@ -117,7 +142,7 @@ impl RenderWorker {
         let shared = Arc::new(Shared {
             snapshot: Mutex::new(None),
             ambient: Mutex::new(None),
-            scene: Mutex::new(None),
+            renderer: Mutex::new(None),
             status: Mutex::new(WorkerStatus {
                 state: WorkerState::Loading,
                 spp: 0,
@@ -144,7 +169,7 @@ impl RenderWorker {
         let handle = std::thread::Builder::new()
             .name("tprf-render".into())
             .spawn(move || {
-                let result = run(&thread_job, &thread_shared, &on_update);
+                let result = run(&thread_job, reuse, &thread_shared, &on_update);
                 if let Err(e) = result
                     && let Ok(mut s) = thread_shared.status.lock()
                 {
@@ -182,11 +207,25 @@ impl RenderWorker {
         self.shared.ambient.lock().ok().and_then(|a| a.clone())
     }
 
-    /// The scene as rendered: loaded, with the request's sky and camera applied (the
-    /// viewer's camera controls start from its camera; saved as glTF from the window).
-    /// `None` while loading and after a failed load. The session's own scene, shared.
+    /// The scene rendered: loaded, with the request's sky and medium applied; its
+    /// camera the scene's own (the window's "reset to the scene's camera"), the one
+    /// rendered is [`RenderWorker::camera`]. `None` while loading and after a failed
+    /// load. The session's own scene, shared.
     pub fn scene(&self) -> Option<Arc<Scene>> {
-        self.shared.scene.lock().ok().and_then(|s| s.clone())
+        self.renderer().map(|r| r.scene_shared().clone())
+    }
+
+    /// The camera rendered: the scene's with the request's pose applied (the window's
+    /// camera controls start from it; saved in the glTF from the window). `None` while
+    /// loading and after a failed load.
+    pub fn camera(&self) -> Option<Camera> {
+        self.renderer().map(|r| *r.camera())
+    }
+
+    /// The scene prepared for transport (BVH, lights), seen from the request's camera,
+    /// once loaded: what [`RenderWorker::spawn_after`] reuses.
+    pub fn renderer(&self) -> Option<Arc<Renderer>> {
+        self.shared.renderer.lock().ok().and_then(|r| r.clone())
     }
 
     pub fn status(&self) -> Option<WorkerStatus> {
@@ -245,6 +284,7 @@ fn set_status(shared: &Shared, f: impl FnOnce(&mut WorkerStatus)) {
 
 fn run(
     job: &RenderRequest,
+    reuse: Option<Arc<Renderer>>,
     shared: &Shared,
     on_update: &(dyn Fn() + Sync),
 ) -> Result<(), RequestError> {
@@ -262,18 +302,22 @@ fn run(
         .start_handler(|_| give_way_to_the_caller())
         .build()
         .map_err(RequestError::Threads)?;
-    pool.install(|| render(job, shared, on_update, setup_start))
+    pool.install(|| render(job, reuse, shared, on_update, setup_start))
 }
 
 fn render(
     job: &RenderRequest,
+    reuse: Option<Arc<Renderer>>,
     shared: &Shared,
     on_update: &(dyn Fn() + Sync),
     setup_start: Instant,
 ) -> Result<(), RequestError> {
-    let mut session = Session::new(job)?;
-    if let Ok(mut slot) = shared.scene.lock() {
-        *slot = Some(session.scene().clone());
+    let mut session = match reuse {
+        Some(previous) => Session::with_renderer(job, &previous)?,
+        None => Session::new(job)?,
+    };
+    if let Ok(mut slot) = shared.renderer.lock() {
+        *slot = Some(session.shared_renderer());
     }
     let notes = session.scene().notes.clone();
     let triangles = session.scene().triangles.len();
@@ -399,4 +443,126 @@ fn render(
         on_update();
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::request::apply_camera;
+    use std::path::PathBuf;
+
+    /// A small render of `scene` to 1 spp, from `position` looking at the room's
+    /// middle where given (else the scene's camera).
+    fn small(scene: &str, position: Option<[f64; 3]>) -> RenderRequest {
+        RenderRequest {
+            width: 12,
+            height: 10,
+            bins: 24,
+            spp: Some(1),
+            camera_position_m: position,
+            look_at_m: position.map(|_| [0.0, 0.3, 0.0]),
+            ..RenderRequest::new(scene)
+        }
+    }
+
+    /// Every pixel's every bin, and the steady image, as bits.
+    fn bits(film: &FilmSnapshot) -> (Vec<u32>, Vec<u32>) {
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        (bits(&film.dense(None)), bits(film.steady()))
+    }
+
+    /// A new camera on a prepared scene (`Session::with_renderer`) renders what the
+    /// scene loaded again with that camera renders, bit for bit (the same ray offsets,
+    /// window and sampling), from the same scene and BVH (shared, not rebuilt), with the
+    /// camera the request's pose makes of the scene's own, and another image than the
+    /// scene's camera gives. The camera is placed outside the scene's bounds, so the
+    /// bounds (and the ray offsets they set) are the new camera's, not the old one's.
+    #[test]
+    fn a_new_camera_on_a_prepared_scene_renders_what_a_load_renders() {
+        let moved = small("builtin:cornell", Some([2.5, 1.6, 3.5]));
+        let mut loaded = Session::new(&moved).unwrap();
+        loaded.run(|_, _| ControlFlow::Continue(()));
+        let mut first = Session::new(&small("builtin:cornell", None)).unwrap();
+        first.run(|_, _| ControlFlow::Continue(()));
+        let mut kept = Session::with_renderer(&moved, first.renderer()).unwrap();
+        kept.run(|_, _| ControlFlow::Continue(()));
+
+        assert!(Arc::ptr_eq(kept.scene(), first.scene()), "the scene copied");
+        assert!(
+            std::ptr::eq(kept.renderer().accel(), first.renderer().accel()),
+            "the BVH built again"
+        );
+        let want = apply_camera(&moved, &first.scene().camera).unwrap();
+        assert_eq!(*kept.camera(), want);
+        assert_eq!(*loaded.camera(), want);
+        assert_ne!(*first.camera(), want);
+        assert_eq!(kept.axis(), loaded.axis());
+        let (a, b) = (kept.film().snapshot(), loaded.film().snapshot());
+        assert!(bits(&a) == bits(&b), "not the film a load renders");
+        assert!(a.steady().iter().any(|&v| v > 0.0), "a black image");
+        assert!(
+            bits(&a) != bits(&first.film().snapshot()),
+            "the old camera's film"
+        );
+    }
+
+    /// Wait up to 60 s for `w`'s first film; its state when it failed instead.
+    fn first_film(w: &RenderWorker) -> Result<Arc<FilmSnapshot>, String> {
+        let start = Instant::now();
+        loop {
+            if let Some(s) = w.latest() {
+                return Ok(s);
+            }
+            if let Some(WorkerState::Failed(e)) = w.status().map(|s| s.state) {
+                return Err(e);
+            }
+            assert!(start.elapsed() < Duration::from_secs(60), "no film in 60 s");
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    }
+
+    /// The window's camera restart (`spawn_after`) does not read the scene again: with
+    /// the glTF file deleted after the first render, a new camera still renders the
+    /// scene first loaded, from the new pose. A plain spawn, and a restart that changes
+    /// the scene's sky, read the file (and so fail here).
+    #[test]
+    fn a_camera_restart_does_not_read_the_scene_again() {
+        let dir: PathBuf =
+            std::env::temp_dir().join(format!("tprf-worker-restart-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("cornell.gltf");
+        let cornell = crate::scene::load("builtin:cornell").unwrap();
+        crate::scene::gltf_save::save_gltf(&cornell, &path).unwrap();
+        let file = path.display().to_string();
+
+        let first = RenderWorker::spawn(small(&file, None), || {});
+        first_film(&first).unwrap();
+        std::fs::remove_file(&path).unwrap();
+        let moved = small(&file, Some([0.4, 0.8, 2.2]));
+        let second = RenderWorker::spawn_after(moved.clone(), &first, || {});
+        let film = first_film(&second).expect("a camera restart reads the file");
+        assert!(film.steady().iter().any(|&v| v > 0.0), "a black image");
+        let (a, b) = (first.scene().unwrap(), second.scene().unwrap());
+        assert!(Arc::ptr_eq(&a, &b), "the scene loaded again");
+        assert_eq!(second.status().unwrap().triangles, cornell.triangles.len());
+        assert_eq!(
+            second.camera().unwrap(),
+            apply_camera(&moved, &cornell.camera).unwrap()
+        );
+        // The scene's own camera stays the file's (the window resets to it).
+        assert_eq!(b.camera, cornell.camera);
+
+        let loads = RenderWorker::spawn(moved.clone(), || {});
+        assert!(first_film(&loads).is_err(), "a plain spawn read no file");
+        let sky = RenderRequest {
+            sky_radiance_w_m2_sr: Some(0.5),
+            ..moved
+        };
+        let other = RenderWorker::spawn_after(sky, &second, || {});
+        assert!(
+            first_film(&other).is_err(),
+            "a new sky rendered on the old scene"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }

@@ -368,6 +368,12 @@ impl Bounds {
 impl Scene {
     /// Bounds of all triangles (and lights and camera).
     pub fn bounds(&self) -> Bounds {
+        self.bounds_with_eye(self.camera.position())
+    }
+
+    /// Bounds of all triangles and lights and the point `eye` (a camera's position,
+    /// metres): [`Scene::bounds`] as seen from another camera.
+    pub fn bounds_with_eye(&self, eye: Vec3) -> Bounds {
         let mut min = Vec3::splat(f32::INFINITY);
         let mut max = Vec3::splat(f32::NEG_INFINITY);
         let points = self
@@ -376,7 +382,7 @@ impl Scene {
             .flat_map(|t| t.p)
             .chain(self.lights.iter().map(|l| l.position))
             .chain(self.ambient.lights.iter().map(|l| l.position))
-            .chain(std::iter::once(self.camera.position()));
+            .chain(std::iter::once(eye));
         for p in points {
             min = min.min(p);
             max = max.max(p);

@@ -11,7 +11,7 @@ use super::split::Strategy;
 use super::surface::{SurfacePoint, Surfaces};
 use crate::accel::Accel;
 use crate::film::{LeftOut, LeftOutCounts, PixelSink, TimeAxis, TprfFilm};
-use crate::scene::{Channel, Scene};
+use crate::scene::{Camera, Channel, Scene};
 use crate::units::C_M_PER_S;
 use glam::Vec3;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -135,13 +135,19 @@ pub struct PassStats {
 /// Largest number of straight pass-throughs (alpha coverage) along one segment chain.
 const MAX_PASS_THROUGH: u32 = 1024;
 
-/// The scene prepared for transport. Immutable once built; shared by all threads.
+/// The scene prepared for transport, seen from one camera. Immutable once built; shared
+/// by all threads. The prepared scene (surfaces, BVH, lights, media) is shared with the
+/// renderers [`Renderer::with_camera`] makes from it: a new camera needs no new BVH.
 pub struct Renderer {
-    surfaces: Surfaces,
-    accel: Accel,
-    lights: Lights,
+    surfaces: Arc<Surfaces>,
+    accel: Arc<Accel>,
+    lights: Arc<Lights>,
     settings: RenderSettings,
-    /// Ray-offset length scale: 1e-6 of the scene's bounding diagonal, metres.
+    /// The camera rendered: the scene's own ([`Renderer::new`]) or another
+    /// ([`Renderer::seen_from`]).
+    camera: Camera,
+    /// Ray-offset length scale: 1e-6 of the scene's bounding diagonal (the camera
+    /// rendered counted in the bounds), metres.
     eps_m: f32,
     /// Tangent of half the camera's vertical field of view.
     tan_half_yfov: f32,
@@ -151,7 +157,7 @@ pub struct Renderer {
     strategy: OnceLock<Strategy>,
     /// The scene's participating media; `None` for a scene in vacuum, which the surface
     /// loop renders ([`super::media`] renders the others).
-    media: Option<Media>,
+    media: Option<Arc<Media>>,
 }
 
 /// Whether a contribution arriving at `arrival_s` falls clearly outside `sink`'s window
@@ -220,30 +226,68 @@ pub(super) fn power_heuristic(a: f32, b: f32) -> f32 {
 }
 
 impl Renderer {
-    /// Build the BVH and light tables.
+    /// Build the BVH and light tables; the scene's own camera.
     pub fn new(scene: Arc<Scene>, settings: RenderSettings) -> Renderer {
-        let accel = Accel::build(&scene);
-        let lights = Lights::new(&scene, settings.channel);
-        let diag = scene.bounds().diagonal_m();
-        let eps_m = if diag.is_finite() && diag > 0.0 {
-            diag * 1e-6
-        } else {
-            1e-6
-        };
-        let tan_half_yfov = (0.5 * scene.camera.yfov_rad).tan();
-        let media = Media::new(&scene, settings.channel);
-        let surfaces = Surfaces::new(scene, settings.channel);
+        let camera = scene.camera;
+        Renderer::seen_from(scene, camera, settings)
+    }
+
+    /// Build the BVH and light tables; `camera` rendered instead of the scene's (the
+    /// same as [`Renderer::new`] on the scene with `camera` in it, without a copy of
+    /// the scene).
+    pub fn seen_from(scene: Arc<Scene>, camera: Camera, settings: RenderSettings) -> Renderer {
+        let accel = Arc::new(Accel::build(&scene));
+        let lights = Arc::new(Lights::new(&scene, settings.channel));
+        let media = Media::new(&scene, settings.channel).map(Arc::new);
+        let surfaces = Arc::new(Surfaces::new(scene, settings.channel));
         Renderer {
-            tan_half_yfov,
+            eps_m: Renderer::eps_m(surfaces.scene(), &camera),
+            tan_half_yfov: (0.5 * camera.yfov_rad).tan(),
+            camera,
             surfaces,
             accel,
             lights,
             settings,
-            eps_m,
             rays: AtomicU64::new(0),
             strategy: OnceLock::new(),
             media,
         }
+    }
+
+    /// This prepared scene seen from `camera`: the BVH, lights and media shared, the
+    /// ray count at zero and the sampling strategy chosen again by its first film. The
+    /// same renderer as [`Renderer::seen_from`] with `camera` (every pixel the same,
+    /// bit for bit), without loading or building anything.
+    pub fn with_camera(&self, camera: Camera) -> Renderer {
+        Renderer {
+            eps_m: Renderer::eps_m(self.scene(), &camera),
+            tan_half_yfov: (0.5 * camera.yfov_rad).tan(),
+            camera,
+            surfaces: self.surfaces.clone(),
+            accel: self.accel.clone(),
+            lights: self.lights.clone(),
+            settings: self.settings,
+            rays: AtomicU64::new(0),
+            strategy: OnceLock::new(),
+            media: self.media.clone(),
+        }
+    }
+
+    /// Ray-offset length scale, metres: 1e-6 of the diagonal of the bounds of the
+    /// scene's triangles and lights and `camera`'s position (1e-6 for an empty or
+    /// non-finite scene).
+    fn eps_m(scene: &Scene, camera: &Camera) -> f32 {
+        let diag = scene.bounds_with_eye(camera.position()).diagonal_m();
+        if diag.is_finite() && diag > 0.0 {
+            diag * 1e-6
+        } else {
+            1e-6
+        }
+    }
+
+    /// The camera rendered (the scene's own camera is [`Renderer::scene`]'s).
+    pub fn camera(&self) -> &Camera {
+        &self.camera
     }
 
     /// Whether the scene has participating media (rendered by [`super::media`]).
@@ -255,7 +299,14 @@ impl Renderer {
         &self.lights
     }
 
+    /// The scene prepared (its camera the scene's own: the one rendered is
+    /// [`Renderer::camera`]).
     pub fn scene(&self) -> &Scene {
+        self.surfaces.scene()
+    }
+
+    /// The scene prepared, shared.
+    pub fn scene_shared(&self) -> &Arc<Scene> {
         self.surfaces.scene()
     }
 
@@ -315,7 +366,7 @@ impl Renderer {
     /// Unit direction through image point `(px, py)` (pixels, row 0 = top) for a
     /// `width x height` image.
     pub fn camera_ray(&self, px: f32, py: f32, width: usize, height: usize) -> (Vec3, Vec3) {
-        let cam = &self.scene().camera;
+        let cam = &self.camera;
         let tan_half = self.tan_half_yfov;
         let aspect = width as f32 / height.max(1) as f32;
         let sx = (2.0 * px / width as f32 - 1.0) * tan_half * aspect;

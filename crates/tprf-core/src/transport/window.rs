@@ -101,8 +101,11 @@ pub fn auto_window(renderer: &Renderer, req: WindowRequest) -> Result<TimeAxis, 
     if let (Some(t0), Some(dt)) = (req.t0_s, req.dt_s) {
         return Ok(TimeAxis::new(t0, dt, req.bins)?);
     }
-    let diag_m = renderer.scene().bounds().diagonal_m() as f64;
-    let cam_m = renderer.scene().camera.position().length() as f64;
+    let diag_m = renderer
+        .scene()
+        .bounds_with_eye(renderer.camera().position())
+        .diagonal_m() as f64;
+    let cam_m = renderer.camera().position().length() as f64;
     let horizon_s = 1000.0 * (diag_m + cam_m).max(1e-9) / C_M_PER_S;
     let seed = renderer.settings().seed ^ 0x5049_4c4f_5400_0000;
     let aspect = if req.aspect.is_finite() && req.aspect > 0.0 {
