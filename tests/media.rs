@@ -265,8 +265,8 @@ fn white_walls_and_a_white_medium_lose_nothing() {
         Some(Medium::grey(3.0, 0.0, -0.3, 1.0)),
     ] {
         let mut scene = Furnace::point(1.0, 1.0, i).scene();
-        scene.medium = medium;
-        let n = medium.map_or(1.0, |m| m.n as f64);
+        scene.medium = medium.clone();
+        let n = medium.as_ref().map_or(1.0, |m| m.n as f64);
         let volume = mesh_volume(&scene);
         // Optical path 20 m to 36 m: long after the field has settled.
         let axis = TimeAxis::new(20.0 * n / C, 2.0 * n / C, 8).unwrap();
@@ -332,7 +332,7 @@ fn extreme_media_stay_finite() {
     ];
     for (what, scale, medium) in cases {
         let mut scene = Furnace::point(1.0, 0.8, 1.0).scene().scaled(scale);
-        scene.medium = Some(medium);
+        scene.medium = Some(medium.clone());
         // The window: 12.8 m of optical path, or 300 mean free paths in the dense case.
         let sigma_t = medium.sigma_t_per_m()[0] as f64 * scale as f64;
         let span_m = (300.0 / sigma_t).min(12.8);

@@ -282,7 +282,9 @@ fn the_vendored_cornell_boxes_load_their_meshes_and_light() {
 /// The medium of the object named `name` (its material's).
 fn object_medium(s: &Scene, name: &str) -> Option<scene::Medium> {
     let o = s.objects.iter().find(|o| o.name == name).unwrap();
-    s.materials[s.attrs[o.triangles.start].material as usize].medium
+    s.materials[s.attrs[o.triangles.start].material as usize]
+        .medium
+        .clone()
 }
 
 fn close(a: [f32; 3], b: [f64; 3]) -> bool {
@@ -353,7 +355,10 @@ fn media_written_by_hand_map_onto_tprfs_and_the_unsupported_are_refused() {
     </medium>"#;
     let p = write(&dir, "media.xml", &scene(water));
     let s = scene::load(&p).unwrap();
-    let fog = s.medium.expect("the sensor's medium is the scene's");
+    let fog = s
+        .medium
+        .clone()
+        .expect("the sensor's medium is the scene's");
     assert!(close(fog.sigma_s_per_m, [0.5 * 0.9 * 0.2; 3]), "{fog:?}");
     assert!(close(fog.sigma_a_per_m, [0.5 * 0.1 * 0.2; 3]), "{fog:?}");
     assert_eq!((fog.g, fog.n), (0.85, 1.0));

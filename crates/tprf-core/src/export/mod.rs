@@ -257,6 +257,25 @@ pub struct MediumMetadata {
     pub g: f32,
     /// Refractive index: light travels at c / n in it.
     pub n: f32,
+    /// A heterogeneous medium's density grid (the coefficients above are at density 1):
+    /// its file and size, not its values.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub density: Option<DensityMetadata>,
+}
+
+/// A density grid as written to metadata.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DensityMetadata {
+    /// The `.vol` file it was read from; absent for a grid given inline.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub file: Option<String>,
+    /// Samples along x, y, z.
+    pub dims: [u32; 3],
+    /// The box, world metres.
+    pub bbox_min_m: [f32; 3],
+    pub bbox_max_m: [f32; 3],
+    /// The largest density.
+    pub max: f32,
 }
 
 /// The camera as written to metadata.

@@ -463,6 +463,16 @@ fn media_metadata(scene: &crate::scene::Scene) -> Vec<MediumMetadata> {
         sigma_a_per_m: m.sigma_a_per_m,
         g: m.g,
         n: m.n,
+        density: m.density.as_ref().map(|d| {
+            let [lo, hi] = d.bbox_m.unwrap_or_default();
+            crate::export::DensityMetadata {
+                file: d.file.as_ref().map(|f| f.display().to_string()),
+                dims: d.dims,
+                bbox_min_m: lo,
+                bbox_max_m: hi,
+                max: d.max(),
+            }
+        }),
     };
     let used = |i: usize| scene.attrs.iter().any(|a| a.material as usize == i);
     let materials = scene.materials.iter().enumerate();

@@ -533,8 +533,9 @@ impl Writer {
         };
         let absorbs = m
             .medium
+            .as_ref()
             .is_some_and(|md| md.sigma_a_per_m.iter().any(|&s| s > 0.0));
-        let volume = match m.medium {
+        let volume = match &m.medium {
             Some(md) if m.transmission > 0.0 && absorbs => {
                 self.used.insert("KHR_materials_volume");
                 let (color, distance_m) = super::medium::volume_attenuation(md.sigma_a_per_m);
@@ -816,7 +817,8 @@ mod tests {
     }
 
     /// The kitchen sink with media: fog in the air, an absorbing and scattering glass
-    /// (its medium's `n` its ior) and an index-matched box of smoke.
+    /// (its medium's `n` its ior) and an index-matched box of smoke whose density is a
+    /// grid.
     fn with_media() -> Scene {
         let mut s = kitchen_sink();
         s.medium = Some(crate::scene::Medium::grey(0.05, 0.001, 0.9, 1.0));
@@ -825,8 +827,20 @@ mod tests {
             sigma_a_per_m: [2.0, 0.0, 1e-3],
             g: -0.25,
             n: 1.33,
+            density: None,
         });
-        s.materials[0].medium = Some(crate::scene::Medium::grey(3.0, 0.0, 0.5, 1.0));
+        let smoke = crate::scene::DensityGrid::new(
+            [3, 2, 1],
+            vec![0.0, 0.5, 1.0, 2.0, 0.25, 4.0],
+            Some([[-1.0, 0.0, -1.0], [1.0, 2.0, 0.5]]),
+            None,
+            "smoke",
+        )
+        .unwrap();
+        s.materials[0].medium = Some(crate::scene::Medium {
+            density: Some(smoke),
+            ..crate::scene::Medium::grey(3.0, 0.0, 0.5, 1.0)
+        });
         s
     }
 
@@ -873,8 +887,8 @@ mod tests {
                     .contains("KHR_materials_volume")
             );
         });
-        let glass = back.materials[1].medium.unwrap();
-        let want = scene.materials[1].medium.unwrap().sigma_a_per_m;
+        let glass = back.materials[1].medium.clone().unwrap();
+        let want = scene.materials[1].medium.as_ref().unwrap().sigma_a_per_m;
         // The colours are f32: a channel is known to a few ulps of the largest's 1/e.
         let max = want.into_iter().fold(0.0f32, f32::max);
         for c in 0..3 {

@@ -18,7 +18,8 @@
 //!   material, and the material's extras `{"tprf": {"medium": {...}}}` ([`Medium::from_json`]).
 
 use super::SceneError;
-use serde::{Deserialize, Serialize};
+use super::density::DensityGrid;
+use std::path::Path;
 
 /// Extinction times the meteorological optical range: `-ln(0.02)`, the contrast
 /// threshold of 2 % (Koschmieder; WMO's definition of visibility). A medium of visibility
@@ -29,8 +30,8 @@ pub const MOR_EXTINCTION: f64 = 3.912;
 /// fog scatter strongly forward (g about 0.85-0.9 from the visible to the near infrared).
 pub const FOG_G: f32 = 0.9;
 
-/// A homogeneous participating medium.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+/// A participating medium: homogeneous, or heterogeneous with a density grid.
+#[derive(Clone, Debug, PartialEq)]
 pub struct Medium {
     /// Scattering coefficient per channel (linear RGB bands), 1/m.
     pub sigma_s_per_m: [f32; 3],
@@ -40,6 +41,9 @@ pub struct Medium {
     pub g: f32,
     /// Refractive index, at least 1: light travels at `c / n` in the medium.
     pub n: f32,
+    /// A heterogeneous medium's density: the coefficients above are scaled by the
+    /// grid's value at each point ([`DensityGrid`]); `None` for a homogeneous medium.
+    pub density: Option<DensityGrid>,
 }
 
 impl Medium {
@@ -50,6 +54,7 @@ impl Medium {
             sigma_a_per_m: [sigma_a_per_m; 3],
             g,
             n,
+            density: None,
         }
     }
 
@@ -80,14 +85,17 @@ impl Medium {
     /// Whether light crossing it is neither scattered nor absorbed (it may still be slowed).
     pub fn is_clear(&self) -> bool {
         self.sigma_t_per_m().iter().all(|&s| s == 0.0)
+            || self.density.as_ref().is_some_and(|d| d.max() == 0.0)
     }
 
-    /// The same medium in a scene scaled by `s` (lengths times `s`): coefficients over `s`,
-    /// so every optical depth, and the picture, stay as they were.
+    /// The same medium in a scene scaled by `s` (lengths times `s`): coefficients over `s`
+    /// and a grid's box times `s`, so every optical depth, and the picture, stay as they
+    /// were.
     pub fn scaled(self, s: f32) -> Medium {
         Medium {
             sigma_s_per_m: self.sigma_s_per_m.map(|v| v / s),
             sigma_a_per_m: self.sigma_a_per_m.map(|v| v / s),
+            density: self.density.map(|d| d.scaled(s)),
             ..self
         }
     }
@@ -120,6 +128,9 @@ impl Medium {
                 self.n
             )));
         }
+        if let Some(d) = &self.density {
+            d.validate(what).map_err(SceneError::Invalid)?;
+        }
         Ok(())
     }
 
@@ -140,9 +151,14 @@ impl Medium {
             self.g,
             self.n
         );
-        let vis = self.visibility_m();
-        if vis.is_finite() {
-            s.push_str(&format!(" (visibility {vis:.4} m)"));
+        match &self.density {
+            Some(d) => s.push_str(&format!(", times a {}", d.describe())),
+            None => {
+                let vis = self.visibility_m();
+                if vis.is_finite() {
+                    s.push_str(&format!(" (visibility {vis:.4} m)"));
+                }
+            }
         }
         s
     }
@@ -232,13 +248,15 @@ impl Medium {
     }
 
     /// The medium of a glTF extras object `{"sigma_s_per_m": s, "sigma_a_per_m": a,
-    /// "g": g, "n": n}` (coefficients a number or `[r, g, b]`, per metre; each key
-    /// optional: 0, 0, 0 and 1 when left out; `sigma_a_per_m` left out keeps `sigma_a`, the
-    /// absorption `KHR_materials_volume` gives). Unknown keys are refused; `what` names
-    /// the object in messages. Not validated (the scene's check does that).
+    /// "g": g, "n": n, "density": grid}` (coefficients a number or `[r, g, b]`, per metre;
+    /// each key optional: 0, 0, 0 and 1 when left out; `sigma_a_per_m` left out keeps
+    /// `sigma_a`, the absorption `KHR_materials_volume` gives; `density` a grid,
+    /// [`DensityGrid::from_json`], its file relative to `base`). Unknown keys are refused;
+    /// `what` names the object in messages. Not validated (the scene's check does that).
     pub fn from_json(
         value: &serde_json::Value,
         sigma_a: [f32; 3],
+        base: Option<&Path>,
         what: &str,
     ) -> Result<Medium, String> {
         let serde_json::Value::Object(map) = value else {
@@ -251,6 +269,7 @@ impl Medium {
             sigma_a_per_m: sigma_a,
             g: 0.0,
             n: 1.0,
+            density: None,
         };
         for (key, v) in map {
             let number = || {
@@ -275,9 +294,14 @@ impl Medium {
                 "sigma_a_per_m" => m.sigma_a_per_m = rgb()?,
                 "g" => m.g = number()? as f32,
                 "n" => m.n = number()? as f32,
+                "density" => {
+                    let what = format!("{what}.density");
+                    m.density = Some(DensityGrid::from_json(v, base, &what)?);
+                }
                 _ => {
                     return Err(format!(
-                        "{what}: unknown key '{key}' (known: sigma_s_per_m, sigma_a_per_m, g, n)"
+                        "{what}: unknown key '{key}' (known: sigma_s_per_m, sigma_a_per_m, g, \
+                         n, density)"
                     ));
                 }
             }
@@ -287,12 +311,16 @@ impl Medium {
 
     /// The extras object [`Medium::from_json`] reads, with every field.
     pub fn to_json(&self) -> serde_json::Value {
-        serde_json::json!({
+        let mut v = serde_json::json!({
             "sigma_s_per_m": self.sigma_s_per_m,
             "sigma_a_per_m": self.sigma_a_per_m,
             "g": self.g,
             "n": self.n,
-        })
+        });
+        if let (Some(d), Some(map)) = (&self.density, v.as_object_mut()) {
+            map.insert("density".into(), d.to_json());
+        }
+        v
     }
 }
 
@@ -438,17 +466,20 @@ mod tests {
             sigma_a_per_m: [0.01, 0.0, 2.0],
             g: -0.3,
             n: 1.33,
+            density: None,
         };
-        assert_eq!(Medium::from_json(&m.to_json(), [0.0; 3], "x"), Ok(m));
+        assert_eq!(Medium::from_json(&m.to_json(), [0.0; 3], None, "x"), Ok(m));
         let v = serde_json::json!({"sigma_s_per_m": 0.5, "g": 0.2});
-        let m = Medium::from_json(&v, [0.1, 0.2, 0.3], "x").unwrap();
+        let m = Medium::from_json(&v, [0.1, 0.2, 0.3], None, "x").unwrap();
         assert_eq!(m.sigma_s_per_m, [0.5; 3]);
         assert_eq!(m.sigma_a_per_m, [0.1, 0.2, 0.3]);
-        let e = Medium::from_json(&serde_json::json!({"sigma_s": 1}), [0.0; 3], "mat").unwrap_err();
+        let e = Medium::from_json(&serde_json::json!({"sigma_s": 1}), [0.0; 3], None, "mat")
+            .unwrap_err();
         assert!(e.contains("mat: unknown key 'sigma_s'"), "{e}");
-        let e = Medium::from_json(&serde_json::json!({"g": "big"}), [0.0; 3], "mat").unwrap_err();
+        let e =
+            Medium::from_json(&serde_json::json!({"g": "big"}), [0.0; 3], None, "mat").unwrap_err();
         assert!(e.contains("mat.g"), "{e}");
-        let e = Medium::from_json(&serde_json::json!(3), [0.0; 3], "mat").unwrap_err();
+        let e = Medium::from_json(&serde_json::json!(3), [0.0; 3], None, "mat").unwrap_err();
         assert!(e.contains("expected an object"), "{e}");
     }
 

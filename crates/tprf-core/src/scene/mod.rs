@@ -5,11 +5,13 @@
 //! transient cube records (see [`Channel`]).
 
 pub mod builtin;
+pub mod density;
 pub mod gltf_load;
 pub mod gltf_save;
 pub mod medium;
 pub mod mitsuba;
 
+pub use density::DensityGrid;
 pub use medium::Medium;
 
 use glam::{Affine3A, Vec2, Vec3};
@@ -449,11 +451,37 @@ impl Scene {
             l.position *= s;
         }
         self.camera.world_from_camera.translation *= s;
-        self.medium = self.medium.map(|m| m.scaled(s));
+        self.medium = self.medium.take().map(|m| m.scaled(s));
         for m in &mut self.materials {
-            m.medium = m.medium.map(|m| m.scaled(s));
+            m.medium = m.medium.take().map(|m| m.scaled(s));
         }
         self
+    }
+
+    /// Give each material medium's density grid without a box the bounds of the
+    /// triangles of that material (the mesh it fills); a grid of a material no triangle
+    /// uses keeps none, and the scene's check asks for its box.
+    pub fn fit_density_boxes(&mut self) {
+        for (i, m) in self.materials.iter_mut().enumerate() {
+            let Some(d) = m.medium.as_mut().and_then(|md| md.density.as_mut()) else {
+                continue;
+            };
+            if d.bbox_m.is_some() {
+                continue;
+            }
+            let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+            for (t, a) in self.triangles.iter().zip(&self.attrs) {
+                if a.material as usize == i {
+                    for p in t.p {
+                        lo = lo.min(p);
+                        hi = hi.max(p);
+                    }
+                }
+            }
+            if lo.cmplt(hi).all() {
+                d.bbox_m = Some([lo.to_array(), hi.to_array()]);
+            }
+        }
     }
 
     /// Multiply every light's intensity (the ambient group's too) and every emitter's

@@ -172,7 +172,7 @@ fn mesh_area_m2(scene: &Scene) -> f64 {
 fn white_furnace_row(size: Size, what: &str, s: f64, medium: Medium, x0_m: f64) -> Row {
     let le = 1.0;
     let mut scene = Furnace::emitting(1.0, 1.0, le).scene().scaled(s as f32);
-    scene.medium = Some(medium.scaled(s as f32));
+    scene.medium = Some(medium.clone().scaled(s as f32));
     let (area, volume) = (mesh_area_m2(&scene), mesh_volume_m3(&scene));
     let n = medium.n as f64;
     let sigma_a = medium.sigma_a_per_m[0] as f64 / s;

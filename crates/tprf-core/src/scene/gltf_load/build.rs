@@ -649,8 +649,8 @@ impl<'a> Builder<'a> {
         }
         if let Some(v) = tprf.get("medium") {
             let what = format!("{what} extras tprf.medium");
-            let medium =
-                Medium::from_json(v, [0.0; 3], &what).map_err(|m| invalid(self.file, m))?;
+            let medium = Medium::from_json(v, [0.0; 3], Some(self.base), &what)
+                .map_err(|m| invalid(self.file, m))?;
             self.medium = Some(medium);
         }
         Ok(())
@@ -677,6 +677,7 @@ impl<'a> Builder<'a> {
         if scene.triangles.is_empty() {
             scene.notes.push(format!("no triangles in {file}"));
         }
+        scene.fit_density_boxes();
         match found_camera {
             Some(Ok(camera)) => scene.camera = camera,
             Some(Err(note)) => {

@@ -121,11 +121,13 @@ impl Builder<'_> {
                 sigma_a_per_m: sigma_a,
                 g: 0.0,
                 n: ior,
+                density: None,
             },
             (sigma_a, Some(v)) => {
                 let what = format!("{what} extras tprf.medium");
-                let mut medium = Medium::from_json(v, sigma_a.unwrap_or([0.0; 3]), &what)
-                    .map_err(|e| invalid(self.file, e))?;
+                let mut medium =
+                    Medium::from_json(v, sigma_a.unwrap_or([0.0; 3]), Some(self.base), &what)
+                        .map_err(|e| invalid(self.file, e))?;
                 let n_given = v.get("n").is_some();
                 if transmissive && !n_given {
                     medium.n = ior;

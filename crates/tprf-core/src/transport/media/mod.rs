@@ -35,13 +35,26 @@
 //! medium (media do not nest). The camera and the lights are in the scene's medium.
 //! Not here: light vertices and first-bounce splitting (the surface loop's strategies),
 //! the steady ambient image (rendered without media).
+//!
+//! **Heterogeneous media** (a density grid scaling the coefficients, [`DensityGrid`]):
+//! `sigma_t s` above becomes the optical depth `sigma_t integral_0^s density`, computed
+//! exactly along the ray ([`grid`]); the continuation draws its distance by inverting it
+//! (the same `q`, truncation and weights: the albedo is the medium's everywhere), shadow
+//! rays and the camera leg of single scattering take its exact transmittance, and single
+//! scattering draws its point from the gate clipped to the grid's box, in proportion to
+//! `sigma_t(s) T(s)` or to the light's `1 / r^2`, weighted by `sigma_s(s)`. A homogeneous
+//! medium (`BandMedium::grid` `None`) takes the code it always took.
 
 mod distance;
 mod glow;
+mod grid;
 pub mod phase;
 mod walk;
 
-use crate::scene::{Channel, Medium, Scene};
+use crate::scene::{Channel, DensityGrid, Medium, Scene};
+use distance::Exponential;
+use glam::Vec3;
+use grid::GridLine;
 
 /// One region's medium reduced to the band the cube records.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -51,6 +64,9 @@ pub(crate) struct BandMedium {
     pub g: f32,
     /// Refractive index.
     pub n: f32,
+    /// A heterogeneous medium's density grid ([`Media::grids`]): `sigma_s` and `sigma_t`
+    /// are then its coefficients at density 1.
+    pub grid: Option<u32>,
 }
 
 impl BandMedium {
@@ -61,10 +77,12 @@ impl BandMedium {
             sigma_t: 0.0,
             g: 0.0,
             n,
+            grid: None,
         }
     }
 
-    fn new(m: &Medium, channel: Channel) -> BandMedium {
+    /// `m` in the band of `channel`, its density grid (if any) at index `grid`.
+    fn new(m: &Medium, channel: Channel, grid: Option<u32>) -> BandMedium {
         let sigma_s = channel.pick(m.sigma_s_per_m).max(0.0);
         let sigma_a = channel.pick(m.sigma_a_per_m).max(0.0);
         BandMedium {
@@ -72,10 +90,11 @@ impl BandMedium {
             sigma_t: sigma_s + sigma_a,
             g: m.g.clamp(-0.999, 0.999),
             n: m.n.max(1.0),
+            grid,
         }
     }
 
-    /// `e^(-sigma_t d)`.
+    /// `e^(-sigma_t d)` (a homogeneous medium's; [`Media::transmittance`] for any).
     #[inline]
     pub fn transmittance(&self, d_m: f32) -> f32 {
         if self.sigma_t > 0.0 {
@@ -110,13 +129,18 @@ pub(crate) struct Media {
     /// index-matched ones'.
     pub n_min: f32,
     pub n_max: f32,
+    /// The density grids of heterogeneous media, by [`BandMedium::grid`].
+    grids: Vec<DensityGrid>,
 }
 
 impl Media {
     /// The media of `scene`, or `None` when it has none (a clear scene medium of index
     /// 1 or none, and no material with a medium): then the surface loop renders it.
     pub fn new(scene: &Scene, channel: Channel) -> Option<Media> {
-        let vacuum = scene.medium.is_none_or(|m| m.is_clear() && m.n == 1.0);
+        let vacuum = scene
+            .medium
+            .as_ref()
+            .is_none_or(|m| m.is_clear() && m.n == 1.0);
         let used = |i: usize| scene.attrs.iter().any(|a| a.material as usize == i);
         let any_mesh_medium = scene
             .materials
@@ -126,9 +150,18 @@ impl Media {
         if vacuum && !any_mesh_medium {
             return None;
         }
+        let mut grids = Vec::new();
+        let mut band = |m: &Medium| {
+            let grid = m.density.as_ref().map(|d| {
+                grids.push(d.clone());
+                (grids.len() - 1) as u32
+            });
+            BandMedium::new(m, channel, grid)
+        };
         let scene_medium = scene
             .medium
-            .map_or(BandMedium::clear(1.0), |m| BandMedium::new(&m, channel));
+            .as_ref()
+            .map_or(BandMedium::clear(1.0), &mut band);
         let boundaries: Vec<Boundary> = scene
             .materials
             .iter()
@@ -139,14 +172,11 @@ impl Media {
                     1.5
                 };
                 match &m.medium {
-                    Some(md) if m.transmission <= 0.0 => Boundary::IndexMatched {
-                        inside: BandMedium::new(md, channel),
-                    },
+                    Some(md) if m.transmission <= 0.0 => {
+                        Boundary::IndexMatched { inside: band(md) }
+                    }
                     Some(md) => Boundary::Surface {
-                        inside: BandMedium {
-                            n: ior,
-                            ..BandMedium::new(md, channel)
-                        },
+                        inside: BandMedium { n: ior, ..band(md) },
                     },
                     None => Boundary::Surface {
                         inside: BandMedium::clear(ior),
@@ -169,7 +199,70 @@ impl Media {
             has_index_matched,
             n_min,
             n_max,
+            grids,
         })
+    }
+
+    /// The ray from `origin` along unit `dir` in `region`'s density grid; `None` for a
+    /// homogeneous medium, or a ray that misses the grid's box.
+    pub(crate) fn grid_line(
+        &self,
+        region: &BandMedium,
+        origin: Vec3,
+        dir: Vec3,
+    ) -> Option<GridLine<'_>> {
+        let grid = self.grids.get(region.grid? as usize)?;
+        GridLine::new(grid, origin.as_dvec3(), dir.as_dvec3())
+    }
+
+    /// The transmittance of `region` over the first `d_m` metres of the ray from `origin`
+    /// along unit `dir`: `e^(-sigma_t d)`, or with a density grid `e^(-sigma_t
+    /// integral_0^d density)` (exact, [`grid`]).
+    #[inline]
+    pub fn transmittance(&self, region: &BandMedium, origin: Vec3, dir: Vec3, d_m: f32) -> f32 {
+        if region.grid.is_none() {
+            return region.transmittance(d_m);
+        }
+        if !(region.sigma_t > 0.0) {
+            return 1.0;
+        }
+        match self.grid_line(region, origin, dir) {
+            None => 1.0,
+            Some(line) => {
+                let tau = region.sigma_t as f64 * line.integral(0.0, d_m as f64);
+                (-tau).exp() as f32
+            }
+        }
+    }
+
+    /// A free-flight distance on `[0, span_m)` of the ray from `origin` along unit `dir`
+    /// for `u` in [0, 1), drawn in proportion to `sigma_t(s) T(s)` (the density of the
+    /// first collision, truncated to the span), and the probability of a collision within
+    /// the span, `1 - T(span)`. Homogeneous: `sigma_t e^(-sigma_t s)` ([`Exponential`]);
+    /// with a grid the optical depth `-ln(1 - u (1 - T(span)))` inverted along the ray.
+    pub fn free_flight(
+        &self,
+        region: &BandMedium,
+        origin: Vec3,
+        dir: Vec3,
+        span_m: f64,
+        u: f64,
+    ) -> (f64, f64) {
+        let sigma_t = region.sigma_t as f64;
+        let line = match region.grid {
+            None => {
+                let d = Exponential::new(0.0, span_m, sigma_t).sample(u);
+                return (d, -(-sigma_t * span_m).exp_m1());
+            }
+            Some(_) => self.grid_line(region, origin, dir),
+        };
+        let Some(line) = line.filter(|_| sigma_t > 0.0) else {
+            return (0.0, 0.0);
+        };
+        let mass = -(-sigma_t * line.integral(0.0, span_m)).exp_m1();
+        let target = -(-u * mass).ln_1p() / sigma_t;
+        let d = line.invert(0.0, span_m, target).unwrap_or(span_m);
+        (d.clamp(0.0, span_m), mass)
     }
 
     /// What the surface of scene material `material` is (a material out of range: a

@@ -12,6 +12,8 @@ use crate::transport::surface::SurfacePoint;
 use crate::units::C_M_PER_S;
 use glam::Vec3;
 
+mod grid_nee;
+
 /// Largest number of straight crossings (alpha coverage, index-matched boundaries)
 /// along one segment chain, and of surfaces a shadow ray walks through.
 const MAX_PASS_THROUGH: u32 = 1024;
@@ -145,7 +147,8 @@ impl Renderer {
                 rays += self.segment_nee(media, &path, span, u, rng, sink);
             }
             let u_next = draw(rng, &path, dim::LIGHT_SELECT);
-            let next = self.continue_segment(&mut path, t_hit, t_window, can_scatter, u_next);
+            let next =
+                self.continue_segment(media, &mut path, t_hit, t_window, can_scatter, u_next);
             match next {
                 Next::End => {
                     if hit.is_some() && t_hit >= t_window {
@@ -264,6 +267,7 @@ impl Renderer {
     /// importance sampled.
     fn continue_segment(
         &self,
+        media: &Media,
         path: &mut MediaPath,
         t_hit: f32,
         t_window: f32,
@@ -272,7 +276,7 @@ impl Renderer {
     ) -> Next {
         let region = path.region;
         let reach = t_hit <= t_window;
-        let tr_hit = region.transmittance(t_hit);
+        let tr_hit = media.transmittance(&region, path.origin, path.dir, t_hit);
         if !can_scatter || region.sigma_t <= 0.0 {
             if !reach || !(tr_hit > 0.0) {
                 return Next::End;
@@ -296,9 +300,7 @@ impl Renderer {
         }
         let u = ((u - q) / (1.0 - q)).clamp(0.0, 1.0 - f32::EPSILON) as f64;
         let span = t_hit.min(t_window) as f64;
-        let sampler = Exponential::new(0.0, span, region.sigma_t as f64);
-        let d = sampler.sample(u);
-        let mass = -(-(region.sigma_t as f64) * span).exp_m1();
+        let (d, mass) = media.free_flight(&region, path.origin, path.dir, span, u);
         path.throughput *=
             (mass * (region.sigma_s / region.sigma_t) as f64 / (1.0 - q) as f64) as f32;
         if path.throughput > 0.0 && path.throughput.is_finite() {
@@ -483,6 +485,9 @@ impl Renderer {
         sink: &mut impl Sink,
     ) -> u64 {
         let region = path.region;
+        if region.grid.is_some() {
+            return self.segment_nee_grid(media, path, span_m, (u_pick, u_s), rng, sink);
+        }
         let mut rays = 0;
         let c = C_M_PER_S;
         let o = path.origin.as_dvec3();
@@ -766,7 +771,7 @@ impl Renderer {
         if !media.has_index_matched {
             *rays += 1;
             sink.ray(p, dir, dist, RayKind::Shadow);
-            let tr = self.transmittance(p, dir, dist) * region.transmittance(dist);
+            let tr = self.transmittance(p, dir, dist) * media.transmittance(&region, p, dir, dist);
             return (tr > 0.0).then_some((tr, opl_m + region.n as f64 * dist as f64));
         }
         // Surface by surface to the end, the medium changing at index-matched boundaries.
@@ -777,11 +782,11 @@ impl Renderer {
             *rays += 1;
             sink.ray(origin, dir, left, RayKind::Shadow);
             let Some(hit) = self.accel().closest_hit(origin, dir, left) else {
-                tr *= region.transmittance(left);
+                tr *= media.transmittance(&region, origin, dir, left);
                 opl += region.n as f64 * left as f64;
                 return (tr > 0.0).then_some((tr, opl));
             };
-            tr *= region.transmittance(hit.t_m);
+            tr *= media.transmittance(&region, origin, dir, hit.t_m);
             opl += region.n as f64 * hit.t_m as f64;
             let material = self
                 .scene()
