@@ -321,8 +321,8 @@ fn the_volumetric_cornell_box_fills_its_boxes_with_their_media() {
 
 /// A scene written here: fog around the camera (the sensor's medium: the scene's, with
 /// `scale`), a dielectric sphere of index 1.33 (relative to air) filled with isotropic
-/// water (n = the boundary's index); a grid volume and an unknown phase function refused naming the
-/// element and line.
+/// water (n = the boundary's index); a grid volume's missing file and an unknown phase
+/// function refused naming the element and line.
 #[test]
 fn media_written_by_hand_map_onto_tprfs_and_the_unsupported_are_refused() {
     let dir = tmp("media");
@@ -372,11 +372,9 @@ fn media_written_by_hand_map_onto_tprfs_and_the_unsupported_are_refused() {
     let grid = r#"    <medium type="heterogeneous" name="interior">
       <volume type="gridvolume" name="sigma_t"><string name="filename" value="smoke.vol"/></volume>
     </medium>"#;
+    // A heterogeneous medium is read (tests/media_grid.rs); its missing file refused.
     let e = refusal(&dir, "grid.xml", &scene(grid));
-    assert!(
-        e.contains("grid.xml:15") && e.contains("heterogeneous"),
-        "{e}"
-    );
+    assert!(e.contains("grid.xml:16") && e.contains("smoke.vol"), "{e}");
     let rayleigh = r#"    <medium type="homogeneous" name="interior">
       <phase type="rayleigh"/>
     </medium>"#;

@@ -177,20 +177,17 @@ impl DensityGrid {
                  medium's coefficients give the colour)"
             ));
         }
-        let cells = cell_count(dims)
-            .ok_or_else(|| format!("{name}: sizes {dims:?} must each be at least 1"))?;
-        let want = cells
-            .checked_mul(4)
-            .and_then(|b| b.checked_add(VOL_HEADER_BYTES as u64));
-        if want != Some(bytes.len() as u64) {
+        // In u128: three sizes of up to 2^31 each and 4 bytes a value cannot overflow it.
+        let want = dims.iter().map(|&n| n as u128).product::<u128>() * 4 + VOL_HEADER_BYTES as u128;
+        if want != bytes.len() as u128 {
             return Err(format!(
-                "{name}: {} bytes, but its header's sizes {dims:?} x 1 channel need {} (48 + 4 \
-                 per value): the file is cut short or not a float32 grid",
+                "{name}: {} bytes, but its header's sizes {dims:?} x 1 channel need {want} (48 \
+                 + 4 per value): the file is cut short, too long, or not this grid",
                 bytes.len(),
-                want.map_or("more than 2^64".into(), |w| w.to_string())
             ));
         }
-        budget::check(cells * 4, "the density grid", format_args!("{name}"))
+        let value_bytes = (want - VOL_HEADER_BYTES as u128) as u64;
+        budget::check(value_bytes, "the density grid", format_args!("{name}"))
             .map_err(|e| e.to_string())?;
         let values: Vec<f32> = bytes[VOL_HEADER_BYTES..]
             .chunks_exact(4)

@@ -128,6 +128,14 @@ impl Builder<'_> {
                 let mut medium =
                     Medium::from_json(v, sigma_a.unwrap_or([0.0; 3]), Some(self.base), &what)
                         .map_err(|e| invalid(self.file, e))?;
+                // A mesh medium's grid spans the mesh unless the extras give its box (a
+                // .vol file's own box is not used here: Mitsuba maps a grid to its shape).
+                let density = v.get("density");
+                if density.and_then(|d| d.get("bbox_min_m")).is_none()
+                    && let Some(d) = medium.density.as_mut()
+                {
+                    d.bbox_m = None;
+                }
                 let n_given = v.get("n").is_some();
                 if transmissive && !n_given {
                     medium.n = ior;
