@@ -216,7 +216,11 @@ fn all_orders_in_a_constant_grid_match_the_homogeneous_cube() {
             chi2 += ((got[b] - want[b]) / se).powi(2);
         }
     }
-    assert!(chi2 < 2.5 * axis.bins as f64, "chi2 {chi2} over {} bins", axis.bins);
+    assert!(
+        chi2 < 2.5 * axis.bins as f64,
+        "chi2 {chi2} over {} bins",
+        axis.bins
+    );
     // Twice the extinction is told apart.
     let (other, other_se) = per_bin(with_k(2.5, 2.0), 2);
     let mut chi2 = 0.0;
@@ -226,7 +230,10 @@ fn all_orders_in_a_constant_grid_match_the_homogeneous_cube() {
             chi2 += ((other[b] - want[b]) / se).powi(2);
         }
     }
-    assert!(chi2 > 4.0 * axis.bins as f64, "chi2 {chi2}: denser not told apart");
+    assert!(
+        chi2 > 4.0 * axis.bins as f64,
+        "chi2 {chi2}: denser not told apart"
+    );
 }
 
 /// A sink that sums every contribution whenever it arrives: the steady radiance.
@@ -328,7 +335,8 @@ fn write_gltf(dir: &Path, medium: serde_json::Value) -> std::path::PathBuf {
         [-0.5, 0.5, 0.5],
     ]
     .map(Vec3::from);
-    s.materials.push(scene::Material::lambertian("smoke box", [0.5; 3]));
+    s.materials
+        .push(scene::Material::lambertian("smoke box", [0.5; 3]));
     // Outward-facing quads of the cube.
     for q in [
         [0, 3, 2, 1],

@@ -21,8 +21,12 @@ pub struct Fog {
 
 impl Fog {
     /// The fog of a (non-clear) medium: the visibility of its largest channel's
-    /// extinction, that channel's albedo, its `g` and `n`. `None` for a clear medium.
+    /// extinction, that channel's albedo, its `g` and `n`. `None` for a clear medium, and
+    /// for a heterogeneous one (a density grid has no one visibility to edit).
     pub fn of_medium(m: &Medium) -> Option<Fog> {
+        if m.density.is_some() {
+            return None;
+        }
         let t = m.sigma_t_per_m();
         let c = (0..3).fold(0, |a, c| if t[c] > t[a] { c } else { a });
         let sigma_t = f64::from(t[c]);

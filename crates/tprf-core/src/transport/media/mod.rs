@@ -218,11 +218,17 @@ impl Media {
     /// The transmittance of `region` over the first `d_m` metres of the ray from `origin`
     /// along unit `dir`: `e^(-sigma_t d)`, or with a density grid `e^(-sigma_t
     /// integral_0^d density)` (exact, [`grid`]).
-    #[inline]
+    #[inline(always)]
     pub fn transmittance(&self, region: &BandMedium, origin: Vec3, dir: Vec3, d_m: f32) -> f32 {
-        if region.grid.is_none() {
-            return region.transmittance(d_m);
+        match region.grid {
+            None => region.transmittance(d_m),
+            Some(_) => self.grid_transmittance(region, origin, dir, d_m),
         }
+    }
+
+    /// [`Media::transmittance`] in a density grid (kept out of the homogeneous path).
+    #[inline(never)]
+    fn grid_transmittance(&self, region: &BandMedium, origin: Vec3, dir: Vec3, d_m: f32) -> f32 {
         if !(region.sigma_t > 0.0) {
             return 1.0;
         }
@@ -240,6 +246,7 @@ impl Media {
     /// first collision, truncated to the span), and the probability of a collision within
     /// the span, `1 - T(span)`. Homogeneous: `sigma_t e^(-sigma_t s)` ([`Exponential`]);
     /// with a grid the optical depth `-ln(1 - u (1 - T(span)))` inverted along the ray.
+    #[inline(always)]
     pub fn free_flight(
         &self,
         region: &BandMedium,
@@ -248,14 +255,28 @@ impl Media {
         span_m: f64,
         u: f64,
     ) -> (f64, f64) {
-        let sigma_t = region.sigma_t as f64;
-        let line = match region.grid {
+        match region.grid {
             None => {
+                let sigma_t = region.sigma_t as f64;
                 let d = Exponential::new(0.0, span_m, sigma_t).sample(u);
-                return (d, -(-sigma_t * span_m).exp_m1());
+                (d, -(-sigma_t * span_m).exp_m1())
             }
-            Some(_) => self.grid_line(region, origin, dir),
-        };
+            Some(_) => self.grid_free_flight(region, origin, dir, span_m, u),
+        }
+    }
+
+    /// [`Media::free_flight`] in a density grid (kept out of the homogeneous path).
+    #[inline(never)]
+    fn grid_free_flight(
+        &self,
+        region: &BandMedium,
+        origin: Vec3,
+        dir: Vec3,
+        span_m: f64,
+        u: f64,
+    ) -> (f64, f64) {
+        let sigma_t = region.sigma_t as f64;
+        let line = self.grid_line(region, origin, dir);
         let Some(line) = line.filter(|_| sigma_t > 0.0) else {
             return (0.0, 0.0);
         };
