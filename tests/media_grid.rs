@@ -434,8 +434,7 @@ fn a_vol_file_is_read_back_through_gltf_and_mitsuba() {
     assert!(g.get("values").is_none());
 
     // Mitsuba: sigma_t a gridvolume scaled and moved by to_world, albedo and scale.
-    let xml = format!(
-        r#"<scene version="3.0.0">
+    let xml = r#"<scene version="3.0.0">
   <sensor type="perspective">
     <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
   </sensor>
@@ -454,7 +453,7 @@ fn a_vol_file_is_read_back_through_gltf_and_mitsuba() {
   </shape>
 </scene>
 "#
-    );
+    .to_string();
     std::fs::write(dir.join("grid.xml"), &xml).unwrap();
     let s = scene::load(dir.join("grid.xml").to_str().unwrap()).unwrap();
     let m = s

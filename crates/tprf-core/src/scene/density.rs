@@ -363,8 +363,11 @@ fn check_bbox([lo, hi]: [[f32; 3]; 2], what: &str) -> Result<(), String> {
     }
 }
 
+/// A `.vol` header: the x, y, z sizes, the channel count and the box.
+type VolHeader = ([u32; 3], u32, [[f32; 3]; 2]);
+
 /// The sizes, channel count and box of a `.vol` header.
-fn vol_header(b: &[u8]) -> Result<([u32; 3], u32, [[f32; 3]; 2]), String> {
+fn vol_header(b: &[u8]) -> Result<VolHeader, String> {
     if b.len() < VOL_HEADER_BYTES {
         return Err(format!(
             "{} bytes: shorter than a .vol header (48 bytes)",
