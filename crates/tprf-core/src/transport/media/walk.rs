@@ -265,7 +265,7 @@ impl Renderer {
     /// (weight `(1 - e^(-sigma_t span)) (sigma_s / sigma_t) / (1 - q)`): the integral of
     /// `T(s) sigma_s` over the part of the segment whose light can still arrive,
     /// importance sampled.
-    #[inline]
+    #[inline(always)]
     fn continue_segment(
         &self,
         media: &Media,
