@@ -15,7 +15,8 @@ impl Renderer {
     /// density grid: per light, one point of the gate ([`gate`]) clipped to the grid's box,
     /// drawn from a mixture of `sigma_t(s) T(s)` along the ray (inverting the optical depth)
     /// and the light's `1 / r^2` (equiangular), joined to the light by a shadow ray; the
-    /// estimate `sigma_s(s) p T(s) T_light I / r^2 / pdf(s)`, with exact transmittances.
+    /// estimate `sigma_s(s) p T(s) T_light I / r^2 / pdf(s)`, with exact transmittances,
+    /// times the path's MIS weight against the glow technique (`MediaPath::nee_weight`).
     /// Returns the rays traced.
     pub(super) fn segment_nee_grid(
         &self,
@@ -118,8 +119,11 @@ impl Renderer {
             };
             let t_cam = (-(tau_a + tau_as)).exp();
             let sigma_s = region.sigma_s as f64 * density;
-            let value =
-                path.throughput as f64 * sigma_s * (f * intensity * tr / r2) as f64 * t_cam / pdf;
+            let value = (path.throughput * path.nee_weight) as f64
+                * sigma_s
+                * (f * intensity * tr / r2) as f64
+                * t_cam
+                / pdf;
             sink.add(opl_m / C_M_PER_S, value, path.scatterings + 1);
         }
         rays
