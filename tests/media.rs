@@ -37,21 +37,6 @@ fn pixel_mean_and_se(film: &tprf_core::film::TprfFilm, w: usize, h: usize) -> (V
     (mean, se)
 }
 
-/// Henyey-Greenstein phase function, written out again (not the renderer's).
-fn hg(cos: f64, g: f64) -> f64 {
-    (1.0 - g * g) / (4.0 * PI * (1.0 + g * g - 2.0 * g * cos).powf(1.5))
-}
-
-/// Composite Simpson's rule with `n` (even) intervals.
-fn simpson(a: f64, b: f64, n: usize, f: impl Fn(f64) -> f64) -> f64 {
-    let h = (b - a) / n as f64;
-    let mut s = f(a) + f(b);
-    for i in 1..n {
-        s += f(a + i as f64 * h) * if i % 2 == 1 { 4.0 } else { 2.0 };
-    }
-    s * h / 3.0
-}
-
 /// Single scattering in an infinite homogeneous medium with a pulsed point light of
 /// intensity I at the eye: light scattered back from distance r arrives at
 /// `t = 2 n r / c`, and every pixel's TPRF integrates, over each bin's `r`,

@@ -43,21 +43,6 @@ fn grid(dims: [u32; 3], values: Vec<f32>, lo: [f32; 3], hi: [f32; 3]) -> Density
     DensityGrid::new(dims, values, Some([lo, hi]), None, "test grid").unwrap()
 }
 
-/// Henyey-Greenstein phase function, written out again (not the renderer's).
-fn hg(cos: f64, g: f64) -> f64 {
-    (1.0 - g * g) / (4.0 * std::f64::consts::PI * (1.0 + g * g - 2.0 * g * cos).powf(1.5))
-}
-
-/// Composite Simpson's rule with `n` (even) intervals.
-fn simpson(a: f64, b: f64, n: usize, f: impl Fn(f64) -> f64) -> f64 {
-    let h = (b - a) / n as f64;
-    let mut s = f(a) + f(b);
-    for i in 1..n {
-        s += f(a + i as f64 * h) * if i % 2 == 1 { 4.0 } else { 2.0 };
-    }
-    s * h / 3.0
-}
-
 /// A constant grid of density `k` over a box holding every point that can be seen is the
 /// homogeneous medium of coefficients `k sigma`: single scattering of a co-located pulsed
 /// point light (every bin against `k sigma_s p(pi) I e^(-2 k sigma_t r) / r^2` integrated

@@ -15,6 +15,21 @@ use tprf_core::transport::{RenderSettings, Renderer};
 
 pub const C: f64 = 299_792_458.0;
 
+/// Henyey-Greenstein phase function, written out again (not the renderer's), 1/sr.
+pub fn hg(cos: f64, g: f64) -> f64 {
+    (1.0 - g * g) / (4.0 * std::f64::consts::PI * (1.0 + g * g - 2.0 * g * cos).powf(1.5))
+}
+
+/// Composite Simpson's rule with `n` (even) intervals.
+pub fn simpson(a: f64, b: f64, n: usize, f: impl Fn(f64) -> f64) -> f64 {
+    let h = (b - a) / n as f64;
+    let mut s = f(a) + f(b);
+    for i in 1..n {
+        s += f(a + i as f64 * h) * if i % 2 == 1 { 4.0 } else { 2.0 };
+    }
+    s * h / 3.0
+}
+
 pub fn empty_scene(camera: Camera) -> Scene {
     Scene {
         name: "test".into(),

@@ -286,6 +286,13 @@ impl Media {
         (d.clamp(0.0, span_m), mass)
     }
 
+    /// Whether a shadow ray from `region` stays in media of its index, so that the time
+    /// a point's light arrives is known before tracing it (the gate of single scattering).
+    #[inline]
+    pub fn index_fixed(&self, region: &BandMedium) -> bool {
+        !self.has_index_matched || (self.n_min == region.n && self.n_max == region.n)
+    }
+
     /// What the surface of scene material `material` is (a material out of range: a
     /// plain surface with a clear inside at the default ior).
     #[inline]

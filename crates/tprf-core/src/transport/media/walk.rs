@@ -7,10 +7,11 @@ use super::{BandMedium, Boundary, Media};
 use crate::film::LeftOut;
 use crate::transport::bsdf::{Bsdf, Frame, LobeKind};
 use crate::transport::integrator::{RayKind, Renderer, Sink, outside, power_heuristic};
+use crate::transport::lights::Punctual;
 use crate::transport::sampler::{Sampler, dim};
 use crate::transport::surface::SurfacePoint;
 use crate::units::C_M_PER_S;
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 mod grid_nee;
 
@@ -490,33 +491,13 @@ impl Renderer {
             return self.segment_nee_grid(media, path, span_m, (u_pick, u_s), rng, sink);
         }
         let mut rays = 0;
-        let c = C_M_PER_S;
-        let o = path.origin.as_dvec3();
         let d = path.dir.as_dvec3();
-        // The gate is exact where a shadow ray stays in media of the ray's index.
-        let exact =
-            !media.has_index_matched || (media.n_min == region.n && media.n_max == region.n);
-        let n = region.n as f64;
-        let k_a = (sink.window_start_s() * c - path.opl_m) / n;
-        let k_b = (sink.window_end_s() * c - path.opl_m) / n;
+        let exact = media.index_fixed(&region);
         for (i, light) in self.lights().punctual.iter().enumerate() {
-            let (u_pick, u_s) = if i == 0 {
-                (u_pick, u_s)
-            } else {
-                let k = ((path.scatterings as u64) << 32) + ((i as u64) << 8) + 0xd7;
-                (rng.get1_hashed(k), rng.get1_hashed(k + 1))
-            };
-            let w = o - light.position.as_dvec3();
-            let (a, b) = if exact {
-                match gate(w.to_array(), d.to_array(), k_a, k_b) {
-                    Some(g) => g,
-                    None => {
-                        sink.left_out(LeftOut::ShadowRayLate);
-                        continue;
-                    }
-                }
-            } else {
-                (0.0, f64::INFINITY)
+            let Some(((u_pick, u_s), w, a, b)) =
+                self.light_gate(media, path, i, light, (u_pick, u_s), rng, sink)
+            else {
+                continue;
             };
             let b = b.min(span_m as f64);
             if !(b > a) {
@@ -560,34 +541,87 @@ impl Renderer {
             if !(pdf > 0.0 && pdf.is_finite()) {
                 continue;
             }
-            let x = (o + d * s_m).as_vec3();
-            let to = light.position - x;
-            let r2 = to.length_squared();
-            if !(r2 > 0.0) {
-                continue;
-            }
-            let r = r2.sqrt();
-            let wl = to / r;
-            let intensity = light.intensity_toward(-wl);
-            // The light travels along -wl, then toward the eye along -dir.
-            let f = hg(wl.dot(path.dir), region.g);
-            if !(intensity > 0.0 && f > 0.0) {
-                continue;
-            }
-            let opl_here = path.opl_m + s_m * n;
-            let Some((tr, opl_m)) =
-                self.media_shadow(media, x, wl, r, region, opl_here, sink, &mut rays)
+            let Some((lit, opl_m)) = self.join_light(media, path, light, s_m, sink, &mut rays)
             else {
                 continue;
             };
             let t_cam = (-sigma_t * s_m).exp();
-            let value = (path.throughput * path.nee_weight) as f64
-                * (region.sigma_s * f * intensity * tr / r2) as f64
-                * t_cam
-                / pdf;
+            let value =
+                (path.throughput * path.nee_weight) as f64 * region.sigma_s as f64 * lit * t_cam
+                    / pdf;
             sink.add(opl_m / C_M_PER_S, value, path.scatterings + 1);
         }
         rays
+    }
+
+    /// Light `i`'s part of a segment's single scattering: its uniform numbers (`u`, the
+    /// segment's own, for the first light; hashed ones for the others), the vector from the
+    /// light to the segment's origin, and the gate `[a, b)`: the distances along the
+    /// segment whose light arrives inside the window ([`gate`]; the whole ray where a
+    /// shadow ray may change index). `None`, counted as left out, when none can.
+    #[allow(clippy::too_many_arguments)]
+    fn light_gate(
+        &self,
+        media: &Media,
+        path: &MediaPath,
+        i: usize,
+        light: &Punctual,
+        u: (f32, f32),
+        rng: &Sampler,
+        sink: &mut impl Sink,
+    ) -> Option<((f32, f32), DVec3, f64, f64)> {
+        let u = if i == 0 {
+            u
+        } else {
+            let k = ((path.scatterings as u64) << 32) + ((i as u64) << 8) + 0xd7;
+            (rng.get1_hashed(k), rng.get1_hashed(k + 1))
+        };
+        let w = path.origin.as_dvec3() - light.position.as_dvec3();
+        if !media.index_fixed(&path.region) {
+            return Some((u, w, 0.0, f64::INFINITY));
+        }
+        let n = path.region.n as f64;
+        let k_a = (sink.window_start_s() * C_M_PER_S - path.opl_m) / n;
+        let k_b = (sink.window_end_s() * C_M_PER_S - path.opl_m) / n;
+        match gate(w.to_array(), path.dir.as_dvec3().to_array(), k_a, k_b) {
+            Some((a, b)) => Some((u, w, a, b)),
+            None => {
+                sink.left_out(LeftOut::ShadowRayLate);
+                None
+            }
+        }
+    }
+
+    /// Light scattered toward the eye at the point `s_m` along the path's segment: the
+    /// phase function times the light's intensity, its shadow ray's transmittance and
+    /// `1 / r^2` (W/sr/m^2 per unit sigma_s, before the eye leg), and the optical path
+    /// length at the light; `None` when it is dark, blocked or cannot arrive in time.
+    fn join_light(
+        &self,
+        media: &Media,
+        path: &MediaPath,
+        light: &Punctual,
+        s_m: f64,
+        sink: &mut impl Sink,
+        rays: &mut u64,
+    ) -> Option<(f64, f64)> {
+        let x = (path.origin.as_dvec3() + path.dir.as_dvec3() * s_m).as_vec3();
+        let to = light.position - x;
+        let r2 = to.length_squared();
+        if !(r2 > 0.0) {
+            return None;
+        }
+        let r = r2.sqrt();
+        let wl = to / r;
+        let intensity = light.intensity_toward(-wl);
+        // The light travels along -wl, then toward the eye along -dir.
+        let f = hg(wl.dot(path.dir), path.region.g);
+        if !(intensity > 0.0 && f > 0.0) {
+            return None;
+        }
+        let opl_here = path.opl_m + s_m * path.region.n as f64;
+        let (tr, opl_m) = self.media_shadow(media, x, wl, r, path.region, opl_here, sink, rays)?;
+        Some(((f * intensity * tr / r2) as f64, opl_m))
     }
 
     /// Next-event estimation at a surface vertex in media: every punctual light and one

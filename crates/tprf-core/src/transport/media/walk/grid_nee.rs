@@ -1,12 +1,10 @@
 //! Single scattering of the punctual lights on a segment through a heterogeneous medium
 //! (the grid's counterpart of [`Renderer::segment_nee`]).
 
-use super::super::distance::{Equiangular, gate};
+use super::super::distance::Equiangular;
 use super::{EQUIANGULAR_SHARE, MediaPath};
-use crate::film::LeftOut;
 use crate::transport::integrator::{Renderer, Sink};
 use crate::transport::media::Media;
-use crate::transport::media::phase::hg;
 use crate::transport::sampler::Sampler;
 use crate::units::C_M_PER_S;
 
@@ -34,32 +32,12 @@ impl Renderer {
         let (box_in, box_out) = line.inside();
         let sigma_t = region.sigma_t as f64;
         let mut rays = 0;
-        let c = C_M_PER_S;
-        let o = path.origin.as_dvec3();
         let d = path.dir.as_dvec3();
-        let exact =
-            !media.has_index_matched || (media.n_min == region.n && media.n_max == region.n);
-        let n = region.n as f64;
-        let k_a = (sink.window_start_s() * c - path.opl_m) / n;
-        let k_b = (sink.window_end_s() * c - path.opl_m) / n;
         for (i, light) in self.lights().punctual.iter().enumerate() {
-            let (u_pick, u_s) = if i == 0 {
-                (u_pick, u_s)
-            } else {
-                let k = ((path.scatterings as u64) << 32) + ((i as u64) << 8) + 0xd7;
-                (rng.get1_hashed(k), rng.get1_hashed(k + 1))
-            };
-            let w = o - light.position.as_dvec3();
-            let (a, b) = if exact {
-                match gate(w.to_array(), d.to_array(), k_a, k_b) {
-                    Some(g) => g,
-                    None => {
-                        sink.left_out(LeftOut::ShadowRayLate);
-                        continue;
-                    }
-                }
-            } else {
-                (0.0, f64::INFINITY)
+            let Some(((u_pick, u_s), w, a, b)) =
+                self.light_gate(media, path, i, light, (u_pick, u_s), rng, sink)
+            else {
+                continue;
             };
             // Outside the box the medium is empty: nothing scatters there.
             let (a, b) = (a.max(box_in), b.min(span_m as f64).min(box_out));
@@ -98,32 +76,13 @@ impl Renderer {
             if !(pdf > 0.0 && pdf.is_finite()) {
                 continue;
             }
-            let x = (o + d * s_m).as_vec3();
-            let to = light.position - x;
-            let r2 = to.length_squared();
-            if !(r2 > 0.0) {
-                continue;
-            }
-            let r = r2.sqrt();
-            let wl = to / r;
-            let intensity = light.intensity_toward(-wl);
-            let f = hg(wl.dot(path.dir), region.g);
-            if !(intensity > 0.0 && f > 0.0) {
-                continue;
-            }
-            let opl_here = path.opl_m + s_m * n;
-            let Some((tr, opl_m)) =
-                self.media_shadow(media, x, wl, r, region, opl_here, sink, &mut rays)
+            let Some((lit, opl_m)) = self.join_light(media, path, light, s_m, sink, &mut rays)
             else {
                 continue;
             };
             let t_cam = (-(tau_a + tau_as)).exp();
             let sigma_s = region.sigma_s as f64 * density;
-            let value = (path.throughput * path.nee_weight) as f64
-                * sigma_s
-                * (f * intensity * tr / r2) as f64
-                * t_cam
-                / pdf;
+            let value = (path.throughput * path.nee_weight) as f64 * sigma_s * lit * t_cam / pdf;
             sink.add(opl_m / C_M_PER_S, value, path.scatterings + 1);
         }
         rays
