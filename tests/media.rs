@@ -13,8 +13,7 @@ use tprf_core::film::TimeAxis;
 use tprf_core::reference::furnace::Furnace;
 use tprf_core::reference::plane::Plane;
 use tprf_core::scene::{Camera, Medium, PunctualLight};
-use tprf_core::transport::sampler::Sampler;
-use tprf_core::transport::{RenderSettings, Renderer, Sink};
+use tprf_core::transport::{RenderSettings, Renderer};
 
 /// Mean over pixels, and the standard error of that mean from the pixels' spread, per
 /// bin (every pixel of these scenes has the same expected TPRF).
@@ -99,53 +98,6 @@ fn single_scattering_in_an_infinite_medium_matches_the_closed_form() {
             "standard error {total_se} of {total}"
         );
     }
-}
-
-/// A sink that sums every contribution whenever it arrives: the steady radiance.
-struct Steady {
-    sum: f64,
-}
-
-impl Sink for Steady {
-    fn add(&mut self, arrival_s: f64, value: f64, _scatterings: u32) {
-        assert!(value.is_finite() && arrival_s.is_finite());
-        self.sum += value;
-    }
-    fn window_end_s(&self) -> f64 {
-        f64::INFINITY
-    }
-}
-
-/// Per-pixel steady radiance (mean of `spp` samples) of a `w x h` image of `scene`.
-fn steady_pixels(
-    scene: tprf_core::scene::Scene,
-    w: usize,
-    h: usize,
-    spp: u32,
-    seed: u64,
-) -> Vec<f64> {
-    let settings = RenderSettings {
-        seed,
-        ..RenderSettings::default()
-    };
-    let renderer = Renderer::new(Arc::new(scene), settings);
-    (0..w * h)
-        .map(|p| {
-            let mut rng = Sampler::new(seed, 0, p as u64);
-            let mut sink = Steady { sum: 0.0 };
-            for _ in 0..spp {
-                renderer.trace_sample(p % w, p / w, w, h, &mut rng, &mut sink);
-            }
-            sink.sum / spp as f64
-        })
-        .collect()
-}
-
-fn mean_and_se(v: &[f64]) -> (f64, f64) {
-    let n = v.len() as f64;
-    let mean = v.iter().sum::<f64>() / n;
-    let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    (mean, (var / n).sqrt())
 }
 
 /// A closed furnace whose wall emits `Le` and reflects `rho` holds the uniform isotropic

@@ -11,13 +11,11 @@ use common::cli::{json, stderr, tempdir, tprf};
 use common::*;
 use glam::Vec3;
 use std::path::Path;
-use std::sync::Arc;
 use tprf_core::film::TimeAxis;
 use tprf_core::reference::furnace::Furnace;
 use tprf_core::reference::plane::Plane;
 use tprf_core::scene::{self, Camera, DensityGrid, Medium, PunctualLight, Scene};
-use tprf_core::transport::sampler::Sampler;
-use tprf_core::transport::{RenderSettings, Renderer, Sink};
+use tprf_core::transport::RenderSettings;
 
 /// A `.vol` file's bytes as Mitsuba 3's `gridvolume` documents them: `VOL`, version 3,
 /// encoding 1 (float32), x, y, z sizes, channels (int32), the box (6 float32: xmin ymin
@@ -221,43 +219,9 @@ fn all_orders_in_a_constant_grid_match_the_homogeneous_cube() {
     );
 }
 
-/// A sink that sums every contribution whenever it arrives: the steady radiance.
-struct Steady {
-    sum: f64,
-}
-
-impl Sink for Steady {
-    fn add(&mut self, arrival_s: f64, value: f64, _scatterings: u32) {
-        assert!(value.is_finite() && arrival_s.is_finite());
-        self.sum += value;
-    }
-    fn window_end_s(&self) -> f64 {
-        f64::INFINITY
-    }
-}
-
-/// Mean steady radiance over a `w x h` image's pixels and its standard error.
+/// Mean steady radiance over an 8 x 8 image's pixels and its standard error.
 fn steady_mean(scene: Scene, spp: u32, seed: u64) -> (f64, f64) {
-    let (w, h) = (8, 8);
-    let settings = RenderSettings {
-        seed,
-        ..RenderSettings::default()
-    };
-    let renderer = Renderer::new(Arc::new(scene), settings);
-    let v: Vec<f64> = (0..w * h)
-        .map(|p| {
-            let mut rng = Sampler::new(seed, 0, p as u64);
-            let mut sink = Steady { sum: 0.0 };
-            for _ in 0..spp {
-                renderer.trace_sample(p % w, p / w, w, h, &mut rng, &mut sink);
-            }
-            sink.sum / spp as f64
-        })
-        .collect();
-    let n = v.len() as f64;
-    let mean = v.iter().sum::<f64>() / n;
-    let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    (mean, (var / n).sqrt())
+    mean_and_se(&steady_pixels(scene, 8, 8, spp, seed))
 }
 
 /// A blob: density `peak e^(-|p - c|^2 / (2 s^2))` sampled on an `n^3` grid over the

@@ -11,7 +11,8 @@ use tprf_core::reference::furnace::Furnace;
 use tprf_core::reference::plane::Plane;
 use tprf_core::scene::{Camera, Material, Scene, SceneObject, Triangle, TriangleAttrs};
 use tprf_core::transport::progressive::{Schedule, render};
-use tprf_core::transport::{RenderSettings, Renderer};
+use tprf_core::transport::sampler::Sampler;
+use tprf_core::transport::{RenderSettings, Renderer, Sink};
 
 pub const C: f64 = 299_792_458.0;
 
@@ -173,4 +174,46 @@ pub fn nlos_patch_scene(c: Vec3, side: f32) -> Scene {
         },
     ];
     s
+}
+
+/// A sink that sums every contribution whenever it arrives: the steady radiance.
+pub struct Steady {
+    pub sum: f64,
+}
+
+impl Sink for Steady {
+    fn add(&mut self, arrival_s: f64, value: f64, _scatterings: u32) {
+        assert!(value.is_finite() && arrival_s.is_finite());
+        self.sum += value;
+    }
+    fn window_end_s(&self) -> f64 {
+        f64::INFINITY
+    }
+}
+
+/// Per-pixel steady radiance (mean of `spp` samples) of a `w x h` image of `scene`.
+pub fn steady_pixels(scene: Scene, w: usize, h: usize, spp: u32, seed: u64) -> Vec<f64> {
+    let settings = RenderSettings {
+        seed,
+        ..RenderSettings::default()
+    };
+    let renderer = Renderer::new(Arc::new(scene), settings);
+    (0..w * h)
+        .map(|p| {
+            let mut rng = Sampler::new(seed, 0, p as u64);
+            let mut sink = Steady { sum: 0.0 };
+            for _ in 0..spp {
+                renderer.trace_sample(p % w, p / w, w, h, &mut rng, &mut sink);
+            }
+            sink.sum / spp as f64
+        })
+        .collect()
+}
+
+/// The mean of `v` and its standard error.
+pub fn mean_and_se(v: &[f64]) -> (f64, f64) {
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    (mean, (var / n).sqrt())
 }
