@@ -153,6 +153,7 @@ fn the_tprf_does_not_see_the_ambient_group() {
         position: Vec3::new(0.2, 0.3, 0.2),
         intensity_w_per_sr: [50.0; 3],
         spot: None,
+        projector: None,
     });
     let axis = TimeAxis::new(0.0, 2e-11, 256).unwrap();
     let a = render_scene(plain, 10, 10, axis, 8, 3, 0).film.snapshot();

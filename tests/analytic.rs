@@ -386,7 +386,9 @@ fn glass_slab_delays_by_n_d_over_c() {
     let (n, d, gap, le) = (1.5f32, 0.3f32, 0.5f32, 2.0f32);
     let cam = Camera {
         world_from_camera: Affine3A::from_translation(Vec3::new(0.0, 0.0, 1.0)),
-        yfov_rad: 1f32.to_radians(),
+        fov_rad: 1f32.to_radians(),
+        fov_axis: tprf_core::scene::FovAxis::Y,
+        near_m: 0.01,
     };
     let mut s = empty_scene(cam);
     s.materials.push(Material {
@@ -463,7 +465,9 @@ fn partly_covered_layer_passes_light_undelayed() {
     let (big_h, h1, a, rho, i) = (10.0f32, 4.0f32, 0.5f32, 0.6f32, 100.0f32);
     let cam = Camera {
         world_from_camera: Affine3A::from_translation(Vec3::new(0.0, 0.0, big_h)),
-        yfov_rad: 1f32.to_radians(),
+        fov_rad: 1f32.to_radians(),
+        fov_axis: tprf_core::scene::FovAxis::Y,
+        near_m: 0.01,
     };
     let mut s = empty_scene(cam);
     let mut leaf = Material::lambertian("leaf", [rho; 3]);
@@ -486,6 +490,7 @@ fn partly_covered_layer_passes_light_undelayed() {
         position: Vec3::new(0.0, 0.0, big_h),
         intensity_w_per_sr: [i; 3],
         spot: None,
+        projector: None,
     });
     let axis = TimeAxis::new(0.0, 0.1 / C, 300).unwrap();
     let spp = 2048;

@@ -52,7 +52,7 @@ fn centroid(t: &Triangle) -> DVec3 {
 /// A world-space ray direction through the image point (sx, sy) in [-1, 1] of a square
 /// image (sy = 1 the top edge).
 fn camera_ray(s: &Scene, sx: f64, sy: f64) -> DVec3 {
-    let k = (0.5 * s.camera.yfov_rad as f64).tan();
+    let k = (0.5 * s.camera.fov_rad as f64).tan();
     let local = Vec3::new((sx * k) as f32, (sy * k) as f32, -1.0);
     s.camera
         .world_from_camera
@@ -267,7 +267,7 @@ fn canopy_physical_setup() {
         "nadir ground {radiance} W/(m^2 sr)"
     );
     // The view covers the patch: the footprint on the ground lies inside it.
-    let half_view = r * (0.5 * s.camera.yfov_rad as f64).tan();
+    let half_view = r * (0.5 * s.camera.fov_rad as f64).tan();
     assert!((12.0..20.0).contains(&half_view), "half view {half_view} m");
 
     // Coverage of the foliage layer seen from above: a grid of vertical rays over the
@@ -351,7 +351,7 @@ fn asset(name: &str) {
     assert!(m.abs_diff_eq(glam::Mat4::from(s.camera.world_from_camera), 1e-6));
     match cam.camera().unwrap().projection() {
         gltf::camera::Projection::Perspective(p) => {
-            assert!((p.yfov() - s.camera.yfov_rad).abs() < 1e-7)
+            assert!((p.yfov() - s.camera.fov_rad).abs() < 1e-7)
         }
         _ => panic!("camera is not perspective"),
     }
@@ -491,7 +491,7 @@ fn round_trip(name: &str) {
         }
     }
     assert!((loaded.camera.position() - built.camera.position()).length() <= 1e-6 * scale);
-    assert!((loaded.camera.yfov_rad - built.camera.yfov_rad).abs() < 1e-6);
+    assert!((loaded.camera.fov_rad - built.camera.fov_rad).abs() < 1e-6);
     let fwd = |s: &Scene| s.camera.world_from_camera.transform_vector3(Vec3::NEG_Z);
     assert!((fwd(&loaded) - fwd(&built)).length() < 1e-6);
 }

@@ -368,7 +368,7 @@ fn camera_yfov_and_position_from_its_node() {
     let mut doc = doc_with_nodes(bin, json!([mesh]), nodes);
     doc["cameras"] = json!([{"type": "perspective", "perspective": {"yfov": 0.7, "znear": 0.01}}]);
     let scene = load_doc("camera", &doc);
-    assert_eq!(scene.camera.yfov_rad, 0.7);
+    assert_eq!(scene.camera.fov_rad, 0.7);
     assert!(close(scene.camera.position(), Vec3::new(4.0, 0.5, 0.0)));
     let w = scene.camera.world_from_camera;
     assert!(close(w.transform_vector3(Vec3::NEG_Z), Vec3::NEG_X));
@@ -386,7 +386,7 @@ fn orthographic_camera_is_noted_and_replaced() {
     doc["cameras"] = json!([{"type": "orthographic", "orthographic": ortho}]);
     let scene = load_doc("ortho", &doc);
     assert!(has_note(&scene, "is orthographic"), "{:?}", scene.notes);
-    assert_eq!(scene.camera.yfov_rad, std::f32::consts::FRAC_PI_4);
+    assert_eq!(scene.camera.fov_rad, std::f32::consts::FRAC_PI_4);
 }
 
 #[test]

@@ -61,6 +61,7 @@ fn single_scattering_in_an_infinite_medium_matches_the_closed_form() {
             position: Vec3::ZERO,
             intensity_w_per_sr: [i as f32; 3],
             spot: None,
+            projector: None,
         });
         // Distances 1 m to 9 m, 40 bins.
         let t_of = |r: f64| 2.0 * n * r / C;
@@ -416,6 +417,7 @@ fn late_reflectance_of_a_semi_infinite_medium_follows_diffusion() {
         position: Vec3::new(0.0, 0.0, h_m as f32),
         intensity_w_per_sr: [i as f32; 3],
         spot: None,
+        projector: None,
     });
     // Optical path in the medium 0.5 m to 1.5 m (50 to 150 / mu_s'), 8 bins; the light
     // travels 2 h in vacuum first.

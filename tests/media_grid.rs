@@ -61,6 +61,7 @@ fn a_constant_grid_is_the_homogeneous_medium_of_its_density() {
             position: Vec3::ZERO,
             intensity_w_per_sr: [i as f32; 3],
             spot: None,
+            projector: None,
         });
         let t_of = |r: f64| 2.0 * n * r / C;
         let axis = TimeAxis::new(t_of(1.0), t_of(0.2), 40).unwrap();
@@ -303,6 +304,7 @@ fn write_gltf(dir: &Path, medium: serde_json::Value) -> std::path::PathBuf {
         position: Vec3::new(0.0, 0.0, 4.0),
         intensity_w_per_sr: [10.0; 3],
         spot: None,
+        projector: None,
     });
     let path = dir.join("scene.gltf");
     scene::gltf_save::save_gltf(&s, &path).unwrap();

@@ -176,7 +176,7 @@ fn a_scene_written_by_hand_loads_as_worked_out_and_renders_its_single_bounce() {
     let up = s.camera.world_from_camera.transform_vector3(Vec3::Y);
     assert!(up.abs_diff_eq(Vec3::Y, 1e-6), "{up}");
     let yfov_deg = 2.0 * (30f64.to_radians().tan() / 2.0).atan().to_degrees();
-    assert!((f64::from(s.camera.yfov_rad).to_degrees() - yfov_deg).abs() < 1e-4);
+    assert!((f64::from(s.camera.yfov_rad(2.0)).to_degrees() - yfov_deg).abs() < 1e-4);
 
     // Render settings: the film's size and bins; the window from start_opl + near_clip
     // (mitransient counts from the near plane); max_depth 4 = 3 scattering events.
@@ -186,7 +186,10 @@ fn a_scene_written_by_hand_loads_as_worked_out_and_renders_its_single_bounce() {
     assert_eq!(v(&file.bins), Some(100));
     assert_eq!(v(&file.spp), Some(16));
     assert_eq!(file.max_bounces.as_ref().map(|s| s.value), Some(3));
-    let t0_opl_m = file.t0_opl_m.as_ref().unwrap().value;
+    // start_opl as the file gives it; from the pinhole (tprf's default clock) 0.5 m
+    // (near_clip) later.
+    assert_eq!(file.t0_opl_m.as_ref().unwrap().value, 9.98);
+    let t0_opl_m = file.t0_opl_m_for(scene::TimeOrigin::Pinhole).unwrap().value;
     let dt_opl_m = file.dt_opl_m.as_ref().unwrap().value;
     assert!((t0_opl_m - 10.48).abs() < 1e-12, "{t0_opl_m}");
     assert!((dt_opl_m - 0.05).abs() < 1e-12);
@@ -272,7 +275,9 @@ fn the_vendored_cornell_boxes_load_their_meshes_and_light() {
         // 1000 + near_clip 10.
         assert_eq!(file.width.as_ref().unwrap().value, 400);
         assert_eq!(file.bins.as_ref().unwrap().value, 400);
-        assert_eq!(file.t0_opl_m.as_ref().unwrap().value, 1010.0);
+        assert_eq!(file.t0_opl_m.as_ref().unwrap().value, 1000.0);
+        let pinhole = file.t0_opl_m_for(scene::TimeOrigin::Pinhole).unwrap().value;
+        assert_eq!(pinhole, 1010.0);
         assert_eq!(file.dt_opl_m.as_ref().unwrap().value, 6.5);
         assert_eq!(file.max_bounces.as_ref().unwrap().value, bounces);
         assert!((s.camera.position() - Vec3::new(278.0, 273.0, -800.0)).length() < 1e-3);
@@ -496,7 +501,7 @@ fn a_mitsuba_scene_saved_as_gltf_loads_back_the_same() {
     };
     assert_eq!(emissive(&back), emissive(&s));
     assert!((back.camera.position() - s.camera.position()).length() < 1e-3);
-    assert!((back.camera.yfov_rad - s.camera.yfov_rad).abs() < 1e-6);
+    assert!((back.camera.fov_rad - s.camera.fov_rad).abs() < 1e-6);
 }
 
 #[test]
@@ -790,4 +795,336 @@ fn a_mitransient_nlos_scene_is_captured_by_tprf_nlos_with_its_settings() {
         .unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("tprf nlos"), "{err}");
+}
+
+/// The camera of `s` as tprf renders it: the unit direction through image point `(px,
+/// py)` of a `w x h` film.
+fn camera_dir(s: &Scene, px: f64, py: f64, w: usize, h: usize) -> Vec3 {
+    let (tx, ty) = s.camera.tan_half_fov(w as f32 / h as f32);
+    let sx = (2.0 * px / w as f64 - 1.0) as f32 * tx;
+    let sy = (1.0 - 2.0 * py / h as f64) as f32 * ty;
+    s.camera
+        .world_from_camera
+        .transform_vector3(Vec3::new(sx, sy, -1.0))
+        .normalize()
+}
+
+#[test]
+fn a_field_of_view_keeps_its_axis_on_a_film_of_another_size() {
+    let dir = tmp("fov");
+    let xml = write(
+        &dir,
+        "fov.xml",
+        r#"<scene version="3.0.0">
+    <sensor type="perspective">
+        <float name="fov" value="35"/>
+        <float name="near_clip" value="2"/>
+        <film type="transient_hdr_film">
+            <integer name="width" value="720"/><integer name="height" value="1280"/>
+            <float name="start_opl" value="3"/><float name="bin_width_opl" value="0.1"/>
+        </film>
+    </sensor>
+    <integrator type="transient_path"><boolean name="camera_unwarp" value="true"/></integrator>
+    <shape type="rectangle"><transform name="to_world"><translate z="5"/></transform></shape>
+</scene>"#,
+    );
+    let (s, file) = scene::load_with_settings(&xml).unwrap();
+    // Mitsuba keeps fov 35 across x for any film: a square one is 35 degrees tall too,
+    // the file's own 720 x 1280 is 2 atan(tan(17.5) 1280 / 720) = 58.52 tall.
+    let deg = |r: f32| f64::from(r).to_degrees();
+    assert!((deg(s.camera.yfov_rad(1.0)) - 35.0).abs() < 1e-4);
+    let tall = 2.0
+        * (17.5f64.to_radians().tan() * 1280.0 / 720.0)
+            .atan()
+            .to_degrees();
+    assert!((deg(s.camera.yfov_rad(720.0 / 1280.0)) - tall).abs() < 1e-3);
+    // camera_unwarp: the first hit's clock; the window counted from the near plane
+    // (start_opl), or 2 m later from the pinhole.
+    use tprf_core::scene::TimeOrigin;
+    assert_eq!(
+        file.time_origin.as_ref().map(|o| o.value),
+        Some(TimeOrigin::FirstHit)
+    );
+    let t0 = |o| file.t0_opl_m_for(o).unwrap().value;
+    assert_eq!(t0(TimeOrigin::FirstHit), 3.0);
+    assert_eq!(t0(TimeOrigin::NearPlane), 3.0);
+    assert_eq!(t0(TimeOrigin::Pinhole), 5.0);
+    assert_eq!(s.camera.near_m, 2.0);
+}
+
+#[test]
+fn angular_area_emitters_and_projectors_are_read_as_mitransient_defines_them() {
+    let dir = tmp("emitters");
+    let xml = write(
+        &dir,
+        "e.xml",
+        r#"<scene version="3.0.0">
+    <shape type="rectangle">
+        <emitter type="angulararea">
+            <rgb name="radiance" value="2, 2, 2"/>
+            <float name="cutoff_angle" value="35"/><float name="beam_width" value="20"/>
+        </emitter>
+    </shape>
+    <shape type="rectangle"><transform name="to_world"><translate x="3"/></transform>
+        <emitter type="angulararea"><float name="cutoff_angle" value="30"/></emitter>
+    </shape>
+    <emitter type="projector">
+        <rgb name="irradiance" value="100"/><float name="scale" value="2"/>
+        <float name="fov" value="0.2"/>
+        <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+    </emitter>
+</scene>"#,
+    );
+    let s = scene::load(&xml).unwrap();
+    let falloffs: Vec<_> = s
+        .materials
+        .iter()
+        .filter_map(|m| m.emission_falloff)
+        .map(|f| (f.beam_width_rad.to_degrees(), f.cutoff_rad.to_degrees()))
+        .collect();
+    let near = |a: f32, b: f32| (a - b).abs() < 1e-4;
+    assert_eq!(falloffs.len(), 2, "{falloffs:?}");
+    assert!(near(falloffs[0].0, 20.0) && near(falloffs[0].1, 35.0));
+    // beam_width defaults to the cutoff.
+    assert!(near(falloffs[1].0, 30.0) && near(falloffs[1].1, 30.0));
+    // The projector: pi E scale on its axis (Mitsuba: a white plane 1 m away shows
+    // radiance E scale), its frustum 0.2 degrees across, aimed down.
+    let p = &s.lights[0];
+    let proj = p.projector.expect("a projector");
+    assert!((p.intensity_w_per_sr[0] - std::f32::consts::PI * 200.0).abs() < 1e-3);
+    assert!((proj.direction - Vec3::NEG_Z).length() < 1e-6);
+    assert!((proj.tan_half_x - 0.1f32.to_radians().tan()).abs() < 1e-9);
+    assert_eq!(p.position, Vec3::new(0.0, 0.0, 5.0));
+    // A beam wider than its cutoff is refused, naming where.
+    let e = refusal(
+        &dir,
+        "wide.xml",
+        r#"<scene version="3.0.0"><shape type="rectangle">
+        <emitter type="angulararea"><float name="cutoff_angle" value="10"/><float name="beam_width" value="20"/></emitter>
+    </shape></scene>"#,
+    );
+    assert!(
+        e.contains("wide.xml:2") && e.contains("wider than the cutoff"),
+        "{e}"
+    );
+}
+
+#[test]
+fn older_nlos_files_aim_the_laser_from_the_meter_as_they_mean() {
+    // As mitransient's examples/transient-nlos/nlos_Z.xml: the laser's origin, the film
+    // pixel it looks at and confocal false on the capture meter; the projector at the
+    // origin with no transform.
+    let dir = tmp("nlos-z");
+    let xml = write(
+        &dir,
+        "nlos_Z.xml",
+        r#"<scene version="3.3.0">
+    <integrator type="transient_nlos_path"><integer name="max_depth" value="-1"/></integrator>
+    <shape type="rectangle"><transform name="to_world"><scale value="0.1"/><translate z="1"/></transform></shape>
+    <emitter type="projector"><rgb name="irradiance" value="1"/><float name="fov" value="0.2"/></emitter>
+    <shape type="rectangle" id="relay_wall">
+        <sensor type="nlos_capture_meter">
+            <sampler type="independent"><integer name="sample_count" value="64"/></sampler>
+            <boolean name="confocal" value="false"/>
+            <boolean name="account_first_and_last_bounces" value="false"/>
+            <point name="sensor_origin" x="-0.5" y="0.0" z="0.25"/>
+            <point name="laser_origin" x="-0.5" y="0.0" z="0.25"/>
+            <point name="laser_lookat_pixel" x="16" y="24" z="0"/>
+            <film type="transient_hdr_film">
+                <integer name="width" value="32"/><integer name="height" value="32"/>
+                <integer name="temporal_bins" value="300"/>
+                <float name="bin_width_opl" value="0.01"/><float name="start_opl" value="0"/>
+            </film>
+        </sensor>
+    </shape>
+</scene>"#,
+    );
+    let (_, file) = scene::load_with_settings(&xml).unwrap();
+    let n = file.nlos.expect("an NLOS capture scene");
+    assert_eq!(n.laser_origin.unwrap().value, [-0.5, 0.0, 0.25]);
+    // Pixel (16, 24) of 32 x 32 on the unit rectangle: (2 16.5 / 32 - 1, 2 24.5 / 32 - 1).
+    let p = n.laser_point.unwrap().value;
+    assert!((p[0] - 0.03125).abs() < 1e-12 && (p[1] - 0.53125).abs() < 1e-12 && p[2] == 0.0);
+    assert_eq!(n.capture_type.unwrap().value, "single");
+    // tprf nlos captures it with those, saying so, and no note calls them ignored.
+    let out = dir.join("capture");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_tprf"))
+        .args([
+            "nlos",
+            &xml,
+            "--out",
+            out.to_str().unwrap(),
+            "--grid",
+            "4x4",
+        ])
+        .args(["--spp", "16", "--bins", "300"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("--laser-origin [-0.5, 0.0, 0.25]"), "{err}");
+    assert!(
+        err.contains("--laser-point [0.03125, 0.53125, 0.0]"),
+        "{err}"
+    );
+    assert!(!err.contains("ignored"), "{err}");
+}
+
+#[test]
+fn a_camera_watching_an_nlos_integrator_renders_with_tprf_render() {
+    // As mitransient's examples/transient-nlos/nlos-z-simple.xml: a camera watches the
+    // relay wall (z = 0) while a projector beside it lights one spot s; a square patch in
+    // front of the wall is the hidden scene; the integrator leaves both devices' legs
+    // out. A pixel seeing wall point x sees light that went s -> y -> x for y on the
+    // patch (two points of the flat wall do not see each other): its first light at the
+    // least |x - y| + |y - s| over the patch and the pixel's footprint, not before.
+    let dir = tmp("nlos-camera");
+    let xml = write(
+        &dir,
+        "nlos-camera.xml",
+        r#"<scene version="2.1.0">
+    <sensor type="perspective">
+        <float name="fov" value="40"/><float name="near_clip" value="0.1"/>
+        <transform name="to_world"><lookat origin="-1, 0, 1" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <sampler type="independent"><integer name="sample_count" value="256"/></sampler>
+        <film type="transient_hdr_film">
+            <integer name="width" value="8"/><integer name="height" value="8"/>
+            <integer name="temporal_bins" value="300"/>
+            <float name="bin_width_opl" value="0.01"/><float name="start_opl" value="0"/>
+        </film>
+    </sensor>
+    <integrator type="transient_nlos_path">
+        <boolean name="account_first_and_last_bounces" value="False"/>
+        <integer name="capture_type" value="1"/>
+    </integrator>
+    <emitter type="projector">
+        <rgb name="irradiance" value="100.0"/><float name="fov" value="0.2"/>
+        <transform name="to_world"><lookat origin="-1, 0, 1" target="0.2, 0.1, 0" up="0, 1, 0"/></transform>
+    </emitter>
+    <shape type="rectangle" id="wall"><transform name="to_world"><scale value="2"/></transform></shape>
+    <shape type="rectangle" id="hidden">
+        <transform name="to_world"><scale value="0.2"/><rotate y="1" angle="180"/><translate x="0.8" z="0.5"/></transform>
+    </shape>
+</scene>"#,
+    );
+    let (s, file) = scene::load_with_settings(&xml).unwrap();
+    use tprf_core::scene::{PulseOrigin, TimeOrigin};
+    assert!(
+        file.nlos.is_none(),
+        "a camera's view is not a tprf nlos capture"
+    );
+    assert_eq!(
+        file.time_origin.map(|o| o.value),
+        Some(TimeOrigin::FirstHit)
+    );
+    assert_eq!(
+        file.pulse_origin.map(|o| o.value),
+        Some(PulseOrigin::FirstHit)
+    );
+    assert!(s.lights[0].projector.is_some());
+    // The spot: where the projector's axis meets the wall (a spot of 2.5 mm: a point
+    // here), and the power the projector puts into it: pi E 4 tan^2(0.1 deg) W.
+    let light = &s.lights[0];
+    let proj = light.projector.unwrap();
+    let (p, d) = (light.position, proj.direction);
+    let spot = (p + d * (-p.z / d.z)).as_dvec3();
+    let power = f64::from(light.intensity_w_per_sr[0])
+        * 4.0
+        * f64::from(proj.tan_half_x)
+        * f64::from(proj.tan_half_y);
+    let (w, h) = (8, 8);
+    let axis = TimeAxis::new(0.0, 0.01 / C, 300).unwrap();
+    // Three scattering events: the spot, the patch, the wall point the pixel sees.
+    let settings = RenderSettings {
+        time_origin: TimeOrigin::FirstHit,
+        pulse_origin: PulseOrigin::FirstHit,
+        adaptive: false,
+        max_bounces: 3,
+        ..RenderSettings::default()
+    };
+    let r = common::render_with(s.clone(), w, h, axis, 1024, settings, 0);
+    // Worked out here: radiance at wall point x from the spot through the patch (every
+    // surface the default diffuse 0.5, the patch [0.6, 1.0] x [-0.2, 0.2] at z = 0.5
+    // facing the wall), L(x) = P (rho / pi)^3 sum_y cos_x cos_y cos_y' cos_s / (|x - y|^2
+    // |y - s|^2) dA, arriving at |x - y| + |y - s| (both devices' legs left out); each
+    // pixel the mean over its footprint (4 x 4 points), the patch in 2 cm cells.
+    let rho_pi = 0.5 / std::f64::consts::PI;
+    let eye = s.camera.position();
+    let cell = 0.02;
+    let patch: Vec<glam::DVec3> = (0..20)
+        .flat_map(|i| (0..20).map(move |j| (i, j)))
+        .map(|(i, j)| {
+            glam::DVec3::new(
+                0.6 + cell * (i as f64 + 0.5),
+                -0.2 + cell * (j as f64 + 0.5),
+                0.5,
+            )
+        })
+        .collect();
+    let (mut want_total, mut want_time, mut got_total, mut got_time) = (0.0, 0.0, 0.0, 0.0);
+    for y in 0..h {
+        for x in 0..w {
+            for i in 0..4 {
+                for j in 0..4 {
+                    let (px, py) = (
+                        x as f64 + (i as f64 + 0.5) / 4.0,
+                        y as f64 + (j as f64 + 0.5) / 4.0,
+                    );
+                    let d = camera_dir(&s, px, py, w, h).as_dvec3();
+                    let xw = eye.as_dvec3() + d * (-f64::from(eye.z) / d.z);
+                    for q in &patch {
+                        let (a, b) = (*q - xw, spot - *q);
+                        let (la, lb) = (a.length(), b.length());
+                        // Cosines at the wall (normal +z) and at the patch (normal -z).
+                        let g = (a.z / la) * (a.z / la) * (b.z.abs() / lb) * (b.z.abs() / lb)
+                            / (la * la * lb * lb);
+                        let l = power * rho_pi.powi(3) * g * cell * cell / 16.0;
+                        want_total += l;
+                        want_time += l * (la + lb);
+                    }
+                }
+            }
+            let tprf = r.film.pixel_tprf(x, y);
+            for (b, v) in tprf.iter().enumerate().skip(50) {
+                got_total += v;
+                got_time += v * (b as f64 + 0.5) * 0.01;
+            }
+            // Nothing between the spot seen directly (t = 0, both legs out) and the
+            // patch's light (its least path is over 1.1 m for every pixel).
+            assert!(
+                tprf.iter().take(50).skip(1).all(|v| *v == 0.0),
+                "pixel ({x}, {y}): light between the spot's direct return and the patch's"
+            );
+        }
+    }
+    let (want_mean, got_mean) = (want_time / want_total, got_time / got_total);
+    eprintln!(
+        "camera NLOS: image total {got_total:.4e} vs {want_total:.4e} worked out; mean arrival {got_mean:.4} m vs {want_mean:.4} m"
+    );
+    assert!(
+        (got_total / want_total - 1.0).abs() < 0.06,
+        "{got_total} vs {want_total}"
+    );
+    assert!(
+        (got_mean - want_mean).abs() < 0.01,
+        "{got_mean} m vs {want_mean} m"
+    );
+    // tprf render takes the file as it is.
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_tprf"))
+        .args([
+            "render",
+            &xml,
+            "--out",
+            dir.join("r").to_str().unwrap(),
+            "--spp",
+            "4",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("--time-origin first-hit") && err.contains("--pulse-origin first-hit"),
+        "{err}"
+    );
 }

@@ -70,7 +70,12 @@ fn npy(path: &Path) -> Vec<f64> {
 
 /// tprf's cube of `xml` for each seed (through the CLI: the file's settings, the size
 /// and spp given), and mitransient's.
-fn render_both(python: &Path, xml: &Path, dir: &Path) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
+fn render_both(
+    python: &Path,
+    xml: &Path,
+    dir: &Path,
+    extra: &[&str],
+) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
     let mut tprf = Vec::new();
     for seed in SEEDS {
         let out = dir.join(format!("tprf_{seed}"));
@@ -79,6 +84,7 @@ fn render_both(python: &Path, xml: &Path, dir: &Path) -> (Vec<Vec<f64>>, Vec<Vec
             .arg(xml)
             .args(["--width", &SIZE.to_string(), "--height", &SIZE.to_string()])
             .args(["--spp", &TPRF_SPP.to_string(), "--seed", &seed.to_string()])
+            .args(extra)
             .arg("--out")
             .arg(&out)
             .status()
@@ -314,17 +320,41 @@ fn tprf_matches_mitransient_on_the_same_xml_files() {
         common::serialized::decoy_then_pyramid(4),
     )
     .unwrap();
-    let cbox = repo().join("assets/mitsuba/mitransient/cornell-box");
-    for (name, xml, bins) in [
-        ("cbox_diffuse", cbox.join("cbox_diffuse.xml"), 400),
-        ("cbox_mirror", cbox.join("cbox_mirror.xml"), 400),
+    let examples = repo().join("assets/mitsuba/mitransient");
+    let cbox = examples.join("cornell-box");
+    // mitransient's clock: from the near plane (its bins of 0.5 m against near_clip 10
+    // at the angular scene's corners: 2.4 bins apart from the pinhole's).
+    let near: &[&str] = &["--time-origin", "near-plane"];
+    for (name, xml, bins, extra) in [
+        ("cbox_diffuse", cbox.join("cbox_diffuse.xml"), 400, &[][..]),
+        ("cbox_mirror", cbox.join("cbox_mirror.xml"), 400, &[]),
         // Two boxes of homogeneous media (transient_prbvolpath in mitransient).
-        ("cbox_volumetric", cbox.join("cbox_volumetric.xml"), 400),
-        ("written", written, 200),
+        (
+            "cbox_volumetric",
+            cbox.join("cbox_volumetric.xml"),
+            400,
+            &[],
+        ),
+        ("written", written, 200, &[]),
+        // An angular area light (mitransient's angulararea).
+        (
+            "angular_1light",
+            examples.join("angulararea-emitter/angular_1light.xml"),
+            200,
+            near,
+        ),
+        // An NLOS scene watched by a camera (transient_nlos_path, a projector, both
+        // devices' legs left out).
+        (
+            "nlos-z-simple",
+            examples.join("transient-nlos/nlos-z-simple.xml"),
+            300,
+            &[],
+        ),
     ] {
         let d = dir.join(name);
         std::fs::create_dir_all(&d).unwrap();
-        let (tprf, mt) = render_both(&python, &xml, &d);
+        let (tprf, mt) = render_both(&python, &xml, &d, extra);
         compare(name, bins, &tprf, &mt);
     }
 }

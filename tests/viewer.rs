@@ -2203,7 +2203,7 @@ fn a_typed_pose_round_trips_is_recorded_saved_and_reset() {
         glam::Mat4::from(saved.camera.world_from_camera)
             .abs_diff_eq(glam::Mat4::from(rendered.world_from_camera), 1e-6)
     );
-    assert!((saved.camera.yfov_rad - 50f32.to_radians()).abs() < 1e-6);
+    assert!((saved.camera.fov_rad - 50f32.to_radians()).abs() < 1e-6);
 
     // Reset: the scene's camera again, as before any move.
     let old = h.state().snapshot().unwrap();

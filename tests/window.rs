@@ -50,7 +50,9 @@ fn edge_lights() -> Scene {
         lights: Vec::new(),
         camera: Camera {
             world_from_camera: Affine3A::IDENTITY,
-            yfov_rad: YFOV_DEG.to_radians(),
+            fov_rad: YFOV_DEG.to_radians(),
+            fov_axis: tprf_core::scene::FovAxis::Y,
+            near_m: 0.01,
         },
         ambient: Default::default(),
         objects: Vec::new(),

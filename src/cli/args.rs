@@ -138,6 +138,19 @@ pub struct RequestArgs {
     /// The camera's vertical field of view, degrees (default: the scene camera's).
     #[arg(long, value_name = "DEG")]
     pub fov: Option<f64>,
+    /// Where arrival times start: `pinhole` (the time a real camera sees; the default),
+    /// `near-plane` (from the camera's near clip plane, as mitransient counts: its cube
+    /// bin for bin) or `first-hit` (the camera's leg left out, each pixel's clock
+    /// starting at the first surface it sees: mitransient's camera_unwarp). An XML
+    /// scene's camera_unwarp stands in when it is not given.
+    #[arg(long, value_name = "ORIGIN", value_parser = parse_time_origin)]
+    pub time_origin: Option<tprf_core::scene::TimeOrigin>,
+    /// When the pulse starts: `light` (as it leaves the light; the default) or
+    /// `first-hit` (at the first surface it lights: the light's leg left out, as an NLOS
+    /// laser's spot firing at t = 0; mitransient's account_first_and_last_bounces
+    /// false). An XML scene's NLOS integrator stands in when it is not given.
+    #[arg(long, value_name = "ORIGIN", value_parser = parse_pulse_origin)]
+    pub pulse_origin: Option<tprf_core::scene::PulseOrigin>,
     /// The most memory the film may take, with a unit (`2GiB`, `512MiB`, `300MB`; no
     /// unit: bytes). A render whose first pass would not fit is refused with the size
     /// foreseen; before a pass that would take the film over this, or over what the
@@ -189,6 +202,22 @@ impl RequestArgs {
                 from: s.from.clone(),
             }),
         );
+        let time_origin = match (self.time_origin, &file.time_origin) {
+            (Some(o), _) => o,
+            (None, Some(s)) => {
+                used.push(format!("--time-origin {} ({})", s.value, s.from));
+                s.value
+            }
+            (None, None) => default.time_origin,
+        };
+        let pulse_origin = match (self.pulse_origin, &file.pulse_origin) {
+            (Some(o), _) => o,
+            (None, Some(s)) => {
+                used.push(format!("--pulse-origin {} ({})", s.value, s.from));
+                s.value
+            }
+            (None, None) => default.pulse_origin,
+        };
         let mut opl =
             |flag: &str, given: Option<f64>, f: &Option<FileSetting<f64>>| match (given, f) {
                 (Some(v), _) => Some(v),
@@ -198,7 +227,7 @@ impl RequestArgs {
                 }
                 (None, None) => None,
             };
-        let t0_s = opl("--t0", self.t0, &file.t0_opl_m);
+        let t0_s = opl("--t0", self.t0, &file.t0_opl_m_for(time_origin));
         let dt_s = opl("--dt", self.dt, &file.dt_opl_m);
         let size =
             |v: Option<u64>, d: usize| v.map_or(d, |v| usize::try_from(v).unwrap_or(usize::MAX));
@@ -225,6 +254,8 @@ impl RequestArgs {
             look_at_m: self.look_at,
             up: self.up,
             fov_deg: self.fov,
+            time_origin,
+            pulse_origin,
             threads: self.threads,
             format: self.format,
             frames: self.frames,
@@ -288,6 +319,16 @@ fn vec3_value(text: &str) -> Result<[f64; 3], String> {
 
 fn parse_format(s: &str) -> Result<tprf_core::export::CubeFormat, String> {
     s.parse()
+}
+
+fn parse_time_origin(s: &str) -> Result<tprf_core::scene::TimeOrigin, String> {
+    s.parse()
+        .map_err(|e: tprf_core::scene::UnknownOrigin| e.to_string())
+}
+
+fn parse_pulse_origin(s: &str) -> Result<tprf_core::scene::PulseOrigin, String> {
+    s.parse()
+        .map_err(|e: tprf_core::scene::UnknownOrigin| e.to_string())
 }
 
 fn parse_channel(s: &str) -> Result<tprf_core::scene::Channel, String> {

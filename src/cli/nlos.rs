@@ -230,11 +230,14 @@ fn settings_of(a: &CaptureArgs, file: &NlosFileSettings) -> Result<(CaptureSetti
             ly: grid[1],
         },
         _ => Scan::Single {
-            laser_point: a
-                .laser_point
-                .as_deref()
-                .map(|p| parse_point(p, "--laser-point"))
-                .transpose()?,
+            laser_point: match (&a.laser_point, &file.laser_point) {
+                (Some(p), _) => Some(parse_point(p, "--laser-point")?),
+                (None, Some(f)) => {
+                    from_file("--laser-point", format!("{:?}", f.value), &f.from);
+                    Some(f.value.map(|c| c as f32))
+                }
+                (None, None) => None,
+            },
         },
     };
     let point = |p: &Option<String>, flag| p.as_deref().map(|p| parse_point(p, flag)).transpose();

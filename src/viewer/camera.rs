@@ -37,7 +37,7 @@ impl CameraPose {
     /// position; a look-at point along its view, as far as the centre of `bounds` (the
     /// orbit's pivot; 1 m without bounds); up +Y when the camera is upright and not
     /// rolled (its right vector level), else its own up; its field of view.
-    pub fn of_camera(camera: &Camera, bounds: Option<Bounds>) -> CameraPose {
+    pub fn of_camera(camera: &Camera, aspect: f32, bounds: Option<Bounds>) -> CameraPose {
         let m = camera.world_from_camera.matrix3;
         let (right, up_c, forward) = (
             m.x_axis.as_dvec3().normalize_or_zero(),
@@ -62,7 +62,7 @@ impl CameraPose {
             position_m: short3(position),
             look_at_m: short3(position + forward * distance_m),
             up: short3(up),
-            fov_deg: short(f64::from(camera.yfov_rad).to_degrees()),
+            fov_deg: short(f64::from(camera.yfov_rad(aspect)).to_degrees()),
         }
     }
 
@@ -375,7 +375,7 @@ mod tests {
             glam::Mat3A::from_rotation_z(0.3) * rolled.world_from_camera.matrix3;
         let down = Camera::look_at(Vec3::new(3.0, 4.0, 2.0), Vec3::new(0.0, 1.0, 0.0), 1.1);
         for cam in [upright, rolled, down] {
-            let pose = CameraPose::of_camera(&cam, Some(scene_bounds()));
+            let pose = CameraPose::of_camera(&cam, 1.5, Some(scene_bounds()));
             assert!(pose.problem().is_none(), "{:?}", pose.problem());
             let placed = apply_camera(&pose.into_request(RenderRequest::new("x")), &upright)
                 .expect("placed");
@@ -384,13 +384,13 @@ mod tests {
                 glam::Mat4::from(cam.world_from_camera),
             );
             assert!(a.abs_diff_eq(b, 1e-5), "{a} vs {b}");
-            assert!((placed.yfov_rad - cam.yfov_rad).abs() < 1e-6);
+            assert!((placed.yfov_rad(1.5) - cam.yfov_rad(1.5)).abs() < 1e-6);
         }
-        let pose = CameraPose::of_camera(&upright, Some(scene_bounds()));
+        let pose = CameraPose::of_camera(&upright, 1.5, Some(scene_bounds()));
         assert!(close(pose.look_at_m, [0.0, 1.0, 0.0], 1e-6));
         assert_eq!(pose.up, [0.0, 1.0, 0.0]);
         // Rolled: its own up, not +Y.
-        let pose = CameraPose::of_camera(&rolled, Some(scene_bounds()));
+        let pose = CameraPose::of_camera(&rolled, 1.5, Some(scene_bounds()));
         assert!(pose.up[0].abs() > 0.2, "{:?}", pose.up);
     }
 

@@ -5,7 +5,7 @@ use super::camera::CameraPose;
 use super::colormap::{ColorMap, ExposureMode};
 use serde::{Deserialize, Serialize};
 use tprf_core::request::{RenderRequest, parse_time_field};
-use tprf_core::scene::Channel;
+use tprf_core::scene::{Channel, PulseOrigin, TimeOrigin};
 use tprf_core::sensor::Sensor;
 
 /// Everything the viewer remembers between runs (eframe storage).
@@ -19,6 +19,10 @@ pub struct ViewerSettings {
     /// Window start and bin width with units ("" = automatic).
     pub t0: String,
     pub dt: String,
+    /// Where arrival times start (the request's `time_origin`) and when the pulse
+    /// starts (its `pulse_origin`).
+    pub time_origin: TimeOrigin,
+    pub pulse_origin: PulseOrigin,
     /// Samples per pixel to stop at (0 = keep going).
     pub spp_target: u64,
     /// Relative error estimate (%) to stop at (0 = keep going).
@@ -90,6 +94,8 @@ impl Default for ViewerSettings {
             bins: 256,
             t0: String::new(),
             dt: String::new(),
+            time_origin: TimeOrigin::Pinhole,
+            pulse_origin: PulseOrigin::Light,
             spp_target: 0,
             error_target_pct: 0.0,
             max_bounces: 1024,
@@ -185,6 +191,8 @@ impl ViewerSettings {
             bins: other.bins,
             t0: other.t0.clone(),
             dt: other.dt.clone(),
+            time_origin: other.time_origin,
+            pulse_origin: other.pulse_origin,
             spp_target: other.spp_target,
             error_target_pct: other.error_target_pct,
             max_bounces: other.max_bounces,
@@ -210,6 +218,8 @@ impl ViewerSettings {
             bins: self.bins,
             t0_s: parse_time_field("t0", &self.t0).map_err(named)?,
             dt_s: parse_time_field("dt", &self.dt).map_err(named)?,
+            time_origin: self.time_origin,
+            pulse_origin: self.pulse_origin,
             bounces_separate: 3,
             max_bounces: self.max_bounces,
             seed: self.seed,

@@ -257,7 +257,15 @@ impl TprfApp {
                 p.bins = size(b.value);
                 taken.push(format!("bins {}", b.value));
             }
-            if let Some(t0) = &file.t0_opl_m {
+            if let Some(o) = &file.time_origin {
+                p.time_origin = o.value;
+                taken.push(format!("time origin {}", o.value));
+            }
+            if let Some(o) = &file.pulse_origin {
+                p.pulse_origin = o.value;
+                taken.push(format!("pulse origin {}", o.value));
+            }
+            if let Some(t0) = &file.t0_opl_m_for(p.time_origin) {
                 p.t0 = format!("{}m", t0.value);
                 taken.push(format!("t0 {} m of optical path", t0.value));
             }

@@ -73,8 +73,9 @@ impl TprfApp {
         if let Some(p) = self.settings.camera {
             return Some(p);
         }
+        let aspect = self.settings.width as f32 / self.settings.height.max(1) as f32;
         self.scene_view()
-            .map(|(camera, bounds)| CameraPose::of_camera(&camera, bounds))
+            .map(|(camera, bounds)| CameraPose::of_camera(&camera, aspect, bounds))
     }
 
     /// Render from `pose` (`None`: the scene's camera), the film on screen kept until

@@ -12,7 +12,7 @@ use crate::viewer::tone::{SLICE_FLOOR, SLICE_PERCENTILE};
 use eframe::egui::{self, RichText};
 use std::sync::Arc;
 use tprf_core::film::FilmSnapshot;
-use tprf_core::scene::Channel;
+use tprf_core::scene::{Channel, PulseOrigin, TimeOrigin};
 use tprf_core::units::format_time;
 
 impl TprfApp {
@@ -167,6 +167,36 @@ impl TprfApp {
                         .desired_width(80.0),
                 )
                 .labelled_by(l.id);
+                ui.end_row();
+                let l = ui.label("Time origin").on_hover_text(
+                    "where arrival times start: the pinhole (what a real camera sees), the \
+                     near clip plane (mitransient's count), or each pixel's first surface \
+                     (the camera's leg left out: mitransient's camera_unwarp)",
+                );
+                egui::ComboBox::from_id_salt("time_origin")
+                    .selected_text(p.time_origin.name())
+                    .show_ui(ui, |ui| {
+                        for o in TimeOrigin::ALL {
+                            ui.selectable_value(&mut p.time_origin, o, o.name());
+                        }
+                    })
+                    .response
+                    .labelled_by(l.id);
+                ui.end_row();
+                let l = ui.label("Pulse origin").on_hover_text(
+                    "when the pulse starts: as it leaves the light, or at the first surface \
+                     it lights (the light's leg left out, as an NLOS laser's spot firing at \
+                     t = 0)",
+                );
+                egui::ComboBox::from_id_salt("pulse_origin")
+                    .selected_text(p.pulse_origin.name())
+                    .show_ui(ui, |ui| {
+                        for o in PulseOrigin::ALL {
+                            ui.selectable_value(&mut p.pulse_origin, o, o.name());
+                        }
+                    })
+                    .response
+                    .labelled_by(l.id);
                 ui.end_row();
                 let l = ui.label("Stop at spp").on_hover_text("0: keep refining");
                 ui.add(egui::DragValue::new(&mut p.spp_target).range(0..=1_000_000))

@@ -154,6 +154,11 @@ pub struct CubeMetadata {
     pub value: String,
     pub scene: String,
     pub camera: CameraMetadata,
+    /// When the pulse starts: `light` (it leaves the light at t = 0) or `first-hit`
+    /// (it is at the first surface it lights at t = 0: the light's leg left out). Older
+    /// files, which hold none: `light`.
+    #[serde(default = "light")]
+    pub pulse_origin: String,
     pub max_bounces: u32,
     /// Per-bounce layers in `tprf_bounces.npy` (0 = none): layer 0 = light seen directly,
     /// 1..=K = that many scattering events, K+1 = more.
@@ -284,7 +289,24 @@ pub struct CameraMetadata {
     pub position_m: [f32; 3],
     /// Column-major 4x4 `world_from_camera` (camera looks along its -Z, +Y up).
     pub world_from_camera: [f32; 16],
+    /// Vertical field of view of this cube's image, degrees.
     pub yfov_deg: f32,
+    /// Where each pixel's arrival times start: `pinhole`, `near-plane` (from the near
+    /// clip plane `near_m` in front of the pinhole, along each ray) or `first-hit` (the
+    /// camera's leg left out). Older files, which hold none: `pinhole`.
+    #[serde(default = "pinhole")]
+    pub time_origin: String,
+    /// The near clip plane's distance, metres (with `near-plane`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub near_m: Option<f32>,
+}
+
+fn light() -> String {
+    "light".into()
+}
+
+fn pinhole() -> String {
+    "pinhole".into()
 }
 
 impl CubeMetadata {

@@ -186,6 +186,7 @@ impl Furnace {
                 position: Vec3::ZERO,
                 intensity_w_per_sr: [intensity_w_per_sr as f32; 3],
                 spot: None,
+                projector: None,
             }),
             FurnaceLight::Area { radiance } => wall.emissive = [radiance as f32; 3],
         }

@@ -110,11 +110,13 @@ pub fn apply_camera(r: &RenderRequest, camera: &Camera) -> Result<Camera, Reques
         );
     }
     world_from_camera.translation = position.as_vec3().into();
-    Ok(Camera {
+    let placed = Camera {
         world_from_camera,
-        yfov_rad: r
-            .fov_deg
-            .map_or(camera.yfov_rad, |d| (d.to_radians()) as f32),
+        ..*camera
+    };
+    Ok(match r.fov_deg {
+        Some(d) => placed.with_yfov(d.to_radians() as f32),
+        None => placed,
     })
 }
 
@@ -145,7 +147,7 @@ mod tests {
         assert!((forward(&c) - Vec3::NEG_X).length() < 1e-6);
         assert!((Vec3::from(c.world_from_camera.matrix3.x_axis) - Vec3::NEG_Z).length() < 1e-6);
         assert!((Vec3::from(c.world_from_camera.matrix3.y_axis) - Vec3::Y).length() < 1e-6);
-        assert!((c.yfov_rad - std::f32::consts::FRAC_PI_2).abs() < 1e-6);
+        assert!((c.fov_rad - std::f32::consts::FRAC_PI_2).abs() < 1e-6);
     }
 
     /// A position alone moves the camera and keeps where it looks; nothing given keeps
@@ -155,7 +157,7 @@ mod tests {
         let cam = scene_camera();
         let same = apply_camera(&RenderRequest::new("x"), &cam).unwrap();
         assert_eq!(same.world_from_camera, cam.world_from_camera);
-        assert_eq!(same.yfov_rad, cam.yfov_rad);
+        assert_eq!(same.fov_rad, cam.fov_rad);
         let moved = apply_camera(
             &RenderRequest {
                 camera_position_m: Some([1.0, 2.0, 3.0]),

@@ -361,8 +361,14 @@ pub fn cube_metadata(
         camera: CameraMetadata {
             position_m: cam.position().to_array(),
             world_from_camera: glam::Mat4::from(cam.world_from_camera).to_cols_array(),
-            yfov_deg: cam.yfov_rad.to_degrees(),
+            yfov_deg: cam
+                .yfov_rad(request.width as f32 / request.height.max(1) as f32)
+                .to_degrees(),
+            time_origin: request.time_origin.to_string(),
+            near_m: (request.time_origin == crate::scene::TimeOrigin::NearPlane)
+                .then_some(cam.near_m),
         },
+        pulse_origin: request.pulse_origin.to_string(),
         max_bounces: request.max_bounces,
         bounces_separate: request.bounces_separate,
         threads,

@@ -38,7 +38,7 @@ pub use session::Session;
 use crate::export::shard::{self, ShardError, ShardSpec};
 use crate::export::{CubeFormat, ExportError};
 use crate::film::{FilmError, MAX_BINS, TimeFilter};
-use crate::scene::{Channel, Medium, SceneError};
+use crate::scene::{Channel, Medium, PulseOrigin, SceneError, TimeOrigin};
 use crate::transport::progressive::{PassSize, Schedule};
 use crate::transport::{RenderSettings, WindowError, WindowRequest};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
@@ -154,6 +154,18 @@ pub struct RenderRequest {
     /// Vertical field of view, degrees (`fov`; unset: the scene camera's).
     #[serde(rename = "fov", skip_serializing_if = "Option::is_none")]
     pub fov_deg: Option<f64>,
+    /// Where a path's clock starts: `pinhole` (the time a real camera sees; the
+    /// default), `near-plane` (from the camera's near clip plane, as mitransient counts)
+    /// or `first-hit` (the camera's own leg left out, each pixel's time starting at the
+    /// first surface it sees: mitransient's `camera_unwarp`).
+    #[serde(deserialize_with = "from_text")]
+    pub time_origin: TimeOrigin,
+    /// When the pulse starts: `light` (as it leaves the light: the default) or
+    /// `first-hit` (at the first surface it lights, the light's leg left out: an NLOS
+    /// laser's spot firing at t = 0, mitransient's `account_first_and_last_bounces`
+    /// false). Not in scenes with participating media.
+    #[serde(deserialize_with = "from_text")]
+    pub pulse_origin: PulseOrigin,
     /// Worker threads (unset: one per core). The film does not depend on it.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub threads: Option<usize>,
@@ -214,6 +226,8 @@ impl Default for RenderRequest {
             look_at_m: None,
             up: None,
             fov_deg: None,
+            time_origin: settings.time_origin,
+            pulse_origin: settings.pulse_origin,
             threads: None,
             format: CubeFormat::Auto,
             frames: false,
@@ -240,7 +254,7 @@ pub struct Problem {
 }
 
 impl Problem {
-    fn field(name: &'static str) -> Problem {
+    pub(super) fn field(name: &'static str) -> Problem {
         Problem {
             parts: vec![Part::Field(name)],
         }
@@ -257,7 +271,7 @@ impl Problem {
         self
     }
 
-    fn text(mut self, text: impl Into<String>) -> Problem {
+    pub(super) fn text(mut self, text: impl Into<String>) -> Problem {
         self.parts.push(Part::Text(text.into()));
         self
     }
@@ -617,6 +631,8 @@ impl RenderRequest {
             first_bounce_splits: self.splits.unwrap_or(0),
             light_vertex: self.light_vertex,
             adaptive: !self.uniform,
+            time_origin: self.time_origin,
+            pulse_origin: self.pulse_origin,
         }
     }
 
@@ -644,6 +660,8 @@ impl RenderRequest {
             splits: (settings.first_bounce_splits > 0).then_some(settings.first_bounce_splits),
             light_vertex: settings.light_vertex,
             uniform: !settings.adaptive,
+            time_origin: settings.time_origin,
+            pulse_origin: settings.pulse_origin,
             ..self
         }
     }

@@ -1,10 +1,10 @@
 //! A request made ready to render, and its passes.
 
 use super::memory::{MemoryBudget, MemoryStop};
-use super::{RenderRequest, RequestError, apply_camera};
+use super::{Problem, RenderRequest, RequestError, apply_camera};
 use crate::export::shard::ShardSpec;
 use crate::film::{FilmLayout, TimeAxis, TimeFilter, TprfFilm};
-use crate::scene::{self, Camera, Scene};
+use crate::scene::{self, Camera, PulseOrigin, Scene};
 use crate::transport::progressive::{self, PassReport, PassSize};
 use crate::transport::{Renderer, auto_window};
 use std::ops::ControlFlow;
@@ -103,6 +103,12 @@ impl Session {
         start: Instant,
     ) -> Result<Session, RequestError> {
         let scene = renderer.scene_shared().clone();
+        if request.pulse_origin == PulseOrigin::FirstHit && renderer.has_media() {
+            return Err(RequestError::Invalid(Problem::field("pulse_origin").text(
+                " first-hit: the light's leg is not separated from the path in a scene \
+                 with participating media (render it with the pulse leaving the light)",
+            )));
+        }
         let axis = auto_window(&renderer, request.window())?;
         let layout = FilmLayout {
             width: request.width,

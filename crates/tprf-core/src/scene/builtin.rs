@@ -196,6 +196,7 @@ fn cornell() -> Scene {
             position: v(0.0, l - 0.05, 0.0),
             intensity_w_per_sr: [0.5; 3],
             spot: None,
+            projector: None,
         }],
         camera: Camera::look_at(eye, v(0.0, h, 0.0), 2.0 * (12.5f32 / 35.0).atan()),
         ambient: Default::default(),
@@ -424,7 +425,9 @@ fn canopy() -> Scene {
             Vec3A::Y,
             Vec3A::from(sensor),
         ),
-        yfov_rad: 20f32.to_radians(),
+        fov_rad: 20f32.to_radians(),
+        fov_axis: crate::scene::FovAxis::Y,
+        near_m: crate::scene::camera::DEFAULT_NEAR_M,
     };
     Scene {
         name: "builtin:canopy".into(),
@@ -441,6 +444,7 @@ fn canopy() -> Scene {
             position: sensor,
             intensity_w_per_sr: [30_000.0; 3],
             spot: None,
+            projector: None,
         }],
         camera,
         ambient: AmbientLights {
@@ -521,6 +525,7 @@ fn nlos_scene(name: &str, hidden: impl FnOnce(&mut Builder) -> Vec<(String, usiz
             position: device,
             intensity_w_per_sr: [1.0; 3],
             spot: None,
+            projector: None,
         }],
         camera: Camera::look_at(v(2.6, 1.4, 2.4), v(0.0, 0.0, 0.6), 40f32.to_radians()),
         ambient: AmbientLights::default(),

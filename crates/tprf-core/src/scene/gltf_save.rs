@@ -103,16 +103,24 @@ pub fn to_gltf_json(scene: &Scene) -> Result<json::Root, SceneError> {
         }));
     }
 
-    // Camera: near / far from the scene's size, so viewers do not clip it.
+    // Camera: far from the scene's size, so viewers do not clip it.
     let diag = scene.bounds().diagonal_m().max(1e-6);
     let camera = w.root.push(json::Camera {
         name: Some("camera".into()),
         orthographic: None,
         perspective: Some(json::camera::Perspective {
             aspect_ratio: None,
-            yfov: scene.camera.yfov_rad,
+            // glTF's field of view is vertical: another axis's (a Mitsuba file's `fov`
+            // along x) is written as the vertical one of a square image.
+            yfov: scene.camera.yfov_rad(1.0),
             zfar: Some(4.0 * diag),
-            znear: 1e-3 * diag,
+            // The camera's near plane (where a near-plane time origin counts from); glTF
+            // needs it above 0.
+            znear: if scene.camera.near_m > 0.0 {
+                scene.camera.near_m
+            } else {
+                1e-3 * diag
+            },
             extensions: None,
             extras: Default::default(),
         }),
@@ -564,9 +572,23 @@ impl Writer {
             || extensions.ior.is_some()
             || extensions.emissive_strength.is_some()
             || extensions.volume.is_some();
-        let material_extras = match &m.medium {
-            Some(md) => extras(&serde_json::json!({"tprf": {"medium": md.to_json()}}))?,
-            None => None,
+        let mut tprf = serde_json::Map::new();
+        if let Some(md) = &m.medium {
+            tprf.insert("medium".into(), md.to_json());
+        }
+        if let Some(f) = &m.emission_falloff {
+            tprf.insert(
+                "emission_falloff".into(),
+                serde_json::json!({
+                    "beam_width_deg": f.beam_width_rad.to_degrees(),
+                    "cutoff_deg": f.cutoff_rad.to_degrees(),
+                }),
+            );
+        }
+        let material_extras = if tprf.is_empty() {
+            None
+        } else {
+            extras(&serde_json::json!({ "tprf": tprf }))?
         };
         let material = json::Material {
             alpha_cutoff,
@@ -693,6 +715,7 @@ mod tests {
                     inner_cone_rad: 0.2,
                     outer_cone_rad: 0.4,
                 }),
+                projector: None,
             }],
             camera: Camera::look_at(Vec3::new(0.5, 0.5, 5.0), Vec3::new(0.5, 0.5, 0.0), 0.7),
             ambient: Default::default(),

@@ -5,16 +5,20 @@
 //! transient cube records (see [`Channel`]).
 
 pub mod builtin;
+pub mod camera;
 pub mod density;
 pub mod gltf_load;
 pub mod gltf_save;
 pub mod medium;
 pub mod mitsuba;
+pub mod time_origin;
 
+pub use camera::{Camera, FovAxis};
 pub use density::DensityGrid;
 pub use medium::Medium;
+pub use time_origin::{PulseOrigin, TimeOrigin, UnknownOrigin};
 
-use glam::{Affine3A, Vec2, Vec3};
+use glam::{Vec2, Vec3};
 use serde::{Deserialize, Serialize};
 
 /// Bytes one triangle costs from loading through rendering: the scene's [`Triangle`]
@@ -100,6 +104,10 @@ pub struct Material {
     pub emissive: [f32; 3],
     /// sRGB-encoded emissive texture (multiplies `emissive`).
     pub emissive_texture: Option<TextureRef>,
+    /// How the emitted radiance falls with the angle to the surface's normal (an
+    /// angular area light: mitransient's `angulararea`); `None`: the same in every
+    /// direction (a Lambertian emitter).
+    pub emission_falloff: Option<AngularFalloff>,
     pub double_sided: bool,
     /// The medium filling the closed mesh this material bounds (its inside: the side
     /// the front faces look away from). With `transmission > 0` the surface refracts as
@@ -128,9 +136,58 @@ impl Default for Material {
             alpha_mode: AlphaMode::Opaque,
             emissive: [0.0; 3],
             emissive_texture: None,
+            emission_falloff: None,
             double_sided: true,
             medium: None,
         }
+    }
+}
+
+/// An emitter's angular profile, mitransient's `angulararea`: radiance at angle `theta`
+/// to the normal is the full radiance times
+/// `1` for `theta <= beam_width`, `(cutoff - theta) / (cutoff - beam_width)` between,
+/// and `0` from `cutoff` on (linear in the angle, as Mitsuba's spot light falls).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AngularFalloff {
+    /// Half-angle of full emission, radians.
+    pub beam_width_rad: f32,
+    /// Half-angle where emission reaches zero, radians (at least `beam_width_rad`).
+    pub cutoff_rad: f32,
+}
+
+impl AngularFalloff {
+    /// The profile's factor at `cos_theta`, the cosine of the angle to the normal.
+    #[inline]
+    pub fn factor(&self, cos_theta: f32) -> f32 {
+        if cos_theta >= self.beam_width_rad.cos() {
+            1.0
+        } else if cos_theta > self.cutoff_rad.cos() {
+            let theta = cos_theta.clamp(-1.0, 1.0).acos();
+            ((self.cutoff_rad - theta) / (self.cutoff_rad - self.beam_width_rad)).clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    }
+
+    /// Whether the angles are finite and `0 <= beam_width <= cutoff <= 180` degrees,
+    /// the cutoff above 0; else what is wrong.
+    pub fn check(&self) -> Result<(), String> {
+        let (b, c) = (self.beam_width_rad, self.cutoff_rad);
+        if !(b.is_finite() && c.is_finite() && b >= 0.0 && c > 0.0 && c <= std::f32::consts::PI) {
+            return Err(format!(
+                "beam width {} and cutoff {} degrees must be finite, the cutoff in (0, 180]",
+                b.to_degrees(),
+                c.to_degrees()
+            ));
+        }
+        if b > c {
+            return Err(format!(
+                "beam width {} degrees is wider than the cutoff {} degrees",
+                b.to_degrees(),
+                c.to_degrees()
+            ));
+        }
+        Ok(())
     }
 }
 
@@ -167,14 +224,34 @@ pub struct Spot {
     pub outer_cone_rad: f32,
 }
 
-/// A point or spot light (KHR_lights_punctual). The pulse leaves it at t = 0.
+/// The frustum of a projector (Mitsuba's `projector` emitter, a laser's spot): light
+/// leaves the point into a rectangular pyramid around `direction`, with the same
+/// irradiance on every point of a plane across it: radiant intensity `I_0 / cos^3 theta`
+/// toward a direction at angle `theta` to the axis inside the pyramid, 0 outside
+/// (`I_0` the light's `intensity_w_per_sr`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Projector {
+    /// Unit direction of the axis (world space).
+    pub direction: Vec3,
+    /// Unit direction of the image's up, across `direction` (world space).
+    pub up: Vec3,
+    /// Tangents of half the frustum's angles across (x) and up (y).
+    pub tan_half_x: f32,
+    pub tan_half_y: f32,
+}
+
+/// A point or spot light (KHR_lights_punctual), or a projector. The pulse leaves it at
+/// t = 0.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PunctualLight {
     pub name: String,
     pub position: Vec3,
-    /// Radiant intensity per channel, W/sr: `color x intensity` (no 683 lm/W factor).
+    /// Radiant intensity per channel, W/sr: `color x intensity` (no 683 lm/W factor); a
+    /// projector's on its axis.
     pub intensity_w_per_sr: [f32; 3],
     pub spot: Option<Spot>,
+    /// A projector's frustum (then `spot` is `None`).
+    pub projector: Option<Projector>,
 }
 
 /// A directional light (KHR_lights_punctual `directional`, the sun): parallel light
@@ -221,7 +298,11 @@ impl AmbientLights {
             .lights
             .iter()
             .map(|l| {
-                let kind = if l.spot.is_some() { "spot" } else { "point" };
+                let kind = match (&l.spot, &l.projector) {
+                    (_, Some(_)) => "projector",
+                    (Some(_), None) => "spot",
+                    (None, None) => "point",
+                };
                 format!("{kind} '{}' ({:?} W/sr)", l.name, l.intensity_w_per_sr)
             })
             .collect();
@@ -277,43 +358,6 @@ impl AmbientLights {
             )));
         }
         Ok(())
-    }
-}
-
-/// A pinhole camera. `world_from_camera` maps camera space (-Z forward, +Y up, glTF) to
-/// world space; it has no scale.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Camera {
-    pub world_from_camera: Affine3A,
-    /// Vertical field of view in radians; the horizontal one follows from the image aspect.
-    pub yfov_rad: f32,
-}
-
-impl Camera {
-    /// A camera at `eye` looking at `target`, +Y up (or +Z when looking along Y).
-    pub fn look_at(eye: Vec3, target: Vec3, yfov_rad: f32) -> Self {
-        let fwd = (target - eye).normalize();
-        let up = if fwd.cross(Vec3::Y).length_squared() < 1e-8 {
-            Vec3::Z
-        } else {
-            Vec3::Y
-        };
-        let right = fwd.cross(up).normalize();
-        let true_up = right.cross(fwd);
-        Camera {
-            world_from_camera: Affine3A::from_cols(
-                right.into(),
-                true_up.into(),
-                (-fwd).into(),
-                eye.into(),
-            ),
-            yfov_rad,
-        }
-    }
-
-    /// Camera position in world space, metres.
-    pub fn position(&self) -> Vec3 {
-        self.world_from_camera.translation.into()
     }
 }
 
@@ -435,6 +479,7 @@ impl Scene {
             position: eye,
             intensity_w_per_sr: [std::f32::consts::PI * d * d; 3],
             spot: None,
+            projector: None,
         }
     }
 
@@ -563,6 +608,11 @@ impl Scene {
                     m.name, m.base_color
                 )));
             }
+            if let Some(f) = &m.emission_falloff {
+                f.check().map_err(|e| {
+                    SceneError::Invalid(format!("material '{}': emission falloff: {e}", m.name))
+                })?;
+            }
             if let Some(medium) = &m.medium {
                 medium.validate(&format!("material '{}' medium", m.name))?;
                 if m.transmission > 0.0 && medium.n != m.ior {
@@ -588,12 +638,24 @@ impl Scene {
                     l.name
                 )));
             }
+            if let Some(p) = &l.projector {
+                let frame_ok = p.direction.is_normalized()
+                    && p.up.is_normalized()
+                    && p.direction.dot(p.up).abs() < 1e-3;
+                let tan_ok = |t: f32| t.is_finite() && t > 0.0;
+                if !(frame_ok && tan_ok(p.tan_half_x) && tan_ok(p.tan_half_y)) || l.spot.is_some() {
+                    return Err(SceneError::Invalid(format!(
+                        "light '{}': a projector needs a unit axis and up across it, a \
+                         field of view in (0, 180) degrees, and no spot cone",
+                        l.name
+                    )));
+                }
+            }
         }
         self.ambient.validate()?;
-        let fov_ok = self.camera.yfov_rad > 0.0 && self.camera.yfov_rad < std::f32::consts::PI;
-        if !(self.camera.world_from_camera.is_finite() && fov_ok) {
+        if !self.camera.is_valid() {
             return Err(SceneError::Invalid(
-                "camera has a non-finite transform or a field of view outside (0, 180) degrees"
+                "camera has a non-finite transform or near plane, or a field of view outside (0, 180) degrees"
                     .into(),
             ));
         }
@@ -695,8 +757,18 @@ pub struct FileSettings {
     pub height: Option<FileSetting<u64>>,
     /// Number of time bins.
     pub bins: Option<FileSetting<u64>>,
-    /// Start of the time window, metres of optical path (t0 = start / c).
+    /// Start of the time window, metres of optical path counted from the camera's near
+    /// plane (mitransient's `start_opl`): [`FileSettings::t0_opl_m_for`] gives it for a
+    /// render's time origin.
     pub t0_opl_m: Option<FileSetting<f64>>,
+    /// The camera's near clip distance, metres (where the file's optical paths start).
+    pub near_clip_m: Option<FileSetting<f64>>,
+    /// Where the file's arrival times start, when it says (mitransient's `camera_unwarp`:
+    /// [`TimeOrigin::FirstHit`]).
+    pub time_origin: Option<FileSetting<TimeOrigin>>,
+    /// When the pulse starts, when the file says (mitransient's
+    /// `account_first_and_last_bounces` false: [`PulseOrigin::FirstHit`]).
+    pub pulse_origin: Option<FileSetting<PulseOrigin>>,
     /// Bin width, metres of optical path (dt = width / c).
     pub dt_opl_m: Option<FileSetting<f64>>,
     /// Samples per pixel.
@@ -722,6 +794,9 @@ pub struct NlosFileSettings {
     /// SPAD and laser device positions, metres.
     pub sensor_origin: Option<FileSetting<[f64; 3]>>,
     pub laser_origin: Option<FileSetting<[f64; 3]>>,
+    /// A single scan's laser point on the wall, metres (an older meter's
+    /// `laser_lookat_pixel`).
+    pub laser_point: Option<FileSetting<[f64; 3]>>,
     /// Times include the device-to-wall legs (`account_first_and_last_bounces`).
     pub device_legs: Option<FileSetting<bool>>,
     /// Time bins, bin width and start (metres of optical path) of the capture meter's film.
@@ -744,6 +819,26 @@ pub struct FileSetting<T> {
 }
 
 impl FileSettings {
+    /// The window's start for a render whose clock starts at `origin`, metres of optical
+    /// path: the file's `start_opl` as it is for the near plane or the first hit (where
+    /// mitransient counts from), `start_opl + near_clip` from the pinhole, so a bin holds
+    /// the light of mitransient's bin on the image's axis (off the axis at angle a,
+    /// mitransient's arrivals are earlier by `near_clip (1 / cos a - 1)` more: render
+    /// with `TimeOrigin::NearPlane` for its cube bin for bin).
+    pub fn t0_opl_m_for(&self, origin: TimeOrigin) -> Option<FileSetting<f64>> {
+        let t0 = self.t0_opl_m.clone()?;
+        match (&self.near_clip_m, origin) {
+            (Some(near), TimeOrigin::Pinhole) if near.value != 0.0 => Some(FileSetting {
+                value: t0.value + near.value,
+                from: format!(
+                    "{} + near_clip {} ({}: mitransient counts the optical path from the near plane; --time-origin near-plane renders its cube bin for bin)",
+                    t0.from, near.value, near.from
+                ),
+            }),
+            _ => Some(t0),
+        }
+    }
+
     /// The settings in words, one per line, for notes and metadata: `width 400
     /// (scene.xml:26 <integer name="width">)`.
     pub fn describe(&self) -> Vec<String> {
@@ -756,6 +851,9 @@ impl FileSettings {
             line("height", &self.height),
             line("bins", &self.bins),
             line("t0 (m of optical path)", &self.t0_opl_m),
+            line("near clip (m)", &self.near_clip_m),
+            line("time origin", &self.time_origin),
+            line("pulse origin", &self.pulse_origin),
             line("dt (m of optical path)", &self.dt_opl_m),
             line("spp", &self.spp),
             line("max bounces", &self.max_bounces),

@@ -11,7 +11,7 @@ use super::split::Strategy;
 use super::surface::{SurfacePoint, Surfaces};
 use crate::accel::Accel;
 use crate::film::{LeftOut, LeftOutCounts, PixelSink, TimeAxis, TprfFilm};
-use crate::scene::{Camera, Channel, Scene};
+use crate::scene::{Camera, Channel, PulseOrigin, Scene, TimeOrigin};
 use crate::units::C_M_PER_S;
 use glam::Vec3;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -103,6 +103,12 @@ pub struct RenderSettings {
     /// ([`super::adaptive`]). Off: every pixel draws every pass's samples. Unbiased
     /// either way.
     pub adaptive: bool,
+    /// Where a camera path's clock starts (the pinhole, the near plane, or the first
+    /// surface the camera ray meets): see [`TimeOrigin`].
+    pub time_origin: TimeOrigin,
+    /// When the pulse starts: as it leaves the light, or at the first surface it lights
+    /// (the leg from the light left out of every arrival time): see [`PulseOrigin`].
+    pub pulse_origin: PulseOrigin,
 }
 
 impl Default for RenderSettings {
@@ -117,6 +123,8 @@ impl Default for RenderSettings {
             first_bounce_splits: 0,
             light_vertex: None,
             adaptive: true,
+            time_origin: TimeOrigin::Pinhole,
+            pulse_origin: PulseOrigin::Light,
         }
     }
 }
@@ -149,8 +157,8 @@ pub struct Renderer {
     /// Ray-offset length scale: 1e-6 of the scene's bounding diagonal (the camera
     /// rendered counted in the bounds), metres.
     eps_m: f32,
-    /// Tangent of half the camera's vertical field of view.
-    tan_half_yfov: f32,
+    /// Tangent of half the camera's field of view along its axis.
+    tan_half_fov: f32,
     rays: AtomicU64,
     /// The sampling strategy in use: the settings', or the pilot's choice for the first
     /// film rendered ([`Renderer::strategy_for`]).
@@ -185,6 +193,9 @@ struct Path {
     share: f32,
     /// Eye-side optical path length, metres.
     opl_m: f64,
+    /// `opl_m` at the last scattering vertex (the camera's start before the first):
+    /// where a light found along this ray is timed from with [`PulseOrigin::FirstHit`].
+    vertex_opl_m: f64,
     scatterings: u32,
     /// Refractive index of the medium the ray travels in.
     ior_here: f32,
@@ -193,6 +204,9 @@ struct Path {
     last_position: Vec3,
     /// Straight pass-throughs (alpha coverage) since the last scattering.
     pass_throughs: u32,
+    /// The camera ray's first surface is still ahead and its distance is not counted
+    /// ([`TimeOrigin::FirstHit`]).
+    unwarp: bool,
     /// When the last vertex was joined to a light vertex and this ray is its BSDF
     /// sample: that sample's solid-angle pdf times the BSDF samples leaving the vertex
     /// (for the MIS weight of next-event estimation at the next vertex); else 0.
@@ -208,12 +222,14 @@ impl Path {
             throughput: 1.0,
             share: 1.0,
             opl_m: 0.0,
+            vertex_opl_m: 0.0,
             scatterings: 0,
             ior_here: 1.0,
             last_pdf: None,
             last_position: origin,
             pass_throughs: 0,
             connected_pdf: 0.0,
+            unwarp: false,
         }
     }
 }
@@ -242,7 +258,7 @@ impl Renderer {
         let surfaces = Arc::new(Surfaces::new(scene, settings.channel));
         Renderer {
             eps_m: Renderer::eps_m(surfaces.scene(), &camera),
-            tan_half_yfov: (0.5 * camera.yfov_rad).tan(),
+            tan_half_fov: (0.5 * camera.fov_rad).tan(),
             camera,
             surfaces,
             accel,
@@ -261,7 +277,7 @@ impl Renderer {
     pub fn with_camera(&self, camera: Camera) -> Renderer {
         Renderer {
             eps_m: Renderer::eps_m(self.scene(), &camera),
-            tan_half_yfov: (0.5 * camera.yfov_rad).tan(),
+            tan_half_fov: (0.5 * camera.fov_rad).tan(),
             camera,
             surfaces: self.surfaces.clone(),
             accel: self.accel.clone(),
@@ -351,6 +367,11 @@ impl Renderer {
         !self.lights.punctual.is_empty()
     }
 
+    /// Whether a pulsed punctual light is a projector.
+    pub(super) fn has_projectors(&self) -> bool {
+        self.lights.punctual.iter().any(|l| l.is_projector())
+    }
+
     /// Rays traced so far (camera, bounce and shadow rays).
     pub fn rays_traced(&self) -> u64 {
         self.rays.load(Ordering::Relaxed)
@@ -364,11 +385,11 @@ impl Renderer {
     }
 
     /// Unit direction through image point `(px, py)` (pixels, row 0 = top) for a
-    /// `width x height` image.
+    /// `width x height` image (the field of view kept along the camera's axis).
     pub fn camera_ray(&self, px: f32, py: f32, width: usize, height: usize) -> (Vec3, Vec3) {
         let cam = &self.camera;
-        let tan_half = self.tan_half_yfov;
         let aspect = width as f32 / height.max(1) as f32;
+        let (_, tan_half) = cam.fov_axis.tan_halves(self.tan_half_fov, aspect);
         let sx = (2.0 * px / width as f32 - 1.0) * tan_half * aspect;
         let sy = (1.0 - 2.0 * py / height as f32) * tan_half;
         let dir = cam
@@ -447,17 +468,17 @@ impl Renderer {
         rng.start_sample();
         let (jx, jy) = rng.get2(dim::CAMERA);
         let (origin, dir) = self.camera_ray(x as f32 + jx, y as f32 + jy, w, h);
+        // The optical path already behind the pinhole (the time origin's offset).
+        let start_opl_m = self.camera.start_opl_m(self.settings.time_origin, dir);
         if let Some(media) = &self.media {
-            return self.walk_media(media, origin, dir, rng, sink);
+            return self.walk_media(media, origin, dir, start_opl_m, rng, sink);
         }
-        self.walk::<false>(
-            &self.lights,
-            Path::camera(origin, dir),
-            strategy,
-            None,
-            rng,
-            sink,
-        )
+        let mut path = Path::camera(origin, dir);
+        match start_opl_m {
+            Some(opl_m) => (path.opl_m, path.vertex_opl_m) = (opl_m, opl_m),
+            None => path.unwarp = true,
+        }
+        self.walk::<false>(&self.lights, path, strategy, None, rng, sink)
     }
 
     /// Trace a path from the eye at `origin` along unit `dir`. The eye-side optical path
@@ -489,7 +510,7 @@ impl Renderer {
         sink: &mut impl Sink,
     ) -> u64 {
         if !AMBIENT && let Some(media) = &self.media {
-            return self.walk_media(media, origin, dir, rng, sink);
+            return self.walk_media(media, origin, dir, Some(0.0), rng, sink);
         }
         let strategy = if AMBIENT {
             Strategy::PLAIN
@@ -532,7 +553,11 @@ impl Renderer {
                 }
                 break;
             };
-            path.opl_m += hit.t_m as f64 * path.ior_here as f64;
+            if path.unwarp {
+                path.unwarp = false; // the camera's leg is not counted
+            } else {
+                path.opl_m += hit.t_m as f64 * path.ior_here as f64;
+            }
             if path.opl_m > window_end_opl_m {
                 sink.left_out(LeftOut::PathPastWindow);
                 break; // already too late to arrive inside the window
@@ -566,8 +591,13 @@ impl Renderer {
                         }
                     }
                 };
+                // The pulse at the first surface it lights: the emitter's leg left out.
+                let opl_m = match s.pulse_origin {
+                    PulseOrigin::Light => path.opl_m,
+                    PulseOrigin::FirstHit => path.vertex_opl_m,
+                };
                 sink.add(
-                    path.opl_m / C_M_PER_S,
+                    opl_m / C_M_PER_S,
                     (path.throughput * path.share * sp.emission * weight) as f64,
                     path.scatterings,
                 );
@@ -706,6 +736,7 @@ impl Renderer {
         }
         path.last_pdf = (!bs.is_delta()).then_some(bs.pdf);
         path.last_position = sp.position;
+        path.vertex_opl_m = path.opl_m;
         path.pass_throughs = 0;
         path.origin = sp.position + sp.n_face * self.offset_m(sp.position) * geo.signum();
         path.dir = wi_world.normalize();
@@ -758,6 +789,12 @@ impl Renderer {
     ) -> u64 {
         let scatterings = vertex + 1;
         let mut rays = 0;
+        // The optical length of the leg to the light, `d` metres away, counted in the
+        // arrival time (none when the pulse starts at the surface it lights).
+        let leg_opl_m = |d: f32| match self.settings.pulse_origin {
+            PulseOrigin::Light => d as f64 * ior_here as f64,
+            PulseOrigin::FirstHit => 0.0,
+        };
         for (i, light) in lights.punctual.iter().enumerate() {
             let to = light.position - p;
             let d2 = to.length_squared();
@@ -774,7 +811,7 @@ impl Renderer {
             if f <= 0.0 || intensity <= 0.0 {
                 continue;
             }
-            let arrival_s = (opl_m + d as f64 * ior_here as f64) / C_M_PER_S;
+            let arrival_s = (opl_m + leg_opl_m(d)) / C_M_PER_S;
             if let Some(why) = outside(sink, arrival_s) {
                 sink.left_out(why);
                 continue;
@@ -833,7 +870,7 @@ impl Renderer {
                     if le > 0.0 && cos_l > 0.0 && wi_world.dot(n_face) > 0.0 {
                         let wi = frame.to_local(wi_world);
                         let (f, pdf_bsdf) = bsdf.eval(wo, wi);
-                        let arrival_s = (opl_m + d as f64 * ior_here as f64) / C_M_PER_S;
+                        let arrival_s = (opl_m + leg_opl_m(d)) / C_M_PER_S;
                         let late = outside(sink, arrival_s);
                         if let Some(why) = late.filter(|_| f > 0.0) {
                             sink.left_out(why);

@@ -16,10 +16,38 @@ pub struct Punctual {
     pub intensity_w_per_sr: f32,
     /// Spot lights: axis, falloff scale and offset (`a = axis . dir scale + offset`).
     spot: Option<(Vec3, f32, f32)>,
+    /// Projectors: the frustum's frame (z its axis) and half-angle tangents.
+    projector: Option<ProjectorBeam>,
     /// The cone holding all emission: its axis and the cosine of its half-angle (the
     /// whole sphere, cosine -1 around +Z, for a point light; the outer cone for a spot).
     cone_axis: Vec3,
     cos_cone: f32,
+}
+
+/// A projector's frustum: directions `d` with `|d_x / d_z| <= tan_x`, `|d_y / d_z| <=
+/// tan_y` in its frame, intensity `I_0 / cos^3 theta` (uniform irradiance across the
+/// axis), sampled uniformly on the plane `z = 1` (density `1 / (4 tan_x tan_y cos^3
+/// theta)` per steradian: proportional to the intensity, so a light vertex's weight is
+/// the same in every direction).
+#[derive(Clone, Copy, Debug)]
+struct ProjectorBeam {
+    frame: Frame,
+    tan_x: f32,
+    tan_y: f32,
+}
+
+impl ProjectorBeam {
+    /// `cos theta` of unit `dir` (world) when it is inside the frustum.
+    #[inline]
+    fn cos_inside(&self, dir: Vec3) -> Option<f32> {
+        let d = self.frame.to_local(dir);
+        (d.z > 0.0 && d.x.abs() <= self.tan_x * d.z && d.y.abs() <= self.tan_y * d.z).then_some(d.z)
+    }
+
+    /// Area of the frustum's cross-section at unit distance along the axis.
+    fn plane_area(&self) -> f32 {
+        4.0 * self.tan_x * self.tan_y
+    }
 }
 
 impl Punctual {
@@ -34,10 +62,32 @@ impl Punctual {
             (Some(s), Some((axis, _, _))) if axis != Vec3::ZERO => (axis, s.outer_cone_rad.cos()),
             _ => (Vec3::Z, -1.0),
         };
+        let projector = l.projector.map(|p| {
+            let z = p.direction.normalize_or_zero();
+            let y = p.up.normalize_or_zero();
+            ProjectorBeam {
+                frame: Frame {
+                    t: y.cross(z),
+                    b: y,
+                    n: z,
+                },
+                tan_x: p.tan_half_x,
+                tan_y: p.tan_half_y,
+            }
+        });
+        // A projector's bounding cone: through the frustum's corners.
+        let (cone_axis, cos_cone) = match projector {
+            Some(b) => (
+                b.frame.n,
+                1.0 / (1.0 + b.tan_x * b.tan_x + b.tan_y * b.tan_y).sqrt(),
+            ),
+            None => (cone_axis, cos_cone),
+        };
         Punctual {
             position: l.position,
             intensity_w_per_sr: channel.pick(l.intensity_w_per_sr).max(0.0),
             spot,
+            projector,
             cone_axis,
             cos_cone,
         }
@@ -50,9 +100,15 @@ impl Punctual {
             position,
             intensity_w_per_sr: 1.0,
             spot: None,
+            projector: None,
             cone_axis: Vec3::Z,
             cos_cone: -1.0,
         }
+    }
+
+    /// Whether this light is a projector (it lights only its frustum).
+    pub fn is_projector(&self) -> bool {
+        self.projector.is_some()
     }
 
     /// Solid angle of the cone holding the emission, sr: 4 pi for a point light.
@@ -60,15 +116,24 @@ impl Punctual {
         2.0 * std::f32::consts::PI * (1.0 - self.cos_cone)
     }
 
-    /// An upper bound on the emitted power, W (intensity times the cone's solid angle):
-    /// what [`Lights::sample_emission`] picks lights by.
+    /// An upper bound on the emitted power, W (intensity times the cone's solid angle; a
+    /// projector's exact power, `I_0` times its cross-section at unit distance): what
+    /// [`Lights::sample_emission`] picks lights by.
     fn power_bound_w(&self) -> f32 {
-        self.intensity_w_per_sr * self.cone_sr()
+        match &self.projector {
+            Some(b) => self.intensity_w_per_sr * b.plane_area(),
+            None => self.intensity_w_per_sr * self.cone_sr(),
+        }
     }
 
     /// A direction uniform in the emission cone for `(u1, u2)` in [0, 1)^2 (the whole
-    /// sphere for a point light); its density is [`Punctual::pdf_direction`].
+    /// sphere for a point light; a projector's uniform on its cross-section); its
+    /// density is [`Punctual::pdf_direction`].
     fn sample_direction(&self, (u1, u2): (f32, f32)) -> Vec3 {
+        if let Some(b) = &self.projector {
+            let local = Vec3::new((2.0 * u1 - 1.0) * b.tan_x, (2.0 * u2 - 1.0) * b.tan_y, 1.0);
+            return b.frame.to_world(local.normalize());
+        }
         let cos_t = 1.0 - u1 * (1.0 - self.cos_cone);
         let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
         let (cos_phi, sin_phi) = turn_cos_sin(u2);
@@ -77,6 +142,11 @@ impl Punctual {
 
     /// Solid-angle density of [`Punctual::sample_direction`] at unit `dir`, 1/sr.
     fn pdf_direction(&self, dir: Vec3) -> f32 {
+        if let Some(b) = &self.projector {
+            return b
+                .cos_inside(dir)
+                .map_or(0.0, |c| 1.0 / (b.plane_area() * c * c * c));
+        }
         let inside = self.cos_cone <= -1.0 || self.cone_axis.dot(dir) >= self.cos_cone;
         if inside { 1.0 / self.cone_sr() } else { 0.0 }
     }
@@ -84,6 +154,11 @@ impl Punctual {
     /// Radiant intensity toward unit direction `dir` (from the light), W/sr. Spot lights
     /// use KHR_lights_punctual's recommended smooth falloff between the cone angles.
     pub fn intensity_toward(&self, dir: Vec3) -> f32 {
+        if let Some(b) = &self.projector {
+            return b
+                .cos_inside(dir)
+                .map_or(0.0, |c| self.intensity_w_per_sr / (c * c * c));
+        }
         match self.spot {
             None => self.intensity_w_per_sr,
             Some((axis, scale, offset)) => {
@@ -389,5 +464,58 @@ mod tests {
         assert!((share - 4.0 / 7.0).abs() < 1e-3, "{picked:?}");
         // Outside the spot's cone the density is 0.
         assert_eq!(lights.emission_pdf(1, -axis), 0.0);
+    }
+
+    /// A projector 2 W/sr on its axis through a frustum of half-angle tangents 1 and 0.7
+    /// about -Y: directions sampled inside it, intensity over density the same for all
+    /// (the power, I_0 4 tan_x tan_y), and the density a density: its integral over the
+    /// sphere, estimated from uniform directions, is 1.
+    #[test]
+    fn a_projector_emits_and_samples_in_its_frustum() {
+        use crate::scene::Projector;
+        let mut scene = builtin::load("cornell").unwrap();
+        let mut light = scene.lights[0].clone();
+        light.intensity_w_per_sr = [2.0; 3];
+        light.projector = Some(Projector {
+            direction: Vec3::NEG_Y,
+            up: Vec3::Z,
+            tan_half_x: 1.0,
+            tan_half_y: 0.7,
+        });
+        scene.lights = vec![light];
+        let lights = Lights::new(&scene, Channel::Gray);
+        let power = 2.0 * 4.0 * 1.0 * 0.7;
+        for k in 0..4000 {
+            let u2 = (
+                (k as f32 * 0.618_034).fract(),
+                (k as f32 * 0.754_878).fract(),
+            );
+            let e = lights.sample_emission(0.5, u2).expect("inside the frustum");
+            let local = Vec3::new(e.dir.dot(Vec3::Z.cross(Vec3::NEG_Y)), e.dir.z, -e.dir.y);
+            assert!(local.z > 0.0 && local.x.abs() <= local.z * 1.0001);
+            assert!(local.y.abs() <= 0.7001 * local.z, "{local}");
+            assert!((e.intensity_w_per_sr / e.pdf - power).abs() < 1e-3 * power);
+            // The intensity: I_0 / cos^3 theta.
+            let cos = local.z;
+            assert!(
+                (e.intensity_w_per_sr - 2.0 / (cos * cos * cos)).abs()
+                    < 1e-4 * e.intensity_w_per_sr
+            );
+        }
+        // Outside: nothing.
+        assert_eq!(lights.emission_pdf(0, Vec3::Y), 0.0);
+        assert_eq!(lights.punctual[0].intensity_toward(Vec3::X), 0.0);
+        // The density integrates to 1: the mean of 4 pi pdf over uniform directions.
+        let n = 400_000;
+        let mut sum = 0.0f64;
+        for k in 0..n {
+            let z = 1.0 - 2.0 * ((k as f64 + 0.5) / n as f64);
+            let phi = 2.0 * std::f64::consts::PI * (k as f64 * 0.618_033_988_749).fract();
+            let r = (1.0 - z * z).sqrt();
+            let d = Vec3::new((r * phi.cos()) as f32, (r * phi.sin()) as f32, z as f32);
+            sum += f64::from(lights.emission_pdf(0, d));
+        }
+        let integral = 4.0 * std::f64::consts::PI * sum / n as f64;
+        assert!((integral - 1.0).abs() < 0.01, "{integral}");
     }
 }

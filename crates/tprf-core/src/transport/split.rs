@@ -122,6 +122,10 @@ pub(super) fn choose(
     let light_vertex: &[bool] = match settings.light_vertex {
         Some(true) => &[true],
         Some(false) => &[false],
+        // A projector lights only its spot, which a path finds by a light vertex alone
+        // (a pilot of 8 samples would see too little of the light the spot reflects to
+        // weigh the two).
+        None if settings.nee && renderer.has_projectors() => &[true],
         None if settings.nee && renderer.has_punctual_lights() => &[true, false],
         None => &[false],
     };

@@ -2,7 +2,7 @@
 //! evaluated there (textures looked up, colours reduced to the rendered band).
 
 use crate::accel::Hit;
-use crate::scene::{AlphaMode, Channel, Material, Scene, Texture, TextureRef};
+use crate::scene::{AlphaMode, AngularFalloff, Channel, Material, Scene, Texture, TextureRef};
 use glam::{Vec2, Vec3};
 use std::sync::{Arc, OnceLock};
 
@@ -101,6 +101,8 @@ struct BandMaterial {
     bsdf_back: Bsdf,
     /// Emitted radiance without texture, this band, W / (m^2 sr), at least 0.
     emission: f32,
+    /// The emission's angular profile (an angular area light), if any.
+    falloff: Option<AngularFalloff>,
     double_sided: bool,
     /// Fully covering everywhere (alpha mode opaque).
     opaque: bool,
@@ -159,6 +161,7 @@ impl BandMaterial {
             } else {
                 0.0
             },
+            falloff: m.emission_falloff,
             double_sided: m.double_sided,
             opaque: m.alpha_mode == AlphaMode::Opaque,
             blocks_shadow_rays: m.transmission > 0.0,
@@ -285,15 +288,19 @@ impl Surfaces {
     }
 
     /// Emitted radiance of `triangle` at `(u, v)` toward direction `toward` (unit, away
-    /// from the surface), W / (m^2 sr), this band.
+    /// from the surface), W / (m^2 sr), this band: the material's radiance (times its
+    /// texture) times its angular profile at the angle between `toward` and the
+    /// triangle's normal (on the side it emits from).
     pub fn emission(&self, triangle: u32, u: f32, v: f32, toward: Vec3) -> f32 {
         let rec = self.record(triangle);
         let bm = self.band_material(rec);
-        if bm.emission <= 0.0 || (!bm.double_sided && rec.normal.dot(toward) <= 0.0) {
+        let cos = rec.normal.dot(toward);
+        if bm.emission <= 0.0 || (!bm.double_sided && cos <= 0.0) {
             return 0.0;
         }
+        let profile = bm.falloff.map_or(1.0, |f| f.factor(cos.abs()));
         if !bm.textured {
-            return bm.emission;
+            return bm.emission * profile;
         }
         let m = self.material(triangle);
         let mut e = m.emissive;
@@ -301,7 +308,7 @@ impl Surfaces {
             let c = sample_texture(t, self.uv(triangle, u, v), true);
             e = [e[0] * c[0], e[1] * c[1], e[2] * c[2]];
         }
-        self.channel.pick(e).max(0.0)
+        self.channel.pick(e).max(0.0) * profile
     }
 
     /// The BSDF parameters of a textured material at `(u, v)`.

@@ -120,8 +120,8 @@ fn pixel_quadrature(
     g: &dyn Fn([f64; 3], [f64; 3]) -> f64,
 ) -> (f64, f64) {
     let (nodes, weights) = gauss_legendre(8);
-    let t = (0.5 * cam.yfov_rad as f64).tan();
     let aspect = w as f64 / h as f64;
+    let t = cam.tan_half_fov(aspect as f32).1 as f64;
     let m = cam.world_from_camera.matrix3;
     let col = |c: glam::Vec3A| [c.x as f64, c.y as f64, c.z as f64];
     let (cx, cy, cz) = (col(m.x_axis), col(m.y_axis), col(m.z_axis));

@@ -168,6 +168,7 @@ pub(super) fn fog() -> Scene {
                 inner_cone_rad: 28f32.to_radians(),
                 outer_cone_rad: 30f32.to_radians(),
             }),
+            projector: None,
         }],
         camera: Camera::look_at(eye, target, 20f32.to_radians()),
         ambient: Default::default(),

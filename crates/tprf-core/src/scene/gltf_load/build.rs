@@ -128,7 +128,9 @@ fn file_camera(camera: &gltf::Camera, world: &Mat4, file: &str) -> Result<Camera
             let (_scale, rotation, translation) = world.to_scale_rotation_translation();
             Ok(Camera {
                 world_from_camera: Affine3A::from_rotation_translation(rotation, translation),
-                yfov_rad: p.yfov(),
+                fov_rad: p.yfov(),
+                fov_axis: crate::scene::FovAxis::Y,
+                near_m: p.znear(),
             })
         }
         gltf::camera::Projection::Orthographic(_) => Err(format!(
@@ -604,6 +606,7 @@ impl<'a> Builder<'a> {
             position: world.transform_point3(Vec3::ZERO),
             intensity_w_per_sr: light.color().map(|c| c * intensity),
             spot,
+            projector: None,
         };
         if ambient {
             self.ambient.lights.push(light);

@@ -8,7 +8,7 @@ use super::decode::{Decoded, Encoded, Encoding, MAX_TEXTURE_SIDE, decode_texture
 use super::resource::open_image;
 use super::validate::{invalid, uri_label};
 use crate::scene::medium::volume_absorption_per_m;
-use crate::scene::{AlphaMode, Material, Medium, SceneError, TextureRef};
+use crate::scene::{AlphaMode, AngularFalloff, Material, Medium, SceneError, TextureRef};
 
 impl Builder<'_> {
     /// The scene material for a glTF material (converted on first use); the glTF default
@@ -47,6 +47,7 @@ impl Builder<'_> {
         }
         let strength = m.emissive_strength().unwrap_or(1.0);
         let medium = self.medium_of(m)?;
+        let emission_falloff = self.emission_falloff_of(m)?;
         Ok(Material {
             name: name_or_index(m.name(), "materials", m.index().unwrap_or_default()),
             base_color: pbr.base_color_factor(),
@@ -70,9 +71,57 @@ impl Builder<'_> {
             },
             emissive: m.emissive_factor().map(|e| e * strength),
             emissive_texture: self.texture(m.emissive_texture(), Encoding::Srgb)?,
+            emission_falloff,
             double_sided: m.double_sided(),
             medium,
         })
+    }
+
+    /// An emissive material's angular profile, from its extras
+    /// `{"tprf": {"emission_falloff": {"beam_width_deg": 20, "cutoff_deg": 35}}}`
+    /// (mitransient's `angulararea`: full radiance within the beam width, falling
+    /// linearly in angle to 0 at the cutoff; the beam width defaults to the cutoff).
+    fn emission_falloff_of(
+        &mut self,
+        m: &gltf::Material,
+    ) -> Result<Option<AngularFalloff>, SceneError> {
+        let what = format!("materials[{}]", m.index().unwrap_or_default());
+        let extras = tprf_extras(m.extras(), self.file, &what)?;
+        let Some(v) = extras.as_ref().and_then(|t| t.get("emission_falloff")) else {
+            return Ok(None);
+        };
+        let what = format!("{what} extras tprf.emission_falloff");
+        let angle = |name: &str| -> Result<Option<f64>, SceneError> {
+            match v.get(name) {
+                None => Ok(None),
+                Some(x) => x.as_f64().map(Some).ok_or_else(|| {
+                    invalid(self.file, format!("{what}: {name} = {x} is not a number"))
+                }),
+            }
+        };
+        let Some(cutoff) = angle("cutoff_deg")? else {
+            return Err(invalid(
+                self.file,
+                format!("{what}: give cutoff_deg (and beam_width_deg, which defaults to it)"),
+            ));
+        };
+        if let Some(extra) = v.as_object().and_then(|o| {
+            o.keys()
+                .find(|k| *k != "cutoff_deg" && *k != "beam_width_deg")
+        }) {
+            return Err(invalid(
+                self.file,
+                format!("{what}: unknown field '{extra}' (cutoff_deg, beam_width_deg)"),
+            ));
+        }
+        let beam = angle("beam_width_deg")?.unwrap_or(cutoff);
+        let f = AngularFalloff {
+            beam_width_rad: beam.to_radians() as f32,
+            cutoff_rad: cutoff.to_radians() as f32,
+        };
+        f.check()
+            .map_err(|e| invalid(self.file, format!("{what}: {e}")))?;
+        Ok(Some(f))
     }
 
     /// The medium inside a material: `KHR_materials_volume`'s absorption on a

@@ -35,6 +35,7 @@
 //! bilinear and repeating, as Mitsuba's defaults), `checkerboard` (baked into a
 //! texture), `uniform` and `srgb` spectra; only the base colour slot takes a texture.
 
+use super::emitters::AreaEmitter;
 use super::shapes::uv_transform;
 use super::xml::{Color, Object, err};
 use super::{Builder, MaterialKey, MaterialSlot};
@@ -97,12 +98,15 @@ impl Builder<'_> {
     pub(super) fn material(
         &mut self,
         bsdf: Option<usize>,
-        radiance: Option<[f64; 3]>,
+        emitter: Option<AreaEmitter>,
         medium: Option<usize>,
     ) -> Result<MaterialSlot, SceneError> {
         let key = MaterialKey {
             bsdf,
-            radiance_bits: radiance.map(|r| r.map(f64::to_bits)),
+            radiance_bits: emitter.map(|e| e.radiance.map(f64::to_bits)),
+            falloff_bits: emitter
+                .and_then(|e| e.falloff)
+                .map(|f| [f.beam_width_rad.to_bits(), f.cutoff_rad.to_bits()]),
             medium,
         };
         if let Some(slot) = self.material_of.get(&key) {
@@ -133,8 +137,9 @@ impl Builder<'_> {
             };
             c.material.medium = Some(self.medium(k, n)?);
         }
-        if let Some(r) = radiance {
-            c.material.emissive = r.map(|v| v as f32);
+        if let Some(e) = emitter {
+            c.material.emissive = e.radiance.map(|v| v as f32);
+            c.material.emission_falloff = e.falloff;
             c.material.double_sided = false;
             c.material.name = format!("{} (area light)", c.material.name);
         }

@@ -7,6 +7,12 @@
 //!   is the same, but whose falloff between the two angles is tprf's (KHR's smooth
 //!   falloff in the cosine, Mitsuba's is linear in the angle; noted);
 //! - `area` (inside a shape): `radiance` W m^-2 sr^-1 from the shape's front side;
+//! - `angulararea` (mitransient's, inside a shape): an `area` emitter whose radiance at
+//!   angle theta to the normal is full within `beam_width`, falls linearly in theta to
+//!   0 at `cutoff_angle` (degrees; defaults 10 and the cutoff), exactly as mitransient;
+//! - `projector` (read in `nlos.rs`, where it is also an NLOS laser): a constant
+//!   `irradiance` E times `scale` through a square frustum of `fov`: intensity `pi E
+//!   scale / cos^3 theta` inside it, Mitsuba's uniform irradiance across its axis;
 //! - `directional`: `irradiance` W/m^2 travelling along `direction` (or `to_world`'s
 //!   +Z), and `constant`: `radiance` from every direction: tprf's ambient group, steady
 //!   light that the transient cube does not hold (rendered into the ambient image;
@@ -14,7 +20,16 @@
 
 use super::Builder;
 use super::xml::{Color, err};
-use crate::scene::{DirectionalLight, PunctualLight, Scene, SceneError, Spot};
+use crate::scene::{AngularFalloff, DirectionalLight, PunctualLight, Scene, SceneError, Spot};
+
+/// An area emitter of a shape (`area`, `angulararea`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct AreaEmitter {
+    /// Radiance, W m^-2 sr^-1, RGB.
+    pub radiance: [f64; 3],
+    /// The angular profile of an `angulararea` emitter.
+    pub falloff: Option<AngularFalloff>,
+}
 use glam::{DMat3, DVec3};
 
 /// A point light at the camera of a scene with no light (see [`Scene::colocated_light`]).
@@ -24,7 +39,11 @@ pub(super) fn colocated_light(scene: &Scene) -> PunctualLight {
 
 impl Builder<'_> {
     /// A constant radiometric quantity `name` of emitter `o` (textures refused).
-    fn quantity(&self, o: &super::xml::Object, name: &str) -> Result<[f64; 3], SceneError> {
+    pub(super) fn quantity(
+        &self,
+        o: &super::xml::Object,
+        name: &str,
+    ) -> Result<[f64; 3], SceneError> {
         match o.color(name, Some([1.0; 3]))? {
             Some(Color::Rgb(c)) => {
                 if c.iter().any(|v| *v < 0.0) {
@@ -60,10 +79,27 @@ impl Builder<'_> {
         }
     }
 
-    /// The radiance of an `area` emitter object, W m^-2 sr^-1.
-    pub(super) fn area_radiance(&mut self, k: usize) -> Result<[f64; 3], SceneError> {
+    /// An `area` or `angulararea` emitter object: its radiance, W m^-2 sr^-1, and for
+    /// `angulararea` its profile: full within `beam_width` (degrees; default the
+    /// cutoff), falling linearly in angle to 0 at `cutoff_angle` (default 10), as
+    /// mitransient defines it.
+    pub(super) fn area_emitter(&mut self, k: usize) -> Result<AreaEmitter, SceneError> {
         let o = self.object(k);
-        self.quantity(o, "radiance")
+        let radiance = self.quantity(o, "radiance")?;
+        let falloff = if o.plugin == "angulararea" {
+            let cutoff = o.float("cutoff_angle", 10.0)?;
+            let beam = o.float("beam_width", cutoff)?;
+            let f = AngularFalloff {
+                beam_width_rad: beam.to_radians() as f32,
+                cutoff_rad: cutoff.to_radians() as f32,
+            };
+            f.check()
+                .map_err(|e| err(&o.loc, format!("{}: {e}", o.describe())))?;
+            Some(f)
+        } else {
+            None
+        };
+        Ok(AreaEmitter { radiance, falloff })
     }
 
     /// A top-level `<emitter>`.
@@ -120,6 +156,7 @@ impl Builder<'_> {
                     position: position.as_vec3(),
                     intensity_w_per_sr: intensity.map(|v| v as f32),
                     spot,
+                    projector: None,
                 });
             }
             "directional" => {

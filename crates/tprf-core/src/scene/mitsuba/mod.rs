@@ -103,6 +103,7 @@ pub fn mitsuba_file_settings(path: &Path) -> Result<FileSettings, SceneError> {
     if let Some(k) = integrator {
         b.read_integrator(k)?;
     }
+    b.settle_camera_nlos();
     Ok(b.settings)
 }
 
@@ -120,6 +121,8 @@ pub(super) struct MaterialSlot {
 struct MaterialKey {
     bsdf: Option<usize>,
     radiance_bits: Option<[u64; 3]>,
+    /// An angular emitter's beam width and cutoff.
+    falloff_bits: Option<[u32; 2]>,
     /// The `<medium>` object filling the shape.
     medium: Option<usize>,
 }
@@ -138,6 +141,8 @@ pub(super) struct Builder<'a> {
     /// Scene texture of each texture object converted so far.
     texture_of: HashMap<usize, u32>,
     lights: Vec<PunctualLight>,
+    /// The projector's position (an NLOS capture's laser device).
+    projector_origin: Option<crate::scene::FileSetting<[f64; 3]>>,
     ambient: AmbientLights,
     camera: Option<Camera>,
     /// The medium the sensor sits in: the scene's.
@@ -164,6 +169,7 @@ impl<'a> Builder<'a> {
             textures: Vec::new(),
             texture_of: HashMap::new(),
             lights: Vec::new(),
+            projector_origin: None,
             ambient: AmbientLights::default(),
             camera: None,
             medium: None,
@@ -288,6 +294,10 @@ impl<'a> Builder<'a> {
     /// The scene, with a camera and a light added where the file has none, and the notes
     /// gathered.
     fn finish(mut self) -> Result<(Scene, FileSettings), SceneError> {
+        self.settle_camera_nlos();
+        if let (Some(n), Some(p)) = (&mut self.settings.nlos, self.projector_origin.take()) {
+            n.laser_origin.get_or_insert(p);
+        }
         self.note_unread();
         let file = self.file.clone();
         let mut notes = std::mem::take(&mut self.notes);

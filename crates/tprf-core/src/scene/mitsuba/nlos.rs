@@ -15,14 +15,19 @@
 //!   `max_depth - 3` scattering events in the hidden scene; -1 every one); its sampling
 //!   switches (laser sampling, hidden-geometry sampling, filters) are noted, since
 //!   `tprf nlos` samples the hidden geometry from each wall point itself;
-//! - `<emitter type="projector">`: the laser device at its `to_world` translation, not a
-//!   light of the scene (`tprf nlos` models the laser). Where it points is set per scan
-//!   point by tal's Python, not by the file: a single scan's laser point is the wall's
-//!   centre unless `--laser-point` gives it.
+//! - `<emitter type="projector">`: a light of the scene (for `tprf render`), and the
+//!   laser device at its `to_world` translation for `tprf nlos` (which models the laser
+//!   itself). Where it points is set per scan point by tal's Python, not by the file: a
+//!   single scan's laser point is the wall's centre unless `--laser-point` gives it, or
+//!   an older file's meter does (`laser_origin`, `laser_lookat_pixel`, `confocal`);
+//! - the same integrator watched by a perspective camera (no capture meter): a scene for
+//!   `tprf render`, its legs left out as the integrator's (`settle_camera_nlos`).
 
 use super::xml::{Object, err};
 use super::{Builder, SceneError};
-use crate::scene::{FileSetting, NlosFileSettings};
+use crate::scene::{
+    FileSetting, NlosFileSettings, Projector, PulseOrigin, PunctualLight, TimeOrigin,
+};
 use glam::DVec3;
 
 /// Where a property of `o` was read, or the object whose default it is.
@@ -38,12 +43,20 @@ impl Builder<'_> {
         self.settings.nlos.get_or_insert_with(Default::default)
     }
 
-    /// The `<sensor type="nlos_capture_meter">` `k` of the relay wall shape named `wall`.
+    /// The `<sensor type="nlos_capture_meter">` `k` of the relay wall shape named `wall`
+    /// (`rectangle`: its `to_world` when the wall is a Mitsuba `rectangle`).
+    ///
+    /// Older mitransient files (`examples/transient-nlos/nlos_Z.xml`) put the laser on
+    /// the meter: `laser_origin` (the device), `laser_lookat_pixel` (the film pixel
+    /// `(x, y)` it aims at: on a rectangle the point `(2 (x + 0.5) / W - 1, 2 (y + 0.5) /
+    /// H - 1, 0)` of its square, as the meter samples its pixels) and `confocal`; they
+    /// are read as the file means them (the integrator's `capture_type` wins).
     pub(super) fn read_capture_meter(
         &mut self,
         k: usize,
         wall: &str,
         wall_from: String,
+        rectangle: Option<glam::DMat4>,
     ) -> Result<(), SceneError> {
         let o = self.object(k);
         if self
@@ -89,6 +102,20 @@ impl Builder<'_> {
             });
         }
         let _ = o.prop("laser_bounce_opl");
+        if let Some(p) = o.vector("laser_origin")? {
+            self.nlos().laser_origin = Some(FileSetting {
+                value: p,
+                from: from(o, "laser_origin"),
+            });
+        }
+        let look_at_pixel = o.vector("laser_lookat_pixel")?;
+        if o.prop("confocal").is_some() {
+            let confocal = o.boolean("confocal", false)?;
+            self.nlos().capture_type.get_or_insert(FileSetting {
+                value: if confocal { "confocal" } else { "single" }.into(),
+                from: from(o, "confocal"),
+            });
+        }
         for (p, c) in o.children() {
             p.used.set(true);
             let child = self.object(c);
@@ -180,6 +207,36 @@ impl Builder<'_> {
                 }
             }
         }
+        if let Some(px) = look_at_pixel {
+            let at = from(o, "laser_lookat_pixel");
+            let (Some(m), Some(g)) = (rectangle, &grid) else {
+                return Err(err(
+                    &o.loc,
+                    format!(
+                        "laser_lookat_pixel on a relay wall that is not a <shape type=\"rectangle\">: aim the laser with tprf nlos --laser-point X,Y,Z ({at})"
+                    ),
+                ));
+            };
+            let [w, h] = g.value.map(|v| v as f64);
+            let local = DVec3::new(
+                2.0 * (px[0] + 0.5) / w - 1.0,
+                2.0 * (px[1] + 0.5) / h - 1.0,
+                0.0,
+            );
+            if !(local.x.abs() <= 1.0 && local.y.abs() <= 1.0) {
+                return Err(err(
+                    &o.loc,
+                    format!(
+                        "laser_lookat_pixel ({}, {}) is outside the {w} x {h} film ({at})",
+                        px[0], px[1]
+                    ),
+                ));
+            }
+            self.nlos().laser_point = Some(FileSetting {
+                value: m.transform_point3(local).to_array(),
+                from: at,
+            });
+        }
         let n = self.nlos();
         // A confocal scan is a 1 x 1 film with the grid beside it (as tal writes it; the
         // integrator's capture_type, where given, wins).
@@ -207,15 +264,16 @@ impl Builder<'_> {
             None => None,
             Some(p) => Some(match o.string("capture_type") {
                 Ok(Some(s)) => s.to_ascii_lowercase(),
+                // mitransient's CaptureType: Single = 1, Confocal = 2, Exhaustive = 3.
                 _ => match o.integer("capture_type", 0)? {
-                    (0, _) => "single".into(),
-                    (1, _) => "confocal".into(),
-                    (2, _) => "exhaustive".into(),
+                    (1, _) => "single".into(),
+                    (2, _) => "confocal".into(),
+                    (3, _) => "exhaustive".into(),
                     (v, _) => {
                         return Err(err(
                             &p.loc,
                             format!(
-                                "capture_type {v}: mitransient's are 0 (single), 1 (confocal), 2 (exhaustive)"
+                                "capture_type {v}: mitransient's are 1 (single), 2 (confocal), 3 (exhaustive)"
                             ),
                         ));
                     }
@@ -269,7 +327,7 @@ impl Builder<'_> {
             }
         }
         if !hints.is_empty() {
-            self.note_at(&o.loc, format!("<integrator type=\"transient_nlos_path\">: {} not applied: tprf nlos samples the hidden geometry from each wall point itself and records every path its settings allow", hints.join(", ")));
+            self.note_at(&o.loc, format!("<integrator type=\"transient_nlos_path\">: {} not applied: tprf samples the hidden scene its own way (tprf nlos from each wall point, tprf render by joining every path vertex to the laser's spot) and records every path its settings allow", hints.join(", ")));
         }
         let n = self.nlos();
         if let Some(kind) = kind {
@@ -285,16 +343,127 @@ impl Builder<'_> {
         Ok(())
     }
 
-    /// `<emitter type="projector">`: the NLOS laser's device position.
+    /// mitransient's NLOS integrator watched through a perspective camera (no capture
+    /// meter in the file, as `examples/transient-nlos/nlos-z-simple.xml`): a scene
+    /// `tprf render` renders like any other, its projector a light, the legs the
+    /// integrator leaves out (`account_first_and_last_bounces` false, mitransient's
+    /// default) left out here too: the camera's (`TimeOrigin::FirstHit`) and the
+    /// projector's (`PulseOrigin::FirstHit`). The depth is `max_depth - 1` scattering
+    /// events, as for `transient_path`. The NLOS capture settings are dropped: the file
+    /// is not a `tprf nlos` scene.
+    pub(super) fn settle_camera_nlos(&mut self) {
+        let has_meter = self
+            .parsed
+            .objects
+            .iter()
+            .any(|o| o.tag == "sensor" && o.plugin == "nlos_capture_meter");
+        if has_meter || self.camera.is_none() {
+            return;
+        }
+        let Some(n) = self.settings.nlos.take() else {
+            return;
+        };
+        let counted = n.device_legs.as_ref().is_some_and(|l| l.value);
+        if !counted {
+            let from = n.device_legs.map_or_else(
+                || "<integrator type=\"transient_nlos_path\"> (mitransient's default account_first_and_last_bounces false)".to_string(),
+                |l| format!("{} false", l.from),
+            );
+            self.settings.time_origin = Some(FileSetting {
+                value: TimeOrigin::FirstHit,
+                from: from.clone(),
+            });
+            self.settings.pulse_origin = Some(FileSetting {
+                value: PulseOrigin::FirstHit,
+                from,
+            });
+        }
+        if let Some(h) = n.hidden_bounces {
+            self.settings.max_bounces = Some(FileSetting {
+                value: h.value.saturating_add(2),
+                from: format!("{} (max_depth - 1 for a camera's view)", h.from),
+            });
+        }
+        self.notes.push(format!(
+            "{}: mitransient's transient_nlos_path watched by a camera: rendered as any scene, the projector a light, {}",
+            self.file,
+            if counted {
+                "every leg counted (account_first_and_last_bounces true)"
+            } else {
+                "the camera's and the projector's legs left out of the times, as mitransient (--time-origin first-hit --pulse-origin first-hit)"
+            }
+        ));
+    }
+
+    /// `<emitter type="projector">`: a light of the scene (Mitsuba's projector: `fov`
+    /// along `fov_axis` of a square image for a constant `irradiance`, times `scale`,
+    /// `to_world` +Z its axis and +Y its up), and the NLOS laser's device position.
+    ///
+    /// Mitsuba's projector lights a plane across its axis at distance `D` with the same
+    /// irradiance `pi E scale / D^2` everywhere inside the frustum (measured with
+    /// Mitsuba 3.9.1: a white diffuse plane 1 m away shows radiance `E`): tprf's
+    /// projector of on-axis intensity `pi E scale` W/sr.
     pub(super) fn read_projector(&mut self, k: usize) -> Result<(), SceneError> {
         let o = self.object(k);
         let to_world = o.transform("to_world")?;
         let p = to_world.transform_point3(DVec3::ZERO);
-        for quiet in ["irradiance", "intensity", "fov", "scale"] {
-            let _ = o.prop(quiet);
+        let bad_frame = || {
+            err(
+                &o.loc,
+                format!(
+                    "{}: to_world is not an invertible affine transform",
+                    o.describe()
+                ),
+            )
+        };
+        let z = to_world
+            .transform_vector3(DVec3::Z)
+            .try_normalize()
+            .ok_or_else(bad_frame)?;
+        let y_raw = to_world.transform_vector3(DVec3::Y);
+        let y = (y_raw - y_raw.dot(z) * z)
+            .try_normalize()
+            .ok_or_else(bad_frame)?;
+        if !(p.is_finite() && z.is_finite()) {
+            return Err(bad_frame());
         }
-        self.note_at(&o.loc, "<emitter type=\"projector\"> read as the NLOS laser's position (tprf nlos models the laser; where it points is the scan's)".into());
-        self.nlos().laser_origin = Some(FileSetting {
+        let irradiance = self.quantity(o, "irradiance")?;
+        let scale = o.float("scale", 1.0)?;
+        if !(scale.is_finite() && scale >= 0.0) {
+            return Err(err(
+                &o.loc,
+                format!("{}: scale {scale} must be finite and >= 0", o.describe()),
+            ));
+        }
+        // A constant irradiance is a 1 x 1 image: a square frustum (every fov_axis but
+        // the diagonal's gives the same angle).
+        let fov = o.float("fov", 0.0)?;
+        if !(fov > 0.0 && fov < 180.0) {
+            return Err(err(
+                &o.loc,
+                format!("{}: fov {fov} degrees must be in (0, 180)", o.describe()),
+            ));
+        }
+        let mut tan_half = (0.5 * fov).to_radians().tan();
+        if o.string("fov_axis")?
+            .is_some_and(|a| a.eq_ignore_ascii_case("diagonal"))
+        {
+            tan_half /= 2f64.sqrt();
+        }
+        let intensity = irradiance.map(|e| (std::f64::consts::PI * e * scale) as f32);
+        self.lights.push(PunctualLight {
+            name: o.id.clone().unwrap_or_else(|| "projector".into()),
+            position: p.as_vec3(),
+            intensity_w_per_sr: intensity,
+            spot: None,
+            projector: Some(Projector {
+                direction: z.as_vec3(),
+                up: y.as_vec3(),
+                tan_half_x: tan_half as f32,
+                tan_half_y: tan_half as f32,
+            }),
+        });
+        self.projector_origin = Some(FileSetting {
             value: p.to_array(),
             from: format!("{} {} to_world", o.loc, o.describe()),
         });

@@ -27,7 +27,7 @@
 use super::Builder;
 use super::transform::is_affine;
 use super::xml::{Object, Prop, err};
-use crate::scene::{Camera, FileSetting, SceneError};
+use crate::scene::{Camera, FileSetting, FovAxis, SceneError, TimeOrigin};
 use glam::{Affine3A, DMat3, DMat4, DVec3};
 
 /// Mitsuba's default film size.
@@ -129,7 +129,7 @@ impl Builder<'_> {
                 }
             }
         }
-        let aspect = match film {
+        match film {
             Some(f) => self.read_film(f)?,
             None => {
                 self.notes.push(format!(
@@ -144,30 +144,24 @@ impl Builder<'_> {
                     value: DEFAULT_HEIGHT as u64,
                     from: origin(o, None),
                 });
-                DEFAULT_WIDTH as f64 / DEFAULT_HEIGHT as f64
             }
-        };
-        let xfov_deg = self.fov_x_deg(o, aspect)?;
-        let yfov = 2.0 * ((0.5 * xfov_deg.to_radians()).tan() / aspect).atan();
+        }
+        let (fov_rad, fov_axis) = self.fov(o)?;
         // mitransient measures a path's optical length from the near clip plane, where
-        // Mitsuba starts camera rays; tprf's from the pinhole. The film's window moves
-        // by near_clip so a bin holds the same light as mitransient's on the axis (a ray
-        // at angle a to it starts near_clip / cos(a) from the pinhole: off the axis,
-        // mitransient's arrivals are earlier by near_clip (1 / cos(a) - 1) more).
+        // Mitsuba starts camera rays; tprf from the pinhole unless the render asks for
+        // `TimeOrigin::NearPlane`. The camera keeps the plane; the settings keep it so a
+        // pinhole render's window starts `near_clip` later (`FileSettings::t0_opl_m_for`).
         let near_clip = o.float("near_clip", NEAR_CLIP_DEFAULT)?;
-        if !(near_clip >= 0.0 && near_clip.is_finite()) {
+        if !(near_clip >= 0.0 && near_clip.is_finite() && near_clip <= f32::MAX as f64) {
             return Err(err(
                 &o.loc,
                 format!("{}: near_clip {near_clip} must be >= 0", o.describe()),
             ));
         }
-        if let Some(t0) = &mut self.settings.t0_opl_m {
-            t0.value += near_clip;
-            t0.from = format!(
-                "{} + near_clip {near_clip} ({}: mitransient counts the optical path from the near plane)",
-                t0.from, o.loc
-            );
-        }
+        self.settings.near_clip_m = Some(FileSetting {
+            value: near_clip,
+            from: origin(o, o.prop("near_clip")),
+        });
         if o.prop("far_clip").is_some() {
             let v = o.float("far_clip", 0.0)?;
             self.note_at(
@@ -192,13 +186,19 @@ impl Builder<'_> {
             }
         }
         let m = o.transform("to_world")?;
-        self.camera = Some(self.camera_from(o, &m, yfov)?);
+        let mut camera = self.camera_from(o, &m, fov_rad)?;
+        camera.fov_axis = fov_axis;
+        camera.near_m = near_clip as f32;
+        self.camera = Some(camera);
         Ok(())
     }
 
-    /// The horizontal field of view in degrees, as Mitsuba's `parse_fov`.
-    fn fov_x_deg(&self, o: &Object, aspect: f64) -> Result<f64, SceneError> {
-        let (fov, axis) = match (o.prop("fov").is_some(), o.prop("focal_length").is_some()) {
+    /// The field of view, radians, and the axis it is measured along, as Mitsuba's
+    /// `parse_fov` reads them: `fov` along `fov_axis` (x by default), or `focal_length`
+    /// (50mm by default) on a 36 x 24 mm film's diagonal. The other axis follows from
+    /// whatever film is rendered (`Camera::tan_half_fov`), as in Mitsuba.
+    fn fov(&self, o: &Object) -> Result<(f64, FovAxis), SceneError> {
+        let (fov_deg, axis) = match (o.prop("fov").is_some(), o.prop("focal_length").is_some()) {
             (true, true) => {
                 return Err(err(
                     &o.loc,
@@ -206,11 +206,22 @@ impl Builder<'_> {
                 ));
             }
             (true, false) => {
-                let axis = o.string("fov_axis")?.unwrap_or("x").to_ascii_lowercase();
-                let axis = match axis.as_str() {
-                    "smaller" => if aspect > 1.0 { "y" } else { "x" }.to_string(),
-                    "larger" => if aspect > 1.0 { "x" } else { "y" }.to_string(),
-                    _ => axis,
+                let name = o.string("fov_axis")?.unwrap_or("x").to_ascii_lowercase();
+                let axis = match name.as_str() {
+                    "x" => FovAxis::X,
+                    "y" => FovAxis::Y,
+                    "diagonal" => FovAxis::Diagonal,
+                    "smaller" => FovAxis::Smaller,
+                    "larger" => FovAxis::Larger,
+                    other => {
+                        return Err(err(
+                            &o.loc,
+                            format!(
+                                "{}: fov_axis \"{other}\" is not one of x, y, diagonal, smaller, larger",
+                                o.describe()
+                            ),
+                        ));
+                    }
                 };
                 (o.float("fov", 0.0)?, axis)
             }
@@ -234,44 +245,25 @@ impl Builder<'_> {
                     })?;
                 (
                     (36.0f64.hypot(24.0) / (2.0 * mm)).atan().to_degrees() * 2.0,
-                    "diagonal".to_string(),
+                    FovAxis::Diagonal,
                 )
             }
         };
-        let half = 0.5 * fov.to_radians();
-        let x = match axis.as_str() {
-            "x" => fov,
-            "y" => 2.0 * (half.tan() * aspect).atan().to_degrees(),
-            "diagonal" => {
-                let diagonal = 2.0 * half.tan();
-                let width = diagonal / (1.0 + 1.0 / (aspect * aspect)).sqrt();
-                2.0 * (0.5 * width).atan().to_degrees()
-            }
-            other => {
-                return Err(err(
-                    &o.loc,
-                    format!(
-                        "{}: fov_axis \"{other}\" is not one of x, y, diagonal, smaller, larger",
-                        o.describe()
-                    ),
-                ));
-            }
-        };
-        if !(x > 0.0 && x < 180.0) {
+        if !(fov_deg > 0.0 && fov_deg < 180.0) {
             return Err(err(
                 &o.loc,
                 format!(
-                    "{}: a horizontal field of view of {x} degrees (it must be in (0, 180))",
+                    "{}: a field of view of {fov_deg} degrees (it must be in (0, 180))",
                     o.describe()
                 ),
             ));
         }
-        Ok(x)
+        Ok((fov_deg.to_radians(), axis))
     }
 
     /// tprf's camera (-Z forward, +Y up, +X right) from Mitsuba's `to_world` (+Z
     /// forward, +Y up, +X left), made orthonormal.
-    fn camera_from(&mut self, o: &Object, m: &DMat4, yfov_rad: f64) -> Result<Camera, SceneError> {
+    fn camera_from(&mut self, o: &Object, m: &DMat4, fov_rad: f64) -> Result<Camera, SceneError> {
         let bad = || {
             err(
                 &o.loc,
@@ -316,12 +308,14 @@ impl Builder<'_> {
                 v(-forward).into(),
                 v(eye).into(),
             ),
-            yfov_rad: yfov_rad as f32,
+            fov_rad: fov_rad as f32,
+            fov_axis: FovAxis::X,
+            near_m: NEAR_CLIP_DEFAULT as f32,
         })
     }
 
-    /// The film: size and time window into the settings; its aspect ratio.
-    fn read_film(&mut self, k: usize) -> Result<f64, SceneError> {
+    /// The film: size and time window into the settings.
+    fn read_film(&mut self, k: usize) -> Result<(), SceneError> {
         let f = self.object(k);
         match f.plugin.as_str() {
             "hdrfilm" | "transient_hdr_film" => {}
@@ -335,7 +329,6 @@ impl Builder<'_> {
         }
         let width = count(f, "width", DEFAULT_WIDTH)?;
         let height = count(f, "height", DEFAULT_HEIGHT)?;
-        let aspect = width.value as f64 / height.value as f64;
         for name in [
             "crop_width",
             "crop_height",
@@ -415,7 +408,7 @@ impl Builder<'_> {
             self.settings.dt_opl_m = Some(dt);
             self.settings.t0_opl_m = Some(opl("start_opl", 0.0)?);
         }
-        Ok(aspect)
+        Ok(())
     }
 
     /// The `<integrator>`: its depth into the settings.
@@ -474,8 +467,12 @@ impl Builder<'_> {
         }
         let _ = o.float("gaussian_stddev", 0.0)?;
         let _ = o.integer("block_size", 0)?;
+        let unwarp = o.prop("camera_unwarp");
         if o.boolean("camera_unwarp", false)? {
-            self.note_at(&o.loc, "camera_unwarp not applied: tprf's arrival times include the camera's segment (the time a real camera sees)".into());
+            self.settings.time_origin = Some(FileSetting {
+                value: TimeOrigin::FirstHit,
+                from: origin(o, unwarp),
+            });
         }
         for name in ["discard_direct_light", "discard_direct_paths"] {
             if o.boolean(name, false)? {

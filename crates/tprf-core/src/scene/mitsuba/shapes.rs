@@ -361,7 +361,7 @@ impl Builder<'_> {
         let face_normals = o.boolean("face_normals", false)?;
         // Sub-objects: the BSDF, an area emitter; anything else refuses the shape.
         let mut bsdf = None;
-        let mut radiance = None;
+        let mut emitter = None;
         let mut interior = None;
         let mut capture_meter = None;
         for (p, c) in o.children() {
@@ -376,8 +376,8 @@ impl Builder<'_> {
                         bsdf = Some(c);
                     }
                 }
-                "emitter" if child.plugin == "area" => {
-                    radiance = Some(self.area_radiance(c)?);
+                "emitter" if child.plugin == "area" || child.plugin == "angulararea" => {
+                    emitter = Some(self.area_emitter(c)?);
                 }
                 "emitter" => {
                     return Err(err(
@@ -409,7 +409,7 @@ impl Builder<'_> {
                 }
             }
         }
-        let slot = self.material(bsdf, radiance, interior)?;
+        let slot = self.material(bsdf, emitter, interior)?;
         let _ = file_mesh;
         let first = self.triangles.len();
         self.place(mesh, &to_world, flip_normals, face_normals, slot, &what)?;
@@ -422,7 +422,9 @@ impl Builder<'_> {
                     format!("{} {} (no id)", o.loc, o.describe()),
                 ),
             };
-            self.read_capture_meter(meter, &name, from)?;
+            // Mitsuba parameterises a rectangle's [-1, 1]^2 by its film's pixels.
+            let rectangle = (o.plugin == "rectangle").then_some(to_world);
+            self.read_capture_meter(meter, &name, from, rectangle)?;
             if o.id.is_none() {
                 self.objects.push(SceneObject {
                     name,

@@ -95,12 +95,16 @@ fn draw(rng: &Sampler, path: &MediaPath, use_: u32) -> f32 {
 
 impl Renderer {
     /// Trace a camera path from `origin` along unit `dir` through a scene with media;
-    /// returns the rays traced.
+    /// returns the rays traced. `start_opl_m` is the optical path already behind the
+    /// pinhole (the time origin's offset: 0 from the pinhole); `None` counts from the
+    /// camera ray's first surface (mitransient's `camera_unwarp`: scattering in the
+    /// medium before it arrives at negative optical path, as there).
     pub(in crate::transport) fn walk_media(
         &self,
         media: &Media,
         origin: Vec3,
         dir: Vec3,
+        start_opl_m: Option<f64>,
         rng: &Sampler,
         sink: &mut impl Sink,
     ) -> u64 {
@@ -111,7 +115,7 @@ impl Renderer {
             origin,
             dir,
             throughput: 1.0,
-            opl_m: 0.0,
+            opl_m: start_opl_m.unwrap_or(0.0),
             scatterings: 0,
             region: media.scene,
             last_pdf: None,
@@ -119,6 +123,7 @@ impl Renderer {
             pass_throughs: 0,
             nee_weight: 1.0,
         };
+        let mut unwarp = start_opl_m.is_none();
         let mut rays = 0u64;
         loop {
             let (origin, dir) = (path.origin, path.dir);
@@ -127,6 +132,9 @@ impl Renderer {
             let hit = self.accel().closest_hit(origin, dir, f32::INFINITY);
             let t_hit = hit.map_or(f32::INFINITY, |h| h.t_m);
             let region = path.region;
+            if let (true, Some(h)) = (std::mem::take(&mut unwarp), hit) {
+                path.opl_m = -(h.t_m as f64) * region.n as f64;
+            }
             // How far along the ray light can still go and arrive inside the window.
             let t_window = ((window_end_opl_m - path.opl_m) / region.n as f64) as f32;
             if !(t_window > 0.0) {
