@@ -290,8 +290,10 @@ fn a_png_claiming_more_pixels_than_it_holds_is_refused() {
 /// Run `tprf ARGS` under `ulimit -v limit_kib` to its end: its exit status, its stderr
 /// and its peak resident memory (`ru_maxrss` from wait4, bytes).
 #[cfg(target_os = "linux")]
-// The child is reaped by wait4 (which also gives its rusage), not by Child::wait.
-#[allow(clippy::zombie_processes)]
+#[allow(
+    clippy::zombie_processes,
+    reason = "the child is reaped by wait4 (which also gives its rusage), not by Child::wait"
+)]
 fn tprf_peak_rss(args: &[&str], limit_kib: u64) -> (Option<i32>, String, u64) {
     use std::io::Read;
     let mut child = Command::new("sh")

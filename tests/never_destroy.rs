@@ -124,6 +124,7 @@ fn a_fifo_a_socket_and_a_device_node_are_refused_and_kept() {
     let dir = tempdir("special");
     let fifo = dir.join("fifo");
     let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+    // SAFETY: `c` is a NUL-terminated path that outlives the call.
     assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o644) }, 0);
     let o = render(&fifo);
     refused(&o, &["fifo", "named pipe"]);
@@ -149,6 +150,7 @@ fn a_fifo_a_socket_and_a_device_node_are_refused_and_kept() {
     // root may; elsewhere this part is skipped.
     let dev = dir.join("full");
     let c = std::ffi::CString::new(dev.to_str().unwrap()).unwrap();
+    // SAFETY: `c` is a NUL-terminated path that outlives the call.
     if unsafe { libc::mknod(c.as_ptr(), libc::S_IFCHR | 0o666, libc::makedev(1, 7)) } == 0 {
         let o = render(&dev);
         refused(&o, &["full", "character device"]);

@@ -59,7 +59,10 @@ fn rates(bins: usize, background: f64, peak: f64, at: usize) -> Vec<f64> {
 /// The independent simulation: one run of `cycles` cycles of the SPAD, photon by
 /// photon. `dead_bins` after the bin of a detection; trap filled with `p_trap` at each
 /// detection, released in a bin with probability `1 - exp(-mu)` (lost while dead).
-#[allow(clippy::too_many_arguments)]
+#[allow(
+    clippy::too_many_arguments,
+    reason = "the SPAD model's parameters, one argument each, as the test states them"
+)]
 fn monte_carlo(
     rates: &[f64],
     cycles: u64,

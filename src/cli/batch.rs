@@ -36,6 +36,10 @@ use tprf_core::request::{RenderRequest, RequestError};
 #[derive(Args, Debug)]
 pub struct BatchArgs {
     /// The manifest: a TOML file of [[job]] and [[sweep]] tables (see docs/distributed.md).
+    #[allow(
+        rustdoc::broken_intra_doc_links,
+        reason = "clap's help text: the brackets are TOML, not links"
+    )]
     pub manifest: PathBuf,
     /// Run only the job of this name (repeatable); default: every job.
     #[arg(long)]

@@ -44,6 +44,11 @@ pub struct SpadArgs {
     /// The capture: a `tprf nlos` output folder, or an HDF5 file in tal's format.
     pub capture: PathBuf,
     /// A sensor TOML with a [spad] section and a tdc exposure, or builtin:spad.
+    #[allow(
+        rustdoc::broken_intra_doc_links,
+        rustdoc::private_intra_doc_links,
+        reason = "clap's help text: the brackets are TOML, not links"
+    )]
     #[arg(long)]
     pub preset: String,
     /// Laser cycles summed into the histogram (overrides the preset's).

@@ -42,6 +42,10 @@ pub struct SensorArgs {
     #[arg(long)]
     pub seed: Option<u64>,
     /// Laser cycles of the SPAD histogram (sensors with a [spad] section).
+    #[allow(
+        rustdoc::broken_intra_doc_links,
+        reason = "clap's help text: the brackets are TOML, not links"
+    )]
     #[arg(long)]
     pub cycles: Option<u64>,
     /// Scale of the cube's ambient image (ambient.npy), dimensionless: 1 = the ambient

@@ -420,7 +420,7 @@ impl eframe::App for TprfApp {
         self.timing.ui_ms = FrameTiming::smooth(self.timing.ui_ms, ui_ms);
     }
 
-    /// A frame's input cut at a Tab (see [`super::input`]): the events held back last
+    /// A frame's input cut at a Tab (see `viewer::input`): the events held back last
     /// frame come first, and what this one holds back waits for the next, which is
     /// asked for at once.
     fn raw_input_hook(&mut self, ctx: &egui::Context, raw_input: &mut egui::RawInput) {

@@ -74,7 +74,7 @@ pub enum Start {
 }
 
 /// What the window is cleared to before each frame is painted: the panels' colour.
-/// The panels are drawn without a fill of their own ([`panel_frame`]): the clear is
+/// The panels are drawn without a fill of their own (`panel_frame`): the clear is
 /// free, where their fills were a layer over every pixel of the window that a software
 /// rasteriser (Mesa's llvmpipe, without a GPU) shaded and blended, a million fragments
 /// a frame at 1280 x 800 (`cargo bench --bench viewer -- paint` counts them).

@@ -1,5 +1,5 @@
 //! Scenes built by hand for the analytic tests, and a one-call render.
-#![allow(dead_code)]
+#![allow(dead_code, reason = "each test binary uses a part of these helpers")]
 
 pub mod cli;
 pub mod serialized;

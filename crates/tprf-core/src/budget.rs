@@ -369,7 +369,7 @@ fn rlimit_room(which: Rlimit) -> Option<u64> {
         }
         let status = std::fs::read_to_string("/proc/self/status").ok()?;
         let used = kib_field(&status, field)?;
-        #[allow(clippy::unnecessary_cast)] // u64 on Linux, but not everywhere
+        #[allow(clippy::unnecessary_cast, reason = "u64 on Linux, but not everywhere")]
         Some((lim.rlim_cur as u64).saturating_sub(used))
     }
     #[cfg(not(target_os = "linux"))]

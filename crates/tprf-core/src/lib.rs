@@ -13,7 +13,7 @@
 //! | [`film`] | the TPRF store: per pixel, per time bin, f64 sums in two independent halves, per-bounce layers; snapshots for readers |
 //! | [`sensor`] | section 6 of the paper: `M_i = max(0, Noise + integral (TPRF * Light)(t) Exposure_i(t) dt)` through bin-integrated kernels `K_i` |
 //! | [`oned`] | the paper's 1-D world as exact impulse trains |
-//! | [`reference`] | exact answers (transient furnace, lit plane, 1-D world in 3-D) |
+//! | [`reference`](mod@reference) | exact answers (transient furnace, lit plane, 1-D world in 3-D) |
 //! | [`export`] | `.npy` cubes with `tprf.json`, PNG images and frames, CSV |
 //! | [`request`] | one render described once ([`request::RenderRequest`]), validated once; made ready ([`request::Session`]), rendered to a folder, or on the background [`request::worker`] |
 //! | [`report`] | error against run time, stiff and extreme cases |
@@ -53,9 +53,6 @@
 //! # Ok(())
 //! # }
 //! ```
-
-// `!(x > 0.0)` is how this crate rejects NaN along with the non-positive values.
-#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod accel;
 pub mod budget;

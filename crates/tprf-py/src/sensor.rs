@@ -293,7 +293,10 @@ impl PySensor {
 
     /// The built-in presets: ``"builtin:gated"``, ``"builtin:lidar"``, ...
     #[classattr]
-    #[allow(non_snake_case)]
+    #[allow(
+        non_snake_case,
+        reason = "a Python class constant, named as Python names them"
+    )]
     fn PRESETS() -> Vec<String> {
         BUILTIN_PRESETS
             .iter()
@@ -475,7 +478,10 @@ impl PySensor {
     /// ``Measurement.save`` writes as CSV (``--pixel``). The GIL is released meanwhile.
     #[pyo3(signature = (cube, *, seed=None, ambient_scale=None, ambient_exposure=None,
         cycles=None, noise_sigma=None, photons_per_energy=None, pixels=Vec::new()))]
-    #[allow(clippy::too_many_arguments)]
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "Python keyword arguments, one per `tprf sensor` option"
+    )]
     fn measure(
         &self,
         py: Python<'_>,

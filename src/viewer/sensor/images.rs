@@ -418,7 +418,10 @@ fn coverage_ui(
 
 /// The images of [`images_ui`], drawn with `state` borrowed and its `textures` and gate
 /// selection taken out of it.
-#[allow(clippy::too_many_arguments)]
+#[allow(
+    clippy::too_many_arguments,
+    reason = "the sensor tab's state, one argument each; not yet a narrow context struct"
+)]
 fn measurement_images(
     ui: &mut egui::Ui,
     state: &SensorState,
@@ -704,7 +707,10 @@ const STRIP_NAMES: [&str; 16] = [
 /// A row of small images of the gates (or TDC bins) around the one shown, in the space
 /// left under the images, on one exposure (`tone`: 1 / white): the whole sequence read
 /// at a glance, the shown one outlined; a click shows that one. The gate clicked.
-#[allow(clippy::too_many_arguments)]
+#[allow(
+    clippy::too_many_arguments,
+    reason = "the sensor tab's state, one argument each; not yet a narrow context struct"
+)]
 fn gate_strip<'a>(
     ui: &mut egui::Ui,
     textures: &mut TextureCache<u64>,

@@ -63,7 +63,7 @@ struct Job {
 /// meanwhile), and the next edit cancels a realisation being drawn. An edit of the
 /// SPAD's own settings (or the noise) reuses the clean measurement of the last job.
 /// Until the SPAD's histograms are those of the current sensor, a preview of them on
-/// a coarse grid of pixels ([`preview_spad`], on a thread of its own) is shown, marked
+/// a coarse grid of pixels (`preview_spad`, on a thread of its own) is shown, marked
 /// as one: it follows an edit within a frame or two.
 ///
 /// While the renderer adds passes, the measurement of the current sensor stays on
@@ -71,7 +71,7 @@ struct Job {
 /// cancels a measurement or a realisation under way; once both are done, and after a
 /// pause as long as they took (so the sensor takes at most half of a core from the
 /// renderer), the newest snapshot is measured, on threads below the renderer's
-/// priority ([`follow_pool`]).
+/// priority (`follow_pool`).
 #[derive(Default)]
 pub struct SensorState {
     pub(super) model: Option<SensorModel>,
@@ -148,7 +148,7 @@ impl SensorState {
 
     /// The first time the tab measures a film after it opened or a preset was picked:
     /// a preset most of whose gates miss the film's window is fitted to it
-    /// ([`super::view::fitted_on_open`]), and the tab says so (with a way back).
+    /// (`view::fitted_on_open`), and the tab says so (with a way back).
     pub fn fit_on_open(&mut self, sensor: &mut Sensor, axis: &tprf_core::film::TimeAxis) {
         if std::mem::replace(&mut self.opened, true) {
             return;

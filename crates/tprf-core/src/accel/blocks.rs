@@ -84,7 +84,11 @@ fn dot3(a: [f32; 3], b: [f32; 3]) -> f32 {
 #[inline(always)]
 // One lane index reads thirteen arrays; the comparisons are joined with `&`, not
 // ranges' short-circuiting `contains`, so every lane computes all of them.
-#[allow(clippy::needless_range_loop, clippy::manual_range_contains)]
+#[allow(
+    clippy::needless_range_loop,
+    clippy::manual_range_contains,
+    reason = "lane-wise comparisons joined with `&`, one index into thirteen arrays"
+)]
 fn intersect_block(b: &Block, o: Vec3A, d: Vec3A, tmax: f32) -> BlockHits {
     let mut out = BlockHits {
         mask: 0,
@@ -138,7 +142,10 @@ struct BlockBounds {
 /// `1 / d` per axis (infinite for a zero component; the one NaN, a ray in a padded face's
 /// plane, cannot enter the unpadded block, so either answer is right).
 #[inline(always)]
-#[allow(clippy::needless_range_loop)]
+#[allow(
+    clippy::needless_range_loop,
+    reason = "one lane index into several arrays"
+)]
 fn enter_blocks(b: &BlockBounds, o: Vec3A, inv_d: Vec3A, tmax: f32) -> (u32, [f32; LANES]) {
     let mut near_out = [0.0; LANES];
     let mut hit = [false; LANES];

@@ -461,7 +461,7 @@ pub fn disk_free_bytes(dir: &Path) -> Option<u64> {
         }
         // SAFETY: statvfs returned 0, so it filled `st`.
         let st = unsafe { st.assume_init() };
-        #[allow(clippy::unnecessary_cast)] // u32 on some platforms
+        #[allow(clippy::unnecessary_cast, reason = "u32 on some platforms")]
         Some((st.f_bavail as u64).saturating_mul(st.f_frsize as u64))
     }
     #[cfg(not(unix))]

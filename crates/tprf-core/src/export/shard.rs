@@ -295,7 +295,7 @@ fn fingerprint(s: &Shard) -> Vec<(&'static str, String)> {
     ]
 }
 
-/// Check a set of shards: the same render (every field of [`fingerprint`] equal), each
+/// Check a set of shards: the same render (every field of `fingerprint` equal), each
 /// of `0..n` exactly once, each holding the rows its index gives. Returns them ordered
 /// by index.
 pub fn check_set(mut shards: Vec<Shard>) -> Result<Vec<Shard>> {

@@ -130,7 +130,7 @@ pub fn create_group(
 }
 
 /// Make everything written under the group folder `path` durable
-/// ([`sync_filesystem`]).
+/// (`sync_filesystem`).
 pub fn sync_dir(path: &Path) -> Result<()> {
     sync_filesystem(path).map_err(|source| ExportError::Create {
         path: path.to_path_buf(),

@@ -191,7 +191,10 @@ pub struct PixelPass {
 /// samples` (see `TprfFilm::run_pass_planned`). `spp_after` is the film's samples per
 /// half once the pass is counted. The tally's `work` is the sum of what `render_pixel`
 /// returned.
-#[allow(clippy::too_many_arguments)]
+#[allow(
+    clippy::too_many_arguments,
+    reason = "a row's pass: its rows, plan, axis and callbacks, on the hot path"
+)]
 pub(super) fn render_row<F>(
     row: &mut Arc<FilmRow>,
     y: usize,

@@ -594,7 +594,7 @@ pub fn quantile_positive(values: impl Iterator<Item = f32>, q: f64) -> Option<f6
 
 /// [`quantile`] of `f32` values, the same value for the same input, without a copy in
 /// `f64`: the values are selected as 32-bit keys in the order of [`f32::total_cmp`]
-/// ([`order_key`]), which costs a third of the `f64` selection on an image (a time
+/// (`order_key`), which costs a third of the `f64` selection on an image (a time
 /// slice's white point, every frame of playback). `keys` is scratch space, kept by the
 /// caller so that a frame allocates nothing.
 pub fn quantile_f32(values: &[f32], q: f64, keys: &mut Vec<u32>) -> Option<f64> {

@@ -42,7 +42,7 @@ pub struct StoreStats {
 }
 
 /// Bytes per pixel the film holds whatever it stores: the run directory, steady sum,
-/// peak bin and sampling record (see [`FilmRow`]).
+/// peak bin and sampling record (see `FilmRow`).
 pub const BYTES_PER_PIXEL: u64 = 16 + 8 + 4 + std::mem::size_of::<PixelSamples>() as u64;
 
 /// The TPRF cache: accumulated sample sums and counts.

@@ -58,7 +58,7 @@ pub struct ImpulseOptions {
     pub merge_rel: f64,
     /// Memory limit, bytes, on what the enumeration holds at once: the live packets of
     /// two orders ([`ImpulseOptions::packet_bytes`] each, which grows with the number of
-    /// interfaces) and the impulses recorded (twice [`IMPULSE_BYTES`] each, for the final
+    /// interfaces) and the impulses recorded (twice `IMPULSE_BYTES` each, for the final
     /// merge). Beyond it packets and impulses are dropped and the train reports
     /// `truncated`. Default 256 MiB.
     pub max_bytes: u64,

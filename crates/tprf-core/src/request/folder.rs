@@ -251,7 +251,10 @@ fn rendered(
 /// staging folder swapped in whole ([`export::staging`]; `inputs` are never replaced).
 /// `observer.writing` may abandon it between files. What `tprf render` and
 /// `Cube.save` write; returns the metadata written.
-#[allow(clippy::too_many_arguments)]
+#[allow(
+    clippy::too_many_arguments,
+    reason = "the parts of the folder, one argument each; not yet one request"
+)]
 pub fn write_folder(
     snap: &FilmSnapshot,
     steady: &[f64],

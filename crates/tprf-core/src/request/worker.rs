@@ -105,7 +105,7 @@ const PASS_TARGET_S: f64 = 0.25;
 pub const AMBIENT_SPP: u32 = 16;
 
 impl RenderWorker {
-    /// Start rendering `job`: its passes paced ([`PASS_TARGET_S`] at first) unless it
+    /// Start rendering `job`: its passes paced (`PASS_TARGET_S` at first) unless it
     /// sets `pass_seconds`, and until stopped unless it sets a target (`spp`,
     /// `error_target`; `seconds`); `on_update` is called after each published change
     /// (the viewer passes its repaint request).

@@ -663,7 +663,10 @@ impl Light {
     /// no wider than the finer of the two scales, each integrated by 8-point
     /// Gauss-Legendre. A delta is evaluated exactly: `energy * f(t)` (for `t` in
     /// `[f_lo, f_hi]`). `scratch` is reused between calls.
-    #[allow(clippy::too_many_arguments)]
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "the quadrature's interval, kernel and scratch, on the kernels' hot path"
+    )]
     pub(crate) fn integrate(
         &self,
         f: impl Fn(f64) -> f64,

@@ -38,9 +38,6 @@
 //! - [`model`]: [`SensorModel`], a sensor compiled for one time axis, with its kernels
 //!   cached: what a viewer keeps and updates as the user edits.
 
-// `!(x > 0.0)` is how this module rejects NaN along with the out-of-range values.
-#![allow(clippy::neg_cmp_op_on_partial_ord)]
-
 pub mod ambient;
 pub mod derived;
 pub mod exposure;

@@ -93,7 +93,7 @@ pub struct RenderSettings {
     /// for the least work times variance ([`super::split`]). Unbiased for every value.
     pub first_bounce_splits: u32,
     /// Join every eye vertex to a light vertex found from a punctual light, one per
-    /// camera sample (MIS against BSDF sampling, [`super::connect`]). Off: paths to
+    /// camera sample (MIS against BSDF sampling, `connect`). Off: paths to
     /// punctual lights are found by the path tracer alone. `None` (the default): chosen
     /// per render by the pilot, with the split. Unbiased either way.
     pub light_vertex: Option<bool>,
@@ -454,7 +454,10 @@ impl Renderer {
     }
 
     /// [`Renderer::trace_sample`] with `strategy`.
-    #[allow(clippy::too_many_arguments)]
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "the path walk's per-vertex state, passed by value on the hot path"
+    )]
     pub(super) fn trace_sample_with(
         &self,
         x: usize,
@@ -769,7 +772,10 @@ impl Renderer {
     /// With `AMBIENT`, `lights` is the ambient group: its directional lights are
     /// sampled too (delta in direction: a shadow ray to infinity, `f cos E`, no MIS) and
     /// there are no emitters.
-    #[allow(clippy::too_many_arguments)]
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "the path walk's per-vertex state, passed by value on the hot path"
+    )]
     fn next_event<const AMBIENT: bool>(
         &self,
         lights: &Lights,

@@ -226,7 +226,7 @@ pub struct Lights {
     punctual_cdf: Vec<f32>,
 }
 
-/// A ray leaving a punctual light, for a light vertex ([`super::connect`]).
+/// A ray leaving a punctual light, for a light vertex (`connect`).
 #[derive(Clone, Copy, Debug)]
 pub struct EmissionSample {
     pub light: usize,

@@ -1,6 +1,6 @@
 //! How many branches a camera sample splits into at its first scattering vertex
 //! ([`RenderSettings::first_bounce_splits`](super::RenderSettings)), and whether eye
-//! vertices are joined to light vertices ([`super::connect`]), chosen per render by a
+//! vertices are joined to light vertices (`connect`), chosen per render by a
 //! small pilot where the settings leave them automatic.
 //!
 //! A split sample shares its prefix (the camera ray, the first hit and its next-event
@@ -18,7 +18,7 @@
 //! pixels, and the rays per sample. The two give `P`, `B`, `c1` and `c2`. One more
 //! step: the prefix is stratified over a pixel's samples (its jitter is an
 //! Owen-scrambled Sobol dimension), so its variance falls like `n^-3/2` where the
-//! continuations' falls like `n^-1`; `P` is scaled to a render of [`TARGET_SPP`]
+//! continuations' falls like `n^-1`; `P` is scaled to a render of `TARGET_SPP`
 //! samples before `k*` is taken (at 8 samples the pilot would undersplit every
 //! longer render). Measured at equal error on the race's corner, room and
 //! `builtin:cornell`, this rule picks the best or a near-best of 1 ..= 4, and 1 on
@@ -26,7 +26,7 @@
 //!
 //! Light vertices: the pilot runs with and without them (each with its own best
 //! split, by the rule above) and keeps the one of least predicted work times variance
-//! at [`TARGET_SPP`]: on where a light lights a wall the eye's paths bounce off (the
+//! at `TARGET_SPP`: on where a light lights a wall the eye's paths bounce off (the
 //! race's corner and room, `builtin:cornell`), off where they cannot help (a single lit
 //! plane, `builtin:canopy`'s foliage seen from the laser's side). The choice depends on the scene, the
 //! settings, the seed and the film's size and window, not on the samples asked for,
@@ -89,7 +89,7 @@ impl Sink for PilotSink {
 }
 
 /// How a render samples its paths: the branches of a camera sample at its first vertex,
-/// and whether eye vertices are joined to light vertices ([`super::connect`]).
+/// and whether eye vertices are joined to light vertices (`connect`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Strategy {
     pub splits: u32,

@@ -25,7 +25,7 @@
 //! - BSDFs `diffuse`, `twosided`, `dielectric`, `thindielectric`, `roughdielectric`,
 //!   `conductor`, `roughconductor`, `plastic`, `roughplastic`, `principled`, `mask`,
 //!   `null`, `bumpmap` and `normalmap` (their maps ignored), onto tprf's
-//!   metallic-roughness material ([`bsdf`] says which are exact and which approximate;
+//!   metallic-roughness material (`bsdf` says which are exact and which approximate;
 //!   an approximation is noted in [`Scene::notes`]); textures `bitmap` (PNG, JPEG),
 //!   `checkerboard`, and constant spectra;
 //! - emitters `point`, `spot`, `area` (pulsed at t = 0), `directional` and `constant`
@@ -38,7 +38,7 @@
 //!   filling it, with an `isotropic` or `hg` phase.
 //!
 //! - mitransient's NLOS scenes (`transient_nlos_path`, an `nlos_capture_meter` on the
-//!   relay wall, a `projector` laser): their capture settings for `tprf nlos` ([`nlos`]).
+//!   relay wall, a `projector` laser): their capture settings for `tprf nlos` (`nlos`).
 //!
 //! **The rule for what is not read.** An element whose plugin tprf has no counterpart
 //! for (`<bsdf type="hair">`, `<emitter type="envmap">`, `<film type="phasor_hdr_film">`,

@@ -21,7 +21,7 @@
 //! the rest of that bin and `dead_time_s` more (`d + f` bins: through `d` whole bins
 //! and the first fraction `f` of the next, exactly; no rounding), and may afterpulse. Its expected histogram over `N` cycles is computed exactly for this
 //! model ([`detector::Detector::expected`]); one seeded realisation is drawn from it
-//! ([`sample`]); the Coates estimate undoes the pile-up ([`coates`]); and
+//! ([`sample`]); the Coates estimate undoes the pile-up ([`coates`](fn@coates)); and
 //! [`image`] does it for every pixel with first-return depths.
 //!
 //! Units: rates in hertz (events per second), times in seconds, counts are events

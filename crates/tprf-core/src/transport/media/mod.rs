@@ -12,7 +12,7 @@
 //!
 //! - **Single scattering of the punctual lights on the segment**, estimated on the whole
 //!   segment by one point drawn inside its *gate*: the distances whose scattered light
-//!   arrives inside the film's window ([`distance::gate`]), from a mixture of the
+//!   arrives inside the film's window (`distance::gate`), from a mixture of the
 //!   transmittance's and the light's `1 / r^2` densities, joined to the light by a
 //!   shadow ray. No free-flight luck decides whether a narrow gate is seen.
 //! - **The continuation**: the path passes to the surface with probability `q = T(d)`
@@ -24,7 +24,7 @@
 //! - **A medium vertex**: next-event estimation to the emitters (MIS against phase
 //!   sampling), then a new direction from the Henyey-Greenstein phase function
 //!   ([`phase`]) or, in a one-sample MIS mixture, toward the glow that the medium makes
-//!   around each punctual light ([`glow`]; surface vertices in a medium mix it with the
+//!   around each punctual light (`glow`; surface vertices in a medium mix it with the
 //!   BSDF alike), Russian roulette a few scatterings later than on surfaces.
 //!
 //! Surfaces are as in the surface loop (emission with MIS, next-event estimation,
@@ -38,7 +38,7 @@
 //!
 //! **Heterogeneous media** (a density grid scaling the coefficients, [`DensityGrid`]):
 //! `sigma_t s` above becomes the optical depth `sigma_t integral_0^s density`, computed
-//! exactly along the ray ([`grid`]); the continuation draws its distance by inverting it
+//! exactly along the ray (`grid`); the continuation draws its distance by inverting it
 //! (the same `q`, truncation and weights: the albedo is the medium's everywhere), shadow
 //! rays and the camera leg of single scattering take its exact transmittance, and single
 //! scattering draws its point from the gate clipped to the grid's box, in proportion to

@@ -433,7 +433,10 @@ impl Renderer {
     /// (scatterings counted, throughput up to the vertex), `origin` the segment's start,
     /// `eval(w)` the vertex's `f |cos|` (the phase function in a medium) and own pdf
     /// toward `w`, `f` 0 where the path cannot go. Returns the rays traced.
-    #[allow(clippy::too_many_arguments)]
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "the path walk's per-vertex state, passed by value on the hot path"
+    )]
     fn glow_segment(
         &self,
         media: &Media,
@@ -567,7 +570,10 @@ impl Renderer {
     /// light to the segment's origin, and the gate `[a, b)`: the distances along the
     /// segment whose light arrives inside the window ([`gate`]; the whole ray where a
     /// shadow ray may change index). `None`, counted as left out, when none can.
-    #[allow(clippy::too_many_arguments)]
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "the path walk's per-vertex state, passed by value on the hot path"
+    )]
     fn light_gate(
         &self,
         media: &Media,
@@ -635,7 +641,10 @@ impl Renderer {
     /// Next-event estimation at a surface vertex in media: every punctual light and one
     /// power-sampled point on the emitters (MIS against BSDF sampling), shadow rays
     /// through the media ([`Renderer::media_shadow`]). Returns the rays traced.
-    #[allow(clippy::too_many_arguments)]
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "the path walk's per-vertex state, passed by value on the hot path"
+    )]
     fn surface_nee(
         &self,
         media: &Media,
@@ -726,7 +735,10 @@ impl Renderer {
     /// Sample the BSDF at a surface vertex and step the path onto the new direction
     /// (the medium changing where it refracts), Russian roulette included. Returns
     /// whether the path goes on.
-    #[allow(clippy::too_many_arguments)]
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "the path walk's per-vertex state, passed by value on the hot path"
+    )]
     fn scatter_surface(
         &self,
         media: &Media,
@@ -787,7 +799,10 @@ impl Renderer {
     /// length at the light; `None` when an opaque or refracting surface blocks it, or the
     /// light cannot arrive inside the window (counted as left out, and not traced).
     /// Crossing an index-matched boundary changes the medium.
-    #[allow(clippy::too_many_arguments)]
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "the path walk's per-vertex state, passed by value on the hot path"
+    )]
     fn media_shadow(
         &self,
         media: &Media,
