@@ -1013,6 +1013,7 @@ fn a_camera_watching_an_nlos_integrator_renders_with_tprf_render() {
         file.nlos.is_none(),
         "a camera's view is not a tprf nlos capture"
     );
+    assert!(file.nlos_view);
     assert_eq!(
         file.time_origin.map(|o| o.value),
         Some(TimeOrigin::FirstHit)
@@ -1127,4 +1128,11 @@ fn a_camera_watching_an_nlos_integrator_renders_with_tprf_render() {
         err.contains("--time-origin first-hit") && err.contains("--pulse-origin first-hit"),
         "{err}"
     );
+    // tprf nlos leads to tprf render, not back to itself.
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_tprf"))
+        .args(["nlos", &xml, "--out", dir.join("n").to_str().unwrap()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("tprf render"), "{err}");
 }

@@ -357,6 +357,14 @@ fn capture(a: &CaptureArgs) -> Result<()> {
     let scene_path = std::path::Path::new(scene_name);
     super::args::check_out("--out", out, &[scene_path])?;
     let (scene, file) = scene::load_with_settings(scene_name)?;
+    // mitransient's NLOS integrator watched by a camera (no capture meter): the file is
+    // a camera's view, which tprf render renders; tprf nlos needs a wall to capture.
+    if file.nlos_view && a.relay_wall.is_none() {
+        bail!(
+            "{scene_name} is mitransient's NLOS integrator watched by a camera (no nlos_capture_meter on a relay wall): render its view with tprf render {scene_name} --out {}, or capture a wall with tprf nlos {scene_name} --relay-wall ID (its shapes' ids)",
+            out.display()
+        );
+    }
     let (settings, used) = settings_of(a, &file.nlos.unwrap_or_default())?;
     for u in used {
         eprintln!("from the scene file: {u}");

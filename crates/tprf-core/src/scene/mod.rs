@@ -778,6 +778,10 @@ pub struct FileSettings {
     /// An NLOS capture's settings (mitransient's `transient_nlos_path` with an
     /// `nlos_capture_meter` on the relay wall), for `tprf nlos`.
     pub nlos: Option<NlosFileSettings>,
+    /// The file is an NLOS integrator watched by a camera (mitransient's
+    /// `transient_nlos_path` with a perspective sensor and no capture meter): a scene
+    /// `tprf render` renders, not a capture.
+    pub nlos_view: bool,
 }
 
 /// What a Mitsuba NLOS scene says of its capture (see `scene::mitsuba`'s NLOS part):

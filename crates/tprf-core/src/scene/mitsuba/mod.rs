@@ -294,7 +294,7 @@ impl<'a> Builder<'a> {
     /// The scene, with a camera and a light added where the file has none, and the notes
     /// gathered.
     fn finish(mut self) -> Result<(Scene, FileSettings), SceneError> {
-        self.settle_camera_nlos();
+        let camera_nlos = self.settle_camera_nlos();
         if let (Some(n), Some(p)) = (&mut self.settings.nlos, self.projector_origin.take()) {
             n.laser_origin.get_or_insert(p);
         }
@@ -322,6 +322,17 @@ impl<'a> Builder<'a> {
         };
         if scene.triangles.is_empty() {
             scene.notes.push(format!("no triangles in {file}"));
+        }
+        if camera_nlos {
+            for l in &scene.lights {
+                if let Some(a) = nlos::spot_area_m2(&scene, l) {
+                    scene.notes.push(format!(
+                        "projector '{}' lights a spot of {a:.4e} m^2: mitransient's transient_nlos_path joins paths to the spot as to a point of unit area, so its cube is this cube x {:.4e} (1 / the spot's area)",
+                        l.name,
+                        1.0 / a
+                    ));
+                }
+            }
         }
         // An NLOS capture scene has its capture meter and laser instead (tprf nlos):
         // the framed camera and the light below are not said to its user.

@@ -38,6 +38,39 @@ fn from(o: &Object, name: &str) -> String {
     }
 }
 
+/// The area, m^2, of the spot projector `light` lights on the nearest of `scene`'s
+/// triangles its axis meets: its frustum's cross-section `4 tan_x tan_y D^2` at the
+/// distance `D` of the hit, over the cosine of incidence (the frustum small against
+/// the surface's curvature). mitransient's `transient_nlos_path` joins paths to the
+/// spot as to a point of unit area, so its cube is tprf's divided by this.
+pub(super) fn spot_area_m2(scene: &crate::scene::Scene, light: &PunctualLight) -> Option<f64> {
+    let p = light.projector?;
+    let (o, d) = (light.position.as_dvec3(), p.direction.as_dvec3());
+    let mut best: Option<(f64, DVec3)> = None;
+    for t in &scene.triangles {
+        let [a, b, c] = t.p.map(|v| v.as_dvec3());
+        let (e1, e2) = (b - a, c - a);
+        let h = d.cross(e2);
+        let det = e1.dot(h);
+        if det.abs() < 1e-15 {
+            continue;
+        }
+        let s = o - a;
+        let u = s.dot(h) / det;
+        let q = s.cross(e1);
+        let v = d.dot(q) / det;
+        let dist = e2.dot(q) / det;
+        if u >= 0.0 && v >= 0.0 && u + v <= 1.0 && dist > 0.0 && best.is_none_or(|(b, _)| dist < b)
+        {
+            best = Some((dist, e1.cross(e2).normalize()));
+        }
+    }
+    let (dist, n) = best?;
+    let cos = n.dot(d).abs();
+    (cos > 1e-6)
+        .then(|| 4.0 * f64::from(p.tan_half_x) * f64::from(p.tan_half_y) * dist * dist / cos)
+}
+
 impl Builder<'_> {
     fn nlos(&mut self) -> &mut NlosFileSettings {
         self.settings.nlos.get_or_insert_with(Default::default)
@@ -351,18 +384,20 @@ impl Builder<'_> {
     /// projector's (`PulseOrigin::FirstHit`). The depth is `max_depth - 1` scattering
     /// events, as for `transient_path`. The NLOS capture settings are dropped: the file
     /// is not a `tprf nlos` scene.
-    pub(super) fn settle_camera_nlos(&mut self) {
+    /// Returns whether the file was such a scene.
+    pub(super) fn settle_camera_nlos(&mut self) -> bool {
         let has_meter = self
             .parsed
             .objects
             .iter()
             .any(|o| o.tag == "sensor" && o.plugin == "nlos_capture_meter");
         if has_meter || self.camera.is_none() {
-            return;
+            return false;
         }
         let Some(n) = self.settings.nlos.take() else {
-            return;
+            return false;
         };
+        self.settings.nlos_view = true;
         let counted = n.device_legs.as_ref().is_some_and(|l| l.value);
         if !counted {
             let from = n.device_legs.map_or_else(
@@ -393,6 +428,7 @@ impl Builder<'_> {
                 "the camera's and the projector's legs left out of the times, as mitransient (--time-origin first-hit --pulse-origin first-hit)"
             }
         ));
+        true
     }
 
     /// `<emitter type="projector">`: a light of the scene (Mitsuba's projector: `fov`
