@@ -408,6 +408,65 @@ fn a_huge_film_is_refused_before_it_is_allocated() {
     );
 }
 
+/// NLOS scans larger than memory are refused before any point is made, naming the flags
+/// and the size (they aborted allocating 120 GB): the two grids, over the
+/// transients one capture may hold, and a grid under that bound whose wall points
+/// (16000 x 16000 sensor points and as many laser points, 36 B each: 17.2 GiB) do not fit
+/// under `ulimit -v`.
+#[test]
+fn nlos_grids_larger_than_memory_are_refused_with_their_size() {
+    let dir = tmp("nlos-grid");
+    let out = dir.join("out");
+    let out = out.to_str().unwrap();
+    let o = tprf_limited(
+        &[
+            "nlos",
+            "builtin:nlos-z",
+            "--grid",
+            "100000x100000",
+            "--out",
+            out,
+        ],
+        Some(ULIMIT_V_KIB),
+    );
+    assert_refused(
+        &o,
+        &["--grid 100000x100000", "10.0 G transients", "670.6 GiB"],
+    );
+    let o = tprf_limited(
+        &[
+            "nlos",
+            "builtin:nlos-z",
+            "--exhaustive",
+            "--laser-grid",
+            "100000x100000",
+            "--out",
+            out,
+        ],
+        Some(ULIMIT_V_KIB),
+    );
+    assert_refused(&o, &["--laser-grid 100000x100000", "transients", "GiB"]);
+    let o = tprf_limited(
+        &[
+            "nlos",
+            "builtin:nlos-z",
+            "--grid",
+            "16000x16000",
+            "--out",
+            out,
+        ],
+        Some(ULIMIT_V_KIB),
+    );
+    assert_refused(
+        &o,
+        &[
+            "needs 17.2 GiB for the wall points of --grid 16000x16000",
+            "ulimit -v",
+        ],
+    );
+    assert!(!Path::new(out).exists());
+}
+
 #[cfg(unix)]
 #[test]
 fn dev_zero_as_a_buffer_uri_is_named_and_not_read() {

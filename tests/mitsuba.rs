@@ -1136,3 +1136,144 @@ fn a_camera_watching_an_nlos_integrator_renders_with_tprf_render() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("tprf render"), "{err}");
 }
+
+/// The XML of `n` shapes on a grid, each with an id: rectangles (even `i`) and cubes (odd
+/// `i`), nine in ten sharing the BSDF `white` by `<ref>`, every tenth with a BSDF of its
+/// own of reflectance `0.1 + 0.1 (i mod 7)`. Each shape takes four lines, the first of
+/// shape `i` being line `3 + 4 i`.
+fn many_shapes_xml(n: usize) -> String {
+    let side = (n as f64).sqrt().ceil() as usize;
+    let mut s = String::from(
+        "<scene version=\"3.0.0\">\n  <bsdf type=\"diffuse\" id=\"white\"><rgb name=\"reflectance\" value=\"0.7\"/></bsdf>\n",
+    );
+    for i in 0..n {
+        let (x, y) = ((i % side) as f64, (i / side) as f64);
+        let kind = if i % 2 == 0 { "rectangle" } else { "cube" };
+        let bsdf = if i % 10 == 3 {
+            format!(
+                "<bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"{:.1}\"/></bsdf>",
+                0.1 + 0.1 * (i % 7) as f64
+            )
+        } else {
+            "<ref id=\"white\"/>".to_string()
+        };
+        s += &format!(
+            "  <shape type=\"{kind}\" id=\"s{i}\">\n    <transform name=\"to_world\"><scale value=\"0.4\"/><translate x=\"{x}\" y=\"{y}\" z=\"0\"/></transform>\n    {bsdf}\n  </shape>\n"
+        );
+    }
+    s + "</scene>\n"
+}
+
+/// 20 000 shapes load (32 s before loading was made linear; the speed is measured by
+/// `cargo bench --bench mitsuba_load`, docs/benchmarks.md): every triangle there (2 per
+/// rectangle, 12 per cube), every id an object with its own triangles where the grid
+/// puts it, each tenth shape's own reflectance, and an error in the last shape named at
+/// its line (the line index of a large file, counted here from the generator's layout).
+#[test]
+fn twenty_thousand_shapes_load_with_every_triangle_and_their_lines() {
+    const N: usize = 20_000;
+    let dir = tmp("many");
+    let xml = many_shapes_xml(N);
+    let path = write(&dir, "many.xml", &xml);
+    let s = scene::load(&path).unwrap();
+    assert_eq!(s.triangles.len(), (N / 2) * 2 + (N / 2) * 12);
+    assert_eq!(s.objects.len(), N);
+    let side = (N as f64).sqrt().ceil() as usize;
+    for i in [0, 1, 3, 9_999, 13, N - 1] {
+        let o = &s.objects[i];
+        assert_eq!(o.name, format!("s{i}"));
+        assert_eq!(o.triangles.len(), if i % 2 == 0 { 2 } else { 12 });
+        // A rectangle spans [-1, 1]^2 and a cube [-1, 1]^3 before the 0.4 scale, then
+        // the grid's translation.
+        let (lo, hi) = object_bounds(&s, &o.name);
+        let c = Vec3::new((i % side) as f32, (i / side) as f32, 0.0);
+        assert!(
+            ((lo + hi) * 0.5 - c).length() < 1e-4 && (hi.x - lo.x - 0.8).abs() < 1e-5,
+            "{} at {lo} {hi}, expected around {c}",
+            o.name
+        );
+        let m = &s.materials[s.attrs[o.triangles.start].material as usize];
+        let rho = if i % 10 == 3 {
+            0.1 + 0.1 * (i % 7) as f32
+        } else {
+            0.7
+        };
+        assert!(
+            (m.base_color[0] - rho).abs() < 1e-6,
+            "{} {:?}",
+            o.name,
+            m.base_color
+        );
+    }
+    // The last shape made bad: its error names its line, 3 + 4 (N - 1).
+    let bad = xml.replace(
+        &format!("<shape type=\"cube\" id=\"s{}\">", N - 1),
+        &format!("<shape type=\"hair\" id=\"s{}\">", N - 1),
+    );
+    let e = refusal(&dir, "bad.xml", &bad);
+    assert!(e.contains(&format!("bad.xml:{}", 3 + 4 * (N - 1))), "{e}");
+}
+
+/// `tprf nlos` on an XML scene without a capture meter or a shape named `relay_wall`
+/// speaks of the file's shape ids (not glTF nodes) and says how to choose the wall.
+#[test]
+fn nlos_on_xml_without_a_wall_names_the_shape_ids() {
+    let dir = tmp("nlos-no-wall");
+    let run = |xml: &str| {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_tprf"))
+            .args(["nlos", xml, "--out", dir.join("out").to_str().unwrap()])
+            .output()
+            .unwrap();
+        assert_eq!(o.status.code(), Some(1));
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let shapes = |ids: bool| {
+        let id = |name: &str| {
+            if ids {
+                format!(" id=\"{name}\"")
+            } else {
+                String::new()
+            }
+        };
+        format!(
+            "<scene version=\"3.0.0\">\n  <shape type=\"rectangle\"{}/>\n  <shape type=\"cube\"{}><transform name=\"to_world\"><translate z=\"2\"/></transform></shape>\n</scene>\n",
+            id("wall"),
+            id("box")
+        )
+    };
+    let e = run(&write(&dir, "ids.xml", &shapes(true)));
+    for said in [
+        "ids.xml",
+        "<shape> with id=\"relay_wall\"",
+        "shape ids: wall, box",
+        "--relay-wall ID",
+        "nlos_capture_meter",
+    ] {
+        assert!(e.contains(said), "'{said}' not said: {e}");
+    }
+    assert!(!e.contains("glTF"), "{e}");
+    let e = run(&write(&dir, "no-ids.xml", &shapes(false)));
+    assert!(
+        e.contains("no-ids.xml") && e.contains("no <shape> in it has an id"),
+        "{e}"
+    );
+    assert!(!e.contains("glTF"), "{e}");
+    // With --relay-wall naming a shape id, the same file is captured.
+    let xml = write(&dir, "ids2.xml", &shapes(true));
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_tprf"))
+        .args([
+            "nlos",
+            &xml,
+            "--relay-wall",
+            "wall",
+            "--grid",
+            "2x2",
+            "--spp",
+            "4",
+            "--out",
+        ])
+        .arg(dir.join("out2"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}

@@ -602,3 +602,81 @@ fn a_spad_measures_a_capture_as_its_expected_photon_counts() {
     }
     std::fs::remove_file(preset).unwrap();
 }
+
+/// A capture with a NaN (and an infinity after it) in `H` is refused where it is read,
+/// naming the dataset and the first bad value's index, worked out here from the shape
+/// `[T, Sx, Sy]`; `tprf nlos reconstruct` on it exits with that error instead of a volume
+/// of NaN. The same capture without them reads.
+#[test]
+fn a_non_finite_capture_is_refused_naming_the_dataset_and_index() {
+    let scene = tprf_core::scene::load("builtin:nlos-z").unwrap();
+    let set = CaptureSettings {
+        grid: [6, 4],
+        spp: 2,
+        ..CaptureSettings::default()
+    };
+    let mut c = capture(scene, &set);
+    let shape = c.shape();
+    assert_eq!(&shape[1..], &[6, 4]);
+    let (t, i, j) = (5, 2, 3);
+    c.h[(t * 6 + i) * 4 + j] = f32::NAN;
+    c.h[(t * 6 + i) * 4 + j + 7] = f32::INFINITY;
+    let dir = out_dir("nan");
+    write_capture_folder(&c, &dir, &[]).unwrap();
+    let m = message(read_capture(&dir));
+    assert!(
+        m.contains("nlos.hdf5") && m.contains("H[5, 2, 3] is NaN") && m.contains("2 of its"),
+        "{m}"
+    );
+    let out = dir.with_extension("volume");
+    let o = Command::new(env!("CARGO_BIN_EXE_tprf"))
+        .args(["nlos", "reconstruct", dir.to_str().unwrap(), "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("H[5, 2, 3] is NaN"), "{err}");
+    assert!(!out.exists());
+    c.h.iter_mut().for_each(|v| {
+        if !v.is_finite() {
+            *v = 0.0;
+        }
+    });
+    write_capture_folder(&c, &dir, &[]).unwrap();
+    assert!(read_capture(&dir).is_ok());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Scans too large to hold are refused before any wall point is made, naming the flags
+/// and the size foreseen: over [`tprf_core::nlos::setup::MAX_TRANSIENTS`] (the issue's
+/// `--grid 100000x100000`, which aborted allocating 120 GB, and an exhaustive
+/// `--laser-grid 100000x100000`). (Under it but larger than memory: tests/hostile.rs,
+/// under `ulimit -v`.)
+#[test]
+fn absurd_grids_are_refused_with_their_size() {
+    let scene = patch_scene(Vec3::new(0.0, 0.0, 0.5), Vec3::NEG_Z, 0.1);
+    let resolve = |set: &CaptureSettings| tprf_core::nlos::setup::resolve(&scene, set);
+    let m = message(resolve(&CaptureSettings {
+        grid: [100_000, 100_000],
+        ..settings(Scan::Confocal)
+    }));
+    // 1e10 sensor points, as many laser points (confocal), 36 B each: 670.6 GiB; the
+    // transients 8 B a bin: 74.5 GiB per bin.
+    assert!(
+        m.contains("--grid 100000x100000")
+            && m.contains("10.0 G transients")
+            && m.contains("670.6 GiB")
+            && m.contains("74.5 GiB for each time bin"),
+        "{m}"
+    );
+    let m = message(resolve(&settings(Scan::Exhaustive {
+        lx: 100_000,
+        ly: 100_000,
+    })));
+    // 5 x 4 sensor points x 1e10 laser points.
+    assert!(
+        m.contains("--grid 5x4 --laser-grid 100000x100000") && m.contains("200.0 G transients"),
+        "{m}"
+    );
+}

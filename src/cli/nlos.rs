@@ -90,7 +90,7 @@ pub struct ReconstructArgs {
 
 #[derive(Args, Debug)]
 pub struct CaptureArgs {
-    /// A .gltf/.glb path or builtin:NAME (builtin:nlos-z, builtin:nlos-shapes) holding a
+    /// A .gltf/.glb/.xml (Mitsuba) path or builtin:NAME (builtin:nlos-z, builtin:nlos-shapes) holding a
     /// planar relay wall and the hidden geometry.
     pub scene: Option<String>,
     /// Output folder (nlos.hdf5, H.npy, nlos.json): a new or empty one, or an earlier
@@ -98,7 +98,7 @@ pub struct CaptureArgs {
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Name of the relay wall's object (its glTF node, else its mesh; a Mitsuba scene's
-    /// shape holding the nlos_capture_meter). Default relay_wall.
+    /// shape id, else the shape holding the nlos_capture_meter). Default relay_wall.
     #[arg(long)]
     pub relay_wall: Option<String>,
     /// Sensor points on the wall, along its u and v axes: NXxNY. Default 64x64 (a

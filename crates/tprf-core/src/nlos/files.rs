@@ -420,10 +420,35 @@ pub fn read_capture(path: &Path) -> Result<LoadedCapture, NlosError> {
         h5.dataset(name)
             .map_err(|e| bad(format!("no dataset '{name}' ({e}): not a tal capture file")))
     };
+    // A dataset of floats: its declared size budgeted before it is read (a header may
+    // declare any shape), and every value finite (a NaN in H would reconstruct to a
+    // volume of NaN without a word).
     let floats = |name: &str| -> Result<(Vec<u64>, Vec<f32>), NlosError> {
         let d = ds(name)?;
         let shape = d.shape().map_err(|e| bad(format!("{name}: {e}")))?;
+        let count = shape
+            .iter()
+            .try_fold(1u64, |a, &b| a.checked_mul(b))
+            .unwrap_or(u64::MAX);
+        crate::budget::check(
+            count.saturating_mul(4),
+            &file.display().to_string(),
+            format!(
+                "its dataset {name} of shape {shape:?} ({} f32 values)",
+                crate::budget::format_count(count)
+            ),
+        )?;
         let v = d.read_f32().map_err(|e| bad(format!("{name}: {e}")))?;
+        if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+            let n_bad = v.iter().filter(|x| !x.is_finite()).count();
+            return Err(bad(format!(
+                "{name}{:?} is {}: a capture's values must be finite ({n_bad} of its {} values \
+                 are not); the capture is not read",
+                unravel(i as u64, &shape),
+                v[i],
+                v.len()
+            )));
+        }
         Ok((shape, v))
     };
     let scalar = |name: &str| -> Result<f64, NlosError> {
@@ -539,6 +564,19 @@ pub fn read_capture(path: &Path) -> Result<LoadedCapture, NlosError> {
         t_start_m,
         device_legs,
     })
+}
+
+/// The index of flat (row-major, C order) offset `flat` in an array of `shape`: what
+/// `numpy.unravel_index` gives.
+fn unravel(mut flat: u64, shape: &[u64]) -> Vec<u64> {
+    let mut index = vec![0; shape.len()];
+    for (slot, &dim) in index.iter_mut().zip(shape).rev() {
+        if dim > 0 {
+            *slot = flat % dim;
+            flat /= dim;
+        }
+    }
+    index
 }
 
 /// `volume.json`: what a reconstruction folder holds.

@@ -30,11 +30,18 @@ pub use wall::RelayWall;
 /// node or the file concerned and what to do.
 #[derive(Debug, thiserror::Error)]
 pub enum NlosError {
-    #[error(
-        "no relay wall: the scene has no object named '{name}' (named objects: {known}); \
-         name the wall's glTF node '{name}' or choose it with --relay-wall NAME"
-    )]
-    NoRelayWall { name: String, known: String },
+    /// In the words of the file the scene came from: a Mitsuba XML file's shape ids, a
+    /// glTF file's node names.
+    #[error("{}", no_relay_wall_message(.scene, .name, .known, *.xml))]
+    NoRelayWall {
+        /// The scene (its file, or `builtin:...`).
+        scene: String,
+        name: String,
+        /// The names it has, as listed (at most [`KNOWN_LISTED`], then a count).
+        known: String,
+        /// Whether the scene is a Mitsuba XML file.
+        xml: bool,
+    },
     #[error(
         "relay wall '{name}' is not planar: a vertex lies {deviation_m:.3e} m off its plane \
          (allowed {tolerance_m:.1e} m); the relay wall must be one flat surface"
@@ -60,4 +67,24 @@ pub enum NlosError {
     Sensor(#[from] crate::sensor::SensorError),
     #[error("{path}: {message}")]
     File { path: String, message: String },
+}
+
+/// Most object names a missing relay wall's error lists (a scene of 100 000 shapes with
+/// ids would otherwise print them all).
+pub const KNOWN_LISTED: usize = 12;
+
+/// The error of a relay wall not found, with what the user can do in their file's terms.
+fn no_relay_wall_message(scene: &str, name: &str, known: &str, xml: bool) -> String {
+    if xml {
+        format!(
+            "no relay wall: {scene} has no <shape> with id=\"{name}\" (shape ids: {known}); \
+             give the wall's <shape> id=\"{name}\", or put an nlos_capture_meter <sensor> in \
+             it as mitransient's NLOS scenes do, or choose it with --relay-wall ID"
+        )
+    } else {
+        format!(
+            "no relay wall: {scene} has no object named '{name}' (named objects: {known}); \
+             name the wall's glTF node '{name}' or choose it with --relay-wall NAME"
+        )
+    }
 }

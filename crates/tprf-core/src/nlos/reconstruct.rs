@@ -219,6 +219,19 @@ impl Volume {
             .max(frame.spacing_m[1])
             .max(depth_m / 256.0);
         let nz = ((depth_m / step).round() as usize).clamp(1, 256);
+        let voxels = (sx as u64)
+            .saturating_mul(sy as u64)
+            .saturating_mul(nz as u64);
+        if voxels > MAX_VOXELS as u64 {
+            return Err(NlosError::Setup(format!(
+                "{}: the default volume, its {sx} x {sy} sensor grid by {nz} depths, is {} voxels \
+                 ({} of f32), more than the {MAX_VOXELS} a volume may have: choose a smaller one \
+                 with --volume CX,CY,CZ:SX,SY,SZ:NX,NY,NZ",
+                c.path.display(),
+                crate::budget::format_count(voxels),
+                crate::budget::format_bytes(voxels.saturating_mul(4)),
+            )));
+        }
         Ok(Volume {
             center: (frame.center + frame.n * (0.5 * depth_m)).to_array(),
             size_m: [w, h, depth_m],
@@ -597,9 +610,32 @@ fn phasor_fields(
     let n_t = (2 * t).next_power_of_two();
     let freqs = band(wave, c.delta_t_m, n_t);
     let confocal = c.is_confocal();
+    let nf = freqs.len();
+    let [nx, ny, nz] = volume.voxels;
+    let (px, py) = ((2 * sx).next_power_of_two(), (2 * sy).next_power_of_two());
+    let lasers_k = if c.exhaustive { c.laser_grid.len() } else { 1 };
+    // What the fields hold beyond `reconstruct`'s budget: P_f, a padded lattice per
+    // frequency and laser point, and per thread a kernel, a product and the image.
+    let lattice = (px as u64).saturating_mul(py as u64);
+    let cplx = std::mem::size_of::<Complex32>() as u64;
+    crate::budget::check(
+        [
+            (k as u64).saturating_mul(nf as u64),
+            (nf as u64)
+                .saturating_mul(lasers_k as u64)
+                .saturating_mul(lattice),
+            (rayon::current_num_threads() as u64)
+                .saturating_mul(lattice.saturating_mul(3).saturating_add((sx * sy) as u64)),
+        ]
+        .iter()
+        .fold(0u64, |a, &n| a.saturating_add(n.saturating_mul(cplx))),
+        "the phasor-field reconstruction",
+        format!(
+            "{nf} frequencies x {lasers_k} laser point(s) of {px} x {py} padded sensor lattices"
+        ),
+    )?;
     // P_f per transient: sum_b H_b e^{-2 pi i f (t_b - legs)}, t_b the bin's centre: the
     // band's bins of the transient's FFT (zero-padded to n_t), the phase of the start.
-    let nf = freqs.len();
     let mut pf = vec![Complex32::new(0.0, 0.0); k * nf];
     let fwd_t = FftPlanner::<f32>::new().plan_fft_forward(n_t);
     pf.par_chunks_mut(nf).enumerate().for_each(|(ki, o)| {
@@ -615,8 +651,6 @@ fn phasor_fields(
         }
     });
     // Each depth plane on the sensor lattice (2-D convolution by FFT), then the voxels.
-    let [nx, ny, nz] = volume.voxels;
-    let (px, py) = ((2 * sx).next_power_of_two(), (2 * sy).next_power_of_two());
     let mut planner = FftPlanner::<f32>::new();
     let fx = planner.plan_fft_forward(px);
     let fy = planner.plan_fft_forward(py);
@@ -639,7 +673,6 @@ fn phasor_fields(
         }
     };
     // The sensor-side fields per frequency (and laser, exhaustive), FFT'd once.
-    let lasers_k = if c.exhaustive { c.laser_grid.len() } else { 1 };
     let mut fields: Vec<Vec<Complex32>> = Vec::with_capacity(nf * lasers_k);
     for fi in 0..nf {
         for l in 0..lasers_k {
@@ -775,7 +808,15 @@ fn fk_migration(
     let dz = 0.5 * c.delta_t_m;
     let m = (((far / dz).ceil() as usize) + 2).clamp(2, 4 * t + 2);
     crate::budget::check(
-        (8 * m * 4 * sx.next_power_of_two() * sy.next_power_of_two()) as u64 * 8,
+        [
+            8 * m as u64,
+            4,
+            sx.next_power_of_two() as u64,
+            sy.next_power_of_two() as u64,
+            8,
+        ]
+        .iter()
+        .fold(1u64, |a, &n| a.saturating_mul(n)),
         "f-k migration",
         format!("a 3-D FFT of {} x {} x {}", 2 * m, 2 * sx, 2 * sy),
     )?;

@@ -6,6 +6,7 @@
 
 use super::NlosError;
 use super::wall::{RelayWall, WallPoint};
+use crate::budget::{format_bytes, format_count};
 use crate::film::TimeAxis;
 use crate::scene::{Channel, Scene};
 use crate::units::C_M_PER_S;
@@ -135,6 +136,62 @@ fn point_of(v: [f32; 3]) -> Vec3 {
     Vec3::from_array(v)
 }
 
+/// Bytes a wall point of a scan holds while it is resolved: its position on the grid
+/// (`Vec3`), then its [`WallPoint`] (a confocal scan's laser points a copy of the
+/// sensor points).
+const BYTES_PER_WALL_POINT: u64 =
+    (std::mem::size_of::<Vec3>() + std::mem::size_of::<WallPoint>()) as u64;
+
+/// Bytes a capture holds per transient and time bin: the per-point transients and their
+/// time-major copy, f32 each (as `capture::render_capture` budgets them).
+pub const BYTES_PER_TRANSIENT_BIN: u64 = 8;
+
+/// Refuse a scan whose sizes cannot be held, before any point of it is made: more than
+/// [`MAX_TRANSIENTS`] transients, or wall points that do not fit in memory. The message
+/// names the flags and the size foreseen.
+fn check_size(settings: &CaptureSettings) -> Result<(), NlosError> {
+    let [nx, ny] = settings.grid;
+    let sensors = (nx as u64).saturating_mul(ny as u64);
+    let (lasers, laser_flag) = match settings.scan {
+        Scan::Single { .. } => (1, String::new()),
+        Scan::Confocal => (sensors, String::new()),
+        Scan::Exhaustive { lx, ly } => (
+            (lx as u64).saturating_mul(ly as u64),
+            format!(" --laser-grid {lx}x{ly}"),
+        ),
+    };
+    let transients = match settings.scan {
+        Scan::Exhaustive { .. } => sensors.saturating_mul(lasers),
+        _ => sensors,
+    };
+    let points = sensors.saturating_add(lasers);
+    let points_bytes = points.saturating_mul(BYTES_PER_WALL_POINT);
+    let flags = format!("--grid {nx}x{ny}{laser_flag}");
+    if transients > MAX_TRANSIENTS as u64 {
+        return Err(NlosError::Setup(format!(
+            "{flags} is {} transients ({} sensor points x {} laser point{}), more than the \
+             {MAX_TRANSIENTS} one capture may hold: its wall points alone would need {}, and \
+             its transients {} for each time bin; use a coarser --grid or --laser-grid",
+            format_count(transients),
+            format_count(sensors),
+            format_count(lasers),
+            if lasers == 1 { "" } else { "s" },
+            format_bytes(points_bytes),
+            format_bytes(transients.saturating_mul(BYTES_PER_TRANSIENT_BIN)),
+        )));
+    }
+    crate::budget::check(
+        points_bytes,
+        "this capture",
+        format!(
+            "the wall points of {flags} ({} sensor and {} laser points)",
+            format_count(sensors),
+            format_count(lasers)
+        ),
+    )?;
+    Ok(())
+}
+
 /// Resolve `settings` against `scene`: the wall, its grids, the devices, the time axis.
 /// Every refusal names the flag concerned.
 pub fn resolve(scene: &Scene, settings: &CaptureSettings) -> Result<CaptureGeometry, NlosError> {
@@ -149,6 +206,7 @@ pub fn resolve(scene: &Scene, settings: &CaptureSettings) -> Result<CaptureGeome
             "--spp 0: a capture needs at least one sample per sensor point".into(),
         ));
     }
+    check_size(settings)?;
     let wall = RelayWall::find(scene, &settings.relay_wall)?;
     let locate = |p: Vec3, what: &str| {
         wall.locate(scene, p).ok_or_else(|| {
@@ -200,17 +258,6 @@ pub fn resolve(scene: &Scene, settings: &CaptureSettings) -> Result<CaptureGeome
             (points, [lx, ly])
         }
     };
-    let transients = sensors.len().saturating_mul(match settings.scan {
-        Scan::Exhaustive { .. } => lasers.len(),
-        _ => 1,
-    });
-    if transients > MAX_TRANSIENTS {
-        return Err(NlosError::Setup(format!(
-            "--grid {nx}x{ny} with {} laser points is {transients} transients, more than the \
-             {MAX_TRANSIENTS} one capture may hold: use a coarser --grid or --laser-grid",
-            lasers.len()
-        )));
-    }
     let default_device = wall.center() - wall.u_axis * 0.5 + wall.normal * 0.25;
     let device = |given: Option<[f32; 3]>, flag: &str| -> Result<Vec3, NlosError> {
         let p = given.map_or(default_device, point_of);

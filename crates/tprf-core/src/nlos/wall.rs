@@ -51,16 +51,26 @@ impl RelayWall {
     pub fn find(scene: &Scene, name: &str) -> Result<RelayWall, NlosError> {
         let all = scene.object_triangles(name);
         if all.is_empty() {
-            let mut known: Vec<String> = scene.objects.iter().map(|o| o.name.clone()).collect();
+            let xml = std::path::Path::new(&scene.name)
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("xml"));
+            let mut known: Vec<&str> = scene.objects.iter().map(|o| o.name.as_str()).collect();
             known.dedup();
-            let known = if known.is_empty() {
-                "none: the scene's glTF nodes have no names".to_string()
-            } else {
-                known.join(", ")
+            let listed = known.len().min(super::KNOWN_LISTED);
+            let mut list = known[..listed].join(", ");
+            if known.len() > listed {
+                list += &format!(" and {} more", known.len() - listed);
+            }
+            let known = match (known.is_empty(), xml) {
+                (false, _) => list,
+                (true, true) => "none: no <shape> in it has an id".to_string(),
+                (true, false) => "none: its glTF nodes have no names".to_string(),
             };
             return Err(NlosError::NoRelayWall {
+                scene: scene.name.clone(),
                 name: name.to_string(),
                 known,
+                xml,
             });
         }
         let tri = |i: usize| scene.triangles[i].p.map(|p| p.as_dvec3());

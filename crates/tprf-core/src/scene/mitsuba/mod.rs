@@ -152,6 +152,9 @@ pub(super) struct Builder<'a> {
     /// Approximations and ignored properties, grouped: (what, first place, count).
     grouped: BTreeMap<String, (Loc, usize)>,
     degenerate: usize,
+    /// Bytes of triangles the budget was last found to allow, plus the growth let in
+    /// before it is asked again (see `shapes::Builder::place`).
+    budget_unchecked_to: u64,
     /// Objects being converted, outermost first (nesting bound).
     depth: usize,
 }
@@ -177,6 +180,7 @@ impl<'a> Builder<'a> {
             notes: Vec::new(),
             grouped: BTreeMap::new(),
             degenerate: 0,
+            budget_unchecked_to: 0,
             depth: 0,
         }
     }

@@ -455,11 +455,18 @@ impl Builder<'_> {
     ) -> Result<(), SceneError> {
         let count = mesh.faces.len();
         let total = (self.triangles.len() + count) as u64;
-        budget::check(
-            total.saturating_mul(BYTES_PER_TRIANGLE),
-            &format!("scene {}", self.file),
-            format_args!("{} triangles", format_count(total)),
-        )?;
+        // The scene's triangles so far against the budget, asked again only when they
+        // grow by an eighth (at least 1 MiB) past the last answer: reading the limits
+        // for each of 100 000 shapes took longer than placing them.
+        let need_bytes = total.saturating_mul(BYTES_PER_TRIANGLE);
+        if need_bytes > self.budget_unchecked_to {
+            budget::check(
+                need_bytes,
+                &format!("scene {}", self.file),
+                format_args!("{} triangles", format_count(total)),
+            )?;
+            self.budget_unchecked_to = need_bytes.saturating_add((need_bytes / 8).max(1 << 20));
+        }
         if self.triangles.try_reserve(count).is_err() || self.attrs.try_reserve(count).is_err() {
             return Err(SceneError::Invalid(format!(
                 "{what}: cannot allocate {count} triangles"
