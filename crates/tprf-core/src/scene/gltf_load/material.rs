@@ -72,6 +72,7 @@ impl Builder<'_> {
             emissive_texture: self.texture(m.emissive_texture(), Encoding::Srgb)?,
             double_sided: m.double_sided(),
             medium,
+            model: crate::scene::SurfaceModel::MetallicRoughness,
         })
     }
 
