@@ -115,6 +115,53 @@ pub struct Material {
     /// the surface is an index-matched boundary (the paper's virtual interface: light
     /// crosses it unchanged, undelayed) around a medium of its own `n`.
     pub medium: Option<Medium>,
+    /// How the surface scatters: glTF's metallic-roughness model of the fields above (the
+    /// default), or one of Mitsuba's models exactly (the fields above then hold the
+    /// nearest metallic-roughness material, which a glTF export writes).
+    pub model: SurfaceModel,
+}
+
+/// The scattering model of a [`Material`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum SurfaceModel {
+    /// glTF 2.0 metallic-roughness with the specular, transmission and IOR extensions.
+    #[default]
+    MetallicRoughness,
+    /// Mitsuba 3's `plastic` (`microfacet` `None`: a smooth coat) and `roughplastic`: a
+    /// dielectric coat of relative index `eta` (`int_ior / ext_ior`) over a diffuse base
+    /// whose light is reflected back inside the coat. The base colour (and its texture) is
+    /// `diffuse_reflectance`, `specular_color` the `specular_reflectance`.
+    Plastic {
+        eta: f32,
+        microfacet: Option<Microfacet>,
+        /// Mitsuba's `nonlinear`: the internal reflections tint with the base colour.
+        nonlinear: bool,
+    },
+    /// Mitsuba 3's `conductor` (`microfacet` `None`: a mirror) and `roughconductor`: the
+    /// Fresnel reflectance of a conductor of complex index `eta + i k` (relative to the
+    /// outside), per linear-sRGB channel, times `specular_reflectance`.
+    Conductor {
+        eta: [f32; 3],
+        k: [f32; 3],
+        specular_reflectance: [f32; 3],
+        microfacet: Option<Microfacet>,
+    },
+}
+
+/// An isotropic microfacet distribution as Mitsuba 3 defines it
+/// (`include/mitsuba/render/microfacet.h`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Microfacet {
+    pub distribution: MicrofacetDistribution,
+    /// Mitsuba's `alpha`: the RMS slope (Beckmann) or GGX's alpha, >= 0.
+    pub alpha: f32,
+}
+
+/// Mitsuba's two microfacet normal distributions.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum MicrofacetDistribution {
+    Beckmann,
+    Ggx,
 }
 
 impl Default for Material {
@@ -139,6 +186,7 @@ impl Default for Material {
             emission_falloff: None,
             double_sided: true,
             medium: None,
+            model: SurfaceModel::MetallicRoughness,
         }
     }
 }

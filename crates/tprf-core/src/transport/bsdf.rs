@@ -1,13 +1,30 @@
 //! Scattering `S` of the transient rendering equation: the BSDF at a surface point, in one
 //! spectral band. Scattering takes no time; only propagation delays.
 //!
-//! Lobes: Lambertian diffuse, GGX microfacet specular (a mirror when the roughness is
-//! near 0) with a Schlick Fresnel that reaches 0 for `specularFactor = 0` on a
-//! dielectric (pure Lambertian), and a smooth dielectric transmission lobe.
+//! Models (a material's [`crate::scene::SurfaceModel`]):
+//! - glTF metallic-roughness: Lambertian diffuse, GGX microfacet specular (a mirror when
+//!   the roughness is near 0) with a Schlick Fresnel that reaches 0 for
+//!   `specularFactor = 0` on a dielectric (pure Lambertian), and a smooth dielectric
+//!   transmission lobe;
+//! - Mitsuba's `plastic` / `roughplastic` ([`plastic`]) and `conductor` /
+//!   `roughconductor` ([`conductor`]), with Mitsuba's Fresnel terms ([`fresnel`]) and
+//!   microfacet distributions ([`microfacet`]).
+//!
 //! Directions are in the local shading frame (normal = +Z), pointing away from the
 //! surface.
 
+pub mod conductor;
+pub mod fresnel;
+pub mod microfacet;
+pub mod plastic;
+
+pub use fresnel::fresnel_dielectric;
+
+use crate::scene::SurfaceModel;
+use conductor::Conductor;
 use glam::Vec3;
+use microfacet::Microfacet;
+use plastic::{Plastic, PlasticCoat};
 use std::f32::consts::PI;
 
 /// GGX alpha below which the specular lobe is treated as a perfect mirror.
@@ -101,7 +118,69 @@ impl BsdfSample {
 
 /// The BSDF at one point, one band.
 #[derive(Clone, Copy, Debug)]
-pub struct Bsdf {
+pub struct Bsdf(Model);
+
+#[derive(Clone, Copy, Debug)]
+enum Model {
+    MetallicRoughness(MetallicRoughness),
+    Plastic(Plastic),
+    Conductor(Conductor),
+}
+
+/// A material's model reduced to one band, with what does not vary over the surface
+/// computed once (a rough plastic's coat tables).
+#[derive(Clone, Copy, Debug)]
+pub enum BandModel {
+    MetallicRoughness,
+    Plastic(PlasticCoat),
+    /// Its index and reflectance in the band (they take no texture).
+    Conductor(Conductor),
+}
+
+impl BandModel {
+    /// `model` in the band that `pick` takes of an RGB triple; `base` and `specular`
+    /// are the band's untextured base colour and specular colour (a plastic's sampling
+    /// weight reads them).
+    pub fn new(
+        model: &SurfaceModel,
+        pick: impl Fn([f32; 3]) -> f32,
+        base: f32,
+        specular: f32,
+    ) -> BandModel {
+        let rough = |m: &Option<crate::scene::Microfacet>| {
+            m.map(|m| Microfacet::new(m.distribution, m.alpha))
+        };
+        match model {
+            SurfaceModel::MetallicRoughness => BandModel::MetallicRoughness,
+            SurfaceModel::Plastic {
+                eta,
+                microfacet,
+                nonlinear,
+            } => BandModel::Plastic(PlasticCoat::new(
+                *eta,
+                rough(microfacet),
+                *nonlinear,
+                base,
+                specular,
+            )),
+            SurfaceModel::Conductor {
+                eta,
+                k,
+                specular_reflectance,
+                microfacet,
+            } => BandModel::Conductor(Conductor::new(
+                pick(*eta),
+                pick(*k),
+                pick(*specular_reflectance),
+                rough(microfacet),
+            )),
+        }
+    }
+}
+
+/// glTF's metallic-roughness BSDF.
+#[derive(Clone, Copy, Debug)]
+struct MetallicRoughness {
     /// Lambertian albedo (already weighted by metallic, transmission and specular loss).
     diffuse: f32,
     /// Schlick F0 and F90 of the combined metal/dielectric specular layer.
@@ -137,20 +216,6 @@ fn schlick(f0: f32, f90: f32, cos: f32) -> f32 {
     f0 + (f90 - f0) * m2 * m2 * m
 }
 
-/// Exact Fresnel reflectance of a smooth dielectric for unpolarised light; `eta` =
-/// n_incident / n_transmitted. Returns 1 for total internal reflection.
-pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
-    let cos_i = cos_i.clamp(0.0, 1.0);
-    let sin2_t = eta * eta * (1.0 - cos_i * cos_i);
-    if sin2_t >= 1.0 {
-        return 1.0;
-    }
-    let cos_t = (1.0 - sin2_t).sqrt();
-    let rs = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
-    let rp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
-    0.5 * (rs * rs + rp * rp)
-}
-
 /// GGX normal distribution D(h), `cos_h` = h.z.
 #[inline]
 fn ggx_d(alpha: f32, cos_h: f32) -> f32 {
@@ -169,9 +234,72 @@ fn ggx_g1(alpha: f32, cos: f32) -> f32 {
 }
 
 impl Bsdf {
-    /// Build the BSDF from material parameters. `n_outside_over_inside` is `1 / ior`
+    /// The glTF metallic-roughness BSDF of material parameters `p`. `eta` is `1 / ior`
     /// when `wo` is on the front (entering) side, `ior` when it is inside the medium.
+    #[inline]
     pub fn new(p: &BsdfParams, eta: f32) -> Bsdf {
+        Bsdf(Model::MetallicRoughness(MetallicRoughness::new(p, eta)))
+    }
+
+    /// The BSDF of `model` with parameters `p` (textures applied), for `wo` on the front
+    /// side (`front`) or the back.
+    #[inline]
+    pub fn build(model: &BandModel, p: &BsdfParams, front: bool) -> Bsdf {
+        match model {
+            BandModel::MetallicRoughness => Bsdf::new(p, if front { 1.0 / p.ior } else { p.ior }),
+            BandModel::Plastic(coat) => {
+                Bsdf(Model::Plastic(Plastic::new(coat, p.base, p.specular_color)))
+            }
+            BandModel::Conductor(c) => Bsdf(Model::Conductor(*c)),
+        }
+    }
+
+    /// Whether one lobe is always sampled (then [`Bsdf::sample`] ignores `u_lobe`).
+    #[inline]
+    pub fn single_lobe(&self) -> bool {
+        match &self.0 {
+            Model::MetallicRoughness(b) => b.single_lobe(),
+            Model::Plastic(_) => false,
+            Model::Conductor(_) => true,
+        }
+    }
+
+    /// Whether some lobe can be evaluated for a given direction pair (next-event
+    /// estimation is useless otherwise).
+    #[inline]
+    pub fn has_smooth_lobe(&self) -> bool {
+        match &self.0 {
+            Model::MetallicRoughness(b) => b.has_smooth_lobe(),
+            Model::Plastic(b) => b.has_smooth_lobe(),
+            Model::Conductor(b) => b.has_smooth_lobe(),
+        }
+    }
+
+    /// `f(wo, wi)` of the non-delta lobes (1/sr) and the one-sample pdf of sampling `wi`
+    /// (1/sr). Both zero when either direction is below the surface.
+    #[inline(always)]
+    pub fn eval(&self, wo: Vec3, wi: Vec3) -> (f32, f32) {
+        match &self.0 {
+            Model::MetallicRoughness(b) => b.eval(wo, wi),
+            Model::Plastic(b) => b.eval(wo, wi),
+            Model::Conductor(b) => b.eval(wo, wi),
+        }
+    }
+
+    /// Sample an incident direction for outgoing `wo` (local frame) from uniform numbers
+    /// in [0, 1): `u_lobe` picks the lobe, `(u1, u2)` the direction within it.
+    #[inline(always)]
+    pub fn sample(&self, wo: Vec3, u_lobe: f32, u: (f32, f32)) -> Option<BsdfSample> {
+        match &self.0 {
+            Model::MetallicRoughness(b) => b.sample(wo, u_lobe, u),
+            Model::Plastic(b) => b.sample(wo, u_lobe, u),
+            Model::Conductor(b) => b.sample(wo, u),
+        }
+    }
+}
+
+impl MetallicRoughness {
+    fn new(p: &BsdfParams, eta: f32) -> MetallicRoughness {
         let dielectric = 1.0 - p.metallic;
         let f0_dielectric = (((p.ior - 1.0) / (p.ior + 1.0)).powi(2) * p.specular_color).min(1.0);
         let f0 = p.metallic * p.base + dielectric * p.specular_factor * f0_dielectric;
@@ -189,7 +317,7 @@ impl Bsdf {
         } else {
             (0.0, 0.0)
         };
-        Bsdf {
+        MetallicRoughness {
             diffuse,
             f0,
             f90,
@@ -210,22 +338,17 @@ impl Bsdf {
         self.alpha < MIRROR_ALPHA
     }
 
-    /// Whether one lobe is always sampled (then [`Bsdf::sample`] ignores `u_lobe`).
     #[inline]
-    pub fn single_lobe(&self) -> bool {
+    fn single_lobe(&self) -> bool {
         self.p_diffuse >= 1.0 || self.p_spec >= 1.0 || self.p_diffuse + self.p_spec <= 0.0
     }
 
-    /// Whether some lobe can be evaluated for a given direction pair (next-event
-    /// estimation is useless otherwise).
-    pub fn has_smooth_lobe(&self) -> bool {
+    fn has_smooth_lobe(&self) -> bool {
         self.p_diffuse > 0.0 || (self.p_spec > 0.0 && !self.is_mirror())
     }
 
-    /// `f(wo, wi)` of the non-delta lobes (1/sr) and the one-sample pdf of sampling `wi`
-    /// (1/sr). Both zero when either direction is below the surface.
     #[inline(always)]
-    pub fn eval(&self, wo: Vec3, wi: Vec3) -> (f32, f32) {
+    fn eval(&self, wo: Vec3, wi: Vec3) -> (f32, f32) {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return (0.0, 0.0);
         }
@@ -242,10 +365,8 @@ impl Bsdf {
         (f, pdf)
     }
 
-    /// Sample an incident direction for outgoing `wo` (local frame) from uniform numbers
-    /// in [0, 1): `u_lobe` picks the lobe, `(u1, u2)` the direction within it.
     #[inline(always)]
-    pub fn sample(&self, wo: Vec3, u_lobe: f32, (u1, u2): (f32, f32)) -> Option<BsdfSample> {
+    fn sample(&self, wo: Vec3, u_lobe: f32, (u1, u2): (f32, f32)) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
         }
@@ -314,6 +435,59 @@ impl Bsdf {
                 })
             }
         }
+    }
+}
+
+/// What the lobes' tests share: plain parameters and the albedo of a BSDF found by
+/// its own sampling and by uniform sampling of `f cos`.
+#[cfg(test)]
+pub(crate) mod test_support {
+    use super::{Bsdf, BsdfParams};
+    use crate::transport::sampler::Sampler;
+    use glam::Vec3;
+
+    pub fn params_for_tests() -> BsdfParams {
+        BsdfParams {
+            base: 0.5,
+            metallic: 0.0,
+            roughness: 1.0,
+            specular_factor: 0.0,
+            specular_color: 1.0,
+            transmission: 0.0,
+            ior: 1.5,
+        }
+    }
+
+    /// `(E[weight] of Bsdf::sample, int f cos dw by uniform hemisphere sampling, int pdf
+    /// dw)`, each from 400 000 samples.
+    pub fn albedo_both_ways(b: &Bsdf, wo: Vec3) -> (f64, f64, f64) {
+        let n = 400_000;
+        let mut rng = Sampler::new(1, 2, 3);
+        let mut sampled = 0.0f64;
+        for _ in 0..n {
+            rng.start_sample();
+            if let Some(s) = b.sample(wo, rng.get1(0), rng.get2(1)) {
+                sampled += s.weight as f64;
+            }
+        }
+        let mut rng = Sampler::new(9, 9, 9);
+        let (mut uniform, mut pdf) = (0.0f64, 0.0f64);
+        for _ in 0..n {
+            rng.start_sample();
+            let (u1, u2) = rng.get2(0);
+            let r = (1.0 - u1 * u1).max(0.0).sqrt();
+            let (c, s) = super::turn_cos_sin(u2);
+            let wi = Vec3::new(r * c, r * s, u1);
+            let (f, p) = b.eval(wo, wi);
+            uniform += (f * wi.z) as f64;
+            pdf += p as f64;
+        }
+        let two_pi = 2.0 * std::f64::consts::PI;
+        (
+            sampled / n as f64,
+            uniform * two_pi / n as f64,
+            pdf * two_pi / n as f64,
+        )
     }
 }
 
@@ -410,17 +584,6 @@ mod tests {
             (importance - uniform).abs() < 0.01 * uniform,
             "{importance} vs {uniform}"
         );
-    }
-
-    #[test]
-    fn fresnel_limits() {
-        assert!((fresnel_dielectric(1.0, 1.0 / 1.5) - 0.04).abs() < 1e-6);
-        assert_eq!(
-            fresnel_dielectric(0.1, 1.5),
-            1.0,
-            "total internal reflection"
-        );
-        assert!((fresnel_dielectric(0.0, 1.0 / 1.5) - 1.0).abs() < 1e-6);
     }
 
     #[test]

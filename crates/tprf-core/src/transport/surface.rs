@@ -6,7 +6,7 @@ use crate::scene::{AlphaMode, AngularFalloff, Channel, Material, Scene, Texture,
 use glam::{Vec2, Vec3};
 use std::sync::{Arc, OnceLock};
 
-use super::bsdf::{Bsdf, BsdfParams};
+use super::bsdf::{BandModel, Bsdf, BsdfParams};
 
 /// sRGB 8-bit code -> linear value.
 fn srgb_to_linear_lut() -> &'static [f32; 256] {
@@ -96,6 +96,8 @@ pub struct SurfacePoint {
 struct BandMaterial {
     /// Parameters without textures.
     params: BsdfParams,
+    /// The scattering model in this band.
+    model: BandModel,
     /// The untextured BSDF seen from the front (eta = 1 / ior) and from the back (ior).
     bsdf_front: Bsdf,
     bsdf_back: Bsdf,
@@ -152,10 +154,17 @@ impl BandMaterial {
                 1.5
             },
         };
+        let model = BandModel::new(
+            &m.model,
+            |c| channel.pick(c),
+            params.base,
+            params.specular_color,
+        );
         BandMaterial {
             params,
-            bsdf_front: Bsdf::new(&params, 1.0 / params.ior),
-            bsdf_back: Bsdf::new(&params, params.ior),
+            model,
+            bsdf_front: Bsdf::build(&model, &params, true),
+            bsdf_back: Bsdf::build(&model, &params, false),
             emission: if m.is_emissive() {
                 channel.pick(m.emissive).max(0.0)
             } else {
@@ -355,7 +364,7 @@ impl Surfaces {
         }
         let bsdf = if bm.textured {
             let p = self.textured_params(tri, u, v, bm);
-            Bsdf::new(&p, if front { 1.0 / p.ior } else { p.ior })
+            Bsdf::build(&bm.model, &p, front)
         } else if front {
             bm.bsdf_front
         } else {

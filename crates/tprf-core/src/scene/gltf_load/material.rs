@@ -74,6 +74,7 @@ impl Builder<'_> {
             emission_falloff,
             double_sided: m.double_sided(),
             medium,
+            model: crate::scene::SurfaceModel::MetallicRoughness,
         })
     }
 

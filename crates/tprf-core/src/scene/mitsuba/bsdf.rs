@@ -1,27 +1,33 @@
-//! Mitsuba BSDFs and textures as tprf materials (glTF's metallic-roughness model with
-//! the specular, transmission and IOR factors; see `transport::bsdf`).
+//! Mitsuba BSDFs and textures as tprf materials: glTF's metallic-roughness model with
+//! the specular, transmission and IOR factors, or one of Mitsuba's own models
+//! ([`SurfaceModel`]: `plastic`, `conductor`; see `transport::bsdf`).
 //!
 //! Exact (the same scattering as Mitsuba's plugin):
 //! - `diffuse`: Lambertian, `reflectance` the base colour (specular factor 0);
 //! - `dielectric`: smooth Fresnel reflection and refraction, `int_ior / ext_ior` the
 //!   relative index (named indices from Mitsuba's table: `water`, `bk7`...), light inside
 //!   at c / n;
-//! - `conductor` with the default `material="none"`: a perfect mirror;
+//! - `plastic`, `roughplastic`: Mitsuba's coat over a diffuse base (`nonlinear`, internal
+//!   reflectance and transmittance as Mitsuba computes them; a rough coat's two
+//!   integrals by tprf's own quadrature, within 0.2 % of Mitsuba's values; its lobe
+//!   sampling weights as Mitsuba's, the specular one from the diffuse colour factor, not
+//!   a texture's mean: that changes only the noise);
+//! - `conductor`, `roughconductor`: the conductor's Fresnel reflectance of complex index
+//!   `eta + i k` (given, or a named `material` from Mitsuba's own table: the RGB values
+//!   of its variants, the grey band their luminance as its mono variants), Beckmann (the
+//!   default) or GGX of the given `alpha`, `specular_reflectance`; `material="none"` (the
+//!   default) a perfect mirror;
 //! - `twosided` around an exact BSDF; `null`: no surface (coverage 0).
+//!
+//! Sampling differs from Mitsuba's where that changes only the noise: microfacet normals
+//! are drawn from `D cos` (Mitsuba: the visible normals, `sample_visible`).
 //!
 //! Approximate (each noted where a scene uses it):
 //! - every one-sided BSDF is rendered two-sided: tprf's BSDFs scatter on both sides,
 //!   Mitsuba's are black from behind (a scene that shows a back face differs);
-//! - `conductor` (other than `none`) and `roughconductor`: a metal whose reflectance at
-//!   normal incidence, `((n - 1)^2 + k^2) / ((n + 1)^2 + k^2)` per channel (times
-//!   `specular_reflectance`), follows Schlick's Fresnel; named `material`s from a small
-//!   table of linear-sRGB normal-incidence reflectances;
-//! - rough BSDFs use GGX with roughness `sqrt(alpha)` (Mitsuba's `beckmann`, the default,
-//!   has a different tail; an anisotropic `alpha_u`, `alpha_v` is averaged);
+//! - an anisotropic `alpha_u`, `alpha_v` is averaged (tprf's distributions are
+//!   isotropic); a textured alpha is refused;
 //! - `roughdielectric`: a smooth dielectric;
-//! - `plastic`, `roughplastic`: a dielectric base colour `diffuse_reflectance` under a
-//!   Schlick specular coat of the given IOR (Mitsuba also accounts for light reflected
-//!   back inside the coat);
 //! - `thindielectric`: a mirror covering the fraction `2R / (1 + R)` of the surface (the
 //!   slab's reflectance at normal incidence, R = ((n - 1) / (n + 1))^2), the rest letting
 //!   light through unchanged and undelayed;
@@ -40,7 +46,10 @@ use super::shapes::uv_transform;
 use super::xml::{Color, Object, err};
 use super::{Builder, MaterialKey, MaterialSlot};
 use crate::budget;
-use crate::scene::{AlphaMode, Material, SceneError, Texture, TextureRef};
+use crate::scene::{
+    AlphaMode, Material, Microfacet, MicrofacetDistribution, SceneError, SurfaceModel, Texture,
+    TextureRef,
+};
 use std::path::Path;
 
 /// Deepest chain of nested or referenced BSDFs followed.
@@ -73,15 +82,72 @@ const IOR_TABLE: [(&str, f64); 23] = [
     ("diamond", 2.419),
 ];
 
-/// Normal-incidence reflectance (linear sRGB) of the conductors a `material` string may
-/// name that tprf knows (Real-Time Rendering, 4th ed., table 9.2); others are refused.
-const CONDUCTORS: [(&str, [f64; 3]); 6] = [
-    ("Ag", [0.972, 0.960, 0.915]),
-    ("Al", [0.913, 0.922, 0.924]),
-    ("Au", [1.000, 0.782, 0.344]),
-    ("Cr", [0.549, 0.556, 0.554]),
-    ("Cu", [0.955, 0.638, 0.538]),
-    ("Ni_palik", [0.660, 0.609, 0.526]),
+/// Mitsuba 3.9's named conductors (`data/ior/NAME.eta.spd`, `.k.spd`): the complex index
+/// `eta + i k` as Mitsuba's RGB variants hold it, each spectrum reduced to linear sRGB
+/// (`spectrum_list_to_srgb`, negative values clamped to 0), read from Mitsuba itself. A
+/// band takes its channel of these (the grey band their luminance, as Mitsuba's mono
+/// variants do).
+#[rustfmt::skip]
+const CONDUCTORS: [(&str, [f64; 3], [f64; 3]); 59] = [
+    ("Ag", [0.155276, 0.116728, 0.138388], [4.82835, 3.12222, 2.1469]),
+    ("Al", [1.6575, 0.880405, 0.521244], [9.22381, 6.2695, 4.837]),
+    ("Au", [0.143036, 0.375307, 1.44205], [3.983, 2.38556, 1.60336]),
+    ("Be", [4.18501, 3.18503, 2.78406], [3.83547, 3.01012, 2.86899]),
+    ("Be_palik", [4.18501, 3.18503, 2.78406], [3.83547, 3.01012, 2.86899]),
+    ("Cr", [4.36967, 2.91651, 1.6549], [5.20655, 4.23131, 3.7547]),
+    ("CsI", [2.1449, 1.70232, 1.66243], [0.0, 0.0, 0.0]),
+    ("CsI_palik", [2.1449, 1.70232, 1.66243], [0.0, 0.0, 0.0]),
+    ("Cu", [0.201005, 0.92375, 1.10222], [3.91326, 2.45305, 2.14209]),
+    ("Cu2O", [3.55177, 2.94987, 2.75188], [0.114207, 0.193897, 0.606134]),
+    ("Cu2O_palik", [3.55177, 2.94987, 2.75188], [0.114207, 0.193897, 0.606134]),
+    ("CuO", [3.24754, 2.44781, 2.21022], [0.52109, 0.570031, 0.722179]),
+    ("CuO_palik", [3.24754, 2.44781, 2.21022], [0.52109, 0.570031, 0.722179]),
+    ("Cu_palik", [0.213229, 0.919715, 1.10241], [3.92187, 2.45733, 2.13658]),
+    ("Hg", [2.39894, 1.44003, 0.90957], [6.32759, 4.37192, 3.42176]),
+    ("HgTe", [4.77904, 3.2312, 2.6599], [1.63161, 1.58081, 1.72929]),
+    ("HgTe_palik", [4.77904, 3.2312, 2.6599], [1.63161, 1.58081, 1.72929]),
+    ("Hg_palik", [2.39894, 1.44003, 0.90957], [6.32759, 4.37192, 3.42176]),
+    ("Ir", [3.0863, 2.08219, 1.61791], [5.59215, 4.06709, 3.26731]),
+    ("Ir_palik", [3.0863, 2.08219, 1.61791], [5.59215, 4.06709, 3.26731]),
+    ("K", [0.0640432, 0.0464098, 0.0381849], [2.1042, 1.34894, 0.913126]),
+    ("K_palik", [0.0640432, 0.0464098, 0.0381849], [2.1042, 1.34894, 0.913126]),
+    ("Li", [0.265791, 0.195618, 0.220949], [3.54015, 2.31112, 1.66861]),
+    ("Li_palik", [0.265791, 0.195618, 0.220949], [3.54015, 2.31112, 1.66861]),
+    ("Mo", [4.48397, 3.52513, 2.77631], [4.11144, 3.42083, 3.15061]),
+    ("Mo_palik", [4.48397, 3.52513, 2.77631], [4.11144, 3.42083, 3.15061]),
+    ("Na_palik", [0.0602694, 0.0561409, 0.0619884], [3.17927, 2.11249, 1.57904]),
+    ("Nb", [3.42007, 2.79009, 2.39563], [3.44139, 2.73767, 2.57975]),
+    ("Nb_palik", [3.42007, 2.79009, 2.39563], [3.44139, 2.73767, 2.57975]),
+    ("Ni_palik", [2.3673, 1.66337, 1.46708], [4.49881, 3.05015, 2.34544]),
+    ("Rh", [2.58579, 1.86022, 1.55426], [6.78226, 4.70299, 3.97607]),
+    ("Rh_palik", [2.58579, 1.86022, 1.55426], [6.78226, 4.70299, 3.97607]),
+    ("Se", [4.05831, 2.84294, 2.82085], [0.75405, 0.638444, 0.521808]),
+    ("Se-e", [5.72285, 4.16574, 4.08134], [0.871136, 1.10516, 1.56532]),
+    ("Se-e_palik", [5.72285, 4.16574, 4.08134], [0.871136, 1.10516, 1.56532]),
+    ("Se_palik", [4.05831, 2.84294, 2.82085], [0.75405, 0.638444, 0.521808]),
+    ("SnTe", [4.52425, 1.98164, 1.28159], [0.0, 0.0, 0.0]),
+    ("SnTe_palik", [4.52425, 1.98164, 1.28159], [0.0, 0.0, 0.0]),
+    ("Ta", [2.06272, 2.39294, 2.62793], [2.40836, 1.74149, 1.94703]),
+    ("Ta_palik", [2.06272, 2.39294, 2.62793], [2.40836, 1.74149, 1.94703]),
+    ("Te", [7.39023, 4.4821, 2.63711], [3.25602, 3.52706, 3.29205]),
+    ("Te-e", [7.50891, 4.29643, 2.36999], [5.58393, 4.94721, 3.99759]),
+    ("Te-e_palik", [7.50891, 4.29643, 2.36999], [5.58393, 4.94721, 3.99759]),
+    ("Te_palik", [7.39023, 4.4821, 2.63711], [3.25602, 3.52706, 3.29205]),
+    ("ThF4", [1.83071, 1.44223, 1.38765], [0.0, 0.0, 0.0]),
+    ("ThF4_palik", [1.83071, 1.44223, 1.38765], [0.0, 0.0, 0.0]),
+    ("TiC", [3.70053, 2.83742, 2.58229], [3.26564, 2.35159, 2.17279]),
+    ("TiC_palik", [3.70053, 2.83742, 2.58229], [3.26564, 2.35159, 2.17279]),
+    ("TiN", [1.64845, 1.15052, 1.37982], [3.36833, 1.9435, 1.10207]),
+    ("TiN_palik", [1.64845, 1.15052, 1.37982], [3.36833, 1.9435, 1.10207]),
+    ("VC", [3.65757, 2.75274, 2.53267], [3.0683, 2.19869, 1.96319]),
+    ("VC_palik", [3.65757, 2.75274, 2.53267], [3.0683, 2.19869, 1.96319]),
+    ("VN", [2.8656, 2.11919, 1.94009], [3.03224, 2.05612, 1.61631]),
+    ("VN_palik", [2.8656, 2.11919, 1.94009], [3.03224, 2.05612, 1.61631]),
+    ("V_palik", [4.27758, 3.51295, 2.76107], [3.4913, 2.88945, 3.11152]),
+    ("W", [4.37082, 3.30025, 2.99841], [3.50064, 2.60487, 2.27323]),
+    ("a-C", [2.94405, 2.22714, 1.96816], [0.887465, 0.799299, 0.81529]),
+    ("d-C", [2.70872, 2.31883, 2.2289], [0.0, 0.0, 0.0]),
+    ("d-C_palik", [2.70872, 2.31883, 2.2289], [0.0, 0.0, 0.0]),
 ];
 
 /// What a BSDF becomes before it is stored: the material and its base colour's texture
@@ -235,23 +301,13 @@ impl Builder<'_> {
         Ok(int / ext)
     }
 
-    /// GGX roughness `sqrt(alpha)` of a rough BSDF (`alpha`, or the mean of `alpha_u`
-    /// and `alpha_v`), with a note when the distribution or anisotropy is approximated.
-    fn roughness(&mut self, o: &Object) -> Result<f32, SceneError> {
-        let alpha = match (o.prop("alpha_u").is_some(), o.prop("alpha_v").is_some()) {
-            (true, true) | (true, false) | (false, true) => {
-                let (u, v) = (o.float("alpha_u", 0.1)?, o.float("alpha_v", 0.1)?);
-                if u != v {
-                    self.note_at(&o.loc, format!("<bsdf type=\"{}\">: anisotropic roughness averaged (tprf's GGX is isotropic)", o.plugin));
-                }
-                0.5 * (u + v)
-            }
-            (false, false) => o.float("alpha", 0.1)?,
-        };
-        if o.prop("alpha").is_some()
-            && o.props
-                .iter()
-                .any(|p| p.name == "alpha" && matches!(p.value, super::xml::Value::Object(_)))
+    /// The microfacet distribution of a rough BSDF: `distribution` (`beckmann`, the
+    /// default, or `ggx`) and `alpha` (or the mean of `alpha_u` and `alpha_v`, noted: tprf's
+    /// distributions are isotropic).
+    fn microfacet(&mut self, o: &Object) -> Result<Microfacet, SceneError> {
+        if o.props
+            .iter()
+            .any(|p| p.name.starts_with("alpha") && matches!(p.value, super::xml::Value::Object(_)))
         {
             return Err(err(
                 &o.loc,
@@ -261,17 +317,46 @@ impl Builder<'_> {
                 ),
             ));
         }
-        let dist = o.string("distribution")?.unwrap_or("beckmann").to_string();
-        if dist != "ggx" {
-            self.note_at(&o.loc, format!("<bsdf type=\"{}\"> with the {dist} distribution rendered with GGX of the same alpha", o.plugin));
-        }
+        let alpha = match (o.prop("alpha_u").is_some(), o.prop("alpha_v").is_some()) {
+            (true, true) | (true, false) | (false, true) => {
+                let (u, v) = (o.float("alpha_u", 0.1)?, o.float("alpha_v", 0.1)?);
+                if u != v {
+                    self.note_at(&o.loc, format!("<bsdf type=\"{}\">: anisotropic roughness averaged, alpha {} (tprf's microfacet distributions are isotropic)", o.plugin, 0.5 * (u + v)));
+                }
+                0.5 * (u + v)
+            }
+            (false, false) => o.float("alpha", 0.1)?,
+        };
         if !(alpha.is_finite() && alpha >= 0.0) {
             return Err(err(
                 &o.loc,
                 format!("{}: alpha {alpha} must be >= 0", o.describe()),
             ));
         }
-        Ok(alpha.sqrt().min(1.0) as f32)
+        let distribution = match o.string("distribution")?.map(str::to_ascii_lowercase) {
+            None => MicrofacetDistribution::Beckmann,
+            Some(d) if d == "beckmann" => MicrofacetDistribution::Beckmann,
+            Some(d) if d == "ggx" => MicrofacetDistribution::Ggx,
+            Some(d) => {
+                return Err(err(
+                    &o.loc,
+                    format!(
+                        "{}: distribution \"{d}\" is not one Mitsuba 3 knows (beckmann, ggx)",
+                        o.describe()
+                    ),
+                ));
+            }
+        };
+        Ok(Microfacet {
+            distribution,
+            alpha: alpha as f32,
+        })
+    }
+
+    /// GGX roughness `sqrt(alpha)` of a microfacet distribution: the metallic-roughness
+    /// material nearest it.
+    fn roughness(mf: &Microfacet) -> f32 {
+        mf.alpha.sqrt().min(1.0)
     }
 
     /// Convert BSDF object `k` (wrappers followed, at most [`MAX_NESTING`] deep).
@@ -371,7 +456,7 @@ impl Builder<'_> {
                 m.roughness = 0.0;
                 m.base_color = [1.0; 4];
                 if o.plugin == "roughdielectric" {
-                    let _ = self.roughness(o)?;
+                    let _ = self.microfacet(o)?;
                     approx(
                         self,
                         "rendered as a smooth dielectric (tprf has no rough refraction)",
@@ -402,56 +487,70 @@ impl Builder<'_> {
             }
             "conductor" | "roughconductor" => {
                 let material = o.string("material")?.map(str::to_string);
-                let f0 = match (material.as_deref(), o.prop("eta").is_some() || o.prop("k").is_some()) {
-                    (_, true) => {
-                        let eta = self.constant(o, "eta", 0.0)?;
-                        let kk = self.constant(o, "k", 1.0)?;
-                        std::array::from_fn(|i| {
-                            let (n, k) = (eta[i], kk[i]);
-                            ((n - 1.0).powi(2) + k * k) / ((n + 1.0).powi(2) + k * k)
-                        })
+                let explicit = o.prop("eta").is_some() || o.prop("k").is_some();
+                let (eta, k) = match (material.as_deref(), explicit) {
+                    (None | Some("none"), _) => {
+                        (self.constant(o, "eta", 0.0)?, self.constant(o, "k", 1.0)?)
                     }
-                    (None | Some("none"), false) => [1.0; 3],
                     (Some(name), false) => CONDUCTORS
                         .iter()
-                        .find(|(n, _)| *n == name)
-                        .map(|(_, c)| *c)
+                        .find(|(n, _, _)| *n == name)
+                        .map(|(_, eta, k)| (*eta, *k))
                         .ok_or_else(|| {
-                            let known: Vec<&str> = CONDUCTORS.iter().map(|(n, _)| *n).collect();
-                            err(&o.loc, format!("{}: material \"{name}\" is not one tprf knows ({}, none): give eta and k", o.describe(), known.join(", ")))
+                            let known: Vec<&str> = CONDUCTORS.iter().map(|(n, _, _)| *n).collect();
+                            err(&o.loc, format!("{}: material \"{name}\" is not one of Mitsuba's named conductors ({}, none): give eta and k", o.describe(), known.join(", ")))
                         })?,
+                    (Some(name), true) => {
+                        return Err(err(
+                            &o.loc,
+                            format!(
+                                "{}: give either material \"{name}\" or eta and k, not both (as Mitsuba)",
+                                o.describe()
+                            ),
+                        ));
+                    }
                 };
                 let spec = self.constant(o, "specular_reflectance", 1.0)?;
-                let c: [f64; 3] = std::array::from_fn(|i| f0[i] * spec[i]);
-                m.base_color = [c[0] as f32, c[1] as f32, c[2] as f32, 1.0];
+                let microfacet = if o.plugin == "roughconductor" {
+                    Some(self.microfacet(o)?)
+                } else {
+                    None
+                };
+                // The nearest metallic-roughness material (a glTF export writes it): the
+                // reflectance at normal incidence as the base colour.
+                let f0: [f64; 3] = std::array::from_fn(|i| {
+                    let (n, k) = (eta[i], k[i]);
+                    spec[i] * ((n - 1.0).powi(2) + k * k) / ((n + 1.0).powi(2) + k * k)
+                });
+                m.base_color = [f0[0] as f32, f0[1] as f32, f0[2] as f32, 1.0];
                 m.metallic = 1.0;
-                m.roughness = 0.0;
-                if o.plugin == "roughconductor" {
-                    m.roughness = self.roughness(o)?;
-                }
-                if f0 != [1.0; 3] {
-                    approx(
-                        self,
-                        "Schlick's Fresnel from the reflectance at normal incidence",
-                    );
-                }
+                m.roughness = microfacet.as_ref().map_or(0.0, Self::roughness);
+                m.model = SurfaceModel::Conductor {
+                    eta: f(eta),
+                    k: f(k),
+                    specular_reflectance: f(spec),
+                    microfacet,
+                };
             }
             "plastic" | "roughplastic" => {
                 let (c, t) = self.base(o, "diffuse_reflectance", 0.5)?;
                 m.base_color = [c[0] as f32, c[1] as f32, c[2] as f32, 1.0];
                 texture = t;
-                m.ior = self.ior(o, 1.49, 1.000277)? as f32;
+                let eta = self.ior(o, 1.49, 1.000277)?;
+                m.ior = eta as f32;
                 m.specular_factor = 1.0;
                 m.specular_color = f(self.constant(o, "specular_reflectance", 1.0)?);
-                m.roughness = 0.0;
-                let _ = o.boolean("nonlinear", false)?;
-                if o.plugin == "roughplastic" {
-                    m.roughness = self.roughness(o)?;
-                }
-                approx(
-                    self,
-                    "a diffuse base under a Schlick specular coat (no light reflected back inside the coat)",
-                );
+                let microfacet = if o.plugin == "roughplastic" {
+                    Some(self.microfacet(o)?)
+                } else {
+                    None
+                };
+                m.roughness = microfacet.as_ref().map_or(0.0, Self::roughness);
+                m.model = SurfaceModel::Plastic {
+                    eta: eta as f32,
+                    microfacet,
+                    nonlinear: o.boolean("nonlinear", false)?,
+                };
             }
             "principled" => {
                 let (c, t) = self.base(o, "base_color", 0.5)?;
