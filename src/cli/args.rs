@@ -158,6 +158,13 @@ pub struct RequestArgs {
     /// pass, writes the passes made and exits with status 3.
     #[arg(long, value_name = "SIZE", value_parser = bytes_value)]
     pub max_memory: Option<u64>,
+    /// Also write the cube's phasors, computed from the film after the render:
+    /// phasor.npy (float32 [H, W, F, 2], real and imaginary; tprf.zarr/phasor for a Zarr
+    /// cube) and phasor.json, at mitransient's phasor_hdr_film frequencies for this band
+    /// of wavelengths in metres of optical path (its wl_mean and wl_sigma, e.g.
+    /// `100:100`). A Mitsuba file with a phasor_hdr_film sets it.
+    #[arg(long, value_name = "WL_MEAN:WL_SIGMA")]
+    pub phasor: Option<tprf_core::export::phasor::PhasorBand>,
 }
 
 impl RequestArgs {
@@ -262,10 +269,27 @@ impl RequestArgs {
             shard: self.shard.clone(),
             band_rows: self.band_rows,
             max_memory_bytes: self.max_memory,
+            phasor: self.phasor.or_else(|| phasor_of(file, &mut used)),
             ..RenderRequest::default()
         };
         (request, used)
     }
+}
+
+/// The band of a file's `phasor_hdr_film` (its `wl_mean` and `wl_sigma`), said in `used`.
+fn phasor_of(
+    file: &tprf_core::scene::FileSettings,
+    used: &mut Vec<String>,
+) -> Option<tprf_core::export::phasor::PhasorBand> {
+    let (mean, sigma) = (file.phasor_wl_mean_m.as_ref()?, file.phasor_wl_sigma_m.as_ref()?);
+    used.push(format!(
+        "--phasor {}:{} (wl_mean {}, wl_sigma {})",
+        mean.value, sigma.value, mean.from, sigma.from
+    ));
+    Some(tprf_core::export::phasor::PhasorBand {
+        wl_mean_m: mean.value,
+        wl_sigma_m: sigma.value,
+    })
 }
 
 /// A request field's option on the command line: `--band-rows` for `band_rows`, `SCENE`

@@ -16,6 +16,7 @@ use std::path::{Path, PathBuf};
 pub mod ambient;
 pub mod bulk_file;
 mod npy_read;
+pub mod phasor;
 pub mod sensor;
 pub mod shard;
 pub mod staging;
@@ -71,6 +72,12 @@ pub enum ExportError {
     },
     #[error("{path} is not tprf.json metadata")]
     Metadata {
+        path: PathBuf,
+        #[source]
+        source: serde_json::Error,
+    },
+    #[error("{path} is not phasor.json metadata")]
+    PhasorMetadata {
         path: PathBuf,
         #[source]
         source: serde_json::Error,
@@ -216,6 +223,10 @@ pub struct CubeMetadata {
     /// have fitted in memory); the cube holds the passes made, whole.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stopped: Option<RenderStopped>,
+    /// Only when phasors were asked for (`phasor`, or a Mitsuba `phasor_hdr_film`):
+    /// `phasor.npy` or `tprf.zarr/phasor` and its frequencies ([`phasor`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub phasor: Option<phasor::PhasorMetadata>,
 }
 
 /// Why a render stopped before its target, as `tprf.json` records it.

@@ -1,10 +1,12 @@
 //! A request rendered into a cube folder: what `tprf render` (and each `tprf batch`
 //! job) writes: `tprf.npy` (or `tprf.zarr`), `tprf.json`, `steady.png`, the per-bounce
-//! layers, the ambient image, frames, a shard's steady sums; written into a new folder
+//! layers, the ambient image, frames, a shard's steady sums, the phasors when asked
+//! (`phasor.npy`, `phasor.json`: [`crate::export::phasor`]); written into a new folder
 //! beside the target and swapped in whole ([`crate::export::staging`]).
 
 use super::{MemoryRefusal, MemoryStop, RenderRequest, RequestError, Session};
 use crate::export::ambient::{AMBIENT_NPY, AMBIENT_UNITS, AmbientMetadata};
+use crate::export::phasor::{self, PhasorMetadata};
 use crate::export::shard::{self, ShardInfo};
 use crate::export::{
     self, BIN_VALUE, CameraMetadata, CubeFormat, CubeMetadata, MediumMetadata, RenderStopped, zarr,
@@ -315,6 +317,11 @@ pub fn write_folder(
         // After the cube: a Zarr cube's group must exist.
         export::ambient::write_ambient(dir, zarr, width, height, radiance)?;
     }
+    if let Some(p) = meta.phasor.take() {
+        // After the cube, as the ambient image.
+        interrupted(observer)?;
+        meta.phasor = Some(phasor::write_phasors(dir, zarr, snap, p)?);
+    }
     interrupted(observer)?;
     export::write_json(&dir.join("tprf.json"), &meta)?;
     interrupted(observer)?;
@@ -418,6 +425,15 @@ pub fn cube_metadata(
             limited_by: stop.limited_by.key().into(),
         }),
         ambient: None,
+        phasor: match request.phasor {
+            Some(band) => Some(
+                PhasorMetadata::new(band, axis.t0_s, axis.dt_s, axis.bins, film.time_filter())
+                    .map_err(|why| {
+                        RequestError::invalid(super::Problem::field("phasor").text(format!(": {why}")))
+                    })?,
+            ),
+            None => None,
+        },
     })
 }
 

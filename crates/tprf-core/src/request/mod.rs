@@ -35,6 +35,7 @@ pub use folder::{
 pub use memory::{MemoryLimit, MemoryRefusal, MemoryStop};
 pub use session::Session;
 
+use crate::export::phasor::PhasorBand;
 use crate::export::shard::{self, ShardError, ShardSpec};
 use crate::export::{CubeFormat, ExportError};
 use crate::film::{FilmError, MAX_BINS, TimeFilter};
@@ -191,6 +192,13 @@ pub struct RenderRequest {
         skip_serializing_if = "Option::is_none"
     )]
     pub max_memory_bytes: Option<u64>,
+    /// Also write the cube's phasors at mitransient's frequencies for this band of
+    /// wavelengths (`phasor`: `WL_MEAN:WL_SIGMA`, metres of optical path, as
+    /// `phasor_hdr_film`'s `wl_mean` and `wl_sigma`; a Mitsuba file with that film sets
+    /// it): `phasor.npy` and `phasor.json`, computed from the film after the render
+    /// ([`crate::export::phasor`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub phasor: Option<PhasorBand>,
 }
 
 impl Default for RenderRequest {
@@ -234,6 +242,7 @@ impl Default for RenderRequest {
             shard: None,
             band_rows: shard::DEFAULT_BAND_ROWS,
             max_memory_bytes: None,
+            phasor: None,
         }
     }
 }
@@ -569,6 +578,24 @@ impl RenderRequest {
             return bad("max_memory", " must be at least 1 byte".into());
         }
         camera::check(self)?;
+        if let Some(band) = self.phasor {
+            let dt_opl_m = self.dt_s.map(|dt| dt * crate::units::C_M_PER_S);
+            let checked = match dt_opl_m {
+                Some(dt) => band.index_range(self.bins, dt).map(|_| ()),
+                None => band.check(),
+            };
+            if let Err(why) = checked {
+                return bad("phasor", format!(": {why}"));
+            }
+            if self.shard.is_some() {
+                return Err(RequestError::invalid(
+                    Problem::field("phasor")
+                        .text(" cannot be written by a ")
+                        .and("shard")
+                        .text(": it holds some rows only"),
+                ));
+            }
+        }
         if let Some(spec) = self.shard_spec()? {
             if self.seconds.is_some() {
                 return Err(RequestError::invalid(

@@ -823,6 +823,10 @@ pub struct FileSettings {
     pub spp: Option<FileSetting<u64>>,
     /// Largest number of scattering events on a path.
     pub max_bounces: Option<FileSetting<u32>>,
+    /// mitransient's `phasor_hdr_film`: its `wl_mean` and `wl_sigma`, metres of
+    /// optical path (the phasors to write: `export::phasor`).
+    pub phasor_wl_mean_m: Option<FileSetting<f64>>,
+    pub phasor_wl_sigma_m: Option<FileSetting<f64>>,
     /// An NLOS capture's settings (mitransient's `transient_nlos_path` with an
     /// `nlos_capture_meter` on the relay wall), for `tprf nlos`.
     pub nlos: Option<NlosFileSettings>,
@@ -909,6 +913,8 @@ impl FileSettings {
             line("dt (m of optical path)", &self.dt_opl_m),
             line("spp", &self.spp),
             line("max bounces", &self.max_bounces),
+            line("phasor wl_mean (m)", &self.phasor_wl_mean_m),
+            line("phasor wl_sigma (m)", &self.phasor_wl_sigma_m),
         ]
         .into_iter()
         .flatten()

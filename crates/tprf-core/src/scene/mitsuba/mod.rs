@@ -41,7 +41,7 @@
 //!   relay wall, a `projector` laser): their capture settings for `tprf nlos` (`nlos`).
 //!
 //! **The rule for what is not read.** An element whose plugin tprf has no counterpart
-//! for (`<bsdf type="hair">`, `<emitter type="envmap">`, `<film type="phasor_hdr_film">`,
+//! for (`<bsdf type="hair">`, `<emitter type="envmap">`,
 //! a heterogeneous `<medium>`) refuses the scene, with
 //! the file, line and type: rendering it without would change what light exists or what
 //! is measured. A property tprf does not use (a `<string name="filter_type">`, a

@@ -17,6 +17,10 @@
 //!   `t0 = (start_opl + near_clip) / c`, `dt = bin_width_opl / c`). A pixel in tprf is
 //!   the mean over its square (Mitsuba's `box` reconstruction filter); another
 //!   `<rfilter>` (the `gaussian` default) is noted.
+//! - mitransient's `phasor_hdr_film`: read as `transient_hdr_film` (`temporal_bins`
+//!   default 4096), with `wl_mean` (default 100) and `wl_sigma` (default 1000) in the
+//!   settings: the render writes the cube and its phasors at mitransient's frequencies
+//!   (`export::phasor`).
 //! - The sampler's `sample_count` is the samples per pixel.
 //! - Integrators `path`, `transient_path` and the path tracers that also handle media:
 //!   Mitsuba's `max_depth` counts the segments of a path, the camera's first, so tprf's
@@ -318,13 +322,7 @@ impl Builder<'_> {
     fn read_film(&mut self, k: usize) -> Result<(), SceneError> {
         let f = self.object(k);
         match f.plugin.as_str() {
-            "hdrfilm" | "transient_hdr_film" => {}
-            "phasor_hdr_film" => {
-                return Err(Builder::unsupported(
-                    f,
-                    "tprf records the time-resolved cube, not phasors (its sensor tab models AMCW sensors)",
-                ));
-            }
+            "hdrfilm" | "transient_hdr_film" | "phasor_hdr_film" => {}
             _ => return Err(Builder::unsupported(f, "")),
         }
         let width = count(f, "width", DEFAULT_WIDTH)?;
@@ -379,7 +377,11 @@ impl Builder<'_> {
         }
         self.settings.width = Some(width);
         self.settings.height = Some(height);
-        if f.plugin == "transient_hdr_film" {
+        let phasor = f.plugin == "phasor_hdr_film";
+        if phasor {
+            self.read_phasor_band(f)?;
+        }
+        if f.plugin == "transient_hdr_film" || phasor {
             if f.boolean("exhaustive_scan", false)? {
                 return Err(err(
                     &f.loc,
@@ -390,7 +392,9 @@ impl Builder<'_> {
                 f.integer("laser_scan_width", 0)?,
                 f.integer("laser_scan_height", 0)?,
             );
-            self.settings.bins = Some(count(f, "temporal_bins", 2048)?);
+            // mitransient's defaults: 2048 bins, and 4096 for the phasor film.
+            let bins_default = if phasor { 4096 } else { 2048 };
+            self.settings.bins = Some(count(f, "temporal_bins", bins_default)?);
             let opl = |name: &str, default: f64| -> Result<FileSetting<f64>, SceneError> {
                 let v = f.float(name, default)?;
                 Ok(FileSetting {
@@ -407,6 +411,32 @@ impl Builder<'_> {
             }
             self.settings.dt_opl_m = Some(dt);
             self.settings.t0_opl_m = Some(opl("start_opl", 0.0)?);
+        }
+        Ok(())
+    }
+
+    /// mitransient's `phasor_hdr_film`: `wl_mean` (default 100) and `wl_sigma` (default
+    /// 1000), metres of optical path, into the settings (the phasors a render writes).
+    fn read_phasor_band(&mut self, f: &Object) -> Result<(), SceneError> {
+        for (i, (name, default)) in [("wl_mean", 100.0), ("wl_sigma", 1000.0)]
+            .into_iter()
+            .enumerate()
+        {
+            let v = f.float(name, default)?;
+            let p = f.props.iter().find(|p| p.name == name);
+            if !(v.is_finite() && v > 0.0) {
+                let loc = p.map_or(f.loc.clone(), |p| p.loc.clone());
+                return Err(err(&loc, format!("{name} {v} of {} must be > 0 (a wavelength in metres of optical path)", f.describe())));
+            }
+            let setting = Some(FileSetting {
+                value: v,
+                from: origin(f, p),
+            });
+            if i == 0 {
+                self.settings.phasor_wl_mean_m = setting;
+            } else {
+                self.settings.phasor_wl_sigma_m = setting;
+            }
         }
         Ok(())
     }
