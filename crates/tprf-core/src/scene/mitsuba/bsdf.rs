@@ -9,7 +9,7 @@
 //!   at c / n;
 //! - `plastic`, `roughplastic`: Mitsuba's coat over a diffuse base (`nonlinear`, internal
 //!   reflectance and transmittance as Mitsuba computes them; a rough coat's two
-//!   integrals by tprf's own quadrature, within 0.2 % of Mitsuba's values; its lobe
+//!   integrals by tprf's own quadrature, within 0.25 % of Mitsuba's values; its lobe
 //!   sampling weights as Mitsuba's, the specular one from the diffuse colour factor, not
 //!   a texture's mean: that changes only the noise);
 //! - `conductor`, `roughconductor`: the conductor's Fresnel reflectance of complex index

@@ -36,7 +36,8 @@ impl Conductor {
 
     /// `f(wo, wi)` (1/sr) and the pdf of sampling `wi` (1/sr); zero for a mirror and when
     /// either direction is below the surface.
-    #[inline]
+    // Out of line: the metallic-roughness lobes' inlined dispatch stays as small as before.
+    #[inline(never)]
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> (f32, f32) {
         let Some(mf) = self.rough else {
             return (0.0, 0.0);
@@ -56,7 +57,7 @@ impl Conductor {
     }
 
     /// Sample an incident direction for outgoing `wo` from `(u1, u2)`.
-    #[inline]
+    #[inline(never)]
     pub fn sample(&self, wo: Vec3, (u1, u2): (f32, f32)) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;

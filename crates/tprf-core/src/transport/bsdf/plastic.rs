@@ -251,7 +251,8 @@ impl Plastic {
 
     /// `f(wo, wi)` of the non-delta lobes (1/sr) and the one-sample pdf of sampling `wi`
     /// (1/sr); zero when either direction is below the surface.
-    #[inline]
+    // Out of line: the metallic-roughness lobes' inlined dispatch stays as small as before.
+    #[inline(never)]
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> (f32, f32) {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return (0.0, 0.0);
@@ -284,7 +285,7 @@ impl Plastic {
 
     /// Sample an incident direction for outgoing `wo`: `u_lobe` picks the coat or the
     /// base, `(u1, u2)` the direction.
-    #[inline]
+    #[inline(never)]
     pub fn sample(&self, wo: Vec3, u_lobe: f32, (u1, u2): (f32, f32)) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;

