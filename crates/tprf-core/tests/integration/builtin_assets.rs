@@ -310,7 +310,7 @@ fn canopy_physical_setup() {
 }
 
 fn asset_path(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+    PathBuf::from(crate::ROOT)
         .join("assets")
         .join(format!("{name}.gltf"))
 }
