@@ -1,7 +1,8 @@
 //! tprf-core's integration tests, one test binary (one link, not one per file), each
 //! file a module. They use `tprf_core` alone: the tests that run the `tprf` command or
 //! the window stay in the root package's `tests/`, whose helpers (`tests/common`) these
-//! share. Run them with `cargo test --release -p tprf-core --test integration [NAME]`.
+//! share. Run them with `cargo test --release --test integration [NAME]` (from the root:
+//! `-p tprf-core` alone would resolve the dependencies' features apart and rebuild them).
 
 #[path = "../../../../tests/common/mod.rs"]
 mod common;
