@@ -41,7 +41,8 @@
 //! so the re-arming phase after it is spread over the bin), which needs a sub-bin grid
 //! of `S` steps and `S` times this recursion's cost; the window recomputes this
 //! recursion after every edit. How far it lands, measured against a photon-start
-//! simulation in `tests/spad.rs` (`dead_time_from_the_photon_against_the_model`):
+//! simulation in `crates/tprf-core/tests/integration/spad.rs`
+//! (`dead_time_from_the_photon_against_the_model`):
 //! the same histogram when the dead time is a whole cycle (first photon only); within
 //! the simulation's noise (about 2 % a bin, 0.5 % in total) for weak returns and long
 //! dead times (the `builtin:spad` regime); for strong returns (2.5 events a bin) and

@@ -2,7 +2,7 @@
 //! conservation of energy by the time binning, time-scale invariance, and lossless
 //! accumulation.
 
-mod common;
+use crate::common;
 use common::*;
 use tprf_core::film::{FilmLayout, TimeAxis, TimeFilter, TprfFilm};
 use tprf_core::transport::RenderSettings;

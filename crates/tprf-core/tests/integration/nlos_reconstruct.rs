@@ -3,7 +3,7 @@
 //! installed (see tests/nlos.rs), our back-projection and filtered back-projection agree
 //! with tal's own reconstruction of our `nlos.hdf5`.
 
-mod common;
+use crate::common;
 
 use common::C;
 use glam::Vec3;
@@ -152,7 +152,7 @@ fn a_volume_behind_the_wall_is_refused() {
 fn tal_python() -> Option<PathBuf> {
     let target = std::env::var_os("CARGO_TARGET_DIR")
         .map(PathBuf::from)
-        .unwrap_or_else(|| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("target"));
+        .unwrap_or_else(|| std::path::Path::new(crate::ROOT).join("target"));
     let python = target.join("nlos-venv/bin/python");
     let ok = Command::new(&python)
         .args(["-c", "import h5py, tal"])

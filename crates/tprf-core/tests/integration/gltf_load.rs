@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use tprf_core::scene::gltf_load::load_gltf;
 use tprf_core::scene::{AlphaMode, Scene, SceneError};
 
-const SCENES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/scenes");
+const SCENES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/scenes");
 
 fn close(a: Vec3, b: Vec3) -> bool {
     (a - b).length() < 1e-5

@@ -1,6 +1,6 @@
 //! The built-in scenes against hand-derived facts of their physical setup, and their
 //! glTF exports in `assets/` (regenerate with
-//! `TPRF_WRITE_ASSETS=1 cargo test --release --test builtin_assets`).
+//! `TPRF_WRITE_ASSETS=1 cargo test --release --test integration builtin_assets`).
 
 use glam::{DVec3, Vec3};
 use std::f64::consts::PI;
@@ -310,7 +310,7 @@ fn canopy_physical_setup() {
 }
 
 fn asset_path(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+    PathBuf::from(crate::ROOT)
         .join("assets")
         .join(format!("{name}.gltf"))
 }
@@ -325,7 +325,7 @@ fn asset(name: &str) {
     }
     assert!(
         path.exists(),
-        "{} missing: run TPRF_WRITE_ASSETS=1 cargo test --release --test builtin_assets",
+        "{} missing: run TPRF_WRITE_ASSETS=1 cargo test --release --test integration builtin_assets",
         path.display()
     );
     let doc = gltf::Gltf::open(&path).unwrap();

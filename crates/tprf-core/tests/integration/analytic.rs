@@ -2,7 +2,7 @@
 //! (single bounce, per pixel time and value) and the transient furnace (a closed diffuse
 //! sphere with light and camera at the centre, or the light off the centre).
 
-mod common;
+use crate::common;
 use common::*;
 use tprf_core::film::TimeAxis;
 use tprf_core::reference::furnace::Furnace;

@@ -5,7 +5,7 @@
 //! wall point sees) and one bounce ray (which hits the wall again): so the counts are
 //! known by hand.
 
-mod common;
+use crate::common;
 
 use common::*;
 use std::ops::ControlFlow;

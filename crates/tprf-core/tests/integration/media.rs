@@ -4,7 +4,7 @@
 //! time-resolved reflectance of a semi-infinite medium (diffusion, Patterson 1989), and the
 //! extremes (optically very thick, nearly white, millimetre and kilometre fog).
 
-mod common;
+use crate::common;
 use common::*;
 use glam::Vec3;
 use std::f64::consts::PI;
