@@ -411,8 +411,8 @@ fn a_huge_film_is_refused_before_it_is_allocated() {
 /// NLOS scans larger than memory are refused before any point is made, naming the flags
 /// and the size (they aborted allocating 120 GB): the two grids, over the
 /// transients one capture may hold, and a grid under that bound whose wall points
-/// (16000 x 16000 sensor points and as many laser points, 36 B each: 17.2 GiB) do not fit
-/// under `ulimit -v`.
+/// (16000 x 16000 sensor points and the one laser point of builtin:nlos-z's single scan,
+/// 36 B each: 8.6 GiB) do not fit under `ulimit -v`.
 #[test]
 fn nlos_grids_larger_than_memory_are_refused_with_their_size() {
     let dir = tmp("nlos-grid");
@@ -431,7 +431,7 @@ fn nlos_grids_larger_than_memory_are_refused_with_their_size() {
     );
     assert_refused(
         &o,
-        &["--grid 100000x100000", "10.0 G transients", "670.6 GiB"],
+        &["--grid 100000x100000", "10.0 G transients", "335.3 GiB"],
     );
     let o = tprf_limited(
         &[
@@ -460,7 +460,7 @@ fn nlos_grids_larger_than_memory_are_refused_with_their_size() {
     assert_refused(
         &o,
         &[
-            "needs 17.2 GiB for the wall points of --grid 16000x16000",
+            "needs 8.6 GiB for the wall points of --grid 16000x16000",
             "ulimit -v",
         ],
     );

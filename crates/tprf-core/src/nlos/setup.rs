@@ -184,9 +184,10 @@ fn check_size(settings: &CaptureSettings) -> Result<(), NlosError> {
         points_bytes,
         "this capture",
         format!(
-            "the wall points of {flags} ({} sensor and {} laser points)",
+            "the wall points of {flags} ({} sensor and {} laser point{})",
             format_count(sensors),
-            format_count(lasers)
+            format_count(lasers),
+            if lasers == 1 { "" } else { "s" },
         ),
     )?;
     Ok(())
