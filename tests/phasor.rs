@@ -449,3 +449,40 @@ fn the_modules_sinc_is_sin_pi_u_over_pi_u() {
     // (pi f dt)^2 / 6 at the example's highest frequency.
     assert!(((1.0 - phasor::sinc(0.015)) - 3.7e-4).abs() < 0.1e-4);
 }
+
+/// A Zarr cube holds its phasors as the array `phasor` of `tprf.zarr`: the same values
+/// as the npy render's `phasor.npy` (same seed), read back by `load_phasors`.
+#[test]
+fn a_zarr_cubes_phasors_equal_the_npy_cubes() {
+    let dir = tempdir("zarr");
+    let mut read = Vec::new();
+    for format in ["npy", "zarr"] {
+        let out = dir.join(format);
+        let o = tprf(&[
+            "render",
+            "builtin:cornell",
+            "--out",
+            out.to_str().unwrap(),
+            "--width",
+            "8",
+            "--height",
+            "6",
+            "--bins",
+            "32",
+            "--spp",
+            "2",
+            "--format",
+            format,
+            "--phasor",
+            "1:0.2",
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let (meta, data) = phasor::load_phasors(&out, 8, 6).unwrap().expect("phasors");
+        read.push((meta, data));
+    }
+    assert_eq!(read[1].0.file, "tprf.zarr/phasor");
+    assert_eq!(read[0].0.frequencies_per_m, read[1].0.frequencies_per_m);
+    assert_eq!(read[0].1, read[1].1);
+    assert!(read[0].1.iter().any(|&v| v != 0.0));
+    assert!(!dir.join("zarr").join("phasor.npy").exists());
+}
