@@ -266,7 +266,11 @@ fn a_renders_phasors_are_the_dft_of_its_cube() {
             .map(|v| v.as_f64().unwrap_or(f64::INFINITY))
             .collect()
     };
-    let (per_m, hz, wl) = (freq("frequencies_per_m"), freq("frequencies_hz"), freq("wavelengths_m"));
+    let (per_m, hz, wl) = (
+        freq("frequencies_per_m"),
+        freq("frequencies_hz"),
+        freq("wavelengths_m"),
+    );
     // numpy's fftfreq: index k is k / (T dt) below ceil(T / 2), (k - T) / (T dt) from
     // there (an even T's index T / 2 is the negative Nyquist frequency).
     let signed = |k: usize| -> f64 {
@@ -344,7 +348,13 @@ fn the_example_files_band_and_frequencies() {
         "says where the band came from: {err}"
     );
     let pj = json(&out.join("phasor.json"));
-    assert_eq!((pj["fft_index_first"].as_u64(), pj["fft_index_last"].as_u64()), (Some(20), Some(60)));
+    assert_eq!(
+        (
+            pj["fft_index_first"].as_u64(),
+            pj["fft_index_last"].as_u64()
+        ),
+        (Some(20), Some(60))
+    );
     let f = pj["frequencies_per_m"].as_array().unwrap();
     assert_eq!(f.len(), 41);
     for (j, v) in f.iter().enumerate() {
@@ -375,14 +385,23 @@ fn bad_bands_are_refused_by_name() {
     ]);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("--phasor") && err.contains("wl_mean 0.5 m"), "{err}");
-    let o = tprf(&["render", "builtin:cornell", "--out", out.to_str().unwrap(), "--phasor", "100"]);
+    assert!(
+        err.contains("--phasor") && err.contains("wl_mean 0.5 m"),
+        "{err}"
+    );
+    let o = tprf(&[
+        "render",
+        "builtin:cornell",
+        "--out",
+        out.to_str().unwrap(),
+        "--phasor",
+        "100",
+    ]);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("WL_MEAN:WL_SIGMA"), "{err}");
     assert!(!out.exists(), "nothing written");
 }
-
 
 /// numpy's fftfreq for n = 8 and 7, d = 0.5 (from numpy's documentation's rule).
 #[test]
@@ -436,8 +455,18 @@ fn bands_read_and_print() {
     let b: PhasorBand = " 2.5m : 1e3 m".parse().unwrap();
     assert_eq!((b.wl_mean_m, b.wl_sigma_m), (2.5, 1000.0));
     assert_eq!(b.to_string().parse::<PhasorBand>(), Ok(b));
-    assert!("100".parse::<PhasorBand>().unwrap_err().contains("WL_MEAN:WL_SIGMA"));
-    assert!("-1:3".parse::<PhasorBand>().unwrap_err().contains("wl_mean -1"));
+    assert!(
+        "100"
+            .parse::<PhasorBand>()
+            .unwrap_err()
+            .contains("WL_MEAN:WL_SIGMA")
+    );
+    assert!(
+        "-1:3"
+            .parse::<PhasorBand>()
+            .unwrap_err()
+            .contains("wl_mean -1")
+    );
     assert!("1:x".parse::<PhasorBand>().unwrap_err().contains("'x'"));
 }
 

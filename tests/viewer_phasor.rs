@@ -46,7 +46,10 @@ fn wait_done(h: &mut Harness<'static, TprfApp>) {
             Some(WorkerState::Failed(e)) => panic!("render failed: {e}"),
             _ => {}
         }
-        assert!(start.elapsed() < Duration::from_secs(120), "render did not finish");
+        assert!(
+            start.elapsed() < Duration::from_secs(120),
+            "render did not finish"
+        );
         std::thread::sleep(Duration::from_millis(20));
     }
     h.run_steps(2);
@@ -71,7 +74,14 @@ fn number_after(text: &str, key: &str) -> f64 {
         .unwrap_or_else(|e| panic!("{word:?} in {text:?}: {e}"))
 }
 
-fn pixel_pos(h: &Harness<'static, TprfApp>, label: &str, x: usize, y: usize, w: usize, hgt: usize) -> Pos2 {
+fn pixel_pos(
+    h: &Harness<'static, TprfApp>,
+    label: &str,
+    x: usize,
+    y: usize,
+    w: usize,
+    hgt: usize,
+) -> Pos2 {
     let rect = h.get_by_label(label).rect();
     Pos2::new(
         rect.min.x + (x as f32 + 0.5) * rect.width() / w as f32,
@@ -80,7 +90,13 @@ fn pixel_pos(h: &Harness<'static, TprfApp>, label: &str, x: usize, y: usize, w: 
 }
 
 /// Hover pixel `(x, y)` of the amplitude image and read the readout's |P| and arg P.
-fn readout(h: &mut Harness<'static, TprfApp>, x: usize, y: usize, w: usize, hgt: usize) -> (f64, f64) {
+fn readout(
+    h: &mut Harness<'static, TprfApp>,
+    x: usize,
+    y: usize,
+    w: usize,
+    hgt: usize,
+) -> (f64, f64) {
     let pos = pixel_pos(h, "phasor amplitude image", x, y, w, hgt);
     h.hover_at(pos);
     h.run_steps(2);
@@ -111,7 +127,9 @@ fn a_cube_folders_phasors_show_as_amplitude_and_phase() {
     let o = Command::new(env!("CARGO_BIN_EXE_tprf"))
         .args(["render", "builtin:cornell", "--out"])
         .arg(&out)
-        .args(["--width", "24", "--height", "16", "--bins", "64", "--spp", "8"])
+        .args([
+            "--width", "24", "--height", "16", "--bins", "64", "--spp", "8",
+        ])
         .args(["--phasor", "1m:0.2m"])
         .output()
         .unwrap();
@@ -134,7 +152,10 @@ fn a_cube_folders_phasors_show_as_amplitude_and_phase() {
     let words = label_with(&h, "m⁻¹ ·");
     let wl = number_after(&words, "λ");
     assert!((wl - 1.0 / f.abs()).abs() <= 1e-3 * wl, "{words}: f {f}");
-    assert!((number_after(&words, "") - f).abs() <= 1e-3 * f.abs(), "{words}");
+    assert!(
+        (number_after(&words, "") - f).abs() <= 1e-3 * f.abs(),
+        "{words}"
+    );
     // The brightest pixel at this frequency, from the file.
     let at = |x: usize, y: usize, j: usize| {
         let i = ((y * w + x) * nf + j) * 2;
@@ -153,11 +174,21 @@ fn a_cube_folders_phasors_show_as_amplitude_and_phase() {
     let (re, im) = at(px, py, 1);
     let (amp, deg) = readout(&mut h, px, py, w, hgt);
     assert!(re.hypot(im) > 0.0);
-    assert!((amp - re.hypot(im)).abs() <= 1e-3 * re.hypot(im), "|P| {amp} against {}", re.hypot(im));
+    assert!(
+        (amp - re.hypot(im)).abs() <= 1e-3 * re.hypot(im),
+        "|P| {amp} against {}",
+        re.hypot(im)
+    );
     let want_deg = im.atan2(re).to_degrees();
-    assert!((deg - want_deg).abs() <= 0.1, "arg {deg} against {want_deg}");
+    assert!(
+        (deg - want_deg).abs() <= 0.1,
+        "arg {deg} against {want_deg}"
+    );
     let phase_bar = label_with(&h, "colour bar: phasor phase");
-    assert!(phase_bar.ends_with("-180.0 … 180.0 °, linear"), "{phase_bar}");
+    assert!(
+        phase_bar.ends_with("-180.0 … 180.0 °, linear"),
+        "{phase_bar}"
+    );
     let amp_bar = label_with(&h, "colour bar: phasor amplitude");
     assert!(amp_bar.ends_with("W m⁻² sr⁻¹, linear"), "{amp_bar}");
     // The right arrow shows the next frequency.
@@ -165,7 +196,10 @@ fn a_cube_folders_phasors_show_as_amplitude_and_phase() {
     assert_eq!(h.state().settings.phasor_index, 2);
     let words = label_with(&h, "m⁻¹ ·");
     let f2 = meta.frequencies_per_m[2];
-    assert!((number_after(&words, "λ") - 1.0 / f2.abs()).abs() <= 1e-3 / f2.abs(), "{words}");
+    assert!(
+        (number_after(&words, "λ") - 1.0 / f2.abs()).abs() <= 1e-3 / f2.abs(),
+        "{words}"
+    );
 }
 
 /// A live render: the tab computes its film's phasors at the band's frequencies (the
@@ -193,13 +227,21 @@ fn a_live_render_shows_its_films_phasors_at_the_band_typed() {
     let snap = h.state().snapshot().unwrap();
     let axis = snap.axis();
     let meta = PhasorMetadata::new(band, axis.t0_s, axis.dt_s, bins, TimeFilter::Box).unwrap();
-    let j = h.state().settings.phasor_index.min(meta.frequencies_per_m.len() - 1);
+    let j = h
+        .state()
+        .settings
+        .phasor_index
+        .min(meta.frequencies_per_m.len() - 1);
     let image = phasor_image(&snap, meta.frequencies_per_m[j], TimeFilter::Box);
     let (px, py) = (side / 2, side / 2 + 2);
     let [re, im] = image[py * side + px];
     let (amp, deg) = readout(&mut h, px, py, side, side);
     assert!(re.hypot(im) > 0.0);
-    assert!((amp - re.hypot(im)).abs() <= 1e-3 * re.hypot(im), "{amp} against {}", re.hypot(im));
+    assert!(
+        (amp - re.hypot(im)).abs() <= 1e-3 * re.hypot(im),
+        "{amp} against {}",
+        re.hypot(im)
+    );
     assert!((deg - im.atan2(re).to_degrees()).abs() <= 0.1);
     // A new band, typed.
     let field = "Band wl_mean:wl_sigma (m of optical path)";
@@ -295,7 +337,6 @@ fn phasor_screenshot() {
     img.save(shots.join("phasor.png")).unwrap();
 }
 
-
 /// Amplitude and phase of known phasors: 3 + 4i is 5 at atan2(4, 3); -1 is pi.
 #[test]
 fn planes_are_modulus_and_argument() {
@@ -314,8 +355,14 @@ fn a_frequency_is_cut_from_the_array() {
     let p = PhasorPlanes::from_array(&data, 3, 1);
     assert_eq!(p.amplitude, [2.0, 0.0]);
     assert!((f64::from(p.phase_rad[0]) - std::f64::consts::FRAC_PI_2).abs() < 1e-6);
-    assert_eq!(PhasorPlanes::from_array(&data, 3, 3), PhasorPlanes::default());
-    assert_eq!(PhasorPlanes::from_array(&data[..5], 3, 0), PhasorPlanes::default());
+    assert_eq!(
+        PhasorPlanes::from_array(&data, 3, 3),
+        PhasorPlanes::default()
+    );
+    assert_eq!(
+        PhasorPlanes::from_array(&data[..5], 3, 0),
+        PhasorPlanes::default()
+    );
 }
 
 /// The phase colours wrap: -pi and pi are one colour, a small step is a small change,
@@ -333,7 +380,10 @@ fn phase_colours_are_cyclic() {
     assert!(d(phase_color(0.1), phase_color(0.1 + 2.0 * PI)) <= 1.0);
     for k in 0..360 {
         let a = -PI + k as f64 * PI / 180.0;
-        assert!(d(phase_color(a), phase_color(a + PI / 180.0)) <= 12.0, "{a}");
+        assert!(
+            d(phase_color(a), phase_color(a + PI / 180.0)) <= 12.0,
+            "{a}"
+        );
     }
     assert!(d(phase_color(0.0), phase_color(PI)) >= 100.0);
     assert!(d(phase_color(PI / 2.0), phase_color(-PI / 2.0)) >= 100.0);

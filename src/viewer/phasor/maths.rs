@@ -35,10 +35,12 @@ impl PhasorPlanes {
         PhasorPlanes::from_complex(&values)
     }
 
-    /// The amplitude shown white: the 99.9th percentile of the positive amplitudes
-    /// (`None` when every pixel is dark).
+    /// The amplitude shown white: the 98th percentile of the positive amplitudes, so
+    /// that a light seen directly (a few per cent of the pixels, far brighter than what
+    /// it lights) saturates rather than darkens the rest (`None` when every pixel is
+    /// dark).
     pub fn white(&self) -> Option<f64> {
-        tprf_core::film::quantile_positive(self.amplitude.iter().copied(), 0.999)
+        tprf_core::film::quantile_positive(self.amplitude.iter().copied(), 0.98)
     }
 }
 

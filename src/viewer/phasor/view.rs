@@ -54,9 +54,9 @@ fn hash(x: &dyn std::fmt::Debug) -> u64 {
 /// when unset).
 fn band_ui(ui: &mut egui::Ui, state: &mut PhasorState, band: &mut Option<PhasorBand>) {
     let shown = band.unwrap_or_default();
-    let text = state.band_text.get_or_insert_with(|| {
-        format!("{}:{}", shown.wl_mean_m, shown.wl_sigma_m)
-    });
+    let text = state
+        .band_text
+        .get_or_insert_with(|| format!("{}:{}", shown.wl_mean_m, shown.wl_sigma_m));
     ui.horizontal_wrapped(|ui| {
         let l = ui.label("Band wl_mean:wl_sigma (m of optical path)");
         let r = ui
@@ -161,7 +161,8 @@ pub(crate) fn phasor_ui(
             "P = Σ value/spp · exp(−2πi f (opl − {} m)), mitransient's sign and scale; {}",
             axes::format_sig(meta.start_opl_m, 4),
             match meta.time_filter {
-                TimeFilter::Box => "from the bins: each bin's centre phase × sinc(f dt), \
+                TimeFilter::Box =>
+                    "from the bins: each bin's centre phase × sinc(f dt), \
                                     the exact integral over the bin of light uniform in it",
                 TimeFilter::Tent => "from the bins: each bin's centre phase (a tent film)",
             }
@@ -172,11 +173,20 @@ pub(crate) fn phasor_ui(
     let avail = ui.available_size();
     let title_h = 22.0;
     let readout_h = 26.0;
-    let side = (avail.x - 16.0) / 2.0;
-    let max = Vec2::new(side, avail.y - title_h - BAR_H - readout_h - 12.0);
-    let scale = (max.x / w.max(1) as f32)
-        .min(max.y / h.max(1) as f32)
-        .max(0.01);
+    let extra = title_h + BAR_H + 12.0;
+    // Side by side, or one above the other: whichever shows them larger.
+    let fit = |max: Vec2| {
+        (max.x / w.max(1) as f32)
+            .min(max.y / h.max(1) as f32)
+            .max(0.01)
+    };
+    let beside = fit(Vec2::new(
+        (avail.x - 16.0) / 2.0,
+        avail.y - extra - readout_h,
+    ));
+    let above = fit(Vec2::new(avail.x, (avail.y - readout_h) / 2.0 - extra));
+    let stacked = above > beside;
+    let scale = beside.max(above);
     let size = Vec2::new(w as f32, h as f32) * scale;
     let ctx = ui.ctx().clone();
     let textures = &mut state.textures;
@@ -198,7 +208,14 @@ pub(crate) fn phasor_ui(
         }
         hovered = r.hover_pos().map(to_pixel).or(hovered);
     };
-    ui.horizontal_top(|ui| {
+    let pair = |ui: &mut egui::Ui, add: &mut dyn FnMut(&mut egui::Ui)| {
+        if stacked {
+            ui.vertical(|ui| add(ui));
+        } else {
+            ui.horizontal_top(|ui| add(ui));
+        }
+    };
+    pair(ui, &mut |ui: &mut egui::Ui| {
         ui.vertical(|ui| {
             ui.set_width(size.x);
             ui.add(egui::Label::new(RichText::new("amplitude |P|").strong()).truncate());
@@ -224,8 +241,8 @@ pub(crate) fn phasor_ui(
                 },
                 unit: STEADY_UNIT,
                 second: None,
-                note: "|P|: white = the 99.9th percentile over the pixels; at f = 0 it is \
-                       the steady image",
+                note: "|P|: white = the 98th percentile over the pixels (a light seen \
+                       directly saturates); at f = 0 it is the steady image",
             }
             .ui(ui, size.x);
         });
