@@ -2,6 +2,7 @@
 
     python mitsuba_mitransient.py check
     python mitsuba_mitransient.py render SCENE.xml OUT_DIR WIDTH HEIGHT SPP SEED...
+    python mitsuba_mitransient.py phasor SCENE.xml OUT_DIR WIDTH HEIGHT SPP SEED...
 
 `check` exits 0 when mitsuba (its llvm_ad_mono variant) and mitransient load, else
 prints why and exits 3. `render` loads the file as mitransient's users do
@@ -9,7 +10,9 @@ prints why and exits 3. `render` loads the file as mitransient's users do
 `<default>` parameters where the file has them, else by loading the film at its own size
 and failing), renders it once per seed and writes OUT_DIR/mt_SEED_cube.npy (float32
 [H, W, T], the transient film's one channel) and OUT_DIR/mt_SEED_steady.npy (float32
-[H, W]: mitransient's steady image, every arrival time).
+[H, W]: mitransient's steady image, every arrival time). `phasor` renders a file with a
+`phasor_hdr_film` and writes OUT_DIR/mt_SEED_phasor.npy (float32 [H, W, F, 2], real and
+imaginary: the film's developed phasors).
 """
 
 import os
@@ -73,6 +76,7 @@ def main(argv):
             print(f"{type(e).__name__}: {e}")
             return 3
         return 0
+    phasor = argv[:1] == ["phasor"]
     xml, out, width, height, spp, *seeds = argv[1:]
     np, mi = load()
     # Only the parameters the file declares (Mitsuba refuses others): mitransient's
@@ -87,6 +91,11 @@ def main(argv):
         raise SystemExit(f"{xml}: film {size.x} x {size.y}, asked {width} x {height}")
     for seed in seeds:
         steady, cube = mi.render(scene, spp=int(spp), seed=int(seed))
+        if phasor:
+            # phasor_hdr_film: [H, W, F, 2] (real, imaginary), already divided by spp.
+            cube = np.array(cube, dtype=np.float32)
+            np.save(os.path.join(out, f"mt_{seed}_phasor.npy"), np.ascontiguousarray(cube))
+            continue
         cube = np.array(cube, dtype=np.float32)[..., 0]
         steady = np.array(steady, dtype=np.float32)[..., 0]
         np.save(os.path.join(out, f"mt_{seed}_cube.npy"), np.ascontiguousarray(cube))

@@ -266,7 +266,11 @@ fn a_renders_phasors_are_the_dft_of_its_cube() {
             .map(|v| v.as_f64().unwrap_or(f64::INFINITY))
             .collect()
     };
-    let (per_m, hz, wl) = (freq("frequencies_per_m"), freq("frequencies_hz"), freq("wavelengths_m"));
+    let (per_m, hz, wl) = (
+        freq("frequencies_per_m"),
+        freq("frequencies_hz"),
+        freq("wavelengths_m"),
+    );
     // numpy's fftfreq: index k is k / (T dt) below ceil(T / 2), (k - T) / (T dt) from
     // there (an even T's index T / 2 is the negative Nyquist frequency).
     let signed = |k: usize| -> f64 {
@@ -344,7 +348,13 @@ fn the_example_files_band_and_frequencies() {
         "says where the band came from: {err}"
     );
     let pj = json(&out.join("phasor.json"));
-    assert_eq!((pj["fft_index_first"].as_u64(), pj["fft_index_last"].as_u64()), (Some(20), Some(60)));
+    assert_eq!(
+        (
+            pj["fft_index_first"].as_u64(),
+            pj["fft_index_last"].as_u64()
+        ),
+        (Some(20), Some(60))
+    );
     let f = pj["frequencies_per_m"].as_array().unwrap();
     assert_eq!(f.len(), 41);
     for (j, v) in f.iter().enumerate() {
@@ -375,14 +385,23 @@ fn bad_bands_are_refused_by_name() {
     ]);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("--phasor") && err.contains("wl_mean 0.5 m"), "{err}");
-    let o = tprf(&["render", "builtin:cornell", "--out", out.to_str().unwrap(), "--phasor", "100"]);
+    assert!(
+        err.contains("--phasor") && err.contains("wl_mean 0.5 m"),
+        "{err}"
+    );
+    let o = tprf(&[
+        "render",
+        "builtin:cornell",
+        "--out",
+        out.to_str().unwrap(),
+        "--phasor",
+        "100",
+    ]);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("WL_MEAN:WL_SIGMA"), "{err}");
     assert!(!out.exists(), "nothing written");
 }
-
 
 /// numpy's fftfreq for n = 8 and 7, d = 0.5 (from numpy's documentation's rule).
 #[test]
@@ -436,8 +455,18 @@ fn bands_read_and_print() {
     let b: PhasorBand = " 2.5m : 1e3 m".parse().unwrap();
     assert_eq!((b.wl_mean_m, b.wl_sigma_m), (2.5, 1000.0));
     assert_eq!(b.to_string().parse::<PhasorBand>(), Ok(b));
-    assert!("100".parse::<PhasorBand>().unwrap_err().contains("WL_MEAN:WL_SIGMA"));
-    assert!("-1:3".parse::<PhasorBand>().unwrap_err().contains("wl_mean -1"));
+    assert!(
+        "100"
+            .parse::<PhasorBand>()
+            .unwrap_err()
+            .contains("WL_MEAN:WL_SIGMA")
+    );
+    assert!(
+        "-1:3"
+            .parse::<PhasorBand>()
+            .unwrap_err()
+            .contains("wl_mean -1")
+    );
     assert!("1:x".parse::<PhasorBand>().unwrap_err().contains("'x'"));
 }
 
@@ -448,4 +477,41 @@ fn the_modules_sinc_is_sin_pi_u_over_pi_u() {
     assert!((phasor::sinc(0.5) - 2.0 / std::f64::consts::PI).abs() < 1e-15);
     // (pi f dt)^2 / 6 at the example's highest frequency.
     assert!(((1.0 - phasor::sinc(0.015)) - 3.7e-4).abs() < 0.1e-4);
+}
+
+/// A Zarr cube holds its phasors as the array `phasor` of `tprf.zarr`: the same values
+/// as the npy render's `phasor.npy` (same seed), read back by `load_phasors`.
+#[test]
+fn a_zarr_cubes_phasors_equal_the_npy_cubes() {
+    let dir = tempdir("zarr");
+    let mut read = Vec::new();
+    for format in ["npy", "zarr"] {
+        let out = dir.join(format);
+        let o = tprf(&[
+            "render",
+            "builtin:cornell",
+            "--out",
+            out.to_str().unwrap(),
+            "--width",
+            "8",
+            "--height",
+            "6",
+            "--bins",
+            "32",
+            "--spp",
+            "2",
+            "--format",
+            format,
+            "--phasor",
+            "1:0.2",
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let (meta, data) = phasor::load_phasors(&out, 8, 6).unwrap().expect("phasors");
+        read.push((meta, data));
+    }
+    assert_eq!(read[1].0.file, "tprf.zarr/phasor");
+    assert_eq!(read[0].0.frequencies_per_m, read[1].0.frequencies_per_m);
+    assert_eq!(read[0].1, read[1].1);
+    assert!(read[0].1.iter().any(|&v| v != 0.0));
+    assert!(!dir.join("zarr").join("phasor.npy").exists());
 }

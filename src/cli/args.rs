@@ -281,7 +281,10 @@ fn phasor_of(
     file: &tprf_core::scene::FileSettings,
     used: &mut Vec<String>,
 ) -> Option<tprf_core::export::phasor::PhasorBand> {
-    let (mean, sigma) = (file.phasor_wl_mean_m.as_ref()?, file.phasor_wl_sigma_m.as_ref()?);
+    let (mean, sigma) = (
+        file.phasor_wl_mean_m.as_ref()?,
+        file.phasor_wl_sigma_m.as_ref()?,
+    );
     used.push(format!(
         "--phasor {}:{} (wl_mean {}, wl_sigma {})",
         mean.value, sigma.value, mean.from, sigma.from

@@ -87,6 +87,8 @@ pub struct TprfApp {
     pub(super) pose_error: Option<String>,
     /// The fog's fields as typed (the Fog section).
     pub(super) fog_text: super::fog::FogText,
+    /// The phasor tab's textures, planes and band as typed.
+    pub(super) phasor: super::phasor::PhasorState,
     pub(super) ctx: egui::Context,
 }
 
@@ -150,6 +152,7 @@ impl TprfApp {
             pose_text: Default::default(),
             pose_error: None,
             fog_text: Default::default(),
+            phasor: Default::default(),
             ctx: cc.egui_ctx.clone(),
         };
         app.sensor.set_waker(cc.egui_ctx.clone());
@@ -349,8 +352,10 @@ impl eframe::App for TprfApp {
                     }
                 }
             });
+        let phasor_mode = self.settings.mode == Mode::Phasor;
         if let Some(s) = &snap
             && !sensor_mode
+            && !phasor_mode
         {
             let axis = *s.axis();
             egui::Panel::bottom("timeline")
@@ -382,6 +387,34 @@ impl eframe::App for TprfApp {
                         }
                         Some(sensor::CoverageAction::Restore(s)) => self.settings.sensor = *s,
                         None => {}
+                    }
+                }
+                Some(s) if phasor_mode => {
+                    use super::phasor::{PhasorInput, phasor_ui};
+                    let input = match &self.source {
+                        Source::Cube {
+                            phasors: Some(p), ..
+                        } => PhasorInput::Files {
+                            meta: &p.0,
+                            data: &p.1,
+                            width: s.width(),
+                            height: s.height(),
+                        },
+                        // A window's film and a cube's means are box-binned.
+                        _ => PhasorInput::Film {
+                            snap: s,
+                            filter: tprf_core::film::TimeFilter::Box,
+                        },
+                    };
+                    let clicked = phasor_ui(
+                        ui,
+                        &mut self.phasor,
+                        input,
+                        &mut self.settings.phasor,
+                        &mut self.settings.phasor_index,
+                    );
+                    if let Some((x, y)) = clicked {
+                        self.select(Selection::pixel(x, y), s);
                     }
                 }
                 Some(s) => self.images_ui(ui, s),

@@ -26,6 +26,8 @@
 //! - `files`: choosing a file: the system dialog, or a path typed in the window when
 //!   the dialog cannot open;
 //! - [`sensor`]: the sensor tab (model, background measurement, envelope editor);
+//! - [`phasor`]: the phasor tab (a frequency's amplitude and phase images, from the
+//!   cube's `phasor.npy` or computed from the film; its maths tested without a window);
 //! - [`nlos`]: the view of an NLOS capture folder (time slices on the wall grid, a wall
 //!   point's transient, the reconstruction's projections from a thread of its own).
 
@@ -41,6 +43,7 @@ mod input;
 pub mod layout;
 pub mod nlos;
 mod panels;
+pub mod phasor;
 mod playback;
 mod plotting;
 mod selection;

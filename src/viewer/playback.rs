@@ -67,6 +67,17 @@ impl TprfApp {
             }
             return;
         }
+        if self.settings.mode == Mode::Phasor {
+            // In the phasor tab the arrows step the frequency (the tab clamps it).
+            let j = &mut self.settings.phasor_index;
+            if left {
+                *j = j.saturating_sub(1);
+            }
+            if right {
+                *j = j.saturating_add(1);
+            }
+            return;
+        }
         self.bin_keys(left, right, space, bins);
     }
 

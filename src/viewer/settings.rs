@@ -4,6 +4,7 @@
 use super::camera::CameraPose;
 use super::colormap::{ColorMap, ExposureMode};
 use serde::{Deserialize, Serialize};
+use tprf_core::export::phasor::PhasorBand;
 use tprf_core::request::{RenderRequest, parse_time_field};
 use tprf_core::scene::{Channel, PulseOrigin, TimeOrigin};
 use tprf_core::sensor::Sensor;
@@ -62,6 +63,12 @@ pub struct ViewerSettings {
     /// The scene-wide medium the window set (the request's `medium` spec: the fog
     /// control's `visibility=...`); `None`: the scene's own.
     pub medium: Option<String>,
+    /// The band whose frequencies the phasor tab shows when it computes them from the
+    /// film (mitransient's `wl_mean:wl_sigma`; a `phasor_hdr_film` file sets it);
+    /// `None`: mitransient's defaults. A view setting: the film does not depend on it.
+    pub phasor: Option<PhasorBand>,
+    /// The frequency the phasor tab shows, an index into the band's frequencies.
+    pub phasor_index: usize,
 }
 
 /// What the steady block of the transient view shows.
@@ -83,6 +90,8 @@ pub enum Mode {
     Transient,
     /// Light(t), Exposure_i(t) and the measurements M_i (the paper's section 6).
     Sensor,
+    /// A frequency's amplitude and phase images (mitransient's phasor film).
+    Phasor,
 }
 
 impl Default for ViewerSettings {
@@ -116,6 +125,8 @@ impl Default for ViewerSettings {
             sensor: Sensor::builtin("lidar").expect("the built-in LiDAR preset parses"),
             camera: None,
             medium: None,
+            phasor: None,
+            phasor_index: 0,
         }
     }
 }
@@ -154,6 +165,9 @@ impl ViewerSettings {
         };
         if medium.medium_override().is_err() {
             self.medium = None;
+        }
+        if self.phasor.is_some_and(|b| b.check().is_err()) {
+            self.phasor = None;
         }
         // No film has more bounce layers than bounces, nor the window more than this.
         self.bounces_shown.truncate(1024);

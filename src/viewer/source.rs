@@ -5,6 +5,7 @@ use super::app::TprfApp;
 use eframe::egui;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
+use tprf_core::export::phasor::PhasorMetadata;
 use tprf_core::export::{self, CubeMetadata};
 use tprf_core::film::FilmSnapshot;
 use tprf_core::request::worker::{RenderWorker, WorkerState, WorkerStatus};
@@ -21,6 +22,9 @@ pub(super) enum Source {
         meta: Box<CubeMetadata>,
         /// `ambient.npy` (or `tprf.zarr/ambient`) when the folder has one.
         ambient: Option<Arc<AmbientImage>>,
+        /// `phasor.json` and `phasor.npy` (or `tprf.zarr/phasor`), `[H, W, F, 2]`, when
+        /// the folder has them.
+        phasors: Option<Arc<(PhasorMetadata, Vec<f32>)>>,
     },
     /// An NLOS capture (`nlos.hdf5`) and its reconstruction thread: no renderer runs.
     Nlos(Box<super::nlos::NlosView>),
@@ -185,10 +189,11 @@ impl TprfApp {
                     non_finite: 0,
                 })
             });
-            Ok((meta, snapshot, ambient))
+            let phasors = export::phasor::load_phasors(dir, meta.width, meta.height)?.map(Arc::new);
+            Ok((meta, snapshot, ambient, phasors))
         });
         match loaded {
-            Ok((meta, snapshot, ambient)) => {
+            Ok((meta, snapshot, ambient, phasors)) => {
                 self.bin = self.bin.min(snapshot.axis().bins.saturating_sub(1));
                 self.seek_light = true;
                 self.light_key = None;
@@ -199,6 +204,7 @@ impl TprfApp {
                     snapshot: Arc::new(snapshot),
                     meta: Box::new(meta),
                     ambient,
+                    phasors,
                 };
                 self.selection = None;
                 self.selection_film = None;
@@ -276,6 +282,20 @@ impl TprfApp {
             if let Some(m) = &file.max_bounces {
                 p.max_bounces = m.value;
                 taken.push(format!("max bounces {}", m.value));
+            }
+            if let (Some(mean), Some(sigma)) = (&file.phasor_wl_mean_m, &file.phasor_wl_sigma_m) {
+                // A view setting: the phasor tab's band, at once.
+                let band = tprf_core::export::phasor::PhasorBand {
+                    wl_mean_m: mean.value,
+                    wl_sigma_m: sigma.value,
+                };
+                p.phasor = Some(band);
+                self.settings.phasor = Some(band);
+                self.phasor = Default::default();
+                taken.push(format!(
+                    "phasor band {}:{} m (the Phasor tab)",
+                    mean.value, sigma.value
+                ));
             }
             if !taken.is_empty() {
                 let spp = file

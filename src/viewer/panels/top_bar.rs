@@ -18,6 +18,10 @@ impl TprfApp {
                 .on_hover_text(
                     "Light(t), Exposure_i(t) and the measurements M_i, from the cached TPRFs",
                 );
+            ui.selectable_value(&mut self.settings.mode, Mode::Phasor, "Phasor")
+                .on_hover_text(
+                    "A frequency's amplitude and phase images: the cube's phasor.npy, or                      computed from the film at mitransient's phasor_hdr_film frequencies",
+                );
             ui.separator();
             if ui
                 .button("Open glTF…")

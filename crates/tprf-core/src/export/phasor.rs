@@ -295,14 +295,7 @@ pub fn phasor_image(snap: &FilmSnapshot, f_per_m: f64, filter: TimeFilter) -> Ve
         .enumerate()
         .for_each(|(y, row)| {
             for (x, px) in row.iter_mut().enumerate() {
-                pixel_phasors(
-                    snap,
-                    x,
-                    y,
-                    &[f_per_m],
-                    &factor,
-                    std::slice::from_mut(px),
-                );
+                pixel_phasors(snap, x, y, &[f_per_m], &factor, std::slice::from_mut(px));
             }
         });
     out

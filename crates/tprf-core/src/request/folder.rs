@@ -429,7 +429,9 @@ pub fn cube_metadata(
             Some(band) => Some(
                 PhasorMetadata::new(band, axis.t0_s, axis.dt_s, axis.bins, film.time_filter())
                     .map_err(|why| {
-                        RequestError::invalid(super::Problem::field("phasor").text(format!(": {why}")))
+                        RequestError::invalid(
+                            super::Problem::field("phasor").text(format!(": {why}")),
+                        )
                     })?,
             ),
             None => None,

@@ -426,7 +426,13 @@ impl Builder<'_> {
             let p = f.props.iter().find(|p| p.name == name);
             if !(v.is_finite() && v > 0.0) {
                 let loc = p.map_or(f.loc.clone(), |p| p.loc.clone());
-                return Err(err(&loc, format!("{name} {v} of {} must be > 0 (a wavelength in metres of optical path)", f.describe())));
+                return Err(err(
+                    &loc,
+                    format!(
+                        "{name} {v} of {} must be > 0 (a wavelength in metres of optical path)",
+                        f.describe()
+                    ),
+                ));
             }
             let setting = Some(FileSetting {
                 value: v,
