@@ -25,7 +25,7 @@ impl PhasorPlanes {
     /// when `j` is not below `F` or the data is not whole pixels.
     pub fn from_array(data: &[f32], frequencies: usize, j: usize) -> PhasorPlanes {
         let stride = frequencies * 2;
-        if j >= frequencies || stride == 0 || data.len() % stride != 0 {
+        if j >= frequencies || stride == 0 || !data.len().is_multiple_of(stride) {
             return PhasorPlanes::default();
         }
         let values: Vec<[f64; 2]> = data

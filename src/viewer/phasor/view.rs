@@ -150,9 +150,7 @@ pub(crate) fn phasor_ui(
         };
         state.planes = Some((key, planes));
     }
-    let Some((_, planes)) = state.planes.as_ref() else {
-        return None;
-    };
+    let (_, planes) = state.planes.as_ref()?;
     if planes.amplitude.len() != w * h {
         return None;
     }
