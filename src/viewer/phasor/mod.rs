@@ -5,7 +5,7 @@
 //!
 //! - [`maths`]: the planes, their white point, the cyclic phase colours, a frequency in
 //!   words (tested without a window);
-//! - `view`: the central panel, a function over a narrow context ([`PhasorState`], the
+//! - `view`: the central panel, a function over a narrow context (`PhasorState`, the
 //!   phasors' source, the band and the frequency chosen).
 
 pub mod maths;
