@@ -2452,3 +2452,63 @@ fn wheel_ctrl_wheel_and_middle_drag_dolly_zoom_and_pan() {
     );
     assert_eq!(p3.fov_deg, p2.fov_deg);
 }
+
+/// A clock's origins belong to the scene that set them: an XML file's `camera_unwarp`
+/// opens with the first-hit time origin (said), and a scene opened after it (settings
+/// kept from an NLOS camera view: both first hits) starts from the pinhole and the light.
+#[test]
+fn time_and_pulse_origins_do_not_outlive_their_scene() {
+    use tprf_core::scene::{PulseOrigin, TimeOrigin as ClockOrigin};
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("viewer-origins");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let xml = dir.join("unwarp.xml");
+    std::fs::write(
+        &xml,
+        r#"<scene version="3.0.0">
+    <integrator type="transient_path"><boolean name="camera_unwarp" value="true"/></integrator>
+    <sensor type="perspective">
+        <transform name="to_world"><lookat origin="0, 0, 3" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <film type="transient_hdr_film"><integer name="width" value="8"/><integer name="height" value="8"/></film>
+    </sensor>
+    <shape type="rectangle"><emitter type="area"/></shape>
+</scene>
+"#,
+    )
+    .unwrap();
+    let path = xml.display().to_string();
+    let mut h = Harness::builder()
+        .with_size(Vec2::new(1280.0, 800.0))
+        .build_eframe(move |cc| {
+            TprfApp::with_settings(
+                cc,
+                small_settings("builtin:cornell", 8, 8, 0),
+                Start::Scene(path),
+            )
+        });
+    h.run_steps(2);
+    let r = h.state().request().expect("a render of the file");
+    assert_eq!(
+        (r.time_origin, r.pulse_origin),
+        (ClockOrigin::FirstHit, PulseOrigin::Light)
+    );
+    let m = h.state().messages().join("\n");
+    assert!(m.contains("time origin first-hit"), "{m}");
+
+    let settings = ViewerSettings {
+        time_origin: ClockOrigin::FirstHit,
+        pulse_origin: PulseOrigin::FirstHit,
+        ..small_settings("builtin:cornell", 8, 8, 0)
+    };
+    let mut h = Harness::builder()
+        .with_size(Vec2::new(1280.0, 800.0))
+        .build_eframe(move |cc| {
+            TprfApp::with_settings(cc, settings, Start::Scene("builtin:cornell".into()))
+        });
+    h.run_steps(2);
+    let r = h.state().request().expect("a render");
+    assert_eq!(
+        (r.time_origin, r.pulse_origin),
+        (ClockOrigin::Pinhole, PulseOrigin::Light)
+    );
+}

@@ -9,6 +9,7 @@ use tprf_core::export::phasor::PhasorMetadata;
 use tprf_core::export::{self, CubeMetadata};
 use tprf_core::film::FilmSnapshot;
 use tprf_core::request::worker::{RenderWorker, WorkerState, WorkerStatus};
+use tprf_core::scene::{PulseOrigin, TimeOrigin};
 use tprf_core::transport::ambient::AmbientImage;
 
 /// Where the film comes from.
@@ -263,14 +264,16 @@ impl TprfApp {
                 p.bins = size(b.value);
                 taken.push(format!("bins {}", b.value));
             }
-            if let Some(o) = &file.time_origin {
-                p.time_origin = o.value;
+            // A clock's origins belong to the scene that set them (an NLOS camera view's
+            // first hits): a scene that sets none starts from the pinhole and the light.
+            p.time_origin = file.time_origin.as_ref().map_or(TimeOrigin::Pinhole, |o| {
                 taken.push(format!("time origin {}", o.value));
-            }
-            if let Some(o) = &file.pulse_origin {
-                p.pulse_origin = o.value;
+                o.value
+            });
+            p.pulse_origin = file.pulse_origin.as_ref().map_or(PulseOrigin::Light, |o| {
                 taken.push(format!("pulse origin {}", o.value));
-            }
+                o.value
+            });
             if let Some(t0) = &file.t0_opl_m_for(p.time_origin) {
                 p.t0 = format!("{}m", t0.value);
                 taken.push(format!("t0 {} m of optical path", t0.value));
