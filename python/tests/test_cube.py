@@ -47,6 +47,27 @@ def test_a_zarr_cube_loads_as_the_npy_one(tprf_bin, tmp_path):
     assert np.array_equal(tprf.load(tmp_path / "n").data, tprf.load(tmp_path / "z").data)
 
 
+def test_phasors_are_the_files_and_a_dft_of_the_cube(tprf_bin, tmp_path):
+    # A band whose frequencies fall inside the window's 32 bins.
+    render(tprf_bin, tmp_path / "p", "--phasor", "0.5:1")
+    cube = tprf.load(tmp_path / "p")
+    file = np.load(tmp_path / "p" / "phasor.npy")
+    meta = json.loads((tmp_path / "p" / "tprf.json").read_text())["phasor"]
+    assert cube.phasor.shape == file.shape == (8, 12, len(meta["frequencies_per_m"]), 2)
+    np.testing.assert_allclose(cube.phasor, file, rtol=1e-5, atol=1e-7 * np.abs(file).max())
+    # Worked out here from the cube: each bin at its centre's phase (from the window's
+    # start) times sinc(f dt), the exact integral of a bin of uniform light.
+    dt = meta["bin_width_opl_m"]
+    t = (np.arange(cube.data.shape[2]) + 0.5) * dt
+    for k, f in enumerate(meta["frequencies_per_m"]):
+        w = np.exp(-2j * np.pi * f * t) * np.sinc(f * dt)
+        want = (cube.data.astype(np.float64) * w).sum(axis=2)
+        got = cube.phasor[:, :, k, 0] + 1j * cube.phasor[:, :, k, 1]
+        assert np.abs(got - want).max() <= 1e-5 * np.abs(want).max() + 1e-9
+    render(tprf_bin, tmp_path / "none")
+    assert tprf.load(tmp_path / "none").phasor is None
+
+
 def test_errors_are_python_exceptions_with_the_core_message(tmp_path):
     with pytest.raises(FileNotFoundError, match="tprf.json"):
         tprf.load(tmp_path / "nothing")

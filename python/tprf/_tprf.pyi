@@ -26,6 +26,10 @@ class Cube:
     def ambient(self) -> Optional[npt.NDArray[np.float32]]:
         """float32 [H, W]: the steady radiance of the scene's unpulsed light (sky,
         lamps), W m^-2 sr^-1, or None."""
+    @property
+    def phasor(self) -> Optional[npt.NDArray[np.float32]]:
+        """float32 [H, W, F, 2] (real, imaginary): the phasors at the frequencies of
+        metadata["phasor"] (a render with phasor="WL_MEAN:WL_SIGMA"), or None."""
     def save(self, dir: Union[str, PathLike[str]], format: str = "auto",
              frames: bool = False) -> None:
         """Write the cube folder tprf render writes (tprf.npy or tprf.zarr, tprf.json,

@@ -20,6 +20,8 @@ pub struct Cube {
     steady: Py<PyArray2<f32>>,
     bounces: Option<Py<PyArray4<f32>>>,
     ambient: Option<Py<PyArray2<f32>>>,
+    /// The phasors `[H, W, F, 2]` at the frequencies of `meta.phasor`, when it has them.
+    phasor: Option<Py<PyArray4<f32>>>,
     meta: CubeMetadata,
 }
 
@@ -46,12 +48,23 @@ impl Cube {
     ) -> PyResult<Cube> {
         let (h, w, t) = (snap.height(), snap.width(), snap.axis().bins);
         let layers = snap.layers();
-        let (data, steady, bounces) = py.detach(|| {
+        let (data, steady, bounces, phasor) = py.detach(|| {
             let data = snap.dense(None);
             let steady = snap.steady().to_vec();
             let bounces: Vec<f32> = (0..layers).flat_map(|l| snap.dense(Some(l))).collect();
-            (data, steady, bounces)
+            // The phasors from the bins, as `phasor.npy` is written.
+            let phasor = meta.phasor.as_ref().map(|p| {
+                export::phasor::phasors(snap, &p.frequencies_per_m, p.time_filter)
+                    .map(|v| (v, p.frequencies_per_m.len()))
+            });
+            (data, steady, bounces, phasor)
         });
+        let phasor = match phasor.transpose().py_err()? {
+            Some((v, nf)) => {
+                Some(read_only(PyArray1::from_vec(py, v).reshape([h, w, nf, 2])?)?.unbind())
+            }
+            None => None,
+        };
         let data = read_only(PyArray1::from_vec(py, data).reshape([h, w, t])?)?.unbind();
         let steady = read_only(PyArray1::from_vec(py, steady).reshape([h, w])?)?.unbind();
         let bounces = if layers > 0 {
@@ -73,6 +86,7 @@ impl Cube {
             steady,
             bounces,
             ambient,
+            phasor,
             meta,
         })
     }
@@ -124,6 +138,15 @@ impl Cube {
     #[getter]
     fn ambient<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f32>>> {
         self.ambient.as_ref().map(|a| a.bind(py).clone())
+    }
+
+    /// The phasors, float32 ``[H, W, F, 2]`` (real, imaginary), row 0 = top, at
+    /// mitransient's frequencies for the render's ``phasor`` band (``metadata["phasor"]``
+    /// lists them in 1/m and Hz), computed from the cube's bins as ``phasor.npy`` is;
+    /// None when the render asked for none.
+    #[getter]
+    fn phasor<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray4<f32>>> {
+        self.phasor.as_ref().map(|p| p.bind(py).clone())
     }
 
     /// save(dir, format="auto", frames=False)
