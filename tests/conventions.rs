@@ -297,3 +297,32 @@ fn a_projector_lights_its_frustum_with_mitsubas_uniform_irradiance() {
     }
     assert!(full >= 4, "{full} pixels wholly inside the frustum");
 }
+
+/// Bad origins are refused naming the option: an unknown name, and the pulse's first hit
+/// in a scene with participating media (its light's leg is not separated there).
+#[test]
+fn bad_origins_are_refused_naming_the_option() {
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("conventions-bad");
+    let _ = std::fs::remove_dir_all(&dir);
+    let run = |args: &[&str]| {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_tprf"))
+            .args(["render", "--out", dir.to_str().unwrap(), "--spp", "1"])
+            .args(["--width", "8", "--height", "8"])
+            .args(args)
+            .output()
+            .unwrap();
+        assert!(!o.status.success());
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let e = run(&["builtin:cornell", "--time-origin", "sideways"]);
+    assert!(
+        e.contains("--time-origin") && e.contains("pinhole, near-plane or first-hit"),
+        "{e}"
+    );
+    let e = run(&["builtin:fog", "--pulse-origin", "first-hit"]);
+    assert!(
+        e.contains("--pulse-origin first-hit") && e.contains("participating media"),
+        "{e}"
+    );
+    assert!(!dir.exists(), "nothing written");
+}
