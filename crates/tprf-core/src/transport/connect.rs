@@ -23,7 +23,6 @@ use super::bsdf::{Bsdf, Frame};
 use super::integrator::{RayKind, Renderer, Sink, outside, power_heuristic};
 use super::lights::Lights;
 use super::sampler::{Sampler, dim};
-use crate::scene::PulseOrigin;
 use crate::units::C_M_PER_S;
 use glam::Vec3;
 
@@ -182,10 +181,7 @@ impl Renderer {
         if !(f_y > 0.0) {
             return 0;
         }
-        let light_leg_m = match self.settings().pulse_origin {
-            PulseOrigin::Light => y.r_m as f64,
-            PulseOrigin::FirstHit => 0.0,
-        };
+        let light_leg_m = self.light_leg_opl_m(y.r_m as f64);
         let arrival_s = (x.opl_m + d as f64 + light_leg_m) / C_M_PER_S;
         if let Some(why) = outside(sink, arrival_s) {
             sink.left_out(why);

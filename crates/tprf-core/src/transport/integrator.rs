@@ -367,6 +367,17 @@ impl Renderer {
         !self.lights.punctual.is_empty()
     }
 
+    /// The optical length, metres, that the leg from a light to the first surface it
+    /// lights adds to an arrival: `leg_opl_m` as it is, or none when the pulse starts at
+    /// that surface ([`PulseOrigin::FirstHit`]).
+    #[inline]
+    pub(super) fn light_leg_opl_m(&self, leg_opl_m: f64) -> f64 {
+        match self.settings.pulse_origin {
+            PulseOrigin::Light => leg_opl_m,
+            PulseOrigin::FirstHit => 0.0,
+        }
+    }
+
     /// Whether a pulsed punctual light is a projector.
     pub(super) fn has_projectors(&self) -> bool {
         self.lights.punctual.iter().any(|l| l.is_projector())
@@ -797,10 +808,7 @@ impl Renderer {
         let mut rays = 0;
         // The optical length of the leg to the light, `d` metres away, counted in the
         // arrival time (none when the pulse starts at the surface it lights).
-        let leg_opl_m = |d: f32| match self.settings.pulse_origin {
-            PulseOrigin::Light => d as f64 * ior_here as f64,
-            PulseOrigin::FirstHit => 0.0,
-        };
+        let leg_opl_m = |d: f32| self.light_leg_opl_m(d as f64 * ior_here as f64);
         for (i, light) in lights.punctual.iter().enumerate() {
             let to = light.position - p;
             let d2 = to.length_squared();
