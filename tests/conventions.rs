@@ -326,3 +326,53 @@ fn bad_origins_are_refused_naming_the_option() {
     );
     assert!(!dir.exists(), "nothing written");
 }
+
+/// `min_bounces` leaves out of the film exactly the light of fewer scattering events:
+/// with the same samples (no adaptive plan, the strategy fixed), the Cornell box's cube
+/// with `min_bounces` 2 is its full cube less the light seen directly and after one
+/// bounce, the film's own bounce layers 0 and 1 (the layers partition every
+/// contribution by its scattering count).
+#[test]
+fn min_bounces_leaves_out_the_bounce_layers_below_it() {
+    let axis = TimeAxis::new(0.0, 0.05 / C, 120).unwrap();
+    let run = |min_bounces| {
+        let settings = RenderSettings {
+            seed: 5,
+            adaptive: false,
+            first_bounce_splits: 2,
+            light_vertex: Some(true),
+            min_bounces,
+            ..RenderSettings::default()
+        };
+        let scene = tprf_core::scene::builtin::load("cornell").unwrap();
+        render_with(scene, W, H, axis, 16, settings, 2).film
+    };
+    let all = run(0);
+    let from2 = run(2);
+    let (mut total, mut low, mut worst) = (0.0, 0.0, 0.0f64);
+    for p in 0..W * H {
+        let (x, y) = (p % W, p / W);
+        let full = all.pixel_tprf(x, y);
+        let layers = all.pixel_bounces(x, y);
+        let got = from2.pixel_tprf(x, y);
+        for b in 0..axis.bins {
+            let want = full[b] - layers[0][b] - layers[1][b];
+            worst = worst.max((got[b] - want).abs());
+            total += full[b];
+            low += layers[0][b] + layers[1][b];
+        }
+    }
+    assert!(
+        low > 0.1 * total,
+        "direct light is a good share: {low} of {total}"
+    );
+    assert!(
+        worst <= 1e-5 * total / (W * H) as f64,
+        "min_bounces 2 = all - layers 0, 1: worst bin off by {worst} (total {total})"
+    );
+    // Nothing of fewer bounces reached the second film's own layers either.
+    for p in 0..W * H {
+        let layers = from2.pixel_bounces(p % W, p / W);
+        assert!(layers[..2].iter().flatten().all(|&v| v == 0.0));
+    }
+}

@@ -1277,3 +1277,65 @@ fn nlos_on_xml_without_a_wall_names_the_shape_ids() {
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
+
+/// mitransient's path filters of `transient_nlos_path` watched by a camera become the
+/// render's bounce range, counted as mitransient's depth at its laser-sampled estimate
+/// (the wall point, each hidden vertex and the spot): `discard_direct_paths` keeps paths
+/// of 3 or more events, `filter_bounces b` exactly b + 1, `filter_depth d` exactly d.
+#[test]
+fn an_nlos_views_path_filters_become_its_bounce_range() {
+    let dir = tmp("nlos-filters");
+    let scene = |filters: &str| {
+        format!(
+            r#"<scene version="2.1.0">
+    <sensor type="perspective">
+        <float name="fov" value="40"/>
+        <transform name="to_world"><lookat origin="-1, 0, 1" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <film type="transient_hdr_film">
+            <integer name="width" value="8"/><integer name="height" value="8"/>
+            <integer name="temporal_bins" value="30"/><float name="bin_width_opl" value="0.01"/>
+        </film>
+    </sensor>
+    <integrator type="transient_nlos_path">{filters}</integrator>
+    <emitter type="projector">
+        <rgb name="irradiance" value="100.0"/><float name="fov" value="0.2"/>
+        <transform name="to_world"><lookat origin="-1, 0, 1" target="0.2, 0.1, 0" up="0, 1, 0"/></transform>
+    </emitter>
+    <shape type="rectangle"><transform name="to_world"><scale value="2"/></transform></shape>
+</scene>"#
+        )
+    };
+    let range = |name: &str, filters: &str| {
+        let xml = write(&dir, name, &scene(filters));
+        let file = scene::file_settings(&xml).unwrap();
+        (
+            file.min_bounces.map(|s| s.value),
+            file.max_bounces.map(|s| s.value),
+        )
+    };
+    assert_eq!(range("none.xml", ""), (None, None));
+    let off = r#"<boolean name="discard_direct_paths" value="false"/>"#;
+    assert_eq!(range("off.xml", off), (None, None));
+    let on = r#"<boolean name="discard_direct_paths" value="true"/>"#;
+    assert_eq!(range("on.xml", on), (Some(3), None));
+    let b = r#"<integer name="filter_bounces" value="2"/>"#;
+    assert_eq!(range("b.xml", b), (Some(3), Some(3)));
+    let d = r#"<integer name="filter_depth" value="4"/>"#;
+    assert_eq!(range("d.xml", d), (Some(4), Some(4)));
+    let both = write(&dir, "both.xml", &scene(&format!("{b}{d}")));
+    let e = scene::file_settings(&both).unwrap_err().to_string();
+    assert!(e.contains("filter_depth and filter_bounces"), "{e}");
+    // The CLI applies them and says so; tprf.json records the floor.
+    let out = dir.join("out");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_tprf"))
+        .args(["render", &write(&dir, "on2.xml", &scene(on)), "--spp", "1"])
+        .args(["--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("--min-bounces 3"), "{err}");
+    let meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("tprf.json")).unwrap()).unwrap();
+    assert_eq!(meta["min_bounces"], 3);
+}

@@ -122,7 +122,8 @@ def render(scene: Union[str, PathLike], *, width: int, height: int,
     Any other setting of ``tprf render`` by its name: ``error_target=0.01``,
     ``camera_position=(x, y, z)``, ``look_at=(x, y, z)``, ``up``, ``fov`` (degrees),
     ``time_origin`` (``"pinhole"``, ``"near-plane"``, ``"first-hit"``),
-    ``sky`` (W m^-2 sr^-1), ``channel``, ``nee``, ``splits``, ``filter``, ...
+    ``sky`` (W m^-2 sr^-1), ``channel``, ``nee``, ``splits``, ``filter``,
+    ``min_bounces`` (fewest scattering events of a recorded path), ...
 
     Ctrl-C raises KeyboardInterrupt at once (the render stops at the end of its pass).
     Bad settings raise ValueError naming the setting; a missing scene FileNotFoundError.

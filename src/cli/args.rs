@@ -72,6 +72,11 @@ pub struct RequestArgs {
     /// default 1024).
     #[arg(long)]
     pub max_bounces: Option<u32>,
+    /// Fewest scattering events of a recorded path (default 0: every path; 2 leaves out
+    /// direct reflection, 3 an NLOS view's wall-to-wall light). Paths are traced as
+    /// before; only what reaches the cube changes.
+    #[arg(long)]
+    pub min_bounces: Option<u32>,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Worker threads (default: all cores). The output does not depend on it.
@@ -209,6 +214,14 @@ impl RequestArgs {
                 from: s.from.clone(),
             }),
         );
+        let min_bounces = pick(
+            "--min-bounces",
+            self.min_bounces.map(u64::from),
+            &file.min_bounces.as_ref().map(|s| FileSetting {
+                value: u64::from(s.value),
+                from: s.from.clone(),
+            }),
+        );
         let time_origin = match (self.time_origin, &file.time_origin) {
             (Some(o), _) => o,
             (None, Some(s)) => {
@@ -248,6 +261,9 @@ impl RequestArgs {
             spp,
             seconds: self.seconds,
             max_bounces: max_bounces.map_or(default.max_bounces, |v| {
+                u32::try_from(v).unwrap_or(u32::MAX)
+            }),
+            min_bounces: min_bounces.map_or(default.min_bounces, |v| {
                 u32::try_from(v).unwrap_or(u32::MAX)
             }),
             bounces_separate: self.bounces_separate,

@@ -29,6 +29,8 @@ pub struct ViewerSettings {
     /// Relative error estimate (%) to stop at (0 = keep going).
     pub error_target_pct: f64,
     pub max_bounces: u32,
+    /// Fewest scattering events of a recorded path (the request's `min_bounces`).
+    pub min_bounces: u32,
     pub channel: Channel,
     pub seed: u64,
     /// Every pixel draws every pass's samples (the same noise everywhere); off: adaptive
@@ -108,6 +110,7 @@ impl Default for ViewerSettings {
             spp_target: 0,
             error_target_pct: 0.0,
             max_bounces: 1024,
+            min_bounces: 0,
             channel: Channel::Gray,
             seed: 0,
             uniform_sampling: false,
@@ -143,6 +146,7 @@ impl ViewerSettings {
         self.height = self.height.clamp(1, MAX_SIDE);
         self.bins = self.bins.clamp(1, MAX_BINS);
         self.max_bounces = self.max_bounces.clamp(1, 100_000);
+        self.min_bounces = self.min_bounces.min(self.max_bounces);
         if !(self.play_bins_per_s.is_finite() && self.play_bins_per_s > 0.0) {
             self.play_bins_per_s = 30.0;
         }
@@ -210,6 +214,7 @@ impl ViewerSettings {
             spp_target: other.spp_target,
             error_target_pct: other.error_target_pct,
             max_bounces: other.max_bounces,
+            min_bounces: other.min_bounces,
             channel: other.channel,
             seed: other.seed,
             uniform_sampling: other.uniform_sampling,
@@ -236,6 +241,7 @@ impl ViewerSettings {
             pulse_origin: self.pulse_origin,
             bounces_separate: 3,
             max_bounces: self.max_bounces,
+            min_bounces: self.min_bounces,
             seed: self.seed,
             channel: self.channel,
             uniform: self.uniform_sampling,

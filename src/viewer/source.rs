@@ -286,6 +286,11 @@ impl TprfApp {
                 p.max_bounces = m.value;
                 taken.push(format!("max bounces {}", m.value));
             }
+            // Like the origins, a bounce floor belongs to the scene that set it.
+            p.min_bounces = file.min_bounces.as_ref().map_or(0, |m| {
+                taken.push(format!("min bounces {}", m.value));
+                m.value
+            });
             if let (Some(mean), Some(sigma)) = (&file.phasor_wl_mean_m, &file.phasor_wl_sigma_m) {
                 // A view setting: the phasor tab's band, at once.
                 let band = tprf_core::export::phasor::PhasorBand {

@@ -218,6 +218,13 @@ impl TprfApp {
                 ui.add(egui::DragValue::new(&mut p.max_bounces).range(1..=100_000))
                     .labelled_by(l.id);
                 ui.end_row();
+                let l = ui.label("Min bounces").on_hover_text(
+                    "fewest scattering events of a recorded path: 2 leaves out direct reflection, 3 an NLOS view's wall-to-wall light",
+                );
+                let most = p.max_bounces;
+                ui.add(egui::DragValue::new(&mut p.min_bounces).range(0..=most))
+                    .labelled_by(l.id);
+                ui.end_row();
                 let l = ui.label("Band");
                 egui::ComboBox::from_id_salt("band")
                     .selected_text(format!("{:?}", p.channel))

@@ -167,6 +167,9 @@ pub struct CubeMetadata {
     #[serde(default = "light")]
     pub pulse_origin: String,
     pub max_bounces: u32,
+    /// Fewest scattering events of a recorded path (0: every path). Older files: 0.
+    #[serde(default)]
+    pub min_bounces: u32,
     /// Per-bounce layers in `tprf_bounces.npy` (0 = none): layer 0 = light seen directly,
     /// 1..=K = that many scattering events, K+1 = more.
     pub bounces_separate: u32,

@@ -380,6 +380,7 @@ pub fn cube_metadata(
         },
         pulse_origin: request.pulse_origin.to_string(),
         max_bounces: request.max_bounces,
+        min_bounces: request.min_bounces,
         bounces_separate: request.bounces_separate,
         threads,
         wall_seconds: wall_s,

@@ -106,6 +106,9 @@ pub struct RenderRequest {
     pub pass_seconds: Option<f64>,
     /// Largest number of scattering events on a path (default 1024).
     pub max_bounces: u32,
+    /// Fewest scattering events of a recorded path (default 0: every path; 2 leaves out
+    /// direct reflection, 3 an NLOS view's light from the wall straight to the wall).
+    pub min_bounces: u32,
     /// Per-bounce layers: bounce 0 (emitters seen directly), 1..=K and the rest.
     pub bounces_separate: u32,
     pub seed: u64,
@@ -217,6 +220,7 @@ impl Default for RenderRequest {
             until_stopped: false,
             pass_seconds: None,
             max_bounces: settings.max_bounces,
+            min_bounces: settings.min_bounces,
             bounces_separate: 0,
             seed: settings.seed,
             channel: settings.channel,
@@ -541,6 +545,15 @@ impl RenderRequest {
                 format!(" must be a positive number (got {s})"),
             );
         }
+        if self.min_bounces > self.max_bounces {
+            return bad(
+                "min_bounces",
+                format!(
+                    ": {} is more than max_bounces {}: no path would be recorded",
+                    self.min_bounces, self.max_bounces
+                ),
+            );
+        }
         if !(0.0..=1.0).contains(&self.rr_floor) {
             return bad(
                 "rr_floor",
@@ -650,6 +663,7 @@ impl RenderRequest {
     pub fn settings(&self) -> RenderSettings {
         RenderSettings {
             max_bounces: self.max_bounces,
+            min_bounces: self.min_bounces,
             seed: self.seed,
             channel: self.channel,
             nee: self.nee,
@@ -674,11 +688,12 @@ impl RenderRequest {
             && self.settings() == other.settings()
     }
 
-    /// These estimator settings (`max_bounces`, `seed`, `channel`, `nee`, the roulette,
+    /// These estimator settings (`max_bounces`, `min_bounces`, `seed`, `channel`, `nee`, the roulette,
     /// `splits`, `light_vertex`, `uniform`) taken from `settings`.
     pub fn with_settings(self, settings: RenderSettings) -> RenderRequest {
         RenderRequest {
             max_bounces: settings.max_bounces,
+            min_bounces: settings.min_bounces,
             seed: settings.seed,
             channel: settings.channel,
             nee: settings.nee,

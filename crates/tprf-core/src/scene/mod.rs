@@ -823,6 +823,9 @@ pub struct FileSettings {
     pub spp: Option<FileSetting<u64>>,
     /// Largest number of scattering events on a path.
     pub max_bounces: Option<FileSetting<u32>>,
+    /// Fewest scattering events of a recorded path (mitransient's
+    /// `discard_direct_paths`, `filter_depth`, `filter_bounces`).
+    pub min_bounces: Option<FileSetting<u32>>,
     /// mitransient's `phasor_hdr_film`: its `wl_mean` and `wl_sigma`, metres of
     /// optical path (the phasors to write: `export::phasor`).
     pub phasor_wl_mean_m: Option<FileSetting<f64>>,
@@ -864,6 +867,13 @@ pub struct NlosFileSettings {
     /// Scattering events in the hidden scene (the two on the wall not counted):
     /// `max_depth - 3`.
     pub hidden_bounces: Option<FileSetting<u32>>,
+    /// Only paths of exactly this many scattering events (`filter_depth`, or
+    /// `filter_bounces + 1`): mitransient's depth at its laser-sampled next-event
+    /// estimate, the wall point, each hidden vertex and the laser's spot counted.
+    pub depth_filter: Option<FileSetting<u32>>,
+    /// `discard_direct_paths`: the paths from the wall straight to the laser's spot
+    /// (2 scattering events, mitransient's depth 2) and shorter left out.
+    pub discard_direct: Option<FileSetting<bool>>,
 }
 
 /// One setting of a scene file: its value and where it was read (`scene.xml:31
@@ -913,6 +923,7 @@ impl FileSettings {
             line("dt (m of optical path)", &self.dt_opl_m),
             line("spp", &self.spp),
             line("max bounces", &self.max_bounces),
+            line("min bounces", &self.min_bounces),
             line("phasor wl_mean (m)", &self.phasor_wl_mean_m),
             line("phasor wl_sigma (m)", &self.phasor_wl_sigma_m),
         ]

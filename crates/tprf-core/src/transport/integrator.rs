@@ -40,6 +40,38 @@ pub trait Sink {
     fn ray(&mut self, _origin: Vec3, _dir: Vec3, _t_max_m: f32, _kind: RayKind) {}
 }
 
+/// `inner` with the contributions of fewer than `min` scattering events left out
+/// ([`RenderSettings::min_bounces`]).
+struct FromBounce<'a, S> {
+    inner: &'a mut S,
+    min: u32,
+}
+
+impl<S: Sink> Sink for FromBounce<'_, S> {
+    #[inline]
+    fn add(&mut self, arrival_s: f64, value: f64, scatterings: u32) {
+        if scatterings >= self.min {
+            self.inner.add(arrival_s, value, scatterings);
+        }
+    }
+    #[inline]
+    fn window_end_s(&self) -> f64 {
+        self.inner.window_end_s()
+    }
+    #[inline]
+    fn window_start_s(&self) -> f64 {
+        self.inner.window_start_s()
+    }
+    #[inline(always)]
+    fn left_out(&mut self, why: LeftOut) {
+        self.inner.left_out(why);
+    }
+    #[inline(always)]
+    fn ray(&mut self, origin: Vec3, dir: Vec3, t_max_m: f32, kind: RayKind) {
+        self.inner.ray(origin, dir, t_max_m, kind);
+    }
+}
+
 /// What a traced ray is for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum RayKind {
@@ -73,6 +105,11 @@ impl Sink for PixelSink<'_> {
 pub struct RenderSettings {
     /// Largest number of scattering events on a path.
     pub max_bounces: u32,
+    /// Fewest scattering events of a recorded path: contributions after fewer are left
+    /// out of the film (0, the default: every path; 2: no direct reflection; 3 in an
+    /// NLOS view: no light from the relay wall straight to the wall). Paths are traced
+    /// as before; only what reaches the film changes.
+    pub min_bounces: u32,
     pub seed: u64,
     pub channel: Channel,
     /// Next-event estimation (shadow rays to lights). Off: lights are reached only by
@@ -115,6 +152,7 @@ impl Default for RenderSettings {
     fn default() -> Self {
         RenderSettings {
             max_bounces: 1024,
+            min_bounces: 0,
             seed: 0,
             channel: Channel::Gray,
             nee: true,
@@ -470,6 +508,31 @@ impl Renderer {
         reason = "the path walk's per-vertex state, passed by value on the hot path"
     )]
     pub(super) fn trace_sample_with(
+        &self,
+        x: usize,
+        y: usize,
+        w: usize,
+        h: usize,
+        strategy: Strategy,
+        rng: &mut Sampler,
+        sink: &mut impl Sink,
+    ) -> u64 {
+        if self.settings.min_bounces > 0 {
+            let mut sink = FromBounce {
+                inner: sink,
+                min: self.settings.min_bounces,
+            };
+            return self.trace_camera_sample(x, y, w, h, strategy, rng, &mut sink);
+        }
+        self.trace_camera_sample(x, y, w, h, strategy, rng, sink)
+    }
+
+    /// [`Renderer::trace_sample_with`], every contribution to `sink`.
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "the path walk's per-vertex state, passed by value on the hot path"
+    )]
+    fn trace_camera_sample(
         &self,
         x: usize,
         y: usize,

@@ -331,6 +331,51 @@ impl Builder<'_> {
             }),
             None => None,
         };
+        let depth_filter = match (o.prop("filter_depth"), o.prop("filter_bounces")) {
+            (Some(_), Some(p)) => {
+                return Err(err(
+                    &p.loc,
+                    "filter_depth and filter_bounces both set: give only one (mitransient refuses both too)".to_string(),
+                ));
+            }
+            (Some(_), None) => match o.integer("filter_depth", -1)? {
+                (-1, _) => None,
+                (d, Some(p)) if d < 1 => {
+                    return Err(err(
+                        &p.loc,
+                        format!("filter_depth {d}: must be 1 or more, or -1"),
+                    ));
+                }
+                (d, _) => Some(FileSetting {
+                    value: d as u32,
+                    from: from(o, "filter_depth"),
+                }),
+            },
+            (None, Some(_)) => match o.integer("filter_bounces", -1)? {
+                (-1, _) => None,
+                (b, Some(p)) if b < 0 => {
+                    return Err(err(
+                        &p.loc,
+                        format!("filter_bounces {b}: must be 0 or more, or -1"),
+                    ));
+                }
+                (b, _) => Some(FileSetting {
+                    value: b as u32 + 1,
+                    from: format!(
+                        "{} + 1 (mitransient's filter_depth)",
+                        from(o, "filter_bounces")
+                    ),
+                }),
+            },
+            (None, None) => None,
+        };
+        let discard_direct = match o.prop("discard_direct_paths") {
+            Some(_) => Some(FileSetting {
+                value: o.boolean("discard_direct_paths", false)?,
+                from: from(o, "discard_direct_paths"),
+            }),
+            None => None,
+        };
         let _ = o.integer("block_size", 0)?;
         let (depth, dp) = o.integer("max_depth", -1)?;
         let hidden = match depth {
@@ -345,9 +390,6 @@ impl Builder<'_> {
             "nlos_hidden_geometry_sampling_do_rroulette",
             "nlos_hidden_geometry_sampling_includes_relay_wall",
             "nlos_hidden_geometry_sampling_max_depth",
-            "filter_depth",
-            "filter_bounces",
-            "discard_direct_paths",
             "force_equal_illumination_scanning",
             "illumination_scan_fov",
             "rr_depth",
@@ -373,6 +415,8 @@ impl Builder<'_> {
             n.device_legs = legs;
         }
         n.hidden_bounces = hidden;
+        n.depth_filter = depth_filter;
+        n.discard_direct = discard_direct;
         Ok(())
     }
 
@@ -392,6 +436,22 @@ impl Builder<'_> {
             .iter()
             .any(|o| o.tag == "sensor" && o.plugin == "nlos_capture_meter");
         if has_meter || self.camera.is_none() {
+            if let Some(n) = &self.settings.nlos {
+                let mut unused: Vec<&str> = Vec::new();
+                if let Some(d) = &n.depth_filter {
+                    unused.push(&d.from);
+                }
+                if let Some(d) = n.discard_direct.as_ref().filter(|d| d.value) {
+                    unused.push(&d.from);
+                }
+                if !unused.is_empty() {
+                    let what = format!(
+                        "{}: not applied by tprf nlos, whose capture records every path of up to --max-bounces hidden bounces (tprf render applies them to a camera's view)",
+                        unused.join(", ")
+                    );
+                    self.notes.push(what);
+                }
+            }
             return false;
         }
         let Some(n) = self.settings.nlos.take() else {
@@ -417,6 +477,20 @@ impl Builder<'_> {
             self.settings.max_bounces = Some(FileSetting {
                 value: h.value.saturating_add(2),
                 from: format!("{} (max_depth - 1 for a camera's view)", h.from),
+            });
+        }
+        // mitransient's depth at its laser-sampled next-event estimate counts the wall
+        // point, each hidden vertex and the laser's spot: tprf's scattering events.
+        if let Some(d) = n.depth_filter {
+            self.settings.min_bounces = Some(d.clone());
+            self.settings.max_bounces = Some(d);
+        } else if let Some(d) = n.discard_direct.filter(|d| d.value) {
+            self.settings.min_bounces = Some(FileSetting {
+                value: 3,
+                from: format!(
+                    "{} true (only paths through the hidden scene: mitransient's depth > 2)",
+                    d.from
+                ),
             });
         }
         self.notes.push(format!(
