@@ -9,7 +9,8 @@ use common::{C, empty_scene, lit_plane, mean_arrival_s, push_tri, render_with};
 use glam::Vec3;
 use tprf_core::film::TimeAxis;
 use tprf_core::scene::{
-    AngularFalloff, Camera, Material, Projector, PulseOrigin, PunctualLight, Scene, TimeOrigin,
+    AngularFalloff, Camera, ImageWrap, IrradianceImage, Material, Projector, PulseOrigin,
+    PunctualLight, Scene, TimeOrigin,
 };
 use tprf_core::transport::RenderSettings;
 
@@ -253,6 +254,7 @@ fn a_projector_lights_its_frustum_with_mitsubas_uniform_irradiance() {
             up: Vec3::Y,
             tan_half_x: tx,
             tan_half_y: ty,
+            image: None,
         }),
     });
     let axis = TimeAxis::new(0.0, 0.05 / C, 200).unwrap();
@@ -296,6 +298,93 @@ fn a_projector_lights_its_frustum_with_mitsubas_uniform_irradiance() {
         }
     }
     assert!(full >= 4, "{full} pixels wholly inside the frustum");
+}
+
+#[test]
+fn a_projectors_image_lands_upright_with_its_bilinear_irradiance() {
+    // A 6 x 3 image, dark but for its top-left texel (1) and its bottom-right one (0.5),
+    // clamped at its edges, projected straight down from height h (up +Y): seen from
+    // behind the projector the image's left is the world's -X, its top +Y. A ground point
+    // p lies at image point u = 1/2 + p.x / (2 h tan_x), v = 1/2 - p.y / (2 h tan_y), and
+    // shows radiance rho e E(u, v) / h^2, E the image's bilinear value there (texel
+    // centres at (i + 1/2) / width), worked out here.
+    let (h, e, rho) = (2.0f32, 3.0f32, 0.5f32);
+    let eye = Vec3::new(0.0, 0.0, 1.999);
+    let mut s = ground(eye, 60.0, rho);
+    let (tx, ty) = (18f32.to_radians().tan(), 9f32.to_radians().tan());
+    let (iw, ih) = (6usize, 3usize);
+    let mut texels = vec![0.0f32; iw * ih];
+    texels[0] = 1.0;
+    texels[iw * ih - 1] = 0.5;
+    s.lights.push(PunctualLight {
+        name: "projector".into(),
+        position: Vec3::new(0.0, 0.0, h),
+        intensity_w_per_sr: [std::f32::consts::PI * e; 3],
+        spot: None,
+        projector: Some(Projector {
+            direction: -Vec3::Z,
+            up: Vec3::Y,
+            tan_half_x: tx,
+            tan_half_y: ty,
+            image: Some(std::sync::Arc::new(IrradianceImage {
+                width: iw as u32,
+                height: ih as u32,
+                rgb: texels.iter().map(|&v| [v; 3]).collect(),
+                wrap: ImageWrap::Clamp,
+            })),
+        }),
+    });
+    let axis = TimeAxis::new(0.0, 0.05 / C, 200).unwrap();
+    let r = render_with(
+        s,
+        W,
+        H,
+        axis,
+        512,
+        settings(TimeOrigin::Pinhole, PulseOrigin::Light),
+        0,
+    );
+    let (h, e, rho) = (h as f64, e as f64, rho as f64);
+    let texel = |i: i64, j: i64| {
+        let (i, j) = (i.clamp(0, iw as i64 - 1), j.clamp(0, ih as i64 - 1));
+        texels[j as usize * iw + i as usize] as f64
+    };
+    let image = |p: glam::DVec3| {
+        let u = 0.5 + p.x / (2.0 * h * tx as f64);
+        let v = 0.5 - p.y / (2.0 * h * ty as f64);
+        if !(0.0..=1.0).contains(&u) || !(0.0..=1.0).contains(&v) {
+            return 0.0;
+        }
+        let (x, y) = (u * iw as f64 - 0.5, v * ih as f64 - 0.5);
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (i, j) = (x0 as i64, y0 as i64);
+        let top = texel(i, j) * (1.0 - fx) + texel(i + 1, j) * fx;
+        let bottom = texel(i, j + 1) * (1.0 - fx) + texel(i + 1, j + 1) * fx;
+        top * (1.0 - fy) + bottom * fy
+    };
+    let full_l = rho * e / (h * h);
+    let (mut lit_left_top, mut lit_right_bottom) = (0.0, 0.0);
+    for y in 0..H {
+        for x in 0..W {
+            let want = full_l * footprint_mean(x, y, eye.as_dvec3(), 60.0, image);
+            let got: f64 = r.film.pixel_tprf(x, y).iter().sum();
+            assert!(
+                (got - want).abs() <= 0.03 * full_l,
+                "pixel ({x}, {y}): {got} vs {want} (full {full_l})"
+            );
+            // The camera's image: x right is world +X, y down is world -Y.
+            if x < W / 2 && y < H / 2 {
+                lit_left_top += got;
+            } else if x >= W / 2 && y >= H / 2 {
+                lit_right_bottom += got;
+            }
+        }
+    }
+    assert!(
+        lit_left_top > 1.2 * lit_right_bottom && lit_right_bottom > 0.0,
+        "the image's brighter corner is its top left: {lit_left_top} vs {lit_right_bottom}"
+    );
 }
 
 /// Bad origins are refused naming the option: an unknown name, and the pulse's first hit

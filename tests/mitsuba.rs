@@ -890,7 +890,7 @@ fn angular_area_emitters_and_projectors_are_read_as_mitransient_defines_them() {
     // The projector: pi E scale on its axis (Mitsuba: a white plane 1 m away shows
     // radiance E scale), its frustum 0.2 degrees across, aimed down.
     let p = &s.lights[0];
-    let proj = p.projector.expect("a projector");
+    let proj = p.projector.clone().expect("a projector");
     assert!((p.intensity_w_per_sr[0] - std::f32::consts::PI * 200.0).abs() < 1e-3);
     assert!((proj.direction - Vec3::NEG_Z).length() < 1e-6);
     assert!((proj.tan_half_x - 0.1f32.to_radians().tan()).abs() < 1e-9);
@@ -1026,7 +1026,7 @@ fn a_camera_watching_an_nlos_integrator_renders_with_tprf_render() {
     // The spot: where the projector's axis meets the wall (a spot of 2.5 mm: a point
     // here), and the power the projector puts into it: pi E 4 tan^2(0.1 deg) W.
     let light = &s.lights[0];
-    let proj = light.projector.unwrap();
+    let proj = light.projector.clone().unwrap();
     let (p, d) = (light.position, proj.direction);
     let spot = (p + d * (-p.z / d.z)).as_dvec3();
     let power = f64::from(light.intensity_w_per_sr[0])
@@ -1338,4 +1338,48 @@ fn an_nlos_views_path_filters_become_its_bounce_range() {
     let meta: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("tprf.json")).unwrap()).unwrap();
     assert_eq!(meta["min_bounces"], 3);
+}
+
+/// A projector's `bitmap` irradiance: the frustum takes the image's aspect (fov along x),
+/// the 8-bit texels are decoded from sRGB; a texture other than a bitmap is refused
+/// naming it.
+#[test]
+fn a_projectors_bitmap_sets_its_frustum_and_irradiance() {
+    let dir = tmp("projector-bitmap");
+    let mut png = image::RgbImage::new(4, 2);
+    png.put_pixel(0, 0, image::Rgb([255, 255, 255]));
+    png.put_pixel(3, 1, image::Rgb([128, 128, 128]));
+    png.save(dir.join("pattern.png")).unwrap();
+    let scene = |irradiance: &str| {
+        format!(
+            r#"<scene version="3.0.0">
+    <emitter type="projector">
+        {irradiance}
+        <float name="fov" value="40"/><float name="scale" value="2"/>
+        <transform name="to_world"><lookat origin="0, 0, 0" target="0, 0, 1" up="0, 1, 0"/></transform>
+    </emitter>
+    <shape type="rectangle"><transform name="to_world"><translate z="2"/></transform></shape>
+</scene>"#
+        )
+    };
+    let bitmap = r#"<texture type="bitmap" name="irradiance"><string name="filename" value="pattern.png"/></texture>"#;
+    let s = scene::load(&write(&dir, "bitmap.xml", &scene(bitmap))).unwrap();
+    let light = s.lights.iter().find(|l| l.projector.is_some()).unwrap();
+    let p = light.projector.clone().unwrap();
+    let tx = 20f32.to_radians().tan();
+    assert!((p.tan_half_x - tx).abs() < 1e-6, "{}", p.tan_half_x);
+    assert!((p.tan_half_y - tx / 2.0).abs() < 1e-6, "{}", p.tan_half_y);
+    let im = p.image.expect("the image");
+    assert_eq!((im.width, im.height), (4, 2));
+    assert_eq!(im.rgb[0], [1.0; 3]);
+    // sRGB 128 is linear ((128/255 + 0.055) / 1.055)^2.4 = 0.21586.
+    assert!((im.rgb[7][0] - 0.215_861).abs() < 1e-5, "{:?}", im.rgb[7]);
+    assert_eq!(im.rgb[1], [0.0; 3]);
+    // The scale is the light's: pi scale on the axis per unit of the image.
+    assert!((light.intensity_w_per_sr[0] - 2.0 * std::f32::consts::PI).abs() < 1e-5);
+    let checker = r#"<texture type="checkerboard" name="irradiance"/>"#;
+    let e = scene::load(&write(&dir, "checker.xml", &scene(checker)))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("checkerboard") && e.contains("projector"), "{e}");
 }

@@ -344,7 +344,7 @@ fn tprf_matches_mitransient_on_the_same_xml_files() {
     let spot_m2 = {
         let s = tprf_core::scene::load(nlos_xml.to_str().unwrap()).unwrap();
         let l = &s.lights[0];
-        let p = l.projector.expect("the projector");
+        let p = l.projector.clone().expect("the projector");
         let (o, d) = (l.position.as_dvec3(), p.direction.as_dvec3());
         let dist = -o.z / d.z;
         4.0 * f64::from(p.tan_half_x) * f64::from(p.tan_half_y) * dist * dist / d.z.abs()

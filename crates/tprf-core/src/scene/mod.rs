@@ -277,7 +277,7 @@ pub struct Spot {
 /// irradiance on every point of a plane across it: radiant intensity `I_0 / cos^3 theta`
 /// toward a direction at angle `theta` to the axis inside the pyramid, 0 outside
 /// (`I_0` the light's `intensity_w_per_sr`).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Projector {
     /// Unit direction of the axis (world space).
     pub direction: Vec3,
@@ -286,6 +286,32 @@ pub struct Projector {
     /// Tangents of half the frustum's angles across (x) and up (y).
     pub tan_half_x: f32,
     pub tan_half_y: f32,
+    /// The image projected (Mitsuba's `irradiance` bitmap): the irradiance across the
+    /// frustum is `I_0` times its value there. `None`: uniform (a value of 1).
+    pub image: Option<std::sync::Arc<IrradianceImage>>,
+}
+
+/// A projector's image: linear RGB per texel, row 0 the image's top and column 0 its
+/// left as seen from behind the projector (Mitsuba's projector: the picture lands
+/// upright and unmirrored on a wall facing it), looked up bilinearly between texel
+/// centres as Mitsuba's `bitmap` texture.
+#[derive(Clone, Debug, PartialEq)]
+pub struct IrradianceImage {
+    pub width: u32,
+    pub height: u32,
+    pub rgb: Vec<[f32; 3]>,
+    /// What the bilinear lookup reads beyond the edge texels (Mitsuba's `wrap_mode`).
+    pub wrap: ImageWrap,
+}
+
+/// Texels beyond an image's edge, for a bilinear lookup near it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ImageWrap {
+    /// The opposite edge's (Mitsuba's default, `repeat`).
+    #[default]
+    Repeat,
+    /// The edge texel's own (`clamp`).
+    Clamp,
 }
 
 /// A point or spot light (KHR_lights_punctual), or a projector. The pulse leaves it at
@@ -697,6 +723,31 @@ impl Scene {
                          field of view in (0, 180) degrees, and no spot cone",
                         l.name
                     )));
+                }
+                if let Some(im) = &p.image {
+                    let n = im.width as usize * im.height as usize;
+                    if n == 0 || im.rgb.len() != n {
+                        return Err(SceneError::Invalid(format!(
+                            "light '{}': its image is {} x {} texels with {} values",
+                            l.name,
+                            im.width,
+                            im.height,
+                            im.rgb.len()
+                        )));
+                    }
+                    if let Some(i) = im
+                        .rgb
+                        .iter()
+                        .position(|c| c.iter().any(|v| !(v.is_finite() && *v >= 0.0)))
+                    {
+                        return Err(SceneError::Invalid(format!(
+                            "light '{}': its image's texel ({}, {}) is {:?}: irradiance must be finite and >= 0",
+                            l.name,
+                            i % im.width as usize,
+                            i / im.width as usize,
+                            im.rgb[i]
+                        )));
+                    }
                 }
             }
         }

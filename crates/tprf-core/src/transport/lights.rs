@@ -5,11 +5,12 @@
 //! direction) and a constant sky.
 
 use super::bsdf::{Frame, turn_cos_sin};
-use crate::scene::{Channel, DirectionalLight, PunctualLight, Scene};
+use crate::scene::{Channel, DirectionalLight, ImageWrap, IrradianceImage, PunctualLight, Scene};
 use glam::Vec3;
+use std::sync::Arc;
 
 /// A point or spot light reduced to one band.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct Punctual {
     pub position: Vec3,
     /// Radiant intensity in this band, W/sr.
@@ -25,28 +26,176 @@ pub struct Punctual {
 }
 
 /// A projector's frustum: directions `d` with `|d_x / d_z| <= tan_x`, `|d_y / d_z| <=
-/// tan_y` in its frame, intensity `I_0 / cos^3 theta` (uniform irradiance across the
-/// axis), sampled uniformly on the plane `z = 1` (density `1 / (4 tan_x tan_y cos^3
-/// theta)` per steradian: proportional to the intensity, so a light vertex's weight is
-/// the same in every direction).
-#[derive(Clone, Copy, Debug)]
+/// tan_y` in its frame (x the image's left, y its up, z the axis), intensity `I_0
+/// E(u, v) / cos^3 theta` (irradiance `I_0 E` across the axis at unit distance, `E` the
+/// image's value at the direction's image point, 1 without an image), sampled on the
+/// plane `z = 1`: uniformly without an image (density `1 / (4 tan_x tan_y cos^3 theta)`
+/// per steradian, proportional to the intensity), by the image's texels with one.
+#[derive(Clone, Debug)]
 struct ProjectorBeam {
     frame: Frame,
     tan_x: f32,
     tan_y: f32,
+    image: Option<Arc<BandImage>>,
+}
+
+/// A projector's image in one band, with the table that samples it: each texel cell
+/// (the square between four texel centres' neighbours, `[i, i + 1] / width` across)
+/// drawn with probability proportional to the largest of the 3 x 3 texels around it,
+/// which bounds the bilinear value anywhere in the cell (so a cell with light is never
+/// left out), then uniformly inside it.
+#[derive(Debug)]
+struct BandImage {
+    width: usize,
+    height: usize,
+    wrap: ImageWrap,
+    values: Vec<f32>,
+    /// Cumulative cell probabilities, the last 1.
+    cdf: Vec<f32>,
+    /// Sum over cells of the sampling weights over the cell count: at least the image's
+    /// mean value (the power bound's factor).
+    mean_bound: f32,
+}
+
+impl BandImage {
+    fn new(im: &IrradianceImage, channel: Channel) -> Option<BandImage> {
+        let (width, height) = (im.width as usize, im.height as usize);
+        let values: Vec<f32> = im.rgb.iter().map(|c| channel.pick(*c).max(0.0)).collect();
+        if width == 0 || height == 0 || values.len() != width * height {
+            return None;
+        }
+        let mut b = BandImage {
+            width,
+            height,
+            wrap: im.wrap,
+            values,
+            cdf: Vec::new(),
+            mean_bound: 0.0,
+        };
+        let mut sum = 0.0f64;
+        let mut cdf = Vec::with_capacity(width * height);
+        for j in 0..height as i64 {
+            for i in 0..width as i64 {
+                let mut m = 0.0f32;
+                for dj in -1..=1 {
+                    for di in -1..=1 {
+                        m = m.max(b.texel(i + di, j + dj));
+                    }
+                }
+                sum += f64::from(m);
+                cdf.push(sum);
+            }
+        }
+        if !(sum > 0.0 && sum.is_finite()) {
+            return None;
+        }
+        b.cdf = cdf.iter().map(|c| (c / sum) as f32).collect();
+        b.mean_bound = (sum / (width * height) as f64) as f32;
+        Some(b)
+    }
+
+    /// Texel `(i, j)` with the image's wrap mode applied.
+    #[inline]
+    fn texel(&self, i: i64, j: i64) -> f32 {
+        let (w, h) = (self.width as i64, self.height as i64);
+        let (i, j) = match self.wrap {
+            ImageWrap::Repeat => (i.rem_euclid(w), j.rem_euclid(h)),
+            ImageWrap::Clamp => (i.clamp(0, w - 1), j.clamp(0, h - 1)),
+        };
+        self.values[(j * w + i) as usize]
+    }
+
+    /// The bilinear value at image point `(u, v)` in [0, 1]^2 (texel centres at
+    /// `(i + 1/2) / width`), as Mitsuba's `bitmap` texture.
+    fn value(&self, u: f32, v: f32) -> f32 {
+        let x = u * self.width as f32 - 0.5;
+        let y = v * self.height as f32 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (i, j) = (x0 as i64, y0 as i64);
+        let top = self.texel(i, j) * (1.0 - fx) + self.texel(i + 1, j) * fx;
+        let bottom = self.texel(i, j + 1) * (1.0 - fx) + self.texel(i + 1, j + 1) * fx;
+        top * (1.0 - fy) + bottom * fy
+    }
+
+    /// Probability of the cell holding `(u, v)`.
+    fn cell_probability(&self, u: f32, v: f32) -> f32 {
+        let i = ((u * self.width as f32) as usize).min(self.width - 1);
+        let j = ((v * self.height as f32) as usize).min(self.height - 1);
+        let k = j * self.width + i;
+        self.cdf[k] - if k == 0 { 0.0 } else { self.cdf[k - 1] }
+    }
+
+    /// An image point `(u, v)` drawn by the table for `(u1, u2)` in [0, 1)^2; its
+    /// density over the unit square is `cells * cell_probability`.
+    fn sample(&self, (u1, u2): (f32, f32)) -> (f32, f32) {
+        let k = self
+            .cdf
+            .partition_point(|&c| c <= u1)
+            .min(self.cdf.len() - 1);
+        let lo = if k == 0 { 0.0 } else { self.cdf[k - 1] };
+        let p = self.cdf[k] - lo;
+        let fx = if p > 0.0 {
+            ((u1 - lo) / p).clamp(0.0, 0.999_999)
+        } else {
+            0.5
+        };
+        let (i, j) = (k % self.width, k / self.width);
+        (
+            (i as f32 + fx) / self.width as f32,
+            (j as f32 + u2) / self.height as f32,
+        )
+    }
 }
 
 impl ProjectorBeam {
-    /// `cos theta` of unit `dir` (world) when it is inside the frustum.
+    /// `cos theta` of unit `dir` (world) and its image point `(u, v)` (row 0 the top,
+    /// column 0 the left as seen from behind the projector) when it is inside the
+    /// frustum.
     #[inline]
-    fn cos_inside(&self, dir: Vec3) -> Option<f32> {
+    fn inside(&self, dir: Vec3) -> Option<(f32, f32, f32)> {
         let d = self.frame.to_local(dir);
-        (d.z > 0.0 && d.x.abs() <= self.tan_x * d.z && d.y.abs() <= self.tan_y * d.z).then_some(d.z)
+        if !(d.z > 0.0 && d.x.abs() <= self.tan_x * d.z && d.y.abs() <= self.tan_y * d.z) {
+            return None;
+        }
+        let u = 0.5 - 0.5 * d.x / (d.z * self.tan_x);
+        let v = 0.5 - 0.5 * d.y / (d.z * self.tan_y);
+        Some((d.z, u.clamp(0.0, 1.0), v.clamp(0.0, 1.0)))
     }
 
     /// Area of the frustum's cross-section at unit distance along the axis.
     fn plane_area(&self) -> f32 {
         4.0 * self.tan_x * self.tan_y
+    }
+
+    /// The image's value toward image point `(u, v)` (1 without an image).
+    #[inline]
+    fn value(&self, u: f32, v: f32) -> f32 {
+        self.image.as_ref().map_or(1.0, |im| im.value(u, v))
+    }
+
+    /// Density of [`ProjectorBeam::sample`] over the plane `z = 1` at image point `(u,
+    /// v)`, 1/m^2.
+    fn plane_pdf(&self, u: f32, v: f32) -> f32 {
+        match &self.image {
+            None => 1.0 / self.plane_area(),
+            Some(im) => {
+                (im.width * im.height) as f32 * im.cell_probability(u, v) / self.plane_area()
+            }
+        }
+    }
+
+    /// A direction (local frame, on the plane `z = 1`) for `(u1, u2)` in [0, 1)^2.
+    fn sample(&self, (u1, u2): (f32, f32)) -> Vec3 {
+        let (u, v) = match &self.image {
+            None => (u1, u2),
+            Some(im) => im.sample((u1, u2)),
+        };
+        Vec3::new(
+            (1.0 - 2.0 * u) * self.tan_x,
+            (1.0 - 2.0 * v) * self.tan_y,
+            1.0,
+        )
     }
 }
 
@@ -62,9 +211,13 @@ impl Punctual {
             (Some(s), Some((axis, _, _))) if axis != Vec3::ZERO => (axis, s.outer_cone_rad.cos()),
             _ => (Vec3::Z, -1.0),
         };
-        let projector = l.projector.map(|p| {
+        let mut dark = false;
+        let projector = l.projector.as_ref().map(|p| {
             let z = p.direction.normalize_or_zero();
             let y = p.up.normalize_or_zero();
+            let image = p.image.as_ref().map(|im| BandImage::new(im, channel));
+            // An image with no light in this band: a dark projector.
+            dark = matches!(image, Some(None));
             ProjectorBeam {
                 frame: Frame {
                     t: y.cross(z),
@@ -73,10 +226,11 @@ impl Punctual {
                 },
                 tan_x: p.tan_half_x,
                 tan_y: p.tan_half_y,
+                image: image.flatten().map(Arc::new),
             }
         });
         // A projector's bounding cone: through the frustum's corners.
-        let (cone_axis, cos_cone) = match projector {
+        let (cone_axis, cos_cone) = match &projector {
             Some(b) => (
                 b.frame.n,
                 1.0 / (1.0 + b.tan_x * b.tan_x + b.tan_y * b.tan_y).sqrt(),
@@ -85,7 +239,11 @@ impl Punctual {
         };
         Punctual {
             position: l.position,
-            intensity_w_per_sr: channel.pick(l.intensity_w_per_sr).max(0.0),
+            intensity_w_per_sr: if dark {
+                0.0
+            } else {
+                channel.pick(l.intensity_w_per_sr).max(0.0)
+            },
             spot,
             projector,
             cone_axis,
@@ -121,7 +279,10 @@ impl Punctual {
     /// [`Lights::sample_emission`] picks lights by.
     fn power_bound_w(&self) -> f32 {
         match &self.projector {
-            Some(b) => self.intensity_w_per_sr * b.plane_area(),
+            Some(b) => {
+                let mean = b.image.as_ref().map_or(1.0, |im| im.mean_bound);
+                self.intensity_w_per_sr * b.plane_area() * mean
+            }
             None => self.intensity_w_per_sr * self.cone_sr(),
         }
     }
@@ -131,8 +292,7 @@ impl Punctual {
     /// density is [`Punctual::pdf_direction`].
     fn sample_direction(&self, (u1, u2): (f32, f32)) -> Vec3 {
         if let Some(b) = &self.projector {
-            let local = Vec3::new((2.0 * u1 - 1.0) * b.tan_x, (2.0 * u2 - 1.0) * b.tan_y, 1.0);
-            return b.frame.to_world(local.normalize());
+            return b.frame.to_world(b.sample((u1, u2)).normalize());
         }
         let cos_t = 1.0 - u1 * (1.0 - self.cos_cone);
         let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
@@ -144,8 +304,8 @@ impl Punctual {
     fn pdf_direction(&self, dir: Vec3) -> f32 {
         if let Some(b) = &self.projector {
             return b
-                .cos_inside(dir)
-                .map_or(0.0, |c| 1.0 / (b.plane_area() * c * c * c));
+                .inside(dir)
+                .map_or(0.0, |(c, u, v)| b.plane_pdf(u, v) / (c * c * c));
         }
         let inside = self.cos_cone <= -1.0 || self.cone_axis.dot(dir) >= self.cos_cone;
         if inside { 1.0 / self.cone_sr() } else { 0.0 }
@@ -155,9 +315,9 @@ impl Punctual {
     /// use KHR_lights_punctual's recommended smooth falloff between the cone angles.
     pub fn intensity_toward(&self, dir: Vec3) -> f32 {
         if let Some(b) = &self.projector {
-            return b
-                .cos_inside(dir)
-                .map_or(0.0, |c| self.intensity_w_per_sr / (c * c * c));
+            return b.inside(dir).map_or(0.0, |(c, u, v)| {
+                self.intensity_w_per_sr * b.value(u, v) / (c * c * c)
+            });
         }
         match self.spot {
             None => self.intensity_w_per_sr,
@@ -481,6 +641,7 @@ mod tests {
             up: Vec3::Z,
             tan_half_x: 1.0,
             tan_half_y: 0.7,
+            image: None,
         });
         scene.lights = vec![light];
         let lights = Lights::new(&scene, Channel::Gray);
@@ -516,6 +677,63 @@ mod tests {
             sum += f64::from(lights.emission_pdf(0, d));
         }
         let integral = 4.0 * std::f64::consts::PI * sum / n as f64;
+        assert!((integral - 1.0).abs() < 0.01, "{integral}");
+    }
+
+    /// A projector with a 5 x 4 image, dark but for two texels: sampled directions land
+    /// only where the image can be lit, the density integrates to 1 over the sphere, and
+    /// the mean of intensity over density is the projector's power, `I_0` times the
+    /// image's integral over the frustum's cross-section (the mean texel value with
+    /// repeat wrapping, where each texel's bilinear tent integrates to one texel's area).
+    #[test]
+    fn a_projectors_image_is_sampled_where_it_is_lit() {
+        use crate::scene::{ImageWrap, IrradianceImage, Projector};
+        let mut scene = builtin::load("cornell").unwrap();
+        let mut light = scene.lights[0].clone();
+        light.intensity_w_per_sr = [2.0; 3];
+        let mut texels = vec![[0.0f32; 3]; 20];
+        texels[6] = [1.0; 3];
+        texels[13] = [0.25; 3];
+        light.projector = Some(Projector {
+            direction: Vec3::NEG_Y,
+            up: Vec3::Z,
+            tan_half_x: 1.0,
+            tan_half_y: 0.7,
+            image: Some(Arc::new(IrradianceImage {
+                width: 5,
+                height: 4,
+                rgb: texels,
+                wrap: ImageWrap::Repeat,
+            })),
+        });
+        scene.lights = vec![light];
+        let lights = Lights::new(&scene, Channel::Gray);
+        let power = 2.0 * 4.0 * 1.0 * 0.7 * (1.25 / 20.0);
+        let n = 200_000;
+        let mut sum = 0.0f64;
+        for k in 0..n {
+            let u2 = (
+                ((k as f64 + 0.5) / n as f64) as f32,
+                (k as f32 * 0.618_034).fract(),
+            );
+            // None: a direction of the drawn cell where the bilinear image is 0 (no
+            // light, nothing added).
+            if let Some(e) = lights.sample_emission(0.5, u2) {
+                sum += f64::from(e.intensity_w_per_sr / e.pdf);
+            }
+        }
+        let mean = sum / n as f64;
+        assert!((mean - power).abs() < 0.01 * power, "{mean} vs {power}");
+        let n = 800_000;
+        let mut integral = 0.0f64;
+        for k in 0..n {
+            let z = 1.0 - 2.0 * ((k as f64 + 0.5) / n as f64);
+            let phi = 2.0 * std::f64::consts::PI * (k as f64 * 0.618_033_988_749).fract();
+            let r = (1.0 - z * z).sqrt();
+            let d = Vec3::new((r * phi.cos()) as f32, (r * phi.sin()) as f32, z as f32);
+            integral += f64::from(lights.emission_pdf(0, d));
+        }
+        let integral = 4.0 * std::f64::consts::PI * integral / n as f64;
         assert!((integral - 1.0).abs() < 0.01, "{integral}");
     }
 }

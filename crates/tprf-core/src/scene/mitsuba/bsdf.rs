@@ -47,8 +47,8 @@ use super::xml::{Color, Object, err};
 use super::{Builder, MaterialKey, MaterialSlot};
 use crate::budget;
 use crate::scene::{
-    AlphaMode, Material, Microfacet, MicrofacetDistribution, SceneError, SurfaceModel, Texture,
-    TextureRef,
+    AlphaMode, ImageWrap, IrradianceImage, Material, Microfacet, MicrofacetDistribution,
+    SceneError, SurfaceModel, Texture, TextureRef,
 };
 use std::path::Path;
 
@@ -582,6 +582,78 @@ impl Builder<'_> {
     }
 
     /// The scene texture of texture object `k` (converted once) and its `to_uv`.
+    /// The file a `bitmap` texture `o` reads (its `filename`, relative to the XML file
+    /// that names it, then to the scene's).
+    fn bitmap_path(&self, o: &Object) -> Result<std::path::PathBuf, SceneError> {
+        let p = o.prop("filename").ok_or_else(|| {
+            err(
+                &o.loc,
+                "<texture type=\"bitmap\"> needs <string name=\"filename\">",
+            )
+        })?;
+        let name = o.string("filename")?.unwrap_or_default().to_string();
+        let dir = Path::new(&*p.loc.file).parent().unwrap_or(Path::new(""));
+        let main = Path::new(&self.file)
+            .parent()
+            .unwrap_or(Path::new(""))
+            .to_path_buf();
+        Ok(super::xml::resolve_in(dir, &[main], &name))
+    }
+
+    /// A projector's `irradiance` bitmap `k` as linear RGB (Mitsuba's `bitmap`: sRGB
+    /// decoded unless `raw`; a `to_uv` or a filter other than bilinear refused, a wrap
+    /// mode not read: the projector looks up only inside the image).
+    pub(super) fn irradiance_image(&mut self, k: usize) -> Result<IrradianceImage, SceneError> {
+        let o = self.object(k);
+        if o.plugin != "bitmap" {
+            return Err(err(
+                &o.loc,
+                format!(
+                    "{} as a projector's irradiance: tprf projects a bitmap or a constant",
+                    o.describe()
+                ),
+            ));
+        }
+        if o.transform("to_uv")? != glam::DMat4::IDENTITY {
+            return Err(err(
+                &o.loc,
+                format!(
+                    "{}: to_uv on a projector's image is not supported",
+                    o.describe()
+                ),
+            ));
+        }
+        if let Some(f) = o.string("filter_type")?
+            && f != "bilinear"
+        {
+            return Err(err(
+                &o.loc,
+                format!(
+                    "{}: filter_type \"{f}\" on a projector's image is not supported (bilinear is)",
+                    o.describe()
+                ),
+            ));
+        }
+        let wrap = match o.string("wrap_mode")? {
+            None | Some("repeat") => ImageWrap::Repeat,
+            Some("clamp") => ImageWrap::Clamp,
+            Some(w) => {
+                return Err(err(
+                    &o.loc,
+                    format!(
+                        "{}: wrap_mode \"{w}\" on a projector's image is not supported (repeat and clamp are)",
+                        o.describe()
+                    ),
+                ));
+            }
+        };
+        let path = self.bitmap_path(o)?;
+        let raw = o.boolean("raw", false)?;
+        let mut image = decode_linear_rgb(&path, &format!("{} at {}", o.describe(), o.loc), raw)?;
+        image.wrap = wrap;
+        Ok(image)
+    }
+
     fn texture(&mut self, k: usize) -> Result<(u32, Option<glam::DAffine2>), SceneError> {
         let o = self.object(k);
         let m = o.transform("to_uv")?;
@@ -591,19 +663,7 @@ impl Builder<'_> {
         }
         let texture = match o.plugin.as_str() {
             "bitmap" => {
-                let p = o.prop("filename").ok_or_else(|| {
-                    err(
-                        &o.loc,
-                        "<texture type=\"bitmap\"> needs <string name=\"filename\">",
-                    )
-                })?;
-                let name = o.string("filename")?.unwrap_or_default().to_string();
-                let dir = Path::new(&*p.loc.file).parent().unwrap_or(Path::new(""));
-                let main = Path::new(&self.file)
-                    .parent()
-                    .unwrap_or(Path::new(""))
-                    .to_path_buf();
-                let path = super::xml::resolve_in(dir, &[main], &name);
+                let path = self.bitmap_path(o)?;
                 let raw = o.boolean("raw", false)?;
                 if let Some(f) = o.string("filter_type")?
                     && f != "bilinear"
@@ -634,6 +694,16 @@ impl Builder<'_> {
         self.textures.push(texture);
         self.texture_of.insert(k, index);
         Ok((index, to_uv))
+    }
+}
+
+/// 8-bit sRGB to linear [0, 1] (the sRGB transfer function).
+fn from_srgb8(v: u8) -> f32 {
+    let c = v as f32 / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
     }
 }
 
@@ -684,7 +754,9 @@ fn checkerboard(c0: [f64; 3], c1: [f64; 3]) -> Texture {
 /// Decode an image file into an sRGB-encoded RGBA8 [`Texture`]: 8-bit files as stored
 /// (`raw`: their values are linear, encoded to sRGB), 16-bit and floating-point ones
 /// (OpenEXR) from linear values. The decoded size is budgeted before any pixel is read.
-fn decode_bitmap(path: &Path, what: &str, raw: bool) -> Result<Texture, SceneError> {
+/// Read and decode an image file (PNG, JPEG, OpenEXR), its decoded size budgeted before
+/// any pixel is read.
+fn decode_image(path: &Path, what: &str) -> Result<image::DynamicImage, SceneError> {
     use image::{DynamicImage, ImageDecoder};
     let bytes = budget::read_file(path, what).map_err(|e| match e {
         budget::BudgetError::Io { path, source } => SceneError::Io {
@@ -711,12 +783,56 @@ fn decode_bitmap(path: &Path, what: &str, raw: bool) -> Result<Texture, SceneErr
     budget::check(
         decoder
             .total_bytes()
-            .saturating_add(pixels.saturating_mul(8)),
+            .saturating_add(pixels.saturating_mul(16)),
         what,
         format_args!("decoding {w} x {h} pixels"),
     )?;
-    let image =
-        DynamicImage::from_decoder(decoder).map_err(|e| bad(format!("cannot decode: {e}")))?;
+    DynamicImage::from_decoder(decoder).map_err(|e| bad(format!("cannot decode: {e}")))
+}
+
+/// Decode an image file into linear RGB values, as Mitsuba's `bitmap` texture reads
+/// them: 8-bit files decoded from sRGB (`raw`: their values `v / 255` as they are),
+/// 16-bit and floating-point ones (OpenEXR) as stored, unclamped.
+pub(super) fn decode_linear_rgb(
+    path: &Path,
+    what: &str,
+    raw: bool,
+) -> Result<IrradianceImage, SceneError> {
+    use image::DynamicImage;
+    let image = decode_image(path, what)?;
+    let (width, height) = (image.width(), image.height());
+    let eight_bit = matches!(
+        image,
+        DynamicImage::ImageLuma8(_)
+            | DynamicImage::ImageLumaA8(_)
+            | DynamicImage::ImageRgb8(_)
+            | DynamicImage::ImageRgba8(_)
+    );
+    let rgb = if eight_bit && !raw {
+        image
+            .into_rgba8()
+            .pixels()
+            .map(|p| [0, 1, 2].map(|i| from_srgb8(p.0[i])))
+            .collect()
+    } else {
+        image
+            .into_rgba32f()
+            .pixels()
+            .map(|p| [p.0[0], p.0[1], p.0[2]])
+            .collect()
+    };
+    Ok(IrradianceImage {
+        width,
+        height,
+        rgb,
+        wrap: ImageWrap::Repeat,
+    })
+}
+
+fn decode_bitmap(path: &Path, what: &str, raw: bool) -> Result<Texture, SceneError> {
+    use image::DynamicImage;
+    let image = decode_image(path, what)?;
+    let (w, h) = (image.width(), image.height());
     let eight_bit = matches!(
         image,
         DynamicImage::ImageLuma8(_)

@@ -23,12 +23,14 @@
 //! - the same integrator watched by a perspective camera (no capture meter): a scene for
 //!   `tprf render`, its legs left out as the integrator's (`settle_camera_nlos`).
 
+use super::xml::Color;
 use super::xml::{Object, err};
 use super::{Builder, SceneError};
 use crate::scene::{
     FileSetting, NlosFileSettings, Projector, PulseOrigin, PunctualLight, TimeOrigin,
 };
 use glam::DVec3;
+use std::sync::Arc;
 
 /// Where a property of `o` was read, or the object whose default it is.
 fn from(o: &Object, name: &str) -> String {
@@ -44,7 +46,7 @@ fn from(o: &Object, name: &str) -> String {
 /// the surface's curvature). mitransient's `transient_nlos_path` joins paths to the
 /// spot as to a point of unit area, so its cube is tprf's divided by this.
 pub(super) fn spot_area_m2(scene: &crate::scene::Scene, light: &PunctualLight) -> Option<f64> {
-    let p = light.projector?;
+    let p = light.projector.as_ref()?;
     let (o, d) = (light.position.as_dvec3(), p.direction.as_dvec3());
     let mut best: Option<(f64, DVec3)> = None;
     for t in &scene.triangles {
@@ -537,7 +539,16 @@ impl Builder<'_> {
         if !(p.is_finite() && z.is_finite()) {
             return Err(bad_frame());
         }
-        let irradiance = self.quantity(o, "irradiance")?;
+        let image = match o.color("irradiance", None)? {
+            Some(Color::Texture(t)) if self.object(t).plugin == "bitmap" => {
+                Some(Arc::new(self.irradiance_image(t)?))
+            }
+            _ => None,
+        };
+        let irradiance = match &image {
+            Some(_) => [1.0; 3],
+            None => self.quantity(o, "irradiance")?,
+        };
         let scale = o.float("scale", 1.0)?;
         if !(scale.is_finite() && scale >= 0.0) {
             return Err(err(
@@ -545,21 +556,13 @@ impl Builder<'_> {
                 format!("{}: scale {scale} must be finite and >= 0", o.describe()),
             ));
         }
-        // A constant irradiance is a 1 x 1 image: a square frustum (every fov_axis but
-        // the diagonal's gives the same angle).
-        let fov = o.float("fov", 0.0)?;
-        if !(fov > 0.0 && fov < 180.0) {
-            return Err(err(
-                &o.loc,
-                format!("{}: fov {fov} degrees must be in (0, 180)", o.describe()),
-            ));
-        }
-        let mut tan_half = (0.5 * fov).to_radians().tan();
-        if o.string("fov_axis")?
-            .is_some_and(|a| a.eq_ignore_ascii_case("diagonal"))
-        {
-            tan_half /= 2f64.sqrt();
-        }
+        // The image's aspect shapes the frustum (a constant irradiance is a 1 x 1 image:
+        // square); `fov` along `fov_axis` (or `focal_length`) as a perspective camera's.
+        let (fov_rad, axis) = self.fov(o)?;
+        let aspect = image
+            .as_ref()
+            .map_or(1.0, |im| im.width as f32 / im.height as f32);
+        let (tan_half_x, tan_half_y) = axis.tan_halves((0.5 * fov_rad as f32).tan(), aspect);
         let intensity = irradiance.map(|e| (std::f64::consts::PI * e * scale) as f32);
         self.lights.push(PunctualLight {
             name: o.id.clone().unwrap_or_else(|| "projector".into()),
@@ -569,8 +572,9 @@ impl Builder<'_> {
             projector: Some(Projector {
                 direction: z.as_vec3(),
                 up: y.as_vec3(),
-                tan_half_x: tan_half as f32,
-                tan_half_y: tan_half as f32,
+                tan_half_x,
+                tan_half_y,
+                image,
             }),
         });
         self.projector_origin = Some(FileSetting {

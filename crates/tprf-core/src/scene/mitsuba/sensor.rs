@@ -201,7 +201,7 @@ impl Builder<'_> {
     /// `parse_fov` reads them: `fov` along `fov_axis` (x by default), or `focal_length`
     /// (50mm by default) on a 36 x 24 mm film's diagonal. The other axis follows from
     /// whatever film is rendered (`Camera::tan_half_fov`), as in Mitsuba.
-    fn fov(&self, o: &Object) -> Result<(f64, FovAxis), SceneError> {
+    pub(super) fn fov(&self, o: &Object) -> Result<(f64, FovAxis), SceneError> {
         let (fov_deg, axis) = match (o.prop("fov").is_some(), o.prop("focal_length").is_some()) {
             (true, true) => {
                 return Err(err(
