@@ -1383,3 +1383,56 @@ fn a_projectors_bitmap_sets_its_frustum_and_irradiance() {
         .to_string();
     assert!(e.contains("checkerboard") && e.contains("projector"), "{e}");
 }
+
+/// Mitsuba's one-sided BSDFs are black from behind: a camera and a point light above a
+/// rectangle facing away from them see nothing of a bare `diffuse` (nor `roughplastic`,
+/// `conductor`), and of a `twosided` one exactly what the rectangle shows from its
+/// front: rho I / (pi h^2) cos^4-weighted, the same on both.
+#[test]
+fn one_sided_bsdfs_are_black_from_behind() {
+    let dir = tmp("one-sided");
+    let steady = |name: &str, flip: bool, bsdf: &str| {
+        let rotate = if flip {
+            r#"<rotate x="1" angle="180"/>"#
+        } else {
+            ""
+        };
+        let xml = write(
+            &dir,
+            name,
+            &format!(
+                r#"<scene version="3.0.0">
+    <sensor type="perspective">
+        <float name="fov" value="30"/>
+        <transform name="to_world"><lookat origin="0, 0, 2" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="4"/><integer name="height" value="4"/></film>
+    </sensor>
+    <emitter type="point"><point name="position" x="0" y="0" z="2"/><rgb name="intensity" value="1"/></emitter>
+    <shape type="rectangle">
+        <transform name="to_world">{rotate}<scale value="3"/></transform>
+        {bsdf}
+    </shape>
+</scene>"#
+            ),
+        );
+        let s = scene::load(&xml).unwrap();
+        common::steady_pixels(s, 4, 4, 16, 1).iter().sum::<f64>()
+    };
+    let diffuse = r#"<bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf>"#;
+    let two = format!(r#"<bsdf type="twosided">{diffuse}</bsdf>"#);
+    let front = steady("front.xml", false, diffuse);
+    assert!(front > 0.0);
+    assert_eq!(steady("back.xml", true, diffuse), 0.0);
+    let two_back = steady("two-back.xml", true, &two);
+    assert!(
+        (two_back - front).abs() < 1e-3 * front,
+        "{two_back} vs {front}"
+    );
+    for bsdf in [
+        r#"<bsdf type="roughplastic"><float name="alpha" value="0.2"/></bsdf>"#,
+        r#"<bsdf type="roughconductor"/>"#,
+    ] {
+        assert_eq!(steady("back-other.xml", true, bsdf), 0.0, "{bsdf}");
+        assert!(steady("front-other.xml", false, bsdf) > 0.0, "{bsdf}");
+    }
+}

@@ -590,6 +590,9 @@ impl Writer {
                 }),
             );
         }
+        if m.one_sided {
+            tprf.insert("one_sided".into(), serde_json::Value::Bool(true));
+        }
         let material_extras = if tprf.is_empty() {
             None
         } else {

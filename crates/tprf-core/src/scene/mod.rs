@@ -109,6 +109,12 @@ pub struct Material {
     /// direction (a Lambertian emitter).
     pub emission_falloff: Option<AngularFalloff>,
     pub double_sided: bool,
+    /// The back face (the side the normal looks away from) absorbs all light, as
+    /// Mitsuba's one-sided BSDFs (`diffuse`, `plastic`, `conductor` and their rough
+    /// kinds outside a `twosided`) are black from behind. False (glTF's materials,
+    /// whatever their `doubleSided`, which is about culling): both faces scatter alike.
+    /// In glTF extras: `{"tprf": {"one_sided": true}}`.
+    pub one_sided: bool,
     /// The medium filling the closed mesh this material bounds (its inside: the side
     /// the front faces look away from). With `transmission > 0` the surface refracts as
     /// a dielectric of index `ior` and the medium's `n` is `ior`; with `transmission` 0
@@ -185,6 +191,7 @@ impl Default for Material {
             emissive_texture: None,
             emission_falloff: None,
             double_sided: true,
+            one_sided: false,
             medium: None,
             model: SurfaceModel::MetallicRoughness,
         }

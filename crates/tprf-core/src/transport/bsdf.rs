@@ -125,6 +125,8 @@ enum Model {
     MetallicRoughness(MetallicRoughness),
     Plastic(Plastic),
     Conductor(Conductor),
+    /// Absorbs everything: the back of a one-sided material.
+    Black,
 }
 
 /// A material's model reduced to one band, with what does not vary over the surface
@@ -241,6 +243,10 @@ impl Bsdf {
         Bsdf(Model::MetallicRoughness(MetallicRoughness::new(p, eta)))
     }
 
+    /// A surface that absorbs all light (the back face of a one-sided material, as
+    /// Mitsuba's one-sided BSDFs are black from behind): no lobe, nothing sampled.
+    pub const BLACK: Bsdf = Bsdf(Model::Black);
+
     /// The BSDF of `model` with parameters `p` (textures applied), for `wo` on the front
     /// side (`front`) or the back.
     #[inline]
@@ -260,7 +266,7 @@ impl Bsdf {
         match &self.0 {
             Model::MetallicRoughness(b) => b.single_lobe(),
             Model::Plastic(_) => false,
-            Model::Conductor(_) => true,
+            Model::Conductor(_) | Model::Black => true,
         }
     }
 
@@ -272,6 +278,7 @@ impl Bsdf {
             Model::MetallicRoughness(b) => b.has_smooth_lobe(),
             Model::Plastic(b) => b.has_smooth_lobe(),
             Model::Conductor(b) => b.has_smooth_lobe(),
+            Model::Black => false,
         }
     }
 
@@ -283,6 +290,7 @@ impl Bsdf {
             Model::MetallicRoughness(b) => b.eval(wo, wi),
             Model::Plastic(b) => b.eval(wo, wi),
             Model::Conductor(b) => b.eval(wo, wi),
+            Model::Black => (0.0, 0.0),
         }
     }
 
@@ -294,6 +302,7 @@ impl Bsdf {
             Model::MetallicRoughness(b) => b.sample(wo, u_lobe, u),
             Model::Plastic(b) => b.sample(wo, u_lobe, u),
             Model::Conductor(b) => b.sample(wo, u),
+            Model::Black => None,
         }
     }
 }

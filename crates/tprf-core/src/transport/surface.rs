@@ -101,6 +101,8 @@ struct BandMaterial {
     /// The untextured BSDF seen from the front (eta = 1 / ior) and from the back (ior).
     bsdf_front: Bsdf,
     bsdf_back: Bsdf,
+    /// The back face absorbs all light ([`crate::scene::Material::one_sided`]).
+    one_sided: bool,
     /// Emitted radiance without texture, this band, W / (m^2 sr), at least 0.
     emission: f32,
     /// The emission's angular profile (an angular area light), if any.
@@ -165,6 +167,7 @@ impl BandMaterial {
             model,
             bsdf_front: Bsdf::build(&model, &params, true),
             bsdf_back: Bsdf::build(&model, &params, false),
+            one_sided: m.one_sided,
             emission: if m.is_emissive() {
                 channel.pick(m.emissive).max(0.0)
             } else {
@@ -354,15 +357,21 @@ impl Surfaces {
         let front = ng.dot(dir) < 0.0;
         let n_face = if front { ng } else { -ng };
         let mut n_shading = n_face;
+        // Seen from behind, as Mitsuba's shading frame decides for a one-sided BSDF: by
+        // the interpolated normal where the mesh has one, else by the winding.
+        let mut behind = !front;
         if rec.material_and_flags & HAS_VERTEX_NORMALS != 0
             && let Some(ns) = self.scene.attrs.get(tri as usize).and_then(|a| a.normals)
         {
             let n = (ns[0] * (1.0 - u - v) + ns[1] * u + ns[2] * v).normalize_or_zero();
             if n != Vec3::ZERO {
                 n_shading = if n.dot(n_face) < 0.0 { -n } else { n };
+                behind = n.dot(dir) > 0.0;
             }
         }
-        let bsdf = if bm.textured {
+        let bsdf = if bm.one_sided && behind {
+            Bsdf::BLACK
+        } else if bm.textured {
             let p = self.textured_params(tri, u, v, bm);
             Bsdf::build(&bm.model, &p, front)
         } else if front {

@@ -48,6 +48,7 @@ impl Builder<'_> {
         let strength = m.emissive_strength().unwrap_or(1.0);
         let medium = self.medium_of(m)?;
         let emission_falloff = self.emission_falloff_of(m)?;
+        let one_sided = self.one_sided_of(m)?;
         Ok(Material {
             name: name_or_index(m.name(), "materials", m.index().unwrap_or_default()),
             base_color: pbr.base_color_factor(),
@@ -73,9 +74,26 @@ impl Builder<'_> {
             emissive_texture: self.texture(m.emissive_texture(), Encoding::Srgb)?,
             emission_falloff,
             double_sided: m.double_sided(),
+            one_sided,
             medium,
             model: crate::scene::SurfaceModel::MetallicRoughness,
         })
+    }
+
+    /// Whether the material's back face absorbs all light, from its extras
+    /// `{"tprf": {"one_sided": true}}` (a Mitsuba one-sided BSDF saved as glTF).
+    fn one_sided_of(&mut self, m: &gltf::Material) -> Result<bool, SceneError> {
+        let what = format!("materials[{}]", m.index().unwrap_or_default());
+        let extras = tprf_extras(m.extras(), self.file, &what)?;
+        match extras.as_ref().and_then(|t| t.get("one_sided")) {
+            None => Ok(false),
+            Some(v) => v.as_bool().ok_or_else(|| {
+                invalid(
+                    self.file,
+                    format!("{what} extras tprf.one_sided = {v}: true or false"),
+                )
+            }),
+        }
     }
 
     /// An emissive material's angular profile, from its extras

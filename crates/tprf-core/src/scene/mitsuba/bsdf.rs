@@ -17,14 +17,14 @@
 //!   of its variants, the grey band their luminance as its mono variants), Beckmann (the
 //!   default) or GGX of the given `alpha`, `specular_reflectance`; `material="none"` (the
 //!   default) a perfect mirror;
-//! - `twosided` around an exact BSDF; `null`: no surface (coverage 0).
+//! - `twosided` around an exact BSDF; `null`: no surface (coverage 0);
+//! - one-sided BSDFs (`diffuse`, `plastic`, `conductor` and their rough kinds outside a
+//!   `twosided`) black from behind, as Mitsuba's (`Material::one_sided`).
 //!
 //! Sampling differs from Mitsuba's where that changes only the noise: microfacet normals
 //! are drawn from `D cos` (Mitsuba: the visible normals, `sample_visible`).
 //!
 //! Approximate (each noted where a scene uses it):
-//! - every one-sided BSDF is rendered two-sided: tprf's BSDFs scatter on both sides,
-//!   Mitsuba's are black from behind (a scene that shows a back face differs);
 //! - an anisotropic `alpha_u`, `alpha_v` is averaged (tprf's distributions are
 //!   isotropic); a textured alpha is refused;
 //! - `roughdielectric`: a smooth dielectric;
@@ -395,6 +395,7 @@ impl Builder<'_> {
         };
         match o.plugin.as_str() {
             "diffuse" => {
+                m.one_sided = true;
                 let (c, t) = self.base(o, "reflectance", 0.5)?;
                 m.base_color = [c[0] as f32, c[1] as f32, c[2] as f32, 1.0];
                 texture = t;
@@ -436,6 +437,9 @@ impl Builder<'_> {
                     _ => {}
                 }
                 let mut c = self.convert(first)?;
+                if o.plugin == "twosided" {
+                    c.material.one_sided = false;
+                }
                 if o.plugin == "mask" {
                     let opacity = self.constant(o, "opacity", 0.5)?;
                     let a = (opacity[0] + opacity[1] + opacity[2]) / 3.0;
@@ -486,6 +490,7 @@ impl Builder<'_> {
                 );
             }
             "conductor" | "roughconductor" => {
+                m.one_sided = true;
                 let material = o.string("material")?.map(str::to_string);
                 let explicit = o.prop("eta").is_some() || o.prop("k").is_some();
                 let (eta, k) = match (material.as_deref(), explicit) {
@@ -533,6 +538,7 @@ impl Builder<'_> {
                 };
             }
             "plastic" | "roughplastic" => {
+                m.one_sided = true;
                 let (c, t) = self.base(o, "diffuse_reflectance", 0.5)?;
                 m.base_color = [c[0] as f32, c[1] as f32, c[2] as f32, 1.0];
                 texture = t;
