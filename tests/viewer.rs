@@ -2482,7 +2482,7 @@ fn time_and_pulse_origins_do_not_outlive_their_scene() {
         .build_eframe(move |cc| {
             TprfApp::with_settings(
                 cc,
-                small_settings("builtin:cornell", 8, 8, 0),
+                small_settings("builtin:cornell", 16, 8, 0),
                 Start::Scene(path),
             )
         });
@@ -2495,20 +2495,67 @@ fn time_and_pulse_origins_do_not_outlive_their_scene() {
     let m = h.state().messages().join("\n");
     assert!(m.contains("time origin first-hit"), "{m}");
 
-    let settings = ViewerSettings {
-        time_origin: ClockOrigin::FirstHit,
-        pulse_origin: PulseOrigin::FirstHit,
-        ..small_settings("builtin:cornell", 8, 8, 0)
-    };
-    let mut h = Harness::builder()
-        .with_size(Vec2::new(1280.0, 800.0))
-        .build_eframe(move |cc| {
-            TprfApp::with_settings(cc, settings, Start::Scene("builtin:cornell".into()))
-        });
+    // Another scene starts from the user's own settings, not the file's (the film, the
+    // clock), and says so; the file's messages go with it.
+    h.get_by_label("builtin:cornell").click();
     h.run_steps(2);
-    let r = h.state().request().expect("a render");
+    let r = h.state().request().expect("a render of the built-in scene");
     assert_eq!(
         (r.time_origin, r.pulse_origin),
         (ClockOrigin::Pinhole, PulseOrigin::Light)
     );
+    assert_eq!((r.width, r.height), (16, 16), "the user's own film");
+    let m = h.state().messages().join("\n");
+    assert!(!m.contains("from the scene file"), "{m}");
+    assert!(
+        m.contains("your own width, height") && m.contains("time origin again"),
+        "{m}"
+    );
+    // A value the user changed while on the file's scene stays theirs.
+    let mut h = Harness::builder()
+        .with_size(Vec2::new(1280.0, 800.0))
+        .build_eframe(move |cc| {
+            TprfApp::with_settings(
+                cc,
+                small_settings("builtin:cornell", 16, 8, 0),
+                Start::Scene(xml.display().to_string()),
+            )
+        });
+    h.run_steps(2);
+    h.state_mut().pending.width = 24;
+    h.get_by_label("builtin:cornell").click();
+    h.run_steps(2);
+    let r = h.state().request().expect("a render");
+    assert_eq!((r.width, r.height), (24, 16));
+}
+
+/// A failed scene's message does not outlive it: the next scene opens without it.
+#[test]
+fn a_failed_scenes_message_goes_with_it() {
+    let mut h = Harness::builder()
+        .with_size(Vec2::new(1280.0, 800.0))
+        .build_eframe(move |cc| {
+            TprfApp::with_settings(
+                cc,
+                small_settings("builtin:cornell", 8, 8, 0),
+                Start::Scene("/nonexistent/missing.glb".into()),
+            )
+        });
+    for _ in 0..50 {
+        h.run_steps(2);
+        if h.state()
+            .messages()
+            .iter()
+            .any(|m| m.contains("missing.glb"))
+        {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let m = h.state().messages().join("\n");
+    assert!(m.contains("missing.glb"), "the failure is said: {m}");
+    h.get_by_label("builtin:cornell").click();
+    h.run_steps(4);
+    let m = h.state().messages().join("\n");
+    assert!(!m.contains("missing.glb"), "{m}");
 }

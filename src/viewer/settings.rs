@@ -71,6 +71,75 @@ pub struct ViewerSettings {
     pub phasor: Option<PhasorBand>,
     /// The frequency the phasor tab shows, an index into the band's frequencies.
     pub phasor_index: usize,
+    /// What the current scene's file set, with the user's own values it replaced
+    /// (`None`: the scene's file set nothing): a file's film belongs to its scene.
+    pub scene_file: Option<SceneFileFields>,
+}
+
+/// The render settings a scene file may set ([`tprf_core::scene::FileSettings`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FileFields {
+    pub width: usize,
+    pub height: usize,
+    pub bins: usize,
+    pub max_bounces: u32,
+    pub min_bounces: u32,
+    pub time_origin: TimeOrigin,
+    pub pulse_origin: PulseOrigin,
+}
+
+/// The fields a scene's file set (`file`) and the user's own values before it (`own`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SceneFileFields {
+    pub own: FileFields,
+    pub file: FileFields,
+}
+
+impl FileFields {
+    pub fn of(s: &ViewerSettings) -> FileFields {
+        FileFields {
+            width: s.width,
+            height: s.height,
+            bins: s.bins,
+            max_bounces: s.max_bounces,
+            min_bounces: s.min_bounces,
+            time_origin: s.time_origin,
+            pulse_origin: s.pulse_origin,
+        }
+    }
+
+    pub fn put(self, s: &mut ViewerSettings) {
+        s.width = self.width;
+        s.height = self.height;
+        s.bins = self.bins;
+        s.max_bounces = self.max_bounces;
+        s.min_bounces = self.min_bounces;
+        s.time_origin = self.time_origin;
+        s.pulse_origin = self.pulse_origin;
+    }
+
+    /// These values with each one a scene's file set, and the user has not changed
+    /// since, back to the user's own (`set.own`); the names of those put back.
+    pub fn leaving(self, set: &SceneFileFields) -> (FileFields, Vec<&'static str>) {
+        let mut out = self;
+        let mut back = Vec::new();
+        macro_rules! field {
+            ($f:ident, $name:literal) => {
+                if self.$f == set.file.$f && set.own.$f != set.file.$f {
+                    out.$f = set.own.$f;
+                    back.push($name);
+                }
+            };
+        }
+        field!(width, "width");
+        field!(height, "height");
+        field!(bins, "bins");
+        field!(max_bounces, "max bounces");
+        field!(min_bounces, "min bounces");
+        field!(time_origin, "time origin");
+        field!(pulse_origin, "pulse origin");
+        (out, back)
+    }
 }
 
 /// What the steady block of the transient view shows.
@@ -130,6 +199,7 @@ impl Default for ViewerSettings {
             medium: None,
             phasor: None,
             phasor_index: 0,
+            scene_file: None,
         }
     }
 }
@@ -221,6 +291,7 @@ impl ViewerSettings {
             sky_radiance_w_m2_sr: other.sky_radiance_w_m2_sr,
             camera: other.camera,
             medium: other.medium.clone(),
+            scene_file: other.scene_file,
             ..self.clone()
         }
     }

@@ -9,7 +9,6 @@ use tprf_core::export::phasor::PhasorMetadata;
 use tprf_core::export::{self, CubeMetadata};
 use tprf_core::film::FilmSnapshot;
 use tprf_core::request::worker::{RenderWorker, WorkerState, WorkerStatus};
-use tprf_core::scene::{PulseOrigin, TimeOrigin};
 use tprf_core::transport::ambient::AmbientImage;
 
 /// Where the film comes from.
@@ -176,6 +175,7 @@ impl TprfApp {
     /// Show the cube in `dir` (or the NLOS capture there) instead of rendering; an
     /// unreadable one is a message.
     pub(super) fn open_cube(&mut self, dir: &Path) {
+        self.messages.clear();
         if super::nlos::is_capture(dir) {
             return self.open_nlos(dir);
         }
@@ -222,6 +222,7 @@ impl TprfApp {
     /// Show the NLOS capture at `path` (a folder of `tprf nlos`, or a tal HDF5 file); an
     /// unreadable one is a message.
     pub(super) fn open_nlos(&mut self, path: &Path) {
+        self.messages.clear();
         let ctx = self.ctx.clone();
         match super::nlos::NlosView::open(path, move || ctx.request_repaint()) {
             Ok(view) => {
@@ -243,10 +244,21 @@ impl TprfApp {
     /// takes and says so. Its sample count is not taken: the window keeps rendering
     /// until the spp target set here.
     pub(super) fn open_scene(&mut self, scene: String) {
+        // Messages belong to the scene and action that made them.
+        self.messages.clear();
         // A time window belongs to the scene it was set for (as a camera pose does):
         // a new scene starts automatic, or with its file's.
         self.pending.t0.clear();
         self.pending.dt.clear();
+        // So does what the last scene's file set: the user's own values come back
+        // where the user left the file's.
+        let mut back = Vec::new();
+        if let Some(set) = self.pending.scene_file.take() {
+            let (own, names) = super::settings::FileFields::of(&self.pending).leaving(&set);
+            own.put(&mut self.pending);
+            back = names;
+        }
+        let own = super::settings::FileFields::of(&self.pending);
         // Errors in the file are the render's to report (the worker loads it).
         if let Ok(file) = tprf_core::scene::file_settings(&scene) {
             let p = &mut self.pending;
@@ -264,16 +276,14 @@ impl TprfApp {
                 p.bins = size(b.value);
                 taken.push(format!("bins {}", b.value));
             }
-            // A clock's origins belong to the scene that set them (an NLOS camera view's
-            // first hits): a scene that sets none starts from the pinhole and the light.
-            p.time_origin = file.time_origin.as_ref().map_or(TimeOrigin::Pinhole, |o| {
+            if let Some(o) = &file.time_origin {
+                p.time_origin = o.value;
                 taken.push(format!("time origin {}", o.value));
-                o.value
-            });
-            p.pulse_origin = file.pulse_origin.as_ref().map_or(PulseOrigin::Light, |o| {
+            }
+            if let Some(o) = &file.pulse_origin {
+                p.pulse_origin = o.value;
                 taken.push(format!("pulse origin {}", o.value));
-                o.value
-            });
+            }
             if let Some(t0) = &file.t0_opl_m_for(p.time_origin) {
                 p.t0 = format!("{}m", t0.value);
                 taken.push(format!("t0 {} m of optical path", t0.value));
@@ -286,11 +296,10 @@ impl TprfApp {
                 p.max_bounces = m.value;
                 taken.push(format!("max bounces {}", m.value));
             }
-            // Like the origins, a bounce floor belongs to the scene that set it.
-            p.min_bounces = file.min_bounces.as_ref().map_or(0, |m| {
+            if let Some(m) = &file.min_bounces {
+                p.min_bounces = m.value;
                 taken.push(format!("min bounces {}", m.value));
-                m.value
-            });
+            }
             if let (Some(mean), Some(sigma)) = (&file.phasor_wl_mean_m, &file.phasor_wl_sigma_m) {
                 // A view setting: the phasor tab's band, at once.
                 let band = tprf_core::export::phasor::PhasorBand {
@@ -305,6 +314,13 @@ impl TprfApp {
                     mean.value, sigma.value
                 ));
             }
+            let file_fields = super::settings::FileFields::of(&self.pending);
+            if file_fields != own {
+                self.pending.scene_file = Some(super::settings::SceneFileFields {
+                    own,
+                    file: file_fields,
+                });
+            }
             if !taken.is_empty() {
                 let spp = file
                     .spp
@@ -314,6 +330,21 @@ impl TprfApp {
                 self.messages
                     .push(format!("from the scene file: {}{spp}", taken.join(", ")));
             }
+        }
+        let back: Vec<_> =
+            back.into_iter()
+                .filter(|name| {
+                    // Said only where this scene's file did not set it again.
+                    !self.messages.iter().any(|m| {
+                        m.contains(&format!(": {name} ")) || m.contains(&format!(", {name} "))
+                    })
+                })
+                .collect();
+        if !back.is_empty() {
+            self.messages.push(format!(
+                "your own {} again (the last scene's file had set them)",
+                back.join(", ")
+            ));
         }
         self.pending.scene = scene;
         // A pose and a fog belong to the scene they were made in.
