@@ -175,81 +175,24 @@ impl RequestArgs {
     }
 
     /// The request, each option not given taken from `file` (a scene file's settings:
-    /// see `tprf_core::scene::load_with_settings`), else the request's default; with what
-    /// came from the file, in words.
+    /// see `tprf_core::scene::load_with_settings`) where it has it
+    /// ([`RenderRequest::with_file_defaults`]), else the request's default; with what
+    /// came from the file, in words, options named as flags.
     pub fn request_with(
         &self,
         file: &tprf_core::scene::FileSettings,
     ) -> (RenderRequest, Vec<String>) {
-        use tprf_core::scene::FileSetting;
         let default = RenderRequest::default();
-        let mut used = Vec::new();
-        let mut pick =
-            |flag: &str, given: Option<u64>, f: &Option<FileSetting<u64>>| match (given, f) {
-                (Some(v), _) => Some(v),
-                (None, Some(s)) => {
-                    used.push(format!("{flag} {} ({})", s.value, s.from));
-                    Some(s.value)
-                }
-                (None, None) => None,
-            };
-        // A file's value too large for the field saturates: the request's check refuses it by name.
-        let width = pick("--width", self.width.map(|v| v as u64), &file.width);
-        let height = pick("--height", self.height.map(|v| v as u64), &file.height);
-        let bins = pick("--bins", self.bins.map(|v| v as u64), &file.bins);
-        let spp = match self.seconds {
-            Some(_) => self.spp,
-            None => pick("--spp", self.spp, &file.spp),
-        };
-        let max_bounces = pick(
-            "--max-bounces",
-            self.max_bounces.map(u64::from),
-            &file.max_bounces.as_ref().map(|s| FileSetting {
-                value: u64::from(s.value),
-                from: s.from.clone(),
-            }),
-        );
-        let time_origin = match (self.time_origin, &file.time_origin) {
-            (Some(o), _) => o,
-            (None, Some(s)) => {
-                used.push(format!("--time-origin {} ({})", s.value, s.from));
-                s.value
-            }
-            (None, None) => default.time_origin,
-        };
-        let pulse_origin = match (self.pulse_origin, &file.pulse_origin) {
-            (Some(o), _) => o,
-            (None, Some(s)) => {
-                used.push(format!("--pulse-origin {} ({})", s.value, s.from));
-                s.value
-            }
-            (None, None) => default.pulse_origin,
-        };
-        let mut opl =
-            |flag: &str, given: Option<f64>, f: &Option<FileSetting<f64>>| match (given, f) {
-                (Some(v), _) => Some(v),
-                (None, Some(s)) => {
-                    used.push(format!("{flag} {}m of optical path ({})", s.value, s.from));
-                    Some(s.value / tprf_core::units::C_M_PER_S)
-                }
-                (None, None) => None,
-            };
-        let t0_s = opl("--t0", self.t0, &file.t0_opl_m_for(time_origin));
-        let dt_s = opl("--dt", self.dt, &file.dt_opl_m);
-        let size =
-            |v: Option<u64>, d: usize| v.map_or(d, |v| usize::try_from(v).unwrap_or(usize::MAX));
-        let request = RenderRequest {
+        let mut request = RenderRequest {
             scene: self.scene.clone(),
-            width: size(width, default.width),
-            height: size(height, default.height),
-            bins: size(bins, default.bins),
-            t0_s,
-            dt_s,
-            spp,
+            width: self.width.unwrap_or(default.width),
+            height: self.height.unwrap_or(default.height),
+            bins: self.bins.unwrap_or(default.bins),
+            t0_s: self.t0,
+            dt_s: self.dt,
+            spp: self.spp,
             seconds: self.seconds,
-            max_bounces: max_bounces.map_or(default.max_bounces, |v| {
-                u32::try_from(v).unwrap_or(u32::MAX)
-            }),
+            max_bounces: self.max_bounces.unwrap_or(default.max_bounces),
             bounces_separate: self.bounces_separate,
             seed: self.seed,
             channel: self.channel,
@@ -261,38 +204,33 @@ impl RequestArgs {
             look_at_m: self.look_at,
             up: self.up,
             fov_deg: self.fov,
-            time_origin,
-            pulse_origin,
+            time_origin: self.time_origin.unwrap_or(default.time_origin),
+            pulse_origin: self.pulse_origin.unwrap_or(default.pulse_origin),
             threads: self.threads,
             format: self.format,
             frames: self.frames,
             shard: self.shard.clone(),
             band_rows: self.band_rows,
             max_memory_bytes: self.max_memory,
-            phasor: self.phasor.or_else(|| phasor_of(file, &mut used)),
-            ..RenderRequest::default()
+            phasor: self.phasor,
+            ..default
         };
-        (request, used)
+        let given = |key: &str| match key {
+            "width" => self.width.is_some(),
+            "height" => self.height.is_some(),
+            "bins" => self.bins.is_some(),
+            "t0" => self.t0.is_some(),
+            "dt" => self.dt.is_some(),
+            "spp" => self.spp.is_some(),
+            "max_bounces" => self.max_bounces.is_some(),
+            "time_origin" => self.time_origin.is_some(),
+            "pulse_origin" => self.pulse_origin.is_some(),
+            "phasor" => self.phasor.is_some(),
+            _ => true,
+        };
+        let notes = request.with_file_defaults(file, given);
+        (request, notes.iter().map(|n| n.text_with(flag)).collect())
     }
-}
-
-/// The band of a file's `phasor_hdr_film` (its `wl_mean` and `wl_sigma`), said in `used`.
-fn phasor_of(
-    file: &tprf_core::scene::FileSettings,
-    used: &mut Vec<String>,
-) -> Option<tprf_core::export::phasor::PhasorBand> {
-    let (mean, sigma) = (
-        file.phasor_wl_mean_m.as_ref()?,
-        file.phasor_wl_sigma_m.as_ref()?,
-    );
-    used.push(format!(
-        "--phasor {}:{} (wl_mean {}, wl_sigma {})",
-        mean.value, sigma.value, mean.from, sigma.from
-    ));
-    Some(tprf_core::export::phasor::PhasorBand {
-        wl_mean_m: mean.value,
-        wl_sigma_m: sigma.value,
-    })
 }
 
 /// A request field's option on the command line: `--band-rows` for `band_rows`, `SCENE`

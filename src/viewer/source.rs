@@ -9,7 +9,7 @@ use tprf_core::export::phasor::PhasorMetadata;
 use tprf_core::export::{self, CubeMetadata};
 use tprf_core::film::FilmSnapshot;
 use tprf_core::request::worker::{RenderWorker, WorkerState, WorkerStatus};
-use tprf_core::scene::{PulseOrigin, TimeOrigin};
+use tprf_core::request::{RenderRequest, time_field_text};
 use tprf_core::transport::ambient::AmbientImage;
 
 /// Where the film comes from.
@@ -250,62 +250,39 @@ impl TprfApp {
         // Errors in the file are the render's to report (the worker loads it).
         if let Ok(file) = tprf_core::scene::file_settings(&scene) {
             let p = &mut self.pending;
-            let size = |v: u64| usize::try_from(v).unwrap_or(usize::MAX);
-            let mut taken = Vec::new();
-            if let Some(w) = &file.width {
-                p.width = size(w.value);
-                taken.push(format!("width {}", w.value));
-            }
-            if let Some(h) = &file.height {
-                p.height = size(h.value);
-                taken.push(format!("height {}", h.value));
-            }
-            if let Some(b) = &file.bins {
-                p.bins = size(b.value);
-                taken.push(format!("bins {}", b.value));
-            }
-            // A clock's origins belong to the scene that set them (an NLOS camera view's
-            // first hits): a scene that sets none starts from the pinhole and the light.
-            p.time_origin = file.time_origin.as_ref().map_or(TimeOrigin::Pinhole, |o| {
-                taken.push(format!("time origin {}", o.value));
-                o.value
-            });
-            p.pulse_origin = file.pulse_origin.as_ref().map_or(PulseOrigin::Light, |o| {
-                taken.push(format!("pulse origin {}", o.value));
-                o.value
-            });
-            if let Some(t0) = &file.t0_opl_m_for(p.time_origin) {
-                p.t0 = format!("{}m", t0.value);
-                taken.push(format!("t0 {} m of optical path", t0.value));
-            }
-            if let Some(dt) = &file.dt_opl_m {
-                p.dt = format!("{}m", dt.value);
-                taken.push(format!("dt {} m of optical path", dt.value));
-            }
-            if let Some(m) = &file.max_bounces {
-                p.max_bounces = m.value;
-                taken.push(format!("max bounces {}", m.value));
-            }
-            if let (Some(mean), Some(sigma)) = (&file.phasor_wl_mean_m, &file.phasor_wl_sigma_m) {
+            // The file's settings replace the last scene's (a clock's origins belong to
+            // the scene that set them: one that sets none starts from the pinhole and
+            // the light); the window renders on, so no sample count is taken.
+            let mut r = RenderRequest {
+                width: p.width,
+                height: p.height,
+                bins: p.bins,
+                max_bounces: p.max_bounces,
+                until_stopped: true,
+                ..RenderRequest::new(scene.clone())
+            };
+            let notes = r.with_file_defaults(&file, |_| false);
+            p.width = r.width;
+            p.height = r.height;
+            p.bins = r.bins;
+            p.max_bounces = r.max_bounces;
+            p.time_origin = r.time_origin;
+            p.pulse_origin = r.pulse_origin;
+            p.t0 = r.t0_s.map_or_else(String::new, time_field_text);
+            p.dt = r.dt_s.map_or_else(String::new, time_field_text);
+            if let Some(band) = r.phasor {
                 // A view setting: the phasor tab's band, at once.
-                let band = tprf_core::export::phasor::PhasorBand {
-                    wl_mean_m: mean.value,
-                    wl_sigma_m: sigma.value,
-                };
                 p.phasor = Some(band);
                 self.settings.phasor = Some(band);
                 self.phasor = Default::default();
-                taken.push(format!(
-                    "phasor band {}:{} m (the Phasor tab)",
-                    mean.value, sigma.value
-                ));
             }
-            if !taken.is_empty() {
+            if !notes.is_empty() {
                 let spp = file
                     .spp
                     .as_ref()
                     .map(|s| format!(" (its {} spp not taken: the window renders on)", s.value))
                     .unwrap_or_default();
+                let taken: Vec<String> = notes.iter().map(ToString::to_string).collect();
                 self.messages
                     .push(format!("from the scene file: {}{spp}", taken.join(", ")));
             }
