@@ -27,6 +27,7 @@
 mod camera;
 mod file_defaults;
 mod folder;
+mod keys;
 mod memory;
 mod session;
 pub mod worker;
@@ -36,6 +37,7 @@ pub use file_defaults::FileNote;
 pub use folder::{
     Observer, Rendered, Written, cube_metadata, render, render_to_folder, write_folder,
 };
+pub use keys::serde_keys;
 pub use memory::{MemoryLimit, MemoryRefusal, MemoryStop};
 pub use session::Session;
 
@@ -46,7 +48,7 @@ use crate::film::{FilmError, MAX_BINS, TimeFilter};
 use crate::scene::{Channel, Medium, PulseOrigin, SceneError, TimeOrigin};
 use crate::transport::progressive::{PassSize, Schedule};
 use crate::transport::{RenderSettings, WindowError, WindowRequest};
-use serde::{Deserialize, Deserializer, Serialize, Serializer};
+use serde::{Deserialize, Deserializer, Serialize};
 use std::fmt;
 
 /// Samples per pixel of a render given no other way to stop (no `spp`, `seconds` or
@@ -175,7 +177,7 @@ pub struct RenderRequest {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub threads: Option<usize>,
     /// How the cube is written: `npy`, `zarr` or `auto` (npy up to 4 GiB).
-    #[serde(deserialize_with = "from_text", serialize_with = "to_text")]
+    #[serde(deserialize_with = "from_text")]
     pub format: CubeFormat,
     /// Also write `frames/0000.png` ... (one per bin, one exposure).
     pub frames: bool,
@@ -463,14 +465,6 @@ where
 {
     let text = String::deserialize(d)?;
     text.parse().map_err(serde::de::Error::custom)
-}
-
-fn to_text<S: Serializer>(format: &CubeFormat, s: S) -> Result<S::Ok, S::Error> {
-    s.serialize_str(match format {
-        CubeFormat::Auto => "auto",
-        CubeFormat::Npy => "npy",
-        CubeFormat::Zarr => "zarr",
-    })
 }
 
 impl RenderRequest {
