@@ -673,3 +673,57 @@ fn sensor_with_a_spad_writes_histograms_that_follow_the_first_photon_law() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(dir.join("builtin/spad_depth_coates.png").exists());
 }
+
+/// `--until-stopped` renders until Ctrl-C (it has no other end), then ends the pass
+/// running and writes the passes made, with exit status 0.
+#[cfg(unix)]
+#[test]
+fn until_stopped_renders_until_ctrl_c_and_writes_what_it_made() {
+    use std::io::{BufRead, BufReader};
+    let dir = tempdir("until-stopped");
+    let out = dir.join("out");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_tprf"))
+        .args([
+            "render",
+            "builtin:cornell",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--bins",
+            "8",
+            "--threads",
+            "1",
+            "--until-stopped",
+            "--out",
+        ])
+        .arg(&out)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut err = BufReader::new(child.stderr.take().unwrap());
+    let mut said = String::new();
+    while !said.contains("rendering until Ctrl-C") {
+        let mut line = String::new();
+        assert!(err.read_line(&mut line).unwrap() > 0, "ended early: {said}");
+        said += &line;
+    }
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    // SAFETY: a signal to the child this test started.
+    assert_eq!(unsafe { libc::kill(child.id() as i32, libc::SIGINT) }, 0);
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut err, &mut rest).unwrap();
+    let status = child.wait().unwrap();
+    assert!(status.success(), "{status}: {said}{rest}");
+    let meta: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("tprf.json")).unwrap()).unwrap();
+    let (spp, passes) = (
+        meta["spp"].as_u64().unwrap(),
+        meta["passes"].as_u64().unwrap(),
+    );
+    assert!(passes >= 1 && spp >= passes, "{spp} spp in {passes} passes");
+    assert!(
+        out.join("tprf.npy").is_file() && rest.contains("wrote"),
+        "{rest}"
+    );
+}

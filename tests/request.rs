@@ -226,3 +226,86 @@ fn a_bad_field_is_named_where_it_was_given() {
     );
     assert!(!out.exists());
 }
+
+/// A small Mitsuba scene whose film, sampler and integrator say every setting a file
+/// can: 6 x 4 pixels, 20 bins from 9 m of optical path counted from a near plane 0.5 m
+/// in front of the pinhole, bins of 0.1 m, 2 samples, depth 3 (2 scattering events).
+const FILM_XML: &str = r#"<scene version="3.0.0">
+    <integrator type="transient_path"><integer name="max_depth" value="3"/></integrator>
+    <sensor type="perspective">
+        <float name="fov" value="50"/>
+        <float name="near_clip" value="0.5"/>
+        <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <sampler type="independent"><integer name="sample_count" value="2"/></sampler>
+        <film type="transient_hdr_film">
+            <integer name="width" value="6"/>
+            <integer name="height" value="4"/>
+            <integer name="temporal_bins" value="20"/>
+            <float name="start_opl" value="9"/>
+            <float name="bin_width_opl" value="0.1"/>
+        </film>
+    </sensor>
+    <emitter type="point"><point name="position" x="0" y="0" z="5"/><rgb name="intensity" value="1"/></emitter>
+    <shape type="rectangle"><bsdf type="diffuse"/></shape>
+</scene>
+"#;
+
+/// An XML scene's film reaches the request through `tprf render` and through a batch
+/// job alike: each setting the file has fills the option or key not given (the window
+/// from start_opl + near_clip, times as optical path over c, max_depth less the camera
+/// segment), one given wins, and the batch's cube is `tprf render`'s with the same
+/// options, bit for bit.
+#[test]
+fn an_xml_scenes_film_reaches_the_request_from_each_front_end() {
+    let dir = tempdir("xml-film");
+    let xml = dir.join("film.xml");
+    std::fs::write(&xml, FILM_XML).unwrap();
+    let c = 299_792_458.0;
+    let check = |out: &std::path::Path, width: u64| {
+        let m = json(&out.join("tprf.json"));
+        assert_eq!(m["width"], width);
+        assert_eq!(
+            (m["height"].as_u64(), m["bins"].as_u64()),
+            (Some(4), Some(20))
+        );
+        assert_eq!(
+            (m["spp"].as_u64(), m["max_bounces"].as_u64()),
+            (Some(2), Some(2))
+        );
+        assert_eq!(m["t0_s"].as_f64(), Some((9.0 + 0.5) / c));
+        assert_eq!(m["dt_s"].as_f64(), Some(0.1 / c));
+    };
+    let cli = dir.join("cli");
+    let o = tprf(&[
+        "render",
+        xml.to_str().unwrap(),
+        "--out",
+        cli.to_str().unwrap(),
+        "--width",
+        "5",
+    ]);
+    let e = stderr(&o);
+    assert!(o.status.success(), "{e}");
+    assert!(e.contains("from the scene file: --height 4 ("), "{e}");
+    assert!(!e.contains("--width 6"), "{e}");
+    check(&cli, 5);
+    let manifest = dir.join("jobs.toml");
+    std::fs::write(
+        &manifest,
+        "[[job]]\nscene = \"film.xml\"\nout = \"batch\"\nwidth = 5\n",
+    )
+    .unwrap();
+    let o = tprf(&["batch", manifest.to_str().unwrap()]);
+    let e = stderr(&o);
+    assert!(o.status.success(), "{e}");
+    assert!(e.contains("from the scene file: bins 20 ("), "{e}");
+    check(&dir.join("batch"), 5);
+    assert_eq!(
+        std::fs::read(dir.join("batch/tprf.npy")).unwrap(),
+        std::fs::read(cli.join("tprf.npy")).unwrap(),
+        "the batch's cube is not tprf render's"
+    );
+    // The job is complete as the file made it: a second run skips it.
+    let o = tprf(&["batch", manifest.to_str().unwrap()]);
+    assert!(stderr(&o).contains("complete, skipped"), "{}", stderr(&o));
+}

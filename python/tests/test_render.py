@@ -53,6 +53,49 @@ def test_render_is_tprf_render_bit_for_bit(tprf_bin, tmp_path):
             assert cube.metadata.get(key) == meta.get(key), key
 
 
+# A Mitsuba scene whose film says every setting a file can: 6 x 4 pixels, 20 bins from
+# 9 m of optical path counted from a near plane 0.5 m in front of the pinhole, bins of
+# 0.1 m, 2 samples, depth 3 (2 scattering events).
+FILM_XML = """<scene version="3.0.0">
+    <integrator type="transient_path"><integer name="max_depth" value="3"/></integrator>
+    <sensor type="perspective">
+        <float name="fov" value="50"/>
+        <float name="near_clip" value="0.5"/>
+        <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <sampler type="independent"><integer name="sample_count" value="2"/></sampler>
+        <film type="transient_hdr_film">
+            <integer name="width" value="6"/>
+            <integer name="height" value="4"/>
+            <integer name="temporal_bins" value="20"/>
+            <float name="start_opl" value="9"/>
+            <float name="bin_width_opl" value="0.1"/>
+        </film>
+    </sensor>
+    <emitter type="point"><point name="position" x="0" y="0" z="5"/><rgb name="intensity" value="1"/></emitter>
+    <shape type="rectangle"><bsdf type="diffuse"/></shape>
+</scene>
+"""
+
+
+def test_an_xml_scenes_film_stands_in_for_the_settings_not_given(tprf_bin, tmp_path, capsys):
+    xml = tmp_path / "film.xml"
+    xml.write_text(FILM_XML)
+    c = 299_792_458.0
+    cube = tprf.render(xml, width=5)
+    said = capsys.readouterr().err
+    assert cube.data.shape == (4, 5, 20)
+    m = cube.metadata
+    assert (m["spp"], m["max_bounces"]) == (2, 2)
+    assert m["t0_s"] == (9.0 + 0.5) / c and m["dt_s"] == 0.1 / c
+    assert "from the scene file: height 4 (" in said and "width 6" not in said
+    # tprf render with the same option: the same cube, bit for bit.
+    cli_render(tprf_bin, tmp_path / "cli", "--width", "5", scene=str(xml))
+    assert np.array_equal(cube.data, np.load(tmp_path / "cli" / "tprf.npy"))
+    # A setting given wins; another end of the render keeps the file's sample count out.
+    r = tprf.Renderer(xml, bins=10)
+    assert (r.request["bins"], r.request["width"], r.request.get("spp")) == (10, 6, None)
+
+
 def test_save_writes_what_tprf_render_writes(tprf_bin, tmp_path):
     cli_render(tprf_bin, tmp_path / "cli", *FLAGS, "--sky", "0.25")
     cube = tprf.render("builtin:cornell", sky=0.25, progress=False, **SETTINGS)

@@ -99,7 +99,8 @@ class _Progress:
             sys.stderr.flush()
 
 
-def render(scene: Union[str, PathLike], *, width: int, height: int,
+def render(scene: Union[str, PathLike], *, width: Optional[int] = None,
+           height: Optional[int] = None,
            spp: Optional[int] = None, seconds: Optional[float] = None,
            bins: Optional[int] = None, t0: Optional[Time] = None, dt: Optional[Time] = None,
            seed: int = 0, uniform: bool = False, max_bounces: Optional[int] = None,
@@ -109,11 +110,14 @@ def render(scene: Union[str, PathLike], *, width: int, height: int,
     transient cube in memory: the same passes, numbers and metadata as ``tprf render``
     with the same settings and seed (``tprf.npy`` bit for bit).
 
-    width, height: pixels. spp: samples per pixel to stop at; seconds: wall time after
-    which the render stops at the end of its pass (with neither, nor ``error_target``,
-    64 spp). bins: time bins (default 256); t0: start of the window, dt: bin width, each
-    seconds or text with a unit (``"50ps"``, ``"1.5m"`` of optical path); unset, a pilot
-    render chooses them. uniform: every pixel draws every sample (default: adaptive).
+    width, height: pixels (default 256). spp: samples per pixel to stop at; seconds:
+    wall time after which the render stops at the end of its pass (with neither, nor
+    ``error_target``, 64 spp). bins: time bins (default 256); t0: start of the window,
+    dt: bin width, each seconds or text with a unit (``"50ps"``, ``"1.5m"`` of optical
+    path); unset, a pilot render chooses them. A Mitsuba scene file's film (size,
+    ``temporal_bins``, ``start_opl``, ``bin_width_opl``), ``sample_count`` and
+    ``max_depth`` stand in for the settings not given, as for ``tprf render``; with
+    ``progress``, what was taken is said on stderr. uniform: every pixel draws every sample (default: adaptive).
     max_bounces: scattering events per path (default 1024). bounces_separate: K > 0 adds
     layers for light seen directly, after 1..K events and more (``Cube.bounces``).
     threads: worker threads (default one per core; the cube does not depend on it).
@@ -137,9 +141,14 @@ def render(scene: Union[str, PathLike], *, width: int, height: int,
     fields = dict(width=width, height=height, spp=spp, seconds=seconds, bins=bins, t0=t0,
                   dt=dt, seed=seed, uniform=uniform, max_bounces=max_bounces,
                   bounces_separate=bounces_separate, threads=threads, **options)
-    request = _request_json(scene, fields)
-    total = spp if spp is not None else (
-        None if seconds is not None or options.get("error_target") is not None else _DEFAULT_SPP)
+    request, from_file = _tprf.resolve_request(_request_json(scene, fields))
+    if progress:
+        for line in from_file:
+            sys.stderr.write(f"tprf: from the scene file: {line}\n")
+    resolved = json.loads(request)
+    total = resolved.get("spp")
+    if total is None and seconds is None and resolved.get("error_target") is None:
+        total = _DEFAULT_SPP
     bar = _Progress(total, seconds, progress)
     try:
         cube = _tprf.render(request, bar)
@@ -163,7 +172,8 @@ class Renderer:
     ...     print(cube.metadata["spp"], cube.error_estimate)
     """
 
-    def __init__(self, scene: Union[str, PathLike], *, width: int, height: int,
+    def __init__(self, scene: Union[str, PathLike], *, width: Optional[int] = None,
+                 height: Optional[int] = None,
                  spp: Optional[int] = None, error_target: Optional[float] = None,
                  bins: Optional[int] = None, t0: Optional[Time] = None,
                  dt: Optional[Time] = None, seed: int = 0, uniform: bool = False,

@@ -1,7 +1,7 @@
 """Type stubs of tprf's native module."""
 
 from os import PathLike
-from typing import Any, Callable, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -64,6 +64,10 @@ Progress = Callable[[int, int, Optional[float], float], None]
 def render(request_json: str, progress: Optional[Progress] = None) -> Cube:
     """Render a request (JSON, tprf render's option names) in memory; tprf.render builds
     it from keyword arguments."""
+
+def resolve_request(request_json: str) -> Tuple[str, List[str]]:
+    """The request (JSON) with a Mitsuba scene file's settings in the keys it does not
+    give, validated, as JSON; and what came from the file, one line each."""
 
 class Renderer:
     """A progressive render of a request (JSON); tprf.Renderer wraps it."""

@@ -2,6 +2,7 @@
 //! arguments of a render request and its errors named by option.
 
 use anyhow::{Context, Result};
+use serde::Serialize;
 use tprf_core::request::{RenderRequest, RequestError};
 use tprf_core::units::parse_time_s;
 
@@ -35,29 +36,46 @@ pub fn check_out(flag: &str, out: &std::path::Path, inputs: &[&std::path::Path])
     })
 }
 
-/// The arguments every command that renders a scene shares (`tprf render`, and its
-/// shards): one [`RenderRequest`] field each, flattened into the command's own
-/// arguments (`#[command(flatten)]`), with the request's defaults.
-#[derive(clap::Args, Debug, Clone)]
+/// The options of a render (`tprf render`, and its shards): one per [`RenderRequest`]
+/// field, each named as the field is serialised (the test `every_request_key_is_a_flag`
+/// holds the two lists equal). An option not given is left out of the request
+/// ([`RequestArgs::given`]) and takes the scene file's setting or the request's default,
+/// which `--help` shows from [`RenderRequest::default`] ([`with_request_defaults`]).
+#[derive(clap::Args, Debug, Clone, Serialize)]
 pub struct RequestArgs {
     /// A .gltf/.glb path, a Mitsuba 3 / mitransient .xml scene, or builtin:NAME
     /// (builtin:cornell, builtin:canopy). An XML scene's film (size, temporal_bins,
     /// start_opl, bin_width_opl), sample_count and max_depth stand in for the options
     /// below that are not given.
     pub scene: String,
-    /// Image width in pixels (default 256).
+    /// Image width in pixels.
     #[arg(long)]
     pub width: Option<usize>,
-    /// Image height in pixels (default 256).
+    /// Image height in pixels.
     #[arg(long)]
     pub height: Option<usize>,
-    /// Samples per pixel (default 64 unless --seconds is given).
+    /// Samples per pixel (64 unless --seconds, --error-target or --until-stopped ends
+    /// the render).
     #[arg(long, conflicts_with = "seconds")]
     pub spp: Option<u64>,
     /// Render for this many seconds of wall time instead of a fixed spp.
-    #[arg(long)]
+    #[arg(long, value_parser = finite)]
     pub seconds: Option<f64>,
-    /// Number of time bins (default 256).
+    /// Stop once the film's relative error estimate (from two independent halves) is at
+    /// or below this: 0.01 for 1 %.
+    #[arg(long, value_name = "FRACTION", value_parser = finite)]
+    pub error_target: Option<f64>,
+    /// Render until Ctrl-C (without --spp, --seconds or --error-target, no 64 spp
+    /// target): the first Ctrl-C ends the render at the end of its pass and writes it.
+    #[arg(long)]
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub until_stopped: bool,
+    /// Passes of about this many seconds (growing to 4 times that over the first 6 s),
+    /// their sizes following the machine's speed; unset: doubling passes (1, 1, 2, 2,
+    /// 4, ... samples per pixel), the same cube on any machine.
+    #[arg(long, value_name = "SECONDS", value_parser = finite)]
+    pub pass_seconds: Option<f64>,
+    /// Number of time bins.
     #[arg(long)]
     pub bins: Option<usize>,
     /// Start of the time window, with a unit: s ms us ns ps fs, or m cm mm km of optical
@@ -68,41 +86,64 @@ pub struct RequestArgs {
     /// render's energy, divided into --bins).
     #[arg(long, value_parser = time_value)]
     pub dt: Option<f64>,
-    /// Largest number of scattering events on a path (Russian roulette ends most earlier;
-    /// default 1024).
+    /// Largest number of scattering events on a path (Russian roulette ends most earlier).
     #[arg(long)]
     pub max_bounces: Option<u32>,
-    /// Fewest scattering events of a recorded path (default 0: every path; 2 leaves out
-    /// direct reflection, 3 an NLOS view's wall-to-wall light). Paths are traced as
-    /// before; only what reaches the cube changes.
+    /// Fewest scattering events of a recorded path (2 leaves out direct reflection, 3 an
+    /// NLOS view's wall-to-wall light). Paths are traced as before; only what reaches
+    /// the cube changes.
     #[arg(long)]
     pub min_bounces: Option<u32>,
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
+    /// Seed of the samples: the cube is a function of the request, seed included.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Next-event estimation, true or false: each scattering vertex joined to a light.
+    #[arg(long, value_name = "BOOL")]
+    pub nee: Option<bool>,
+    /// Scattering events before Russian roulette starts.
+    #[arg(long, value_name = "N")]
+    pub rr_start: Option<u32>,
+    /// Smallest survival probability of Russian roulette, in [0, 1].
+    #[arg(long, value_name = "P", value_parser = finite_f32)]
+    pub rr_floor: Option<f32>,
+    /// Branches of each camera sample at its first scattering vertex, 1..=64 (default:
+    /// chosen per render by a pilot).
+    #[arg(long, value_name = "N")]
+    pub splits: Option<u32>,
+    /// Join eye vertices to light vertices, true or false (default: chosen per render by
+    /// a pilot).
+    #[arg(long, value_name = "BOOL")]
+    pub light_vertex: Option<bool>,
+    /// The time filter: `box` (a bin holds what arrived in it) or `tent` (an arrival
+    /// shared between the two nearest bin centres).
+    #[arg(long, value_parser = text_value::<tprf_core::film::TimeFilter>)]
+    pub filter: Option<tprf_core::film::TimeFilter>,
     /// Worker threads (default: all cores). The output does not depend on it.
     #[arg(long)]
     pub threads: Option<usize>,
     /// Also write frames/0000.png ... (one per bin, shared exposure).
     #[arg(long)]
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub frames: bool,
     /// Per-bounce layers: bounce 0 (emitters seen directly), 1..K and the rest, in
     /// tprf_bounces.npy [K+2, H, W, T] (or the array "bounces" of tprf.zarr).
-    #[arg(long, default_value_t = 0)]
-    pub bounces_separate: u32,
+    #[arg(long)]
+    pub bounces_separate: Option<u32>,
     /// How the cube is written: `npy` (tprf.npy, one dense float32 array), `zarr`
     /// (tprf.zarr, chunked and compressed, only where light arrived), or `auto`: npy
     /// up to 4 GiB, zarr above.
-    #[arg(long, default_value = "auto", value_parser = parse_format)]
-    pub format: tprf_core::export::CubeFormat,
+    #[arg(long, value_parser = parse_format)]
+    pub format: Option<tprf_core::export::CubeFormat>,
     /// The spectral band the one-channel cube records: red, green, blue or gray.
-    #[arg(long, default_value_t = tprf_core::scene::Channel::Gray, value_parser = parse_channel)]
-    pub channel: tprf_core::scene::Channel,
+    #[arg(long, value_parser = parse_channel)]
+    pub channel: Option<tprf_core::scene::Channel>,
     /// Every pixel draws every pass's samples, for the same noise across the image.
     /// Default: from the fourth sample per pixel on, where the noise is uneven enough for
     /// it to pay, pixels draw samples in proportion to their measured noise over the
     /// square root of their cost, for the least cube error per second (unbiased either
     /// way).
     #[arg(long)]
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub uniform: bool,
     /// Render only shard K of N (0-based, "K/N"): the image's bands of --band-rows rows,
     /// band b going to shard b mod N, with the same passes and window as the whole
@@ -114,11 +155,11 @@ pub struct RequestArgs {
     /// Rows per band of --shard. Bands of whole Zarr chunks (32 rows, the default) let
     /// `tprf merge` link every chunk file; thinner bands share chunks, which the merge
     /// decodes and encodes again.
-    #[arg(long, default_value_t = tprf_core::export::shard::DEFAULT_BAND_ROWS, requires = "shard")]
-    pub band_rows: usize,
+    #[arg(long, requires = "shard")]
+    pub band_rows: Option<usize>,
     /// A constant sky of this radiance (W m^-2 sr^-1) in the ambient light group: not
     /// pulsed, rendered once into ambient.npy beside the cube.
-    #[arg(long)]
+    #[arg(long, value_parser = finite)]
     pub sky: Option<f64>,
     /// Samples per pixel of the ambient image, when the scene has ambient light (a sun,
     /// a sky, lamps tagged ambient). Default: --spp, or 64.
@@ -141,19 +182,19 @@ pub struct RequestArgs {
     #[arg(long, value_name = "X,Y,Z", value_parser = vec3_value, allow_hyphen_values = true)]
     pub up: Option<[f64; 3]>,
     /// The camera's vertical field of view, degrees (default: the scene camera's).
-    #[arg(long, value_name = "DEG")]
+    #[arg(long, value_name = "DEG", value_parser = finite)]
     pub fov: Option<f64>,
-    /// Where arrival times start: `pinhole` (the time a real camera sees; the default),
-    /// `near-plane` (from the camera's near clip plane, as mitransient counts: its cube
-    /// bin for bin) or `first-hit` (the camera's leg left out, each pixel's clock
-    /// starting at the first surface it sees: mitransient's camera_unwarp). An XML
-    /// scene's camera_unwarp stands in when it is not given.
+    /// Where arrival times start: `pinhole` (the time a real camera sees), `near-plane`
+    /// (from the camera's near clip plane, as mitransient counts: its cube bin for bin)
+    /// or `first-hit` (the camera's leg left out, each pixel's clock starting at the
+    /// first surface it sees: mitransient's camera_unwarp). An XML scene's
+    /// camera_unwarp stands in when it is not given.
     #[arg(long, value_name = "ORIGIN", value_parser = parse_time_origin)]
     pub time_origin: Option<tprf_core::scene::TimeOrigin>,
-    /// When the pulse starts: `light` (as it leaves the light; the default) or
-    /// `first-hit` (at the first surface it lights: the light's leg left out, as an NLOS
-    /// laser's spot firing at t = 0; mitransient's account_first_and_last_bounces
-    /// false). An XML scene's NLOS integrator stands in when it is not given.
+    /// When the pulse starts: `light` (as it leaves the light) or `first-hit` (at the
+    /// first surface it lights: the light's leg left out, as an NLOS laser's spot firing
+    /// at t = 0; mitransient's account_first_and_last_bounces false). An XML scene's
+    /// NLOS integrator stands in when it is not given.
     #[arg(long, value_name = "ORIGIN", value_parser = parse_pulse_origin)]
     pub pulse_origin: Option<tprf_core::scene::PulseOrigin>,
     /// The most memory the film may take, with a unit (`2GiB`, `512MiB`, `300MB`; no
@@ -173,141 +214,72 @@ pub struct RequestArgs {
 }
 
 impl RequestArgs {
-    /// The request these arguments describe (not yet validated).
-    pub fn request(&self) -> RenderRequest {
+    /// The options given, keyed as the request's fields (an option not given is left
+    /// out).
+    fn given(&self) -> Result<serde_json::Map<String, serde_json::Value>> {
+        match serde_json::to_value(self).context("the options as a render request")? {
+            serde_json::Value::Object(mut map) => {
+                map.retain(|_, v| !v.is_null());
+                Ok(map)
+            }
+            v => anyhow::bail!("the options read as {v}, not as a render request"),
+        }
+    }
+
+    /// The request these arguments describe (not yet validated): each option given, the
+    /// request's default for the others.
+    pub fn request(&self) -> Result<RenderRequest> {
         self.request_with(&tprf_core::scene::FileSettings::default())
-            .0
+            .map(|(r, _)| r)
     }
 
     /// The request, each option not given taken from `file` (a scene file's settings:
-    /// see `tprf_core::scene::load_with_settings`), else the request's default; with what
-    /// came from the file, in words.
+    /// see `tprf_core::scene::load_with_settings`) where it has it
+    /// ([`RenderRequest::with_file_defaults`]), else the request's default; with what
+    /// came from the file, in words, options named as flags.
     pub fn request_with(
         &self,
         file: &tprf_core::scene::FileSettings,
-    ) -> (RenderRequest, Vec<String>) {
-        use tprf_core::scene::FileSetting;
-        let default = RenderRequest::default();
-        let mut used = Vec::new();
-        let mut pick =
-            |flag: &str, given: Option<u64>, f: &Option<FileSetting<u64>>| match (given, f) {
-                (Some(v), _) => Some(v),
-                (None, Some(s)) => {
-                    used.push(format!("{flag} {} ({})", s.value, s.from));
-                    Some(s.value)
-                }
-                (None, None) => None,
-            };
-        // A file's value too large for the field saturates: the request's check refuses it by name.
-        let width = pick("--width", self.width.map(|v| v as u64), &file.width);
-        let height = pick("--height", self.height.map(|v| v as u64), &file.height);
-        let bins = pick("--bins", self.bins.map(|v| v as u64), &file.bins);
-        let spp = match self.seconds {
-            Some(_) => self.spp,
-            None => pick("--spp", self.spp, &file.spp),
-        };
-        let max_bounces = pick(
-            "--max-bounces",
-            self.max_bounces.map(u64::from),
-            &file.max_bounces.as_ref().map(|s| FileSetting {
-                value: u64::from(s.value),
-                from: s.from.clone(),
-            }),
-        );
-        let min_bounces = pick(
-            "--min-bounces",
-            self.min_bounces.map(u64::from),
-            &file.min_bounces.as_ref().map(|s| FileSetting {
-                value: u64::from(s.value),
-                from: s.from.clone(),
-            }),
-        );
-        let time_origin = match (self.time_origin, &file.time_origin) {
-            (Some(o), _) => o,
-            (None, Some(s)) => {
-                used.push(format!("--time-origin {} ({})", s.value, s.from));
-                s.value
-            }
-            (None, None) => default.time_origin,
-        };
-        let pulse_origin = match (self.pulse_origin, &file.pulse_origin) {
-            (Some(o), _) => o,
-            (None, Some(s)) => {
-                used.push(format!("--pulse-origin {} ({})", s.value, s.from));
-                s.value
-            }
-            (None, None) => default.pulse_origin,
-        };
-        let mut opl =
-            |flag: &str, given: Option<f64>, f: &Option<FileSetting<f64>>| match (given, f) {
-                (Some(v), _) => Some(v),
-                (None, Some(s)) => {
-                    used.push(format!("{flag} {}m of optical path ({})", s.value, s.from));
-                    Some(s.value / tprf_core::units::C_M_PER_S)
-                }
-                (None, None) => None,
-            };
-        let t0_s = opl("--t0", self.t0, &file.t0_opl_m_for(time_origin));
-        let dt_s = opl("--dt", self.dt, &file.dt_opl_m);
-        let size =
-            |v: Option<u64>, d: usize| v.map_or(d, |v| usize::try_from(v).unwrap_or(usize::MAX));
-        let request = RenderRequest {
-            scene: self.scene.clone(),
-            width: size(width, default.width),
-            height: size(height, default.height),
-            bins: size(bins, default.bins),
-            t0_s,
-            dt_s,
-            spp,
-            seconds: self.seconds,
-            max_bounces: max_bounces.map_or(default.max_bounces, |v| {
-                u32::try_from(v).unwrap_or(u32::MAX)
-            }),
-            min_bounces: min_bounces.map_or(default.min_bounces, |v| {
-                u32::try_from(v).unwrap_or(u32::MAX)
-            }),
-            bounces_separate: self.bounces_separate,
-            seed: self.seed,
-            channel: self.channel,
-            uniform: self.uniform,
-            sky_radiance_w_m2_sr: self.sky,
-            ambient_spp: self.ambient_spp,
-            medium: self.medium.clone(),
-            camera_position_m: self.camera_position,
-            look_at_m: self.look_at,
-            up: self.up,
-            fov_deg: self.fov,
-            time_origin,
-            pulse_origin,
-            threads: self.threads,
-            format: self.format,
-            frames: self.frames,
-            shard: self.shard.clone(),
-            band_rows: self.band_rows,
-            max_memory_bytes: self.max_memory,
-            phasor: self.phasor.or_else(|| phasor_of(file, &mut used)),
-            ..RenderRequest::default()
-        };
-        (request, used)
+    ) -> Result<(RenderRequest, Vec<String>)> {
+        let given = self.given()?;
+        let mut request: RenderRequest = serde_json::from_value(given.clone().into())
+            .context("the options as a render request")?;
+        let notes = request.with_file_defaults(file, |key| given.contains_key(key));
+        Ok((request, notes.iter().map(|n| n.text_with(flag)).collect()))
     }
 }
 
-/// The band of a file's `phasor_hdr_film` (its `wl_mean` and `wl_sigma`), said in `used`.
-fn phasor_of(
-    file: &tprf_core::scene::FileSettings,
-    used: &mut Vec<String>,
-) -> Option<tprf_core::export::phasor::PhasorBand> {
-    let (mean, sigma) = (
-        file.phasor_wl_mean_m.as_ref()?,
-        file.phasor_wl_sigma_m.as_ref()?,
-    );
-    used.push(format!(
-        "--phasor {}:{} (wl_mean {}, wl_sigma {})",
-        mean.value, sigma.value, mean.from, sigma.from
-    ));
-    Some(tprf_core::export::phasor::PhasorBand {
-        wl_mean_m: mean.value,
-        wl_sigma_m: sigma.value,
+/// `command` (the `tprf` command) with `tprf render`'s options showing their defaults
+/// as [`RenderRequest::default`] serialises them (`[default: 256]`), so that no option
+/// restates one.
+pub fn with_request_defaults(command: clap::Command) -> clap::Command {
+    let defaults = match serde_json::to_value(RenderRequest::default()) {
+        Ok(serde_json::Value::Object(map)) => map,
+        _ => return command,
+    };
+    command.mut_subcommand("render", |render| {
+        let ids: Vec<String> = render
+            .get_arguments()
+            .map(|a| a.get_id().to_string())
+            .collect();
+        ids.into_iter().fold(render, |render, id| {
+            let shown = match defaults.get(&id) {
+                Some(serde_json::Value::String(s)) if id != "scene" => s.clone(),
+                Some(v @ (serde_json::Value::Number(_) | serde_json::Value::Bool(_))) => {
+                    v.to_string()
+                }
+                _ => return render,
+            };
+            render.mut_arg(id, |arg| {
+                let help = arg.get_help().map(ToString::to_string).unwrap_or_default();
+                let long = arg.get_long_help().map(ToString::to_string);
+                let arg = arg.help(format!("{help} [default: {shown}]"));
+                match long {
+                    Some(long) => arg.long_help(format!("{long}\n\n[default: {shown}]")),
+                    None => arg,
+                }
+            })
+        })
     })
 }
 
@@ -339,6 +311,24 @@ fn time_value(text: &str) -> Result<f64, String> {
     parse_time_s(text)
 }
 
+/// A finite number: a request travels as JSON, which has no NaN or infinity (the
+/// request's own check then says what range the option takes).
+fn finite(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        Ok(v) => Err(format!("{v} is not a finite number")),
+        Err(e) => Err(e.to_string()),
+    }
+}
+
+fn finite_f32(text: &str) -> Result<f32, String> {
+    match text.trim().parse::<f32>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        Ok(v) => Err(format!("{v} is not a finite number")),
+        Err(e) => Err(e.to_string()),
+    }
+}
+
 /// `--max-memory`: a size with a unit, in bytes.
 pub fn bytes_value(text: &str) -> Result<u64, String> {
     tprf_core::budget::parse_bytes(text)
@@ -360,6 +350,12 @@ fn vec3_value(text: &str) -> Result<[f64; 3], String> {
     }
 }
 
+/// A value given as the text its type is serialised as (`box`, `tent`).
+fn text_value<T: serde::de::DeserializeOwned>(text: &str) -> Result<T, String> {
+    T::deserialize(serde::de::value::StrDeserializer::<serde::de::value::Error>::new(text.trim()))
+        .map_err(|e| e.to_string())
+}
+
 fn parse_format(s: &str) -> Result<tprf_core::export::CubeFormat, String> {
     s.parse()
 }
@@ -377,4 +373,150 @@ fn parse_pulse_origin(s: &str) -> Result<tprf_core::scene::PulseOrigin, String> 
 fn parse_channel(s: &str) -> Result<tprf_core::scene::Channel, String> {
     s.parse()
         .map_err(|e: tprf_core::scene::UnknownChannel| e.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::{Args, CommandFactory, FromArgMatches};
+    use std::collections::BTreeSet;
+    use tprf_core::request::serde_keys;
+
+    /// `tprf render`'s options as request keys: `--band-rows` as `band_rows`, the
+    /// positional scene as `scene`.
+    fn flags() -> BTreeSet<String> {
+        RequestArgs::augment_args(clap::Command::new("render"))
+            .get_arguments()
+            .map(|a| match a.get_long() {
+                Some(long) => long.replace('-', "_"),
+                None => a.get_id().to_string(),
+            })
+            .collect()
+    }
+
+    /// The two lists are one: every key a `RenderRequest` reads (from its own
+    /// `Deserialize`) is a `tprf render` option, and every option a key.
+    #[test]
+    fn every_request_key_is_a_flag() {
+        let keys: BTreeSet<String> = serde_keys::<RenderRequest>()
+            .iter()
+            .map(|k| k.to_string())
+            .collect();
+        let flags = flags();
+        assert_eq!(
+            keys.difference(&flags).collect::<Vec<_>>(),
+            Vec::<&String>::new(),
+            "request keys with no tprf render option"
+        );
+        assert_eq!(
+            flags.difference(&keys).collect::<Vec<_>>(),
+            Vec::<&String>::new(),
+            "tprf render options that are no request key"
+        );
+    }
+
+    fn parse(args: &[&str]) -> RequestArgs {
+        let command = RequestArgs::augment_args(clap::Command::new("render"));
+        let matches = command
+            .try_get_matches_from(std::iter::once("render").chain(args.iter().copied()))
+            .unwrap_or_else(|e| panic!("{args:?}: {e}"));
+        RequestArgs::from_arg_matches(&matches).unwrap()
+    }
+
+    /// Each option given reaches its field: an option with a value unlike the default
+    /// changes the request in that key alone (compared as the request serialises),
+    /// and nothing given is the default request.
+    #[test]
+    fn each_option_sets_its_own_field() {
+        let value = |key: &str| -> &[&str] {
+            match key {
+                "width" | "height" | "bins" | "band_rows" | "threads" | "ambient_spp" => &["7"],
+                "spp" | "seed" | "max_bounces" | "min_bounces" | "bounces_separate"
+                | "rr_start" => &["5"],
+                "splits" => &["3"],
+                "seconds" | "error_target" | "pass_seconds" | "rr_floor" | "sky" => &["0.5"],
+                "fov" => &["33"],
+                "t0" => &["1ns"],
+                "dt" => &["7ps"],
+                "nee" => &["false"],
+                "light_vertex" => &["true"],
+                "filter" => &["tent"],
+                "format" => &["zarr"],
+                "channel" => &["red"],
+                "time_origin" => &["near-plane"],
+                "pulse_origin" => &["first-hit"],
+                "medium" => &["visibility=30m"],
+                "camera_position" | "look_at" | "up" => &["1,-2,3"],
+                "max_memory" => &["2GiB"],
+                "phasor" => &["100:50"],
+                "shard" => &["1/2"],
+                "until_stopped" | "frames" | "uniform" => &[],
+                other => panic!("no test value for --{other}: add one"),
+            }
+        };
+        let plain = serde_json::to_value(parse(&["builtin:x"]).request().unwrap()).unwrap();
+        assert_eq!(
+            parse(&["builtin:x"]).request().unwrap(),
+            RenderRequest::new("builtin:x")
+        );
+        for key in flags().into_iter().filter(|k| k != "scene") {
+            let flag = format!("--{}", key.replace('_', "-"));
+            let mut args = vec!["builtin:x", flag.as_str()];
+            args.extend_from_slice(value(&key));
+            if key == "band_rows" {
+                args.extend_from_slice(&["--shard", "0/2"]);
+            }
+            let request = serde_json::to_value(parse(&args).request().unwrap()).unwrap();
+            // A value the option takes always reaches the request (JSON drops NaN).
+            let mut odd = vec!["builtin:x", flag.as_str(), "NaN"];
+            if key == "band_rows" {
+                odd.extend_from_slice(&["--shard", "0/2"]);
+            }
+            if !value(&key).is_empty()
+                && let Ok(m) = RequestArgs::augment_args(clap::Command::new("render"))
+                    .try_get_matches_from(std::iter::once("render").chain(odd.iter().copied()))
+            {
+                let given = RequestArgs::from_arg_matches(&m).unwrap().given().unwrap();
+                assert!(given.contains_key(&key), "{odd:?} is lost on the way");
+            }
+            let changed: Vec<&String> = request
+                .as_object()
+                .unwrap()
+                .iter()
+                .filter(|(k, v)| plain.get(k.as_str()) != Some(*v))
+                .map(|(k, _)| k)
+                .filter(|k| !(key == "band_rows" && *k == "shard"))
+                .collect();
+            assert_eq!(changed, [&key], "{args:?}");
+        }
+    }
+
+    /// `--help` shows the request's own defaults.
+    #[test]
+    fn help_shows_the_requests_defaults() {
+        let mut command = with_request_defaults(crate::cli::Cli::command());
+        let render = command.find_subcommand_mut("render").unwrap();
+        let help = render.render_help().to_string();
+        let d = RenderRequest::default();
+        for (flag, shown) in [
+            ("--width", d.width.to_string()),
+            ("--rr-start", d.rr_start.to_string()),
+            ("--nee", d.nee.to_string()),
+            ("--band-rows", d.band_rows.to_string()),
+        ] {
+            // The option's line and the lines of its text that follow it.
+            let mut lines = help
+                .lines()
+                .skip_while(|l| !l.trim_start().starts_with(flag));
+            let first = lines.next().unwrap_or_default().to_string();
+            let line = first
+                + &lines
+                    .take_while(|l| !l.trim_start().starts_with('-') && !l.trim().is_empty())
+                    .collect::<String>();
+            assert!(
+                line.contains(&format!("[default: {shown}]")),
+                "{flag}: {line}"
+            );
+        }
+    }
 }

@@ -89,8 +89,11 @@ pub struct Job {
     /// Sensor presets (TOML files or builtin:NAME) each measuring the cube into
     /// `OUT/sensor-NAME/`.
     pub sensors: Vec<String>,
-    /// The render (its scene resolved against the manifest's folder), validated.
+    /// The render (its scene resolved against the manifest's folder, a Mitsuba file's
+    /// settings in the keys the job does not give), validated.
     pub request: RenderRequest,
+    /// What came from the scene file ([`RenderRequest::with_file_defaults`]), in words.
+    pub from_scene_file: Vec<String>,
 }
 
 /// A scene's short name: `cornell` for `builtin:cornell`, the file stem of a path.
@@ -109,6 +112,8 @@ struct JobTable {
     out: Option<String>,
     sensors: Vec<String>,
     request: RenderRequest,
+    /// The request keys the job gives (its own or the defaults').
+    given: BTreeSet<String>,
 }
 
 /// `table` over `base` (its own keys win), split into a job's keys and its request; a
@@ -131,12 +136,14 @@ fn job_table(table: &toml::Table, base: &toml::Table) -> Result<JobTable> {
             .try_into::<Vec<String>>()
             .context("sensors must be a list of preset names or files")?,
     };
+    let given = t.keys().cloned().collect();
     let request: RenderRequest = toml::Value::Table(t).try_into()?;
     Ok(JobTable {
         name,
         out,
         sensors,
         request,
+        given,
     })
 }
 
@@ -171,9 +178,20 @@ pub fn load_jobs(path: &Path) -> Result<Vec<Job>> {
     };
     let mut jobs = Vec::new();
     let mut add = |name: String, out: PathBuf, t: JobTable| -> Result<()> {
-        let request = RenderRequest {
+        let mut request = RenderRequest {
             scene: resolve_scene(&t.request.scene),
             ..t.request
+        };
+        // A Mitsuba file's film, sampler and integrator fill the keys the job does not
+        // give; a file that cannot be read is the render's to report (that job fails,
+        // the others run).
+        let from_scene_file = match tprf_core::scene::file_settings(&request.scene) {
+            Ok(file) => request
+                .with_file_defaults(&file, |key| t.given.contains(key))
+                .iter()
+                .map(ToString::to_string)
+                .collect(),
+            Err(_) => Vec::new(),
         };
         request
             .validate()
@@ -183,6 +201,7 @@ pub fn load_jobs(path: &Path) -> Result<Vec<Job>> {
             out,
             sensors: t.sensors,
             request,
+            from_scene_file,
         });
         Ok(())
     };
@@ -357,6 +376,9 @@ pub fn run_job(job: &Job, threads: Option<usize>, force: bool) -> Result<JobOutc
         return Ok(JobOutcome::Skipped);
     }
     if force || cube_incomplete(job).is_some() {
+        for line in &job.from_scene_file {
+            eprintln!("  from the scene file: {line}");
+        }
         render_job(job, threads)?;
     }
     for preset in &job.sensors {

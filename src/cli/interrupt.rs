@@ -1,7 +1,8 @@
 //! Ctrl-C while `tprf render` writes its folder: the files written so far are dropped
 //! with their staging folder and the old output stays as it was, instead of a temporary
 //! folder left beside it. Before writing nothing is on disk yet, so Ctrl-C ends the
-//! process at once as usual; a second Ctrl-C while writing does too.
+//! process at once as usual (but for `--until-stopped`, whose passes end at the first
+//! Ctrl-C: [`take`]); a second Ctrl-C while writing does too.
 
 use std::sync::Once;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -37,4 +38,10 @@ pub(super) fn check() -> anyhow::Result<()> {
         anyhow::bail!("interrupted (Ctrl-C) while writing: nothing was written");
     }
     Ok(())
+}
+
+/// Whether Ctrl-C was pressed since [`catch`] (or the last `take`), the mark cleared: a
+/// render until Ctrl-C ends its passes on it, and a next Ctrl-C is seen while writing.
+pub(super) fn take() -> bool {
+    INTERRUPTED.swap(false, Ordering::SeqCst)
 }

@@ -15,7 +15,7 @@ pub mod sensor;
 pub mod stability;
 pub mod view;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 use batch::BatchArgs;
 use converge::ConvergeArgs;
@@ -73,7 +73,9 @@ pub enum Command {
 
 /// Entry point of the `tprf` binary.
 pub fn main() -> std::process::ExitCode {
-    let cli = Cli::parse();
+    // `tprf render --help` shows the request's defaults (`args::with_request_defaults`).
+    let matches = args::with_request_defaults(Cli::command()).get_matches();
+    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     let result = match &cli.command {
         Some(Command::Render(a)) => render::run(a),
         Some(Command::Merge(a)) => merge::run(a),

@@ -52,13 +52,13 @@ pub fn run(a: &RenderArgs) -> Result<()> {
                 "{scene_name} is an NLOS capture scene (mitransient's transient_nlos_path): render it with tprf nlos {scene_name} --out DIR"
             );
         }
-        let (request, used) = a.request.request_with(&file);
+        let (request, used) = a.request.request_with(&file)?;
         for line in used {
             eprintln!("from the scene file: {line}");
         }
         request
     } else {
-        a.request.request()
+        a.request.request()?
     };
     let Some(out) = &a.out else {
         return Ok(());
@@ -76,6 +76,12 @@ pub fn render_request(
 ) -> Result<()> {
     request.validate().map_err(&error)?;
     super::args::check_out("--out", out, &[Path::new(&request.scene)])?;
+    if request.until_stopped {
+        // Ctrl-C ends the passes (at the end of the one running) and the render is
+        // written; a second one, while writing, drops what was written.
+        super::interrupt::catch();
+        eprintln!("rendering until Ctrl-C");
+    }
     let mut progress = Progress::new(request.schedule());
     let written = render_to_folder(request, out, &mut progress).map_err(&error)?;
     let meta = &written.meta;
@@ -139,7 +145,9 @@ impl Progress {
         self.bar.get_or_insert_with(|| {
             let bar = match (schedule.spp_target, schedule.time_budget_s) {
                 (Some(n), _) => ProgressBar::new(n),
-                (None, s) => ProgressBar::new((s.unwrap_or(0.0) * 10.0).ceil() as u64),
+                (None, Some(s)) => ProgressBar::new((s * 10.0).ceil() as u64),
+                // An error target, or Ctrl-C: no end known in advance.
+                (None, None) => ProgressBar::new_spinner(),
             };
             bar.set_style(
                 ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {msg}")
@@ -175,6 +183,10 @@ impl Observer for Progress {
             r.spp,
             r.rays as f64 / r.render_s.max(1e-9) / 1e6
         ));
+        // Only a render until Ctrl-C catches it before writing.
+        if super::interrupt::take() {
+            return ControlFlow::Break(());
+        }
         ControlFlow::Continue(())
     }
 

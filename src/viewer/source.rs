@@ -9,6 +9,7 @@ use tprf_core::export::phasor::PhasorMetadata;
 use tprf_core::export::{self, CubeMetadata};
 use tprf_core::film::FilmSnapshot;
 use tprf_core::request::worker::{RenderWorker, WorkerState, WorkerStatus};
+use tprf_core::request::{RenderRequest, time_field_text};
 use tprf_core::transport::ambient::AmbientImage;
 
 /// Where the film comes from.
@@ -259,60 +260,38 @@ impl TprfApp {
             back = names;
         }
         let own = super::settings::FileFields::of(&self.pending);
+        let mut set_again: Vec<String> = Vec::new();
         // Errors in the file are the render's to report (the worker loads it).
         if let Ok(file) = tprf_core::scene::file_settings(&scene) {
             let p = &mut self.pending;
-            let size = |v: u64| usize::try_from(v).unwrap_or(usize::MAX);
-            let mut taken = Vec::new();
-            if let Some(w) = &file.width {
-                p.width = size(w.value);
-                taken.push(format!("width {}", w.value));
-            }
-            if let Some(h) = &file.height {
-                p.height = size(h.value);
-                taken.push(format!("height {}", h.value));
-            }
-            if let Some(b) = &file.bins {
-                p.bins = size(b.value);
-                taken.push(format!("bins {}", b.value));
-            }
-            if let Some(o) = &file.time_origin {
-                p.time_origin = o.value;
-                taken.push(format!("time origin {}", o.value));
-            }
-            if let Some(o) = &file.pulse_origin {
-                p.pulse_origin = o.value;
-                taken.push(format!("pulse origin {}", o.value));
-            }
-            if let Some(t0) = &file.t0_opl_m_for(p.time_origin) {
-                p.t0 = format!("{}m", t0.value);
-                taken.push(format!("t0 {} m of optical path", t0.value));
-            }
-            if let Some(dt) = &file.dt_opl_m {
-                p.dt = format!("{}m", dt.value);
-                taken.push(format!("dt {} m of optical path", dt.value));
-            }
-            if let Some(m) = &file.max_bounces {
-                p.max_bounces = m.value;
-                taken.push(format!("max bounces {}", m.value));
-            }
-            if let Some(m) = &file.min_bounces {
-                p.min_bounces = m.value;
-                taken.push(format!("min bounces {}", m.value));
-            }
-            if let (Some(mean), Some(sigma)) = (&file.phasor_wl_mean_m, &file.phasor_wl_sigma_m) {
+            // The file's settings replace the user's own (which came back above); the
+            // window renders on, so no sample count is taken.
+            let mut r = RenderRequest {
+                width: p.width,
+                height: p.height,
+                bins: p.bins,
+                max_bounces: p.max_bounces,
+                min_bounces: p.min_bounces,
+                time_origin: p.time_origin,
+                pulse_origin: p.pulse_origin,
+                until_stopped: true,
+                ..RenderRequest::new(scene.clone())
+            };
+            let notes = r.with_file_defaults(&file, |_| false);
+            p.width = r.width;
+            p.height = r.height;
+            p.bins = r.bins;
+            p.max_bounces = r.max_bounces;
+            p.min_bounces = r.min_bounces;
+            p.time_origin = r.time_origin;
+            p.pulse_origin = r.pulse_origin;
+            p.t0 = r.t0_s.map_or_else(String::new, time_field_text);
+            p.dt = r.dt_s.map_or_else(String::new, time_field_text);
+            if let Some(band) = r.phasor {
                 // A view setting: the phasor tab's band, at once.
-                let band = tprf_core::export::phasor::PhasorBand {
-                    wl_mean_m: mean.value,
-                    wl_sigma_m: sigma.value,
-                };
                 p.phasor = Some(band);
                 self.settings.phasor = Some(band);
                 self.phasor = Default::default();
-                taken.push(format!(
-                    "phasor band {}:{} m (the Phasor tab)",
-                    mean.value, sigma.value
-                ));
             }
             let file_fields = super::settings::FileFields::of(&self.pending);
             if file_fields != own {
@@ -321,25 +300,26 @@ impl TprfApp {
                     file: file_fields,
                 });
             }
-            if !taken.is_empty() {
+            set_again = notes.iter().map(|n| n.field.replace('_', " ")).collect();
+            if !notes.is_empty() {
                 let spp = file
                     .spp
                     .as_ref()
                     .map(|s| format!(" (its {} spp not taken: the window renders on)", s.value))
                     .unwrap_or_default();
+                let taken: Vec<String> = notes
+                    .iter()
+                    .map(|n| n.text_with(|f| f.replace('_', " ")))
+                    .collect();
                 self.messages
                     .push(format!("from the scene file: {}{spp}", taken.join(", ")));
             }
         }
-        let back: Vec<_> =
-            back.into_iter()
-                .filter(|name| {
-                    // Said only where this scene's file did not set it again.
-                    !self.messages.iter().any(|m| {
-                        m.contains(&format!(": {name} ")) || m.contains(&format!(", {name} "))
-                    })
-                })
-                .collect();
+        // Said only where this scene's file did not set it again.
+        let back: Vec<_> = back
+            .into_iter()
+            .filter(|name| !set_again.iter().any(|f| f == name))
+            .collect();
         if !back.is_empty() {
             self.messages.push(format!(
                 "your own {} again (the last scene's file had set them)",

@@ -16,6 +16,7 @@ fn _tprf(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(cube::load, m)?)?;
     m.add_class::<render::Renderer>()?;
     m.add_function(wrap_pyfunction!(render::render, m)?)?;
+    m.add_function(wrap_pyfunction!(render::resolve_request, m)?)?;
     m.add_class::<sensor::PySensor>()?;
     m.add_class::<sensor::SensorPart>()?;
     m.add_class::<sensor::Measurement>()?;

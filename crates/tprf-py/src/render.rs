@@ -27,10 +27,16 @@ const IN_MEMORY: &str = "tprf cube in memory, not saved: Cube.save writes tprf.n
 const POLL: Duration = Duration::from_millis(50);
 
 /// A request from its JSON form (the Python layer's dict of `tprf render`'s option
-/// names), validated; a field that cannot be read is named (`dt: ...`).
-pub fn request_from_json(json: &str) -> PyResult<RenderRequest> {
-    let de = &mut serde_json::Deserializer::from_str(json);
-    let request: RenderRequest = serde_path_to_error::deserialize(de).map_err(|e| {
+/// names), a Mitsuba scene file's settings in the keys it does not give
+/// ([`RenderRequest::with_file_defaults`]), validated; with what came from the file. A
+/// field that cannot be read is named (`dt: ...`); a scene file that cannot be read
+/// raises its error (`FileNotFoundError` for a missing one).
+pub fn request_from_json(json: &str) -> PyResult<(RenderRequest, Vec<String>)> {
+    let fields: serde_json::Map<String, serde_json::Value> = serde_json::from_str(json)
+        .map_err(|e| pyo3::exceptions::PyValueError::new_err(format!("the request: {e}")))?;
+    let given = |key: &str| fields.contains_key(key);
+    let value = serde_json::Value::Object(fields.clone());
+    let mut request: RenderRequest = serde_path_to_error::deserialize(&value).map_err(|e| {
         let path = e.path().to_string();
         let inner = e.into_inner().to_string();
         // serde_json ends its messages with a position in the JSON text the user
@@ -44,8 +50,23 @@ pub fn request_from_json(json: &str) -> PyResult<RenderRequest> {
             _ => format!("{path}: {inner}"),
         })
     })?;
+    let file = tprf_core::scene::file_settings(&request.scene).py_err()?;
+    let notes = request.with_file_defaults(&file, given);
     request.validate().py_err()?;
-    Ok(request)
+    Ok((request, notes.iter().map(ToString::to_string).collect()))
+}
+
+/// resolve_request(request_json) -> (str, list[str])
+///
+/// The request (JSON with ``tprf render``'s option names) with a Mitsuba scene file's
+/// film, sample count and depth in the keys it does not give, validated, as JSON; and
+/// what came from the file, one line each.
+#[pyfunction]
+pub fn resolve_request(request_json: &str) -> PyResult<(String, Vec<String>)> {
+    let (request, notes) = request_from_json(request_json)?;
+    let text = serde_json::to_string(&request)
+        .map_err(|e| pyo3::exceptions::PyValueError::new_err(e.to_string()))?;
+    Ok((text, notes))
 }
 
 /// What the render thread tells the waiting one after each pass.
@@ -152,7 +173,7 @@ pub fn render(
     request_json: &str,
     progress: Option<Bound<'_, PyAny>>,
 ) -> PyResult<Cube> {
-    let request = request_from_json(request_json)?;
+    let (request, _) = request_from_json(request_json)?;
     let cancel = Arc::new(AtomicBool::new(false));
     let (tx, rx) = mpsc::channel();
     let handle = {
@@ -237,7 +258,7 @@ impl Renderer {
     /// where the request does not fix it), with the GIL released.
     #[new]
     fn new(py: Python<'_>, request_json: &str) -> PyResult<Renderer> {
-        let request = request_from_json(request_json)?;
+        let (request, _) = request_from_json(request_json)?;
         let pool = request.thread_pool().py_err()?;
         let threads = pool.current_num_threads();
         let session = py

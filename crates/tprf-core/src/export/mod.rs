@@ -511,6 +511,17 @@ impl CubeFormat {
     }
 }
 
+/// Written as the command line takes it: `auto`, `npy`, `zarr`.
+impl serde::Serialize for CubeFormat {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(match self {
+            CubeFormat::Auto => "auto",
+            CubeFormat::Npy => "npy",
+            CubeFormat::Zarr => "zarr",
+        })
+    }
+}
+
 impl std::str::FromStr for CubeFormat {
     type Err = String;
     fn from_str(s: &str) -> std::result::Result<CubeFormat, String> {

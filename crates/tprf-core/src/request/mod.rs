@@ -3,8 +3,10 @@
 //! size and time window, the sampling, the bounces, when to stop, the seed, the threads,
 //! the files), validated once ([`RenderRequest::validate`]) with messages that name the
 //! field. Every front end builds one: `tprf render`'s arguments, a `tprf batch`
-//! manifest's job (its TOML keys are the request's fields), the window's settings,
-//! `tprf converge` and `tprf stability`.
+//! manifest's job (its TOML keys are the request's fields), Python's keyword arguments,
+//! the window's settings, `tprf converge` and `tprf stability`; a Mitsuba scene file's
+//! settings fill the fields a front end was not given
+//! ([`RenderRequest::with_file_defaults`]).
 //!
 //! What a request becomes:
 //! - [`Session`]: the scene loaded (with the request's sky and camera), the renderer, the
@@ -23,15 +25,19 @@
 //! W m^-2 sr^-1.
 
 mod camera;
+mod file_defaults;
 mod folder;
+mod keys;
 mod memory;
 mod session;
 pub mod worker;
 
 pub use camera::apply_camera;
+pub use file_defaults::FileNote;
 pub use folder::{
     Observer, Rendered, Written, cube_metadata, render, render_to_folder, write_folder,
 };
+pub use keys::serde_keys;
 pub use memory::{MemoryLimit, MemoryRefusal, MemoryStop};
 pub use session::Session;
 
@@ -42,7 +48,7 @@ use crate::film::{FilmError, MAX_BINS, TimeFilter};
 use crate::scene::{Channel, Medium, PulseOrigin, SceneError, TimeOrigin};
 use crate::transport::progressive::{PassSize, Schedule};
 use crate::transport::{RenderSettings, WindowError, WindowRequest};
-use serde::{Deserialize, Deserializer, Serialize, Serializer};
+use serde::{Deserialize, Deserializer, Serialize};
 use std::fmt;
 
 /// Samples per pixel of a render given no other way to stop (no `spp`, `seconds` or
@@ -174,7 +180,7 @@ pub struct RenderRequest {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub threads: Option<usize>,
     /// How the cube is written: `npy`, `zarr` or `auto` (npy up to 4 GiB).
-    #[serde(deserialize_with = "from_text", serialize_with = "to_text")]
+    #[serde(deserialize_with = "from_text")]
     pub format: CubeFormat,
     /// Also write `frames/0000.png` ... (one per bin, one exposure).
     pub frames: bool,
@@ -409,6 +415,17 @@ pub fn parse_time_field(field: &'static str, text: &str) -> Result<Option<f64>, 
         .map_err(|why| RequestError::invalid(Problem::field(field).text(format!(": {why}"))))
 }
 
+/// The text of a time field that [`parse_time_field`] reads back as exactly `seconds`:
+/// metres of optical path (`"1.5m"`, as a scene file gives a window) where that reads
+/// back bit for bit, else seconds (`"5.2e-9s"`).
+pub fn time_field_text(seconds: f64) -> String {
+    let metres = format!("{}m", seconds * crate::units::C_M_PER_S);
+    match crate::units::parse_time_s(&metres) {
+        Ok(back) if back.to_bits() == seconds.to_bits() => metres,
+        _ => format!("{seconds}s"),
+    }
+}
+
 /// A time field: a number of seconds, or text with a unit.
 fn time_s<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
     #[derive(Deserialize)]
@@ -452,14 +469,6 @@ where
 {
     let text = String::deserialize(d)?;
     text.parse().map_err(serde::de::Error::custom)
-}
-
-fn to_text<S: Serializer>(format: &CubeFormat, s: S) -> Result<S::Ok, S::Error> {
-    s.serialize_str(match format {
-        CubeFormat::Auto => "auto",
-        CubeFormat::Npy => "npy",
-        CubeFormat::Zarr => "zarr",
-    })
 }
 
 impl RenderRequest {
@@ -944,6 +953,25 @@ mod tests {
         assert!(e.to_string().contains("widht"), "{e}");
         let e = toml::from_str::<RenderRequest>("dt = \"5 furlongs\"\n").unwrap_err();
         assert!(e.to_string().contains("unknown unit"), "{e}");
+    }
+
+    /// A time written for a field reads back bit for bit: in metres where they do.
+    #[test]
+    fn time_field_text_reads_back_exactly() {
+        use crate::units::C_M_PER_S;
+        assert_eq!(time_field_text(1.5 / C_M_PER_S), "1.5m");
+        for s in [
+            1.75 / C_M_PER_S,
+            0.01 / C_M_PER_S,
+            3.3e-9,
+            -2e-12,
+            0.0,
+            1e-30,
+        ] {
+            let text = time_field_text(s);
+            let back = parse_time_field("t0", &text).unwrap().unwrap();
+            assert_eq!(back.to_bits(), s.to_bits(), "{s} as {text}");
+        }
     }
 
     #[test]
