@@ -481,6 +481,8 @@ fn the_sensor_tab_opens_on_the_window_and_flags_gates_outside_it() {
         h.query_by_label_contains("outside the rendered window")
             .is_none()
     );
+    // A fitted preset has no warnings: no gate it kept misses part of its light.
+    assert!(h.query_by_label_contains("partly outside").is_none());
     h.get_by_label("Keep all 256 gates").click();
     h.run_steps(2);
     assert_eq!(h.state().settings.sensor.exposure.count(), 256);

@@ -80,10 +80,11 @@ fn fit_note_ui(ui: &mut egui::Ui, state: &SensorState) -> Option<tprf_core::sens
     let mut restore = None;
     ui.horizontal_wrapped(|ui| {
         ui.label(RichText::new(format!("ℹ {}", note.text)).color(ui.visuals().strong_text_color()));
-        if ui
-            .button(format!("Keep all {} gates", note.original.exposure.count()))
-            .on_hover_text("the preset's own gates, most of which see nothing of this film")
-            .clicked()
+        if note.original.exposure != note.fitted
+            && ui
+                .button(format!("Keep all {} gates", note.original.exposure.count()))
+                .on_hover_text("the preset's own gates, most of which see nothing of this film")
+                .clicked()
         {
             restore = Some(note.original.clone());
         }
@@ -404,7 +405,7 @@ fn coverage_ui(
                 bins,
             });
         }
-        if let Some(fitted) = gates_fitted(&model.sensor().exposure, axis)
+        if let Some(fitted) = gates_fitted(&model.sensor().exposure, axis, pulse, state.auto_start)
             && ui
                 .button("Fit the gates to the window")
                 .on_hover_text("the same number of gates, tiling the rendered window")

@@ -121,6 +121,9 @@ pub struct SensorState {
     opened: bool,
     /// What that check changed, while the gates are still the ones it made.
     pub(super) fit_note: Option<FitNote>,
+    /// The window of that check and the sensor as it left it: a new window refits a
+    /// sensor still as left, and keeps an edited one.
+    checked: Option<(tprf_core::film::TimeAxis, Sensor)>,
 }
 
 /// A preset fitted to the film's window when the tab opened on it: the note shown, the
@@ -146,14 +149,42 @@ impl SensorState {
         self.waker = Some(ctx);
     }
 
-    /// The first time the tab measures a film after it opened or a preset was picked:
-    /// a preset most of whose gates miss the film's window is fitted to it
-    /// (`view::fitted_on_open`), and the tab says so (with a way back).
+    /// The first time the tab measures a film after it opened or a preset was picked,
+    /// and whenever the film's window changes after: a preset none of whose gates see
+    /// all their light in the window is fitted to it (`view::fitted_on_open`), and the
+    /// tab says so (with a way back). A sensor the user edited since is kept on a new
+    /// window, the tab saying which gates now see nothing.
     pub fn fit_on_open(&mut self, sensor: &mut Sensor, axis: &tprf_core::film::TimeAxis) {
-        if std::mem::replace(&mut self.opened, true) {
+        let same_window = self.checked.as_ref().is_some_and(|(a, _)| a == axis);
+        if self.opened && same_window {
             return;
         }
+        let refit = self.opened;
+        if refit && let Some((_, left)) = self.checked.take() {
+            if *sensor != left {
+                self.checked = Some((*axis, sensor.clone()));
+                self.fit_note =
+                    super::view::gates_outside(sensor, axis, self.auto_start).map(|text| FitNote {
+                        text,
+                        fitted: sensor.exposure.clone(),
+                        original: sensor.clone(),
+                    });
+                return;
+            }
+            // As the last check left it: fitted again from the preset as picked.
+            if let Some(n) = self.fit_note.take()
+                && n.original.exposure != n.fitted
+            {
+                *sensor = n.original;
+            }
+        }
+        self.opened = true;
         if let Some((fitted, text)) = super::view::fitted_on_open(sensor, axis, self.auto_start) {
+            let text = if refit {
+                format!("The window changed. {text}")
+            } else {
+                text
+            };
             self.fit_note = Some(FitNote {
                 text,
                 fitted: fitted.exposure.clone(),
@@ -161,12 +192,14 @@ impl SensorState {
             });
             *sensor = fitted;
         }
+        self.checked = Some((*axis, sensor.clone()));
     }
 
     /// A preset was picked: it is checked against the film's window on the next frame.
     pub fn preset_picked(&mut self) {
         self.opened = false;
         self.fit_note = None;
+        self.checked = None;
     }
 
     /// The ambient radiance of pixel `(y, x)`, W m^-2 sr^-1 (0 without an image).
@@ -743,4 +776,57 @@ fn spawn_on(
             None => job(),
         })
         .map(drop)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::view::{Coverage, coverage, main_span};
+    use super::*;
+    use tprf_core::film::TimeAxis;
+    use tprf_core::sensor::SensorModel;
+
+    /// Whether every gate of `sensor` sees all its light in `axis` (not at first light).
+    fn fits(sensor: &Sensor, axis: TimeAxis) -> bool {
+        let m = SensorModel::new(sensor.clone(), axis).unwrap();
+        let pulse = main_span(m.light());
+        m.gates()
+            .iter()
+            .all(|g| coverage(g, pulse, &axis, false) == Coverage::Inside)
+    }
+
+    /// A preset the user has not edited is fitted again when the window moves (an XML
+    /// scene's window 3.4 us away: the 1 ns gates at 0-256 ns would see nothing), and
+    /// says so; an edited one is kept, the tab saying which gates see nothing.
+    #[test]
+    fn a_new_window_refits_an_unedited_preset_and_keeps_an_edited_one() {
+        let mut state = SensorState::default();
+        let mut sensor = Sensor::builtin("lidar").unwrap();
+        let near = TimeAxis::new(3.5e-9, 50e-12, 256).unwrap();
+        state.fit_on_open(&mut sensor, &near);
+        assert!(fits(&sensor, near));
+        let fitted_near = sensor.clone();
+        // The same window again: nothing changes.
+        state.fit_on_open(&mut sensor, &near);
+        assert_eq!(sensor, fitted_near);
+        let far = TimeAxis::new(3369e-9, 20e-9, 400).unwrap();
+        state.fit_on_open(&mut sensor, &far);
+        assert!(fits(&sensor, far), "refitted to the far window");
+        let note = state.fit_note.as_ref().expect("a note").text.clone();
+        assert!(note.starts_with("The window changed."), "{note}");
+        // Back on the near window: fitted from the preset, as the first time.
+        state.fit_on_open(&mut sensor, &near);
+        assert_eq!(sensor, fitted_near);
+        // Edited: kept on a new window, and the gates that see nothing named.
+        if let tprf_core::sensor::Exposure::Box { start_s, .. } = &mut sensor.exposure {
+            *start_s = 20e-6;
+        }
+        let edited = sensor.clone();
+        state.fit_on_open(&mut sensor, &far);
+        assert_eq!(sensor, edited);
+        let note = state.fit_note.as_ref().expect("a note").text.clone();
+        assert!(
+            note.contains("your gates are kept") && note.contains("see nothing"),
+            "{note}"
+        );
+    }
 }

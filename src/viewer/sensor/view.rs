@@ -170,10 +170,32 @@ pub fn window_covering(
 }
 
 /// The gate sequence `exposure` stretched or squeezed so its `count` gates tile the
-/// window `axis` from its start (the kind, count and gains kept); `None` for AMCW
-/// gates, which have no extent.
-pub fn gates_fitted(exposure: &Exposure, axis: &TimeAxis) -> Option<Exposure> {
-    let span = axis.end_s() - axis.t0_s;
+/// part of the window `axis` whose light they see in full through a pulse emitting over
+/// `pulse` (s): gates over `[t0 + pulse end, t1 + pulse start]`, each then needing only
+/// arrivals inside the window ([`coverage`] `Inside`); from `t0 + pulse start` when the
+/// window starts at the first light (nothing arrives before it). Where the pulse is as long as
+/// the window, they tile the window. The kind, count and gains are kept; `None` for
+/// AMCW gates, which have no extent.
+pub fn gates_fitted(
+    exposure: &Exposure,
+    axis: &TimeAxis,
+    pulse: (f64, f64),
+    starts_at_first_light: bool,
+) -> Option<Exposure> {
+    // Offsets from the window's start: a gate over [a, b] sees arrivals [a - pulse end,
+    // b - pulse start]; with the window at the first light nothing arrives before t0,
+    // so a gate may open as soon as the pulse's start could bring light.
+    let lead_s = if starts_at_first_light {
+        pulse.0
+    } else {
+        pulse.1
+    };
+    let (from_s, to_s) = (lead_s, axis.end_s() - axis.t0_s + pulse.0);
+    let (offset_s, span) = if to_s > from_s {
+        (from_s, to_s - from_s)
+    } else {
+        (0.0, axis.end_s() - axis.t0_s)
+    };
     let mut e = exposure.clone();
     match &mut e {
         Exposure::Box {
@@ -186,7 +208,7 @@ pub fn gates_fitted(exposure: &Exposure, axis: &TimeAxis) -> Option<Exposure> {
         } => {
             let w = span / (*count).max(1) as f64;
             *origin = TimeOrigin::Window;
-            *start_s = 0.0;
+            *start_s = offset_s;
             *width_s = w;
             *step_s = None;
         }
@@ -200,7 +222,7 @@ pub fn gates_fitted(exposure: &Exposure, axis: &TimeAxis) -> Option<Exposure> {
         } => {
             let w = span / (*count).max(1) as f64;
             *origin = TimeOrigin::Window;
-            *centre_s = w / 2.0;
+            *centre_s = offset_s + w / 2.0;
             *fwhm_s = w;
             *step_s = None;
         }
@@ -217,7 +239,10 @@ pub fn gates_fitted(exposure: &Exposure, axis: &TimeAxis) -> Option<Exposure> {
                     (a.min(p.0), b.max(p.0))
                 });
             let k = if b > a { w / (b - a) } else { 1.0 };
-            *points = points.iter().map(|p| Point((p.0 - a) * k, p.1)).collect();
+            *points = points
+                .iter()
+                .map(|p| Point(offset_s + (p.0 - a) * k, p.1))
+                .collect();
             *origin = TimeOrigin::Window;
             *step_s = w;
         }
@@ -228,9 +253,9 @@ pub fn gates_fitted(exposure: &Exposure, axis: &TimeAxis) -> Option<Exposure> {
             bins,
             ..
         } => {
-            // The TDC's bins tile the window: its cycle is the window.
+            // The TDC's bins tile what they see in full: its cycle is the window.
             *origin = TimeOrigin::Window;
-            *start_s = 0.0;
+            *start_s = offset_s;
             *bin_width_s = span / (*bins).max(1) as f64;
         }
         Exposure::Amcw { .. } => return None,
@@ -238,11 +263,12 @@ pub fn gates_fitted(exposure: &Exposure, axis: &TimeAxis) -> Option<Exposure> {
     Some(e)
 }
 
-/// What the sensor tab does to a preset it opens on a film whose window most of its
-/// gates miss: `sensor` with only the gates that see the window `axis` (through its
-/// pulse; [`Coverage`] not [`Coverage::Outside`]), or, when none does, its gates
-/// tiling the window ([`gates_fitted`]); and a sentence saying so. `None` when every
-/// gate sees the window, or the sensor does not compile.
+/// What the sensor tab does to a preset it opens on a film whose window its gates do
+/// not fit: `sensor` with only the gates that see all their light in the window `axis`
+/// (through its pulse; [`Coverage::Inside`]), or, when none does, its gates tiling what
+/// the window lets them see ([`gates_fitted`]); and a sentence saying so. A fitted
+/// sensor has no gate partly or wholly outside the window. `None` when every gate
+/// already sees all its light in the window, or the sensor does not compile.
 pub fn fitted_on_open(
     sensor: &Sensor,
     axis: &TimeAxis,
@@ -251,19 +277,30 @@ pub fn fitted_on_open(
     let light = sensor.light.compile().ok()?;
     let pulse = main_span(&light);
     let gates = sensor.exposure.gates(axis.t0_s).ok()?;
-    let seen: Vec<bool> = gates
+    let cover: Vec<Coverage> = gates
         .iter()
-        .map(|g| coverage(g, pulse, axis, starts_at_first_light) != Coverage::Outside)
+        .map(|g| coverage(g, pulse, axis, starts_at_first_light))
         .collect();
-    let n = seen.len();
+    let inside = |c: &Coverage| *c == Coverage::Inside;
+    let n = cover.len();
     let window = format!("{} … {}", format_time(axis.t0_s), format_time(axis.end_s()));
     let name = if sensor.name.is_empty() {
         "the sensor".to_string()
     } else {
         format!("the {} preset", sensor.name)
     };
+    let range = |a: usize, b: usize| {
+        if a == b {
+            a.to_string()
+        } else {
+            format!("{a}–{b}")
+        }
+    };
     let mut fitted = sensor.clone();
-    let note = match (seen.iter().position(|&s| s), seen.iter().rposition(|&s| s)) {
+    let note = match (
+        cover.iter().position(inside),
+        cover.iter().rposition(inside),
+    ) {
         (Some(0), Some(last)) if last + 1 == n => {
             // A TDC whose whole cycle sees only the window's first half: the light after
             // it (the targets behind fog) would never be histogrammed.
@@ -275,34 +312,46 @@ pub fn fitted_on_open(
             if !matches!(sensor.exposure, Exposure::Tdc { .. }) || seen_to_s >= half_s {
                 return None;
             }
-            fitted.exposure = gates_fitted(&sensor.exposure, axis)?;
+            fitted.exposure = gates_fitted(&sensor.exposure, axis, pulse, starts_at_first_light)?;
             format!(
                 "Fitted {name} to the rendered window {window}: its {n} TDC bins saw only \
                  its light up to {}, so they now tile it (bins of {}).",
                 format_time(seen_to_s),
-                format_time((axis.end_s() - axis.t0_s) / n.max(1) as f64)
+                format_time(
+                    fitted
+                        .exposure
+                        .gates(axis.t0_s)
+                        .ok()?
+                        .first()?
+                        .support_s()
+                        .map_or(0.0, |(a, b)| b - a)
+                )
             )
         }
         (Some(first), Some(last)) => {
             fitted.exposure = sensor
                 .exposure
                 .subsequence(first as u64, (last - first + 1) as u64)?;
+            let partial: Vec<usize> = (0..n).filter(|&k| cover[k] == Coverage::Partial).collect();
+            let partly = match (partial.first(), partial.last()) {
+                (Some(&a), Some(&b)) => format!(
+                    "; gates {} would see only part of their light (a longer window would hold it)",
+                    range(a, b)
+                ),
+                _ => String::new(),
+            };
             format!(
-                "Fitted {name} to the rendered window {window}: its gates {} of {n} see \
-                 it, and are kept as gates 0–{} (the others saw nothing of it).",
-                if first == last {
-                    first.to_string()
-                } else {
-                    format!("{first}–{last}")
-                },
+                "Fitted {name} to the rendered window {window}: its gates {} of {n} see all \
+                 their light in it, and are kept as gates 0–{}{partly}.",
+                range(first, last),
                 last - first
             )
         }
         _ => {
-            fitted.exposure = gates_fitted(&sensor.exposure, axis)?;
+            fitted.exposure = gates_fitted(&sensor.exposure, axis, pulse, starts_at_first_light)?;
             format!(
                 "Fitted {name} to the rendered window {window}: none of its {n} gates saw \
-                 it, so they now tile it."
+                 all their light in it, so they now tile what it holds."
             )
         }
     };
@@ -313,6 +362,37 @@ pub fn fitted_on_open(
         fitted.derived = Default::default();
     }
     Some((fitted, note))
+}
+
+/// The gates of `sensor` that see nothing of the window `axis` (through its pulse), as
+/// a sentence for a sensor the user edited and the window then changed; `None` when
+/// every gate sees some of it.
+pub fn gates_outside(
+    sensor: &Sensor,
+    axis: &TimeAxis,
+    starts_at_first_light: bool,
+) -> Option<String> {
+    let pulse = main_span(&sensor.light.compile().ok()?);
+    let gates = sensor.exposure.gates(axis.t0_s).ok()?;
+    let out: Vec<usize> = gates
+        .iter()
+        .enumerate()
+        .filter(|(_, g)| coverage(g, pulse, axis, starts_at_first_light) == Coverage::Outside)
+        .map(|(k, _)| k)
+        .collect();
+    let (first, last) = (out.first()?, out.last()?);
+    Some(format!(
+        "The rendered window is now {} … {}: your gates are kept, and {} of {} ({}) see nothing of it.",
+        format_time(axis.t0_s),
+        format_time(axis.end_s()),
+        out.len(),
+        gates.len(),
+        if first == last {
+            format!("gate {first}")
+        } else {
+            format!("gates {first}–{last}")
+        }
+    ))
 }
 
 /// Screen positions moved apart so no two are closer than `min_px`: each one too near
@@ -408,9 +488,9 @@ mod tests {
         let (_, dt2, bins2) = window_covering(model.gates(), pulse, &axis, 100);
         assert_eq!(bins2, 100);
         assert!(dt2 > axis.dt_s);
-        // Gates fitted to the window: 8 gates of 1.6 ns tiling 12.8 ns, all inside
-        // but the first (the pulse's 1 ns reaches before the window) and none outside.
-        let fitted = gates_fitted(&gated.exposure, &axis).unwrap();
+        // Gates fitted to the window: 8 gates tiling what the window lets them see in
+        // full through the pulse, [t0 + pulse end, t1 + pulse start]: every one inside.
+        let fitted = gates_fitted(&gated.exposure, &axis, pulse, false).unwrap();
         let mut s = gated.clone();
         s.exposure = fitted;
         let m = SensorModel::new(s, axis).unwrap();
@@ -419,15 +499,19 @@ mod tests {
             .iter()
             .map(|g| coverage(g, pulse, &axis, false))
             .collect();
-        assert!(!cov.contains(&Outside), "{cov:?}");
+        assert!(cov.iter().all(|c| *c == Inside), "{cov:?}");
         let (first, last) = (
             m.gates()[0].support_s().unwrap(),
             m.gates()[7].support_s().unwrap(),
         );
-        assert!((first.0 - axis.t0_s).abs() < 1e-15 && (last.1 - axis.end_s()).abs() < 1e-15);
+        assert!((first.0 - (axis.t0_s + pulse.1)).abs() < 1e-15, "{first:?}");
+        assert!(
+            (last.1 - (axis.end_s() + pulse.0)).abs() < 1e-15,
+            "{last:?}"
+        );
         // AMCW gates have no extent: always covered, nothing to fit.
         let amcw = Sensor::builtin("amcw").unwrap();
-        assert!(gates_fitted(&amcw.exposure, &axis).is_none());
+        assert!(gates_fitted(&amcw.exposure, &axis, pulse, false).is_none());
         let m = SensorModel::new(amcw, axis).unwrap();
         assert_eq!(coverage(&m.gates()[0], (0.0, 0.0), &axis, false), Inside);
         // A delta pulse is a point.
@@ -443,38 +527,54 @@ mod tests {
     /// The LiDAR preset (1 ns box gates from the window start, a 2 ns FWHM pulse at
     /// 5 ns) on the Cornell box's 12.8 ns window: gate k sees arrivals from
     /// `t0 + k - 8.157` to `t0 + k + 1 - 1.843` ns (the pulse above 1e-3 of its peak
-    /// spans 5 +- 3.157 ns), so gate 0's end before the window and gates from 21 on
-    /// start after it: gates 1-20 are kept. A window starting at the first light
-    /// keeps gate 0 too (what it needs before t0 no film has). The gated preset's 8
-    /// gates, all seeing a 40 ns window, are left alone.
+    /// spans 5 +- 3.157 ns), all of them inside the window for k = 9..=13: those are
+    /// kept, and gates 1-20 (partly inside) said. A window starting at the first light
+    /// has nothing before t0: gates 0-13 see all their light. The gated preset's 8
+    /// gates, all seeing a 40 ns window, are left alone; every fitted sensor's gates
+    /// see all their light in the window.
     #[test]
     fn a_preset_opens_fitted_to_the_window() {
         let axis = axis();
         let lidar = Sensor::builtin("lidar").unwrap();
+        let inside_all = |s: &Sensor, first_light: bool| {
+            let m = SensorModel::new(s.clone(), axis).unwrap();
+            let pulse = main_span(m.light());
+            m.gates()
+                .iter()
+                .all(|g| coverage(g, pulse, &axis, first_light) == Coverage::Inside)
+        };
         let (fitted, note) = fitted_on_open(&lidar, &axis, false).expect("fitted");
         let Exposure::Box { start_s, count, .. } = fitted.exposure else {
             panic!("{:?}", fitted.exposure)
         };
-        assert_eq!(count, 20);
-        assert!((start_s - 1e-9).abs() < 1e-18, "{start_s}");
-        assert!(note.contains("gates 1–20 of 256"), "{note}");
+        assert_eq!(count, 5);
+        assert!((start_s - 9e-9).abs() < 1e-18, "{start_s}");
+        assert!(note.contains("gates 9–13 of 256"), "{note}");
+        assert!(note.contains("gates 1–20 would see only part"), "{note}");
+        assert!(inside_all(&fitted, false));
         let (fitted, _) = fitted_on_open(&lidar, &axis, true).expect("fitted");
-        assert_eq!(fitted.exposure.count(), 21);
+        assert_eq!(fitted.exposure.count(), 14);
         assert_eq!(
             fitted.exposure.subsequence(0, 1),
             lidar.exposure.subsequence(0, 1)
         );
+        assert!(inside_all(&fitted, true));
         let wide = TimeAxis::new(0.0, 0.5e-9, 80).unwrap();
         assert!(fitted_on_open(&Sensor::builtin("gated").unwrap(), &wide, false).is_none());
-        // Gates that all miss the window tile it instead.
+        // Gates that all miss the window tile what it holds instead.
         let mut late = Sensor::builtin("gated").unwrap();
         late.exposure = late.exposure.subsequence(0, 8).unwrap();
         if let Exposure::Box { start_s, .. } = &mut late.exposure {
             *start_s = 500e-9;
         }
         let (fitted, note) = fitted_on_open(&late, &axis, false).expect("fitted");
-        assert_eq!(Some(fitted.exposure), gates_fitted(&late.exposure, &axis));
+        let pulse = main_span(&late.light.compile().unwrap());
+        assert_eq!(
+            Some(fitted.exposure.clone()),
+            gates_fitted(&late.exposure, &axis, pulse, false)
+        );
         assert!(note.contains("none of its 8 gates"), "{note}");
+        assert!(inside_all(&fitted, false));
     }
 
     /// The SPAD preset's TDC (512 bins of 100 ps from the window's start - 2 ns: a
