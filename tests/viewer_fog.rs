@@ -7,7 +7,7 @@
 
 use eframe::egui::{Event, Key, Modifiers, Vec2};
 use egui_kittest::Harness;
-use egui_kittest::kittest::Queryable;
+use egui_kittest::kittest::{NodeT, Queryable};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use tprf::viewer::{Mode, Selection, Start, TprfApp, ViewerSettings};
@@ -193,19 +193,56 @@ fn the_fog_visibility_restarts_with_its_extinction_and_bad_values_are_messages()
     wait_done(&mut h, None);
 }
 
-/// A scene in clear air has no Fog section.
+/// A scene in clear air offers a fog: the Cornell box (bounding diagonal 0.96 m)
+/// suggests a visibility of 9.6 m, and "Add fog" renders it in that fog (the request's
+/// medium, extinction 3.912 / 9.6 per metre): its backscatter and attenuation change the
+/// film, which then keeps the light only the fog gives (before the walls' first return).
 #[test]
-fn a_scene_without_a_medium_has_no_fog_section() {
+fn a_scene_in_clear_air_can_be_given_fog() {
     let mut h = harness(ViewerSettings {
         scene: "builtin:cornell".into(),
         width: 8,
         height: 8,
-        bins: 16,
-        spp_target: 1,
+        bins: 64,
+        spp_target: 8,
+        t0: "0 ns".into(),
+        dt: "100 ps".into(),
         ..ViewerSettings::default()
     });
     wait_done(&mut h, None);
-    assert!(h.query_by_label("Visibility (m)").is_none());
+    assert!(h.query_by_label_contains("clear air").is_some());
+    let clear = h.state().snapshot().unwrap();
+    assert!(request_medium(&h).is_none());
+    let suggested: f64 = h
+        .get_by_label("Visibility (m)")
+        .accesskit_node()
+        .value()
+        .expect("the visibility field's text")
+        .parse()
+        .unwrap();
+    let diag = f64::from(
+        tprf_core::scene::builtin::load("cornell")
+            .unwrap()
+            .bounds()
+            .diagonal_m(),
+    );
+    assert!(
+        (suggested - 10.0 * diag).abs() <= 0.05 * 10.0 * diag,
+        "{suggested} vs {diag}"
+    );
+    h.get_by_label("Add fog").click();
+    h.run_steps(2);
+    let m = request_medium(&h).expect("the fog is the request's medium");
+    let want = 3.912 / suggested;
+    assert!((f64::from(m.sigma_t_per_m()[0]) - want).abs() < 1e-4 * want);
+    wait_done(&mut h, Some(&clear));
+    let fog = h.state().snapshot().unwrap();
+    let (a, b) = (total(&clear), total(&fog));
+    assert!(
+        (a - b).abs() > 0.02 * a,
+        "the fog changes the film: {a} vs {b}"
+    );
+    assert!(h.query_by_label_contains("clear air").is_none());
 }
 
 /// `TPRF_SCREENSHOTS=1 cargo test --release --test viewer_fog -- --ignored fog_screenshot`

@@ -1,10 +1,12 @@
-//! The Fog section of the left panel, for a scene with a scene-wide medium (`builtin:fog`,
+//! The Fog section of the left panel: for a scene with a scene-wide medium (`builtin:fog`,
 //! a glTF scene's extras, `--medium`): its visibility (the meteorological optical range
 //! `V`: extinction `3.912 / V` per metre) as a number and a slider, its albedo and
 //! Henyey-Greenstein `g`. A new fog restarts the render with it as the request's
 //! `medium` (the old film stays on screen until the new one has light); a bad value is
 //! a message and renders nothing. "Window out to 2 V" renders the time axis that holds
 //! the targets' returns through the fog (the automatic one ends with its backscatter).
+//! A scene in clear air is offered a fog to add (its visibility ten times the scene's
+//! size), as `tprf render --medium` would render it.
 
 use crate::viewer::app::TprfApp;
 use crate::viewer::camera::number_text;
@@ -45,51 +47,72 @@ impl TprfApp {
         self.restart_keeping_film();
     }
 
-    /// The Fog section (nothing for a scene in clear air).
+    /// A fog to offer a scene in clear air: visibility ten times the scene's bounding
+    /// diagonal (two significant digits), so a return across the scene keeps most of
+    /// its light and the backscatter shows; albedo 0.9, `g` 0.85 (fog), the scene's `n`
+    /// (1). `None` while the scene loads, for a cube, and for a scene with a medium.
+    fn clear_air_fog(&self) -> Option<Fog> {
+        let Source::Live(w) = &self.source else {
+            return None;
+        };
+        let scene = w.scene()?;
+        if scene.medium.is_some() {
+            return None;
+        }
+        let d = f64::from(scene.bounds().diagonal_m());
+        let v = if d.is_finite() && d > 0.0 {
+            let raw = 10.0 * d;
+            let p = 10f64.powf(raw.log10().floor() - 1.0);
+            (raw / p).round() * p
+        } else {
+            50.0
+        };
+        Some(Fog {
+            visibility_m: v,
+            albedo: 0.9,
+            g: 0.85,
+            n: 1.0,
+        })
+    }
+
+    /// The Fog section of a scene in clear air: a fog's fields, filled with `suggested`,
+    /// and "Add fog", which renders the scene in it (the request's `medium`).
+    fn add_fog_ui(&mut self, ui: &mut egui::Ui, suggested: Fog) {
+        ui.separator();
+        ui.heading("Fog");
+        ui.label(RichText::new("clear air: add a scene-wide fog").weak());
+        self.fog_text.follow(&suggested);
+        let submit = fog_fields(ui, &mut self.fog_text);
+        if ui
+            .button("Add fog")
+            .on_hover_text("render this scene in the fog above (as tprf render --medium)")
+            .clicked()
+            || submit
+        {
+            match self.fog_text.parse() {
+                Ok(f) => self.set_fog(Some(f)),
+                Err(e) => self.messages.push(e),
+            }
+        }
+    }
+
+    /// The Fog section: the scene's fog to edit, or for a scene in clear air a fog to
+    /// add.
     pub(crate) fn fog_ui(&mut self, ui: &mut egui::Ui) {
         let Some(fog) = self.scene_fog() else {
             if self.settings.medium.is_some() && matches!(self.source, Source::Live(_)) {
                 ui.separator();
                 ui.heading("Fog");
                 ui.label(RichText::new("the scene is loading…").weak());
+            } else if let Some(suggested) = self.clear_air_fog() {
+                self.add_fog_ui(ui, suggested);
             }
             return;
         };
         ui.separator();
         ui.heading("Fog");
         self.fog_text.follow(&fog);
-        let mut submit = false;
-        let t = &mut self.fog_text;
-        egui::Grid::new("fog-grid").num_columns(2).show(ui, |ui| {
-            for (name, hover, text) in [
-                (
-                    "Visibility (m)",
-                    "the meteorological optical range V: where a black target keeps 2 % \
-                     contrast; extinction 3.912 / V per metre",
-                    &mut t.visibility,
-                ),
-                (
-                    "Albedo",
-                    "the share of the extinction that scatters (1: no absorption), in [0, 1]",
-                    &mut t.albedo,
-                ),
-                (
-                    "g",
-                    "Henyey-Greenstein asymmetry, in (-1, 1): 0 isotropic, fog about 0.85-0.9 \
-                     (forward)",
-                    &mut t.g,
-                ),
-            ] {
-                let l = ui.label(name).on_hover_text(hover);
-                let r = ui
-                    .add(egui::TextEdit::singleline(text).desired_width(90.0))
-                    .labelled_by(l.id);
-                if r.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter)) {
-                    submit = true;
-                }
-                ui.end_row();
-            }
-        });
+        let mut submit = fog_fields(ui, &mut self.fog_text);
         // The slider moves the visibility field and renders when let go.
         let mut v = parse_visibility_m(&self.fog_text.visibility).unwrap_or(fog.visibility_m);
         let r = ui.add(
@@ -169,4 +192,40 @@ impl TprfApp {
             .small(),
         );
     }
+}
+
+/// The fog's three fields (visibility, albedo, g); whether Enter was pressed in one.
+fn fog_fields(ui: &mut egui::Ui, t: &mut crate::viewer::fog::FogText) -> bool {
+    let mut submit = false;
+    egui::Grid::new("fog-grid").num_columns(2).show(ui, |ui| {
+        for (name, hover, text) in [
+            (
+                "Visibility (m)",
+                "the meteorological optical range V: where a black target keeps 2 % \
+                     contrast; extinction 3.912 / V per metre",
+                &mut t.visibility,
+            ),
+            (
+                "Albedo",
+                "the share of the extinction that scatters (1: no absorption), in [0, 1]",
+                &mut t.albedo,
+            ),
+            (
+                "g",
+                "Henyey-Greenstein asymmetry, in (-1, 1): 0 isotropic, fog about 0.85-0.9 \
+                     (forward)",
+                &mut t.g,
+            ),
+        ] {
+            let l = ui.label(name).on_hover_text(hover);
+            let r = ui
+                .add(egui::TextEdit::singleline(text).desired_width(90.0))
+                .labelled_by(l.id);
+            if r.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter)) {
+                submit = true;
+            }
+            ui.end_row();
+        }
+    });
+    submit
 }
