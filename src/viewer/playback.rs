@@ -109,9 +109,11 @@ impl TprfApp {
             return;
         }
         self.play_time_s = Some(now_s);
+        // Up to half a second of play per frame: a slow frame skips bins rather than
+        // slowing the light down.
         let dt = last_s
             .map_or(predicted_s, |t| (now_s - t) as f32)
-            .clamp(0.0, 0.1);
+            .clamp(0.0, 0.5);
         let rate = match self.settings.play_bins_per_s {
             r if r.is_finite() && r > 0.0 => r,
             _ => 30.0,
@@ -127,16 +129,40 @@ impl TprfApp {
                 return;
             }
         }
-        // When the accumulator reaches 1.
-        let due = std::time::Duration::try_from_secs_f32((1.0 - self.play_accum) / rate)
-            .unwrap_or_default();
-        ctx.request_repaint_after(due);
+        // When the accumulator reaches 1, but no sooner than the frame rate the window
+        // can spare: frames are dropped, never the render's passes.
+        let due_s = ((1.0 - self.play_accum) / rate).max(playback_interval_s(self.timing.cpu_ms));
+        ctx.request_repaint_after(
+            std::time::Duration::try_from_secs_f32(due_s).unwrap_or_default(),
+        );
     }
+}
+
+/// Share of one core playback may spend drawing frames: the rest is the render's.
+const PLAYBACK_CPU_SHARE: f32 = 0.25;
+
+/// The shortest time between playback's frames, seconds, for frames costing `cpu_ms`
+/// (eframe's measure of the last frame, painting included): frames take at most
+/// [`PLAYBACK_CPU_SHARE`] of a core (under software rendering a frame costs tens of
+/// milliseconds), and come no faster than 60 per second nor slower than 4.
+pub(super) fn playback_interval_s(cpu_ms: Option<f32>) -> f32 {
+    let ms = cpu_ms.filter(|m| m.is_finite() && *m > 0.0).unwrap_or(0.0);
+    (ms / 1000.0 / PLAYBACK_CPU_SHARE).clamp(1.0 / 60.0, 0.25)
 }
 
 #[cfg(test)]
 mod tests {
-    use super::stepped_bin;
+    use super::{playback_interval_s, stepped_bin};
+
+    /// A 2 ms frame plays at 60 Hz; a 40 ms one (software rendering) every 160 ms, a
+    /// quarter of a core; a 200 ms one no slower than 4 Hz.
+    #[test]
+    fn playback_spares_the_render_its_cores() {
+        assert_eq!(playback_interval_s(Some(2.0)), 1.0 / 60.0);
+        assert!((playback_interval_s(Some(40.0)) - 0.16).abs() < 1e-6);
+        assert_eq!(playback_interval_s(Some(200.0)), 0.25);
+        assert_eq!(playback_interval_s(None), 1.0 / 60.0);
+    }
 
     #[test]
     fn steps_wrap_when_looping_and_stop_otherwise() {

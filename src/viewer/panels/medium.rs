@@ -77,22 +77,29 @@ impl TprfApp {
 
     /// The Fog section of a scene in clear air: a fog's fields, filled with `suggested`,
     /// and "Add fog", which renders the scene in it (the request's `medium`).
+    /// Folded by default: one line in the panel for scenes that want no fog.
     fn add_fog_ui(&mut self, ui: &mut egui::Ui, suggested: Fog) {
         ui.separator();
-        ui.heading("Fog");
-        ui.label(RichText::new("clear air: add a scene-wide fog").weak());
-        self.fog_text.follow(&suggested);
-        let submit = fog_fields(ui, &mut self.fog_text);
-        if ui
-            .button("Add fog")
-            .on_hover_text("render this scene in the fog above (as tprf render --medium)")
-            .clicked()
-            || submit
-        {
-            match self.fog_text.parse() {
-                Ok(f) => self.set_fog(Some(f)),
-                Err(e) => self.messages.push(e),
-            }
+        let mut add = None;
+        egui::CollapsingHeader::new("Fog: clear air")
+            .id_salt("add-fog")
+            .default_open(false)
+            .show(ui, |ui| {
+                self.fog_text.follow(&suggested);
+                let submit = fog_fields(ui, &mut self.fog_text);
+                if ui
+                    .button("Add fog")
+                    .on_hover_text("render this scene in the fog above (as tprf render --medium)")
+                    .clicked()
+                    || submit
+                {
+                    add = Some(self.fog_text.parse());
+                }
+            });
+        match add {
+            Some(Ok(f)) => self.set_fog(Some(f)),
+            Some(Err(e)) => self.messages.push(e),
+            None => {}
         }
     }
 
