@@ -2561,3 +2561,22 @@ fn a_failed_scenes_message_goes_with_it() {
     let m = h.state().messages().join("\n");
     assert!(!m.contains("missing.glb"), "{m}");
 }
+
+/// Saves start from a name made of the scene and what is saved, not an empty field.
+#[test]
+fn saves_suggest_the_scenes_name() {
+    use tprf::viewer::FileAction;
+    let h = harness(small_settings("builtin:cornell", 8, 16, 1));
+    let bin = h.state().bin;
+    assert_eq!(
+        h.state().suggested_name(FileAction::SaveSlicePng),
+        Some(format!("cornell_bin{bin:04}.png"))
+    );
+    assert_eq!(
+        h.state()
+            .suggested_name(FileAction::SaveSteadyPng)
+            .as_deref(),
+        Some("cornell_steady.png")
+    );
+    assert_eq!(h.state().suggested_name(FileAction::OpenScene), None);
+}

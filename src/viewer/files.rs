@@ -44,30 +44,24 @@ impl FileAction {
         }
     }
 
-    /// The system dialog for this action; `None` when cancelled or when it could not
-    /// open.
-    fn dialog(self) -> Option<PathBuf> {
+    /// The system dialog for this action, a save dialog starting at `name`; `None` when
+    /// cancelled or when it could not open.
+    fn dialog(self, name: Option<String>) -> Option<PathBuf> {
         let d = rfd::FileDialog::new();
+        let d = match name {
+            Some(n) => d.set_file_name(n),
+            None => d,
+        };
         match self {
             FileAction::OpenScene => d.add_filter("scene", &["gltf", "glb", "xml"]).pick_file(),
             FileAction::OpenCube | FileAction::SaveVideo => d.pick_folder(),
-            FileAction::SaveSlicePng | FileAction::SaveSteadyPng => d
-                .add_filter("PNG", &["png"])
-                .set_file_name("tprf.png")
-                .save_file(),
-            FileAction::SaveCsv => d
-                .add_filter("CSV", &["csv"])
-                .set_file_name("tprf.csv")
-                .save_file(),
+            FileAction::SaveSlicePng | FileAction::SaveSteadyPng => {
+                d.add_filter("PNG", &["png"]).save_file()
+            }
+            FileAction::SaveCsv => d.add_filter("CSV", &["csv"]).save_file(),
             FileAction::LoadSensor => d.add_filter("sensor", &["toml"]).pick_file(),
-            FileAction::SaveSensor => d
-                .add_filter("sensor", &["toml"])
-                .set_file_name("sensor.toml")
-                .save_file(),
-            FileAction::SaveSceneGltf => d
-                .add_filter("glTF", &["gltf"])
-                .set_file_name("scene.gltf")
-                .save_file(),
+            FileAction::SaveSensor => d.add_filter("sensor", &["toml"]).save_file(),
+            FileAction::SaveSceneGltf => d.add_filter("glTF", &["gltf"]).save_file(),
         }
     }
 }
@@ -96,7 +90,7 @@ impl TprfApp {
             return;
         }
         let started = Instant::now();
-        match action.dialog() {
+        match action.dialog(self.suggested_name(action)) {
             Some(p) => self.file_chosen(action, &p),
             None if started.elapsed() < NO_DIALOG => {
                 let note = "The system file dialog did not open (no xdg-desktop-portal or \
@@ -110,9 +104,42 @@ impl TprfApp {
         }
     }
 
-    /// Open the path window for `action`, keeping a path typed before.
+    /// The name a save starts from: the scene's name and what is saved
+    /// (`cornell_bin0042.png`, `staircase_steady.png`, `cornell_frames`); `None` when
+    /// opening.
+    pub fn suggested_name(&self, action: FileAction) -> Option<String> {
+        let scene = &self.settings.scene;
+        let stem = scene
+            .strip_prefix("builtin:")
+            .map(str::to_string)
+            .or_else(|| {
+                std::path::Path::new(scene)
+                    .file_stem()
+                    .map(|s| s.to_string_lossy().into_owned())
+            })
+            .filter(|s| !s.is_empty())
+            .unwrap_or_else(|| "tprf".into());
+        match action {
+            FileAction::OpenScene | FileAction::OpenCube | FileAction::LoadSensor => None,
+            FileAction::SaveSlicePng => Some(format!("{stem}_bin{:04}.png", self.bin)),
+            FileAction::SaveSteadyPng => Some(format!("{stem}_steady.png")),
+            FileAction::SaveVideo => Some(format!("{stem}_frames")),
+            FileAction::SaveCsv => Some(format!("{stem}_tprf.csv")),
+            FileAction::SaveSensor => Some(format!("{stem}_sensor.toml")),
+            FileAction::SaveSceneGltf => Some(format!("{stem}_camera.gltf")),
+        }
+    }
+
+    /// Open the path window for `action`, keeping a path typed before (or starting
+    /// from the suggested name of a save).
     fn open_path_prompt(&mut self, action: FileAction, note: Option<String>) {
-        let text = self.path_prompt.take().map(|p| p.text).unwrap_or_default();
+        let text = self
+            .path_prompt
+            .take()
+            .map(|p| p.text)
+            .filter(|t| !t.is_empty())
+            .or_else(|| self.suggested_name(action))
+            .unwrap_or_default();
         self.path_prompt = Some(PathPrompt { action, text, note });
     }
 

@@ -7,7 +7,7 @@ use crate::viewer::source::Source;
 use eframe::egui;
 
 impl TprfApp {
-    /// Mode tabs, "Open glTF…", "Open cube…", the built-in scenes, pause/restart.
+    /// Mode tabs, "Open scene (glTF, XML)…", "Open cube…", the built-in scenes, pause/restart.
     pub(crate) fn top_bar_ui(&mut self, ui: &mut egui::Ui) {
         ui.horizontal_wrapped(|ui| {
             ui.strong("tprf");
@@ -20,11 +20,11 @@ impl TprfApp {
                 );
             ui.selectable_value(&mut self.settings.mode, Mode::Phasor, "Phasor")
                 .on_hover_text(
-                    "A frequency's amplitude and phase images: the cube's phasor.npy, or                      computed from the film at mitransient's phasor_hdr_film frequencies",
+                    "A frequency's amplitude and phase images: the cube's phasor.npy, or computed from the film at mitransient's phasor_hdr_film frequencies",
                 );
             ui.separator();
             if ui
-                .button("Open glTF…")
+                .button("Open scene (glTF, XML)…")
                 .on_hover_text(
                     "Render a .gltf/.glb or Mitsuba .xml scene (or drop one on the window)",
                 )

@@ -428,7 +428,9 @@ fn through_temp<F>(
     let tmp = temp_path(path);
     let result = (|| {
         let file = create(&tmp).map_err(|source| ExportError::Create {
-            path: tmp.clone(),
+            // The file asked for, not the temporary name a user never chose (a missing
+            // folder reads "cannot create out/x.png: No such file or directory").
+            path: path.to_path_buf(),
             source,
         })?;
         fill(file).map_err(|source| ExportError::Write {
@@ -999,5 +1001,25 @@ mod csv_tests {
             let back: f64 = csv_number(f64::from(v)).parse().unwrap();
             assert_eq!(back as f32, v, "an f32 survives");
         }
+    }
+}
+
+#[cfg(test)]
+mod write_tests {
+    use super::write_atomic;
+
+    /// Writing into a folder that does not exist names the file asked for, not the
+    /// temporary file beside it.
+    #[test]
+    fn a_missing_folder_names_the_file_asked_for() {
+        let dir = std::env::temp_dir().join(format!("tprf-missing-{}", std::process::id()));
+        let path = dir.join("nowhere").join("slice.png");
+        let e = write_atomic(&path, |_| Ok(())).unwrap_err();
+        let text = format!("{e}");
+        assert!(
+            text.contains("slice.png") && !text.contains(".tmp"),
+            "{text}"
+        );
+        assert!(!path.exists());
     }
 }
