@@ -42,6 +42,7 @@
 //! texture), `uniform` and `srgb` spectra; only the base colour slot takes a texture.
 
 use super::emitters::AreaEmitter;
+use super::prefetch::{self, Job};
 use super::shapes::uv_transform;
 use super::xml::{Color, Object, err};
 use super::{Builder, MaterialKey, MaterialSlot};
@@ -621,7 +622,11 @@ impl Builder<'_> {
                         format!("<texture type=\"bitmap\"> wrap_mode \"{w}\" read as repeat"),
                     );
                 }
-                decode_bitmap(&path, &format!("{} at {}", o.describe(), o.loc), raw)?
+                let job = Job::Bitmap(path, raw);
+                match self.prefetched.take_texture(k, &job) {
+                    Some(texture) => texture?,
+                    None => decode_bitmap(job.path(), &prefetch::what(o), raw)?,
+                }
             }
             "checkerboard" => {
                 let c0 = self.constant(o, "color0", 0.4)?;
@@ -684,7 +689,7 @@ fn checkerboard(c0: [f64; 3], c1: [f64; 3]) -> Texture {
 /// Decode an image file into an sRGB-encoded RGBA8 [`Texture`]: 8-bit files as stored
 /// (`raw`: their values are linear, encoded to sRGB), 16-bit and floating-point ones
 /// (OpenEXR) from linear values. The decoded size is budgeted before any pixel is read.
-fn decode_bitmap(path: &Path, what: &str, raw: bool) -> Result<Texture, SceneError> {
+pub(super) fn decode_bitmap(path: &Path, what: &str, raw: bool) -> Result<Texture, SceneError> {
     use image::{DynamicImage, ImageDecoder};
     let bytes = budget::read_file(path, what).map_err(|e| match e {
         budget::BudgetError::Io { path, source } => SceneError::Io {
