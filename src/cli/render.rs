@@ -35,18 +35,23 @@ pub struct RenderArgs {
 pub fn run(a: &RenderArgs) -> Result<()> {
     let scene_name = &a.request.scene;
     // A Mitsuba XML scene's film, sampler and integrator settings stand in for the
-    // options not given (the file is read here for them, and again by the render).
+    // options not given: read from the XML alone (its meshes and textures are read once,
+    // by the render), or from the whole scene where it is also saved as glTF.
     let request = if a.save_gltf.is_some() || tprf_core::scene::is_mitsuba_path(scene_name) {
-        let (scene, file) = tprf_core::scene::load_with_settings(scene_name)?;
-        if let Some(path) = &a.save_gltf {
-            tprf_core::scene::gltf_save::save_gltf(&scene, path)
-                .with_context(|| format!("--save-gltf {}", path.display()))?;
-            eprintln!(
-                "wrote {} ({} triangles)",
-                path.display(),
-                scene.triangles.len()
-            );
-        }
+        let file = match &a.save_gltf {
+            Some(path) => {
+                let (scene, file) = tprf_core::scene::load_with_settings(scene_name)?;
+                tprf_core::scene::gltf_save::save_gltf(&scene, path)
+                    .with_context(|| format!("--save-gltf {}", path.display()))?;
+                eprintln!(
+                    "wrote {} ({} triangles)",
+                    path.display(),
+                    scene.triangles.len()
+                );
+                file
+            }
+            None => tprf_core::scene::file_settings(scene_name)?,
+        };
         if file.nlos.is_some() && a.out.is_some() {
             anyhow::bail!(
                 "{scene_name} is an NLOS capture scene (mitransient's transient_nlos_path): render it with tprf nlos {scene_name} --out DIR"

@@ -40,9 +40,13 @@ pub fn sample_texture(tex: &Texture, uv: Vec2, srgb: bool) -> [f32; 4] {
     }
     let (x0, y0) = (x.floor(), y.floor());
     let (fx, fy) = (x - x0, y - y0);
+    // The four texels' rows and columns wrapped once (two divisions, not eight).
+    let (x0, y0) = ((x0 as i64).rem_euclid(w), (y0 as i64).rem_euclid(h));
+    let (x1, y1) = (
+        if x0 + 1 == w { 0 } else { x0 + 1 },
+        if y0 + 1 == h { 0 } else { y0 + 1 },
+    );
     let texel = |xi: i64, yi: i64| -> [f32; 4] {
-        let xi = xi.rem_euclid(w);
-        let yi = yi.rem_euclid(h);
         let p = tex.rgba8[(yi * w + xi) as usize];
         let c = |v: u8| {
             if srgb {
@@ -53,13 +57,7 @@ pub fn sample_texture(tex: &Texture, uv: Vec2, srgb: bool) -> [f32; 4] {
         };
         [c(p[0]), c(p[1]), c(p[2]), p[3] as f32 / 255.0]
     };
-    let (x0, y0) = (x0 as i64, y0 as i64);
-    let (a, b, c, d) = (
-        texel(x0, y0),
-        texel(x0 + 1, y0),
-        texel(x0, y0 + 1),
-        texel(x0 + 1, y0 + 1),
-    );
+    let (a, b, c, d) = (texel(x0, y0), texel(x1, y0), texel(x0, y1), texel(x1, y1));
     let mut out = [0.0; 4];
     for i in 0..4 {
         let top = a[i] + (b[i] - a[i]) * fx;
@@ -400,5 +398,53 @@ impl Surfaces {
             bsdf,
             ior: bm.params.ior,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 3 x 2 texture whose texel `(x, y)` holds red `10 x + 100 y`, blue 255 and alpha
+    /// `50 + x`: lookups that wrap across both edges and land on texel centres, worked
+    /// out by hand (uv `(0, 0)` is the corner between texels (2, 1), (0, 1), (2, 0) and
+    /// (0, 0); uv `(1, 1/2)` the same corner seen from the other side).
+    #[test]
+    fn bilinear_lookups_wrap_at_both_edges() {
+        let (w, h) = (3u32, 2u32);
+        let rgba8 = (0..w * h)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                [(10 * x + 100 * y) as u8, 0, 255, (50 + x) as u8]
+            })
+            .collect();
+        let tex = Texture {
+            width: w,
+            height: h,
+            rgba8,
+        };
+        let at = |u: f32, v: f32| sample_texture(&tex, Vec2::new(u, v), false);
+        let close = |got: [f32; 4], red: f32, alpha: f32| {
+            (got[0] * 255.0 - red).abs() < 1e-3
+                && got[1] == 0.0
+                && (got[2] - 1.0).abs() < 1e-6
+                && (got[3] * 255.0 - alpha).abs() < 1e-3
+        };
+        // The four corners' mean: red (20 + 0 + 120 + 100) / 4, alpha (52 + 50) / 2.
+        for (u, v) in [(0.0, 0.0), (1.0, 0.5), (-1.0, 2.0)] {
+            assert!(close(at(u, v), 60.0, 51.0), "({u}, {v}): {:?}", at(u, v));
+        }
+        // Texel centres far outside [0, 1): (1, 1) and (2, 0).
+        assert!(close(at(-1.5, 0.75), 110.0, 51.0), "{:?}", at(-1.5, 0.75));
+        assert!(
+            close(at(3.0 + 2.5 / 3.0, -0.75), 20.0, 52.0),
+            "{:?}",
+            at(3.0 + 2.5 / 3.0, -0.75)
+        );
+        // Half way between the centres of (1, 0) and (1, 1).
+        assert!(close(at(0.5, 0.5), 60.0, 51.0), "{:?}", at(0.5, 0.5));
+        // sRGB decoding: code 255 is 1, 0 is 0.
+        let s = sample_texture(&tex, Vec2::new(-1.5, 0.75), true);
+        assert!((s[2] - 1.0).abs() < 1e-6 && s[1] == 0.0, "{s:?}");
     }
 }

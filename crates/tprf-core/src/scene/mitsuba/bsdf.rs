@@ -42,6 +42,7 @@
 //! texture), `uniform` and `srgb` spectra; only the base colour slot takes a texture.
 
 use super::emitters::AreaEmitter;
+use super::prefetch::{self, Job};
 use super::shapes::uv_transform;
 use super::xml::{Color, Object, err};
 use super::{Builder, MaterialKey, MaterialSlot};
@@ -687,7 +688,11 @@ impl Builder<'_> {
                         format!("<texture type=\"bitmap\"> wrap_mode \"{w}\" read as repeat"),
                     );
                 }
-                decode_bitmap(&path, &format!("{} at {}", o.describe(), o.loc), raw)?
+                let job = Job::Bitmap(path, raw);
+                match self.prefetched.take_texture(k, &job) {
+                    Some(texture) => texture?,
+                    None => decode_bitmap(job.path(), &prefetch::what(o), raw)?,
+                }
             }
             "checkerboard" => {
                 let c0 = self.constant(o, "color0", 0.4)?;
@@ -757,9 +762,6 @@ fn checkerboard(c0: [f64; 3], c1: [f64; 3]) -> Texture {
     }
 }
 
-/// Decode an image file into an sRGB-encoded RGBA8 [`Texture`]: 8-bit files as stored
-/// (`raw`: their values are linear, encoded to sRGB), 16-bit and floating-point ones
-/// (OpenEXR) from linear values. The decoded size is budgeted before any pixel is read.
 /// Read and decode an image file (PNG, JPEG, OpenEXR), its decoded size budgeted before
 /// any pixel is read.
 fn decode_image(path: &Path, what: &str) -> Result<image::DynamicImage, SceneError> {
@@ -835,7 +837,10 @@ pub(super) fn decode_linear_rgb(
     })
 }
 
-fn decode_bitmap(path: &Path, what: &str, raw: bool) -> Result<Texture, SceneError> {
+/// Decode an image file into an sRGB-encoded RGBA8 [`Texture`]: 8-bit files as stored
+/// (`raw`: their values are linear, encoded to sRGB), 16-bit and floating-point ones
+/// (OpenEXR) from linear values. The decoded size is budgeted before any pixel is read.
+pub(super) fn decode_bitmap(path: &Path, what: &str, raw: bool) -> Result<Texture, SceneError> {
     use image::DynamicImage;
     let image = decode_image(path, what)?;
     let (w, h) = (image.width(), image.height());

@@ -53,6 +53,7 @@ mod emitters;
 mod media;
 mod meshes;
 mod nlos;
+mod prefetch;
 mod sensor;
 mod shapes;
 mod transform;
@@ -102,6 +103,15 @@ pub fn mitsuba_file_settings(path: &Path) -> Result<FileSettings, SceneError> {
     }
     if let Some(k) = integrator {
         b.read_integrator(k)?;
+    }
+    // A capture meter on a relay wall makes the file an NLOS capture scene (its fields
+    // are read with the wall's shape, by the load).
+    if parsed
+        .objects
+        .iter()
+        .any(|o| o.tag == "sensor" && o.plugin == "nlos_capture_meter")
+    {
+        b.nlos();
     }
     b.settle_camera_nlos();
     Ok(b.settings)
@@ -157,6 +167,8 @@ pub(super) struct Builder<'a> {
     budget_unchecked_to: u64,
     /// Objects being converted, outermost first (nesting bound).
     depth: usize,
+    /// Mesh and bitmap files decoded ahead, in parallel.
+    prefetched: prefetch::Prefetched,
 }
 
 impl<'a> Builder<'a> {
@@ -182,6 +194,7 @@ impl<'a> Builder<'a> {
             degenerate: 0,
             budget_unchecked_to: 0,
             depth: 0,
+            prefetched: prefetch::Prefetched::default(),
         }
     }
 
@@ -216,11 +229,32 @@ impl<'a> Builder<'a> {
         let root = self.object(0);
         let mut sensor_seen = false;
         let mut integrator_seen = false;
+        // The top-level shapes, whose files are decoded ahead in batches, and the bitmap
+        // textures, decoded with the first batch.
+        let parsed: &'a Parsed = self.parsed;
+        let shapes: Vec<usize> = root
+            .children()
+            .map(|(_, k)| k)
+            .filter(|&k| parsed.objects[k].tag == "shape")
+            .collect();
+        let mut ahead: Vec<usize> = (0..parsed.objects.len())
+            .filter(|&k| parsed.objects[k].tag == "texture")
+            .collect();
+        let mut shapes_done = 0;
         for (p, k) in root.children() {
             p.used.set(true);
             let o = self.object(k);
             match o.tag {
-                "shape" => self.add_shape(k)?,
+                "shape" => {
+                    if shapes_done % prefetch::SHAPES_AHEAD == 0 {
+                        let end = (shapes_done + prefetch::SHAPES_AHEAD).min(shapes.len());
+                        ahead.extend_from_slice(&shapes[shapes_done..end]);
+                        self.prefetched.decode(parsed, &self.file, &ahead);
+                        ahead.clear();
+                    }
+                    shapes_done += 1;
+                    self.add_shape(k)?
+                }
                 "emitter" => self.add_emitter(k)?,
                 "sensor" if sensor_seen => {
                     self.note_at(

@@ -74,7 +74,8 @@ pub(super) fn spot_area_m2(scene: &crate::scene::Scene, light: &PunctualLight) -
 }
 
 impl Builder<'_> {
-    fn nlos(&mut self) -> &mut NlosFileSettings {
+    /// The file's NLOS capture settings, made where there were none.
+    pub(super) fn nlos(&mut self) -> &mut NlosFileSettings {
         self.settings.nlos.get_or_insert_with(Default::default)
     }
 

@@ -11,6 +11,7 @@
 //! `compute_normals`) unless `face_normals` is set.
 
 use super::meshes::{self, Mesh};
+use super::prefetch::Job;
 use super::transform::is_affine;
 use super::xml::{self, err};
 use super::{Builder, MaterialSlot};
@@ -257,16 +258,24 @@ impl Builder<'_> {
         };
         use std::path::Path;
         let (mesh, file_mesh, analytic_to_local) = match o.plugin.as_str() {
-            "obj" => (
-                meshes::read_obj(&file_of(self)?, &what, o.boolean("flip_tex_coords", true)?)?,
-                true,
-                DMat4::IDENTITY,
-            ),
-            "ply" => (
-                meshes::read_ply(&file_of(self)?, &what, o.boolean("flip_tex_coords", false)?)?,
-                true,
-                DMat4::IDENTITY,
-            ),
+            "obj" => {
+                let (path, flip) = (file_of(self)?, o.boolean("flip_tex_coords", true)?);
+                let job = Job::Obj(path, flip);
+                let mesh = match self.prefetched.take_mesh(k, &job) {
+                    Some(mesh) => mesh?,
+                    None => meshes::read_obj(job.path(), &what, flip)?,
+                };
+                (mesh, true, DMat4::IDENTITY)
+            }
+            "ply" => {
+                let (path, flip) = (file_of(self)?, o.boolean("flip_tex_coords", false)?);
+                let job = Job::Ply(path, flip);
+                let mesh = match self.prefetched.take_mesh(k, &job) {
+                    Some(mesh) => mesh?,
+                    None => meshes::read_ply(job.path(), &what, flip)?,
+                };
+                (mesh, true, DMat4::IDENTITY)
+            }
             "serialized" => {
                 let (index, at) = o.integer("shape_index", 0)?;
                 let index = u64::try_from(index).map_err(|_| {
