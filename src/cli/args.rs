@@ -308,7 +308,7 @@ fn time_value(text: &str) -> Result<f64, String> {
 
 /// A finite number: a request travels as JSON, which has no NaN or infinity (the
 /// request's own check then says what range the option takes).
-fn finite(text: &str) -> Result<f64, String> {
+pub(super) fn finite(text: &str) -> Result<f64, String> {
     match text.trim().parse::<f64>() {
         Ok(v) if v.is_finite() => Ok(v),
         Ok(v) => Err(format!("{v} is not a finite number")),
