@@ -39,7 +39,7 @@ pub fn check_out(flag: &str, out: &std::path::Path, inputs: &[&std::path::Path])
 /// The options of a render (`tprf render`, and its shards): one per [`RenderRequest`]
 /// field, each named as the field is serialised (the test `every_request_key_is_a_flag`
 /// holds the two lists equal). An option not given is left out of the request
-/// ([`RequestArgs::given`]) and takes the scene file's setting or the request's default,
+/// (`RequestArgs::given`) and takes the scene file's setting or the request's default,
 /// which `--help` shows from [`RenderRequest::default`] ([`with_request_defaults`]).
 #[derive(clap::Args, Debug, Clone, Serialize)]
 pub struct RequestArgs {

@@ -282,7 +282,11 @@ impl TprfApp {
                     .as_ref()
                     .map(|s| format!(" (its {} spp not taken: the window renders on)", s.value))
                     .unwrap_or_default();
-                let taken: Vec<String> = notes.iter().map(ToString::to_string).collect();
+                // Fields named as the window's labels: `time origin`, `max bounces`.
+                let taken: Vec<String> = notes
+                    .iter()
+                    .map(|n| n.text_with(|f| f.replace('_', " ")))
+                    .collect();
                 self.messages
                     .push(format!("from the scene file: {}{spp}", taken.join(", ")));
             }
