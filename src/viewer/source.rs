@@ -285,7 +285,13 @@ impl TprfApp {
                 // Fields named as the window's labels: `time origin`, `max bounces`.
                 let taken: Vec<String> = notes
                     .iter()
-                    .map(|n| n.text_with(|f| f.replace('_', " ")))
+                    .map(|n| match (n.field, r.phasor) {
+                        ("phasor", Some(b)) => format!(
+                            "phasor band {}:{} m (the Phasor tab)",
+                            b.wl_mean_m, b.wl_sigma_m
+                        ),
+                        _ => n.text_with(|f| f.replace('_', " ")),
+                    })
                     .collect();
                 self.messages
                     .push(format!("from the scene file: {}{spp}", taken.join(", ")));
