@@ -309,3 +309,54 @@ fn an_xml_scenes_film_reaches_the_request_from_each_front_end() {
     let o = tprf(&["batch", manifest.to_str().unwrap()]);
     assert!(stderr(&o).contains("complete, skipped"), "{}", stderr(&o));
 }
+
+/// A manifest's `[[measure]]` job is the measurement `tprf sensor` makes with the same
+/// options (its keys are the options' names): the same `sensor.npy`, bit for bit, made
+/// after the render it reads; complete, it is skipped; a bad key is named.
+#[test]
+fn a_measure_job_is_the_measurement_its_options_make() {
+    let dir = tempdir("measure-job");
+    let manifest = dir.join("m.toml");
+    std::fs::write(
+        &manifest,
+        "[[measure]]\nname = \"gated\"\ndir = \"cube\"\nout = \"gated\"\npreset = \"builtin:gated\"\n\
+         seed = 7\nnoise_sigma = 0.01\npixel = [[1, 2]]\n\n\
+         [[job]]\nscene = \"builtin:cornell\"\nout = \"cube\"\nwidth = 8\nheight = 6\nbins = 16\nspp = 2\n",
+    )
+    .unwrap();
+    let o = tprf(&["batch", manifest.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let by_hand = dir.join("by-hand");
+    let o = tprf(&[
+        "sensor",
+        dir.join("cube").to_str().unwrap(),
+        "--preset",
+        "builtin:gated",
+        "--seed",
+        "7",
+        "--noise-sigma",
+        "0.01",
+        "--pixel",
+        "1,2",
+        "--out",
+        by_hand.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for file in ["sensor.npy", "pixel_1_2.csv"] {
+        assert_eq!(
+            std::fs::read(dir.join("gated").join(file)).unwrap(),
+            std::fs::read(by_hand.join(file)).unwrap(),
+            "{file}: the batch's is not tprf sensor's"
+        );
+    }
+    let o = tprf(&["batch", manifest.to_str().unwrap(), "--list"]);
+    let listed = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(listed.contains("gated\tcomplete"), "{listed}");
+    std::fs::write(
+        &manifest,
+        "[[measure]]\ndir = \"cube\"\nout = \"x\"\npreset = \"builtin:gated\"\nsed = 7\n",
+    )
+    .unwrap();
+    let e = stderr(&tprf(&["batch", manifest.to_str().unwrap()]));
+    assert!(e.contains("measure 1") && e.contains("sed"), "{e}");
+}

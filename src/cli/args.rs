@@ -39,7 +39,7 @@ pub fn check_out(flag: &str, out: &std::path::Path, inputs: &[&std::path::Path])
 /// The options of a render (`tprf render`, and its shards): one per [`RenderRequest`]
 /// field, each named as the field is serialised (the test `every_request_key_is_a_flag`
 /// holds the two lists equal). An option not given is left out of the request
-/// ([`RequestArgs::given`]) and takes the scene file's setting or the request's default,
+/// (`RequestArgs::given`) and takes the scene file's setting or the request's default,
 /// which `--help` shows from [`RenderRequest::default`] ([`with_request_defaults`]).
 #[derive(clap::Args, Debug, Clone, Serialize)]
 pub struct RequestArgs {
@@ -313,7 +313,7 @@ fn time_value(text: &str) -> Result<f64, String> {
 
 /// A finite number: a request travels as JSON, which has no NaN or infinity (the
 /// request's own check then says what range the option takes).
-fn finite(text: &str) -> Result<f64, String> {
+pub(super) fn finite(text: &str) -> Result<f64, String> {
     match text.trim().parse::<f64>() {
         Ok(v) if v.is_finite() => Ok(v),
         Ok(v) => Err(format!("{v} is not a finite number")),

@@ -22,6 +22,12 @@
 //! scenes = ["builtin:cornell", "scenes/room.glb"]
 //! out = "out/{scene}-{settings}"
 //! settings = [{ name = "lo", spp = 8 }, { name = "hi", spp = 64, bins = 512 }]
+//!
+//! [[measure]]           # a cube measured again (tprf sensor's options), after the renders
+//! dir = "out/cornell"
+//! out = "out/cornell-gated-s2"
+//! preset = "builtin:gated"
+//! seed = 2
 //! ```
 
 use std::collections::BTreeSet;
@@ -31,7 +37,7 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use serde::Deserialize;
-use tprf_core::request::{RenderRequest, RequestError};
+use tprf_core::request::{MeasureError, MeasureRequest, RenderRequest, RequestError};
 
 #[derive(Args, Debug)]
 pub struct BatchArgs {
@@ -69,7 +75,9 @@ struct SweepTable {
 
 /// A manifest: `[defaults]` and each `[[job]]` or sweep settings entry are tables of
 /// [`RenderRequest`] fields (the keys of `tprf render`'s options: `width`, `spp`, `t0`,
-/// `max_bounces` ...) and a job's own keys (`name`, `scene`, `out`, `sensors`).
+/// `max_bounces` ...) and a job's own keys (`name`, `scene`, `out`, `sensors`); each
+/// `[[measure]]` a [`MeasureRequest`]'s fields (`tprf sensor`'s options: `dir`,
+/// `preset`, `exposure`, `seed` ...) and its `name` and `out`, run after the renders.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct Manifest {
@@ -79,21 +87,35 @@ struct Manifest {
     job: Vec<toml::Table>,
     #[serde(default)]
     sweep: Vec<SweepTable>,
+    #[serde(default)]
+    measure: Vec<toml::Table>,
 }
 
-/// One render of a batch, its paths resolved.
+/// One job of a batch, its paths resolved.
 #[derive(Clone, Debug)]
 pub struct Job {
     pub name: String,
     pub out: PathBuf,
-    /// Sensor presets (TOML files or builtin:NAME) each measuring the cube into
-    /// `OUT/sensor-NAME/`.
-    pub sensors: Vec<String>,
-    /// The render (its scene resolved against the manifest's folder, a Mitsuba file's
-    /// settings in the keys the job does not give), validated.
-    pub request: RenderRequest,
-    /// What came from the scene file ([`RenderRequest::with_file_defaults`]), in words.
-    pub from_scene_file: Vec<String>,
+    pub work: Work,
+}
+
+/// What a job does.
+#[derive(Clone, Debug)]
+pub enum Work {
+    /// A render (`[[job]]`, `[[sweep]]`), its cube then measured by sensor presets.
+    Render {
+        /// Sensor presets (TOML files or builtin:NAME) each measuring the cube into
+        /// `OUT/sensor-NAME/`.
+        sensors: Vec<String>,
+        /// The render (its scene resolved against the manifest's folder, a Mitsuba
+        /// file's settings in the keys the job does not give), validated.
+        request: Box<RenderRequest>,
+        /// What came from the scene file ([`RenderRequest::with_file_defaults`]).
+        from_scene_file: Vec<String>,
+    },
+    /// A measurement of a cube already rendered (`[[measure]]`: `tprf sensor`'s
+    /// options, its `dir` resolved against the manifest's folder), validated.
+    Measure(MeasureRequest),
 }
 
 /// A scene's short name: `cornell` for `builtin:cornell`, the file stem of a path.
@@ -199,9 +221,11 @@ pub fn load_jobs(path: &Path) -> Result<Vec<Job>> {
         jobs.push(Job {
             name,
             out,
-            sensors: t.sensors,
-            request,
-            from_scene_file,
+            work: Work::Render {
+                sensors: t.sensors,
+                request: Box::new(request),
+                from_scene_file,
+            },
         });
         Ok(())
     };
@@ -268,6 +292,41 @@ pub fn load_jobs(path: &Path) -> Result<Vec<Job>> {
             }
         }
     }
+    for (i, table) in m.measure.iter().enumerate() {
+        let what = || format!("{}: measure {}", not_manifest(), i + 1);
+        let mut t = table.clone();
+        let mut text = |key: &str| -> Result<Option<String>> {
+            match t.remove(key) {
+                None => Ok(None),
+                Some(toml::Value::String(s)) => Ok(Some(s)),
+                Some(v) => bail!("{}: {key} must be a string (got {v})", what()),
+            }
+        };
+        let name = text("name")?;
+        let Some(out) = text("out")? else {
+            bail!("{} has no out", what());
+        };
+        let request: MeasureRequest = toml::Value::Table(t).try_into().with_context(what)?;
+        let out = resolve_out(Path::new(&out));
+        let name = name.unwrap_or_else(|| {
+            out.file_name().map_or_else(
+                || out.display().to_string(),
+                |n| n.to_string_lossy().into_owned(),
+            )
+        });
+        let request = MeasureRequest {
+            dir: resolve_out(&request.dir),
+            ..request
+        };
+        request
+            .validate()
+            .with_context(|| format!("{}: job '{name}'", path.display()))?;
+        jobs.push(Job {
+            name,
+            out,
+            work: Work::Measure(request),
+        });
+    }
     let (mut names, mut outs) = (BTreeSet::new(), BTreeSet::new());
     for j in &jobs {
         if !names.insert(j.name.clone()) {
@@ -297,19 +356,24 @@ fn sensor_dir(job: &Job, preset: &str) -> PathBuf {
 /// Why a job's output is not complete (`None`: it is): its cube is not
 /// ([`cube_incomplete`]), or a sensor's `sensor.json` is missing.
 pub fn incomplete(job: &Job) -> Option<String> {
-    cube_incomplete(job).or_else(|| {
-        job.sensors
-            .iter()
-            .map(|p| sensor_dir(job, p).join("sensor.json"))
-            .find(|done| !done.is_file())
-            .map(|done| format!("{} is missing", done.display()))
-    })
+    let missing =
+        |done: PathBuf| (!done.is_file()).then(|| format!("{} is missing", done.display()));
+    match &job.work {
+        Work::Render {
+            sensors, request, ..
+        } => cube_incomplete(&job.out, request).or_else(|| {
+            sensors
+                .iter()
+                .find_map(|p| missing(sensor_dir(job, p).join("sensor.json")))
+        }),
+        Work::Measure(_) => missing(job.out.join("sensor.json")),
+    }
 }
 
 /// Why a job's cube is not complete (`None`: it is): no folder, no readable
 /// `tprf.json`, a shard's folder, other settings than the job's, or no cube file.
-pub fn cube_incomplete(job: &Job) -> Option<String> {
-    let json = job.out.join("tprf.json");
+pub fn cube_incomplete(out: &Path, r: &RenderRequest) -> Option<String> {
+    let json = out.join("tprf.json");
     if !json.exists() {
         return Some(format!("{} is missing", json.display()));
     }
@@ -318,12 +382,11 @@ pub fn cube_incomplete(job: &Job) -> Option<String> {
         Err(e) => return Some(crate::cli::message_chain(&anyhow::Error::from(e))),
     };
     if meta.shard.is_some() {
-        return Some(format!("{} holds a shard", job.out.display()));
+        return Some(format!("{} holds a shard", out.display()));
     }
     if let Some(stop) = &meta.stopped {
         return Some(format!("stopped before its target ({})", stop.message));
     }
-    let r = &job.request;
     let differs = [
         ("width", Some(r.width as u64), meta.width as u64),
         ("height", Some(r.height as u64), meta.height as u64),
@@ -352,8 +415,8 @@ pub fn cube_incomplete(job: &Job) -> Option<String> {
         ));
     }
     let cube = ["tprf.npy", tprf_core::export::zarr::ZARR_NAME];
-    if !cube.iter().any(|c| job.out.join(c).exists()) {
-        return Some(format!("{} has no cube file", job.out.display()));
+    if !cube.iter().any(|c| out.join(c).exists()) {
+        return Some(format!("{} has no cube file", out.display()));
     }
     None
 }
@@ -375,44 +438,53 @@ pub fn run_job(job: &Job, threads: Option<usize>, force: bool) -> Result<JobOutc
     if !force && incomplete(job).is_none() {
         return Ok(JobOutcome::Skipped);
     }
-    if force || cube_incomplete(job).is_some() {
-        for line in &job.from_scene_file {
+    let (sensors, request, from_scene_file) = match &job.work {
+        Work::Render {
+            sensors,
+            request,
+            from_scene_file,
+        } => (sensors, request, from_scene_file),
+        Work::Measure(request) => {
+            super::args::check_out("out", &job.out, &[&request.dir])?;
+            super::sensor::measure(request, &job.out, |e| match e {
+                MeasureError::Invalid(p) => {
+                    anyhow::anyhow!("its settings do not make a measurement: {p}")
+                }
+                e => e.into(),
+            })?;
+            return Ok(JobOutcome::Done);
+        }
+    };
+    if force || cube_incomplete(&job.out, request).is_some() {
+        for line in from_scene_file {
             eprintln!("  from the scene file: {line}");
         }
-        render_job(job, threads)?;
+        render_job(request, &job.out, threads)?;
     }
-    for preset in &job.sensors {
+    for preset in sensors {
         let out = sensor_dir(job, preset);
         if !force && out.join("sensor.json").is_file() {
             continue;
         }
-        let sensor = super::sensor::SensorArgs {
-            dir: job.out.clone(),
+        let request = tprf_core::request::MeasureRequest {
             preset: Some(preset.clone()),
-            light: None,
-            exposure: None,
-            noise_sigma: None,
-            photons_per_energy: None,
-            seed: None,
-            cycles: None,
-            ambient_scale: None,
-            ambient_exposure: None,
-            pixels: Vec::new(),
-            out,
+            ..tprf_core::request::MeasureRequest::new(&job.out)
         };
-        super::sensor::run(&sensor).with_context(|| format!("sensor preset {preset}"))?;
+        super::args::check_out("out", &out, &[&job.out])
+            .and_then(|()| super::sensor::measure(&request, &out, anyhow::Error::from))
+            .with_context(|| format!("sensor preset {preset}"))?;
     }
     Ok(JobOutcome::Done)
 }
 
 /// Render a job's request (`threads`, when given, replacing the job's own) as
 /// `tprf render` does; an invalid request names the manifest's key.
-fn render_job(job: &Job, threads: Option<usize>) -> Result<()> {
+fn render_job(request: &RenderRequest, out: &Path, threads: Option<usize>) -> Result<()> {
     let request = RenderRequest {
-        threads: threads.or(job.request.threads),
-        ..job.request.clone()
+        threads: threads.or(request.threads),
+        ..request.clone()
     };
-    super::render::render_request(&request, &job.out, |e| match e {
+    super::render::render_request(&request, out, |e| match e {
         RequestError::Invalid(p) => anyhow::anyhow!("its settings do not make a render: {p}"),
         e => e.into(),
     })

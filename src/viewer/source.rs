@@ -307,9 +307,16 @@ impl TprfApp {
                     .as_ref()
                     .map(|s| format!(" (its {} spp not taken: the window renders on)", s.value))
                     .unwrap_or_default();
+                // Fields named as the window's labels: `time origin`, `max bounces`.
                 let taken: Vec<String> = notes
                     .iter()
-                    .map(|n| n.text_with(|f| f.replace('_', " ")))
+                    .map(|n| match (n.field, r.phasor) {
+                        ("phasor", Some(b)) => format!(
+                            "phasor band {}:{} m (the Phasor tab)",
+                            b.wl_mean_m, b.wl_sigma_m
+                        ),
+                        _ => n.text_with(|f| f.replace('_', " ")),
+                    })
                     .collect();
                 self.messages
                     .push(format!("from the scene file: {}{spp}", taken.join(", ")));

@@ -20,6 +20,9 @@
 //!   by [`write_folder`] beside the folder and swapped in whole;
 //! - [`worker::RenderWorker`]: that render on a background thread, for the window.
 //!
+//! [`MeasureRequest`] does the same for a measurement of a rendered cube by a sensor
+//! (`tprf sensor`, a batch manifest's sensor jobs).
+//!
 //! Units: times in seconds (read from a number of seconds, or text with a unit:
 //! `"3ns"`, `"1.5m"` of optical path), lengths in metres, angles in degrees, radiance in
 //! W m^-2 sr^-1.
@@ -28,6 +31,7 @@ mod camera;
 mod file_defaults;
 mod folder;
 mod keys;
+mod measure;
 mod memory;
 mod session;
 pub mod worker;
@@ -38,6 +42,7 @@ pub use folder::{
     Observer, Rendered, Written, cube_metadata, render, render_to_folder, write_folder,
 };
 pub use keys::serde_keys;
+pub use measure::{MeasureError, MeasureRequest, Measured};
 pub use memory::{MemoryLimit, MemoryRefusal, MemoryStop};
 pub use session::Session;
 
