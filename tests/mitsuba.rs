@@ -1278,7 +1278,6 @@ fn nlos_on_xml_without_a_wall_names_the_shape_ids() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
 
-<<<<<<< HEAD
 /// mitransient's path filters of `transient_nlos_path` watched by a camera become the
 /// render's bounce range, counted as mitransient's depth at its laser-sampled estimate
 /// (the wall point, each hidden vertex and the spot): `discard_direct_paths` keeps paths
@@ -1436,7 +1435,8 @@ fn one_sided_bsdfs_are_black_from_behind() {
         assert_eq!(steady("back-other.xml", true, bsdf), 0.0, "{bsdf}");
         assert!(steady("front-other.xml", false, bsdf) > 0.0, "{bsdf}");
     }
-=======
+}
+
 /// Mesh files and textures are decoded ahead in parallel batches (64 shapes at a time):
 /// 150 OBJ files (three batches), each one triangle at `x = i` with its own texture
 /// coordinates, load in file order with every triangle where its file puts it (worked
@@ -1497,5 +1497,4 @@ fn obj_files_decoded_ahead_load_in_file_order_with_the_first_error() {
         .replace("\"m100.obj\"", "\"gone100.obj\"");
     let e = refusal(&dir, "bad.xml", &bad);
     assert!(e.contains("gone70.obj") && !e.contains("gone100"), "{e}");
->>>>>>> wt/area
 }
