@@ -2183,7 +2183,22 @@ fn a_typed_pose_round_trips_is_recorded_saved_and_reset() {
     h.get_by_label("Save scene with this camera…").click();
     h.run_steps(2);
     let path = dir.join("scene.gltf");
+    // The field starts with the suggested name: select it all, type over it.
+    assert_eq!(
+        h.state()
+            .suggested_name(tprf::viewer::FileAction::SaveSceneGltf)
+            .as_deref(),
+        Some("cornell_camera.gltf")
+    );
     h.get_by_label("path").focus();
+    h.step();
+    h.event(Event::Key {
+        key: Key::A,
+        physical_key: None,
+        pressed: true,
+        repeat: false,
+        modifiers: Modifiers::COMMAND,
+    });
     h.step();
     h.get_by_label("path")
         .type_text(&path.display().to_string());
@@ -2579,4 +2594,33 @@ fn saves_suggest_the_scenes_name() {
         Some("cornell_steady.png")
     );
     assert_eq!(h.state().suggested_name(FileAction::OpenScene), None);
+}
+
+/// Ten presses of → within one frame step ten bins (they used to step once a frame).
+#[test]
+fn quick_arrow_presses_each_step_a_bin() {
+    let mut h = harness(small_settings("builtin:cornell", 8, 64, 1));
+    let start = Instant::now();
+    while h.state().snapshot().is_none() {
+        h.step();
+        assert!(start.elapsed() < Duration::from_secs(60));
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    h.state_mut().playing = false;
+    h.run_steps(2);
+    h.state_mut().bin = 3;
+    h.step();
+    let from = h.state().bin;
+    assert!(from + 10 < 64);
+    for _ in 0..10 {
+        h.event(Event::Key {
+            key: Key::ArrowRight,
+            physical_key: None,
+            pressed: true,
+            repeat: false,
+            modifiers: Modifiers::NONE,
+        });
+    }
+    h.step();
+    assert_eq!(h.state().bin, from + 10);
 }

@@ -49,45 +49,38 @@ impl TprfApp {
         if ctx.egui_wants_keyboard_input() {
             return;
         }
+        // Counted, not tested: presses quicker than the frames each step once.
         let (left, right, space) = ctx.input(|i| {
             (
-                i.key_pressed(egui::Key::ArrowLeft),
-                i.key_pressed(egui::Key::ArrowRight),
+                i.num_presses(egui::Key::ArrowLeft),
+                i.num_presses(egui::Key::ArrowRight),
                 i.key_pressed(egui::Key::Space),
             )
         });
         if self.settings.mode == Mode::Sensor {
             // In sensor mode the arrows step the gate shown.
             let gates = self.sensor.model().map_or(1, |m| m.gate_count());
-            if left {
-                self.sensor.gate = self.sensor.gate.saturating_sub(1);
-            }
-            if right {
-                self.sensor.gate = (self.sensor.gate + 1).min(gates.saturating_sub(1));
-            }
+            self.sensor.gate =
+                (self.sensor.gate.saturating_sub(left) + right).min(gates.saturating_sub(1));
             return;
         }
         if self.settings.mode == Mode::Phasor {
             // In the phasor tab the arrows step the frequency (the tab clamps it).
             let j = &mut self.settings.phasor_index;
-            if left {
-                *j = j.saturating_sub(1);
-            }
-            if right {
-                *j = j.saturating_add(1);
-            }
+            *j = j.saturating_sub(left).saturating_add(right);
             return;
         }
         self.bin_keys(left, right, space, bins);
     }
 
-    /// The scrubber's keys: the arrows step a bin and pause, space plays or pauses.
-    pub(super) fn bin_keys(&mut self, left: bool, right: bool, space: bool, bins: usize) {
-        if left {
+    /// The scrubber's keys: each press of an arrow steps a bin and pauses (`left` and
+    /// `right` count this frame's presses), space plays or pauses.
+    pub(super) fn bin_keys(&mut self, left: usize, right: usize, space: bool, bins: usize) {
+        for _ in 0..left {
             self.playing = false;
             self.step(-1, bins);
         }
-        if right {
+        for _ in 0..right {
             self.playing = false;
             self.step(1, bins);
         }

@@ -57,8 +57,8 @@ impl TprfApp {
         if !ctx.egui_wants_keyboard_input() {
             let (l, r, s) = ctx.input(|i| {
                 (
-                    i.key_pressed(egui::Key::ArrowLeft),
-                    i.key_pressed(egui::Key::ArrowRight),
+                    i.num_presses(egui::Key::ArrowLeft),
+                    i.num_presses(egui::Key::ArrowRight),
                     i.key_pressed(egui::Key::Space),
                 )
             });

@@ -20,11 +20,15 @@ impl TprfApp {
         ui.horizontal_wrapped(|ui| {
             ui.add(
                 egui::Label::new(
+                    // Padded to the widest it gets on this axis (monospace): the buttons
+                    // after it keep their place while the bin changes.
                     RichText::new(format!(
-                        "bin {} / {} · t = {}",
+                        "bin {:>digits$} / {} · t = {:<label$}",
                         self.bin,
                         bins,
-                        bin_label(axis, self.bin)
+                        bin_label(axis, self.bin),
+                        digits = bins.to_string().len(),
+                        label = widest_label(axis),
                     ))
                     .monospace()
                     .strong(),
@@ -115,4 +119,15 @@ impl TprfApp {
         response
             .widget_info(|| egui::WidgetInfo::labeled(egui::Role::Slider, true, "time scrubber"));
     }
+}
+
+/// The most characters [`bin_label`] takes on `axis` (its first, middle and last bins:
+/// the longest numbers and unit prefixes are at the ends).
+fn widest_label(axis: &TimeAxis) -> usize {
+    let last = axis.bins.saturating_sub(1);
+    [0, last / 2, last]
+        .iter()
+        .map(|&b| bin_label(axis, b).chars().count())
+        .max()
+        .unwrap_or(0)
 }

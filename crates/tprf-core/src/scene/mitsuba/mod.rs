@@ -48,6 +48,7 @@
 //! sensor's `near_clip`) or one whose meaning tprf approximates is loaded with a note
 //! naming it and where it is (one note per kind of property, with a count).
 
+mod bitmap;
 mod bsdf;
 mod emitters;
 mod media;

@@ -123,7 +123,7 @@ impl Prefetched {
                     Job::Obj(path, flip) => Decoded::Mesh(meshes::read_obj(path, &what, *flip)),
                     Job::Ply(path, flip) => Decoded::Mesh(meshes::read_ply(path, &what, *flip)),
                     Job::Bitmap(path, raw) => {
-                        Decoded::Texture(super::bsdf::decode_bitmap(path, &what, *raw))
+                        Decoded::Texture(super::bitmap::decode_bitmap(path, &what, *raw))
                     }
                 };
                 (k, job, d)
