@@ -297,10 +297,13 @@ impl ViewerSettings {
     }
 
     /// The render these settings describe (checked: [`RenderRequest::validate`]), or
-    /// what is wrong with them (the request's message, naming its field: `dt: bin width
-    /// -1 ns must be finite and > 0`).
+    /// what is wrong with them (the request's message, naming its field by the render
+    /// settings' label: `Bin width: bin width -1 ns must be finite and > 0`).
     pub(super) fn job(&self) -> Result<RenderRequest, String> {
-        let named = |e: tprf_core::request::RequestError| e.to_string();
+        let named = |e: tprf_core::request::RequestError| match e {
+            tprf_core::request::RequestError::Invalid(p) => p.text_with(field_label),
+            e => e.to_string(),
+        };
         let request = RenderRequest {
             scene: self.scene.clone(),
             width: self.width,
@@ -332,9 +335,53 @@ impl ViewerSettings {
     }
 }
 
+/// The render settings' label of a request field (the field's own name where the panel
+/// has none).
+fn field_label(field: &str) -> String {
+    match field {
+        "width" => "Width",
+        "height" => "Height",
+        "bins" => "Bins",
+        "t0" => "Window start",
+        "dt" => "Bin width",
+        "time_origin" => "Time origin",
+        "pulse_origin" => "Pulse origin",
+        "spp" => "Stop at spp",
+        "error_target" => "Stop at error",
+        "max_bounces" => "Max bounces",
+        "min_bounces" => "Min bounces",
+        "seed" => "Seed",
+        "sky" => "Sky",
+        "medium" => "Fog",
+        other => other,
+    }
+    .to_string()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A bad value is named by its label in the panel, not the command line's name.
+    #[test]
+    fn errors_name_the_panels_labels() {
+        let s = ViewerSettings {
+            dt: "-1 ns".into(),
+            ..ViewerSettings::default()
+        };
+        let e = s.job().unwrap_err();
+        assert!(e.starts_with("Bin width"), "{e}");
+        let s = ViewerSettings {
+            min_bounces: 9,
+            max_bounces: 3,
+            ..ViewerSettings::default()
+        };
+        let e = s.job().unwrap_err();
+        assert!(
+            e.starts_with("Min bounces") && e.contains("max_bounces"),
+            "{e}"
+        );
+    }
 
     /// The window's sky goes through the request's one check: f64::MAX (beyond f32,
     /// which the renderer holds radiance in) and a negative sky are dropped by the
