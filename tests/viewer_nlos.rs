@@ -325,3 +325,20 @@ fn screenshot() {
     img.save(shots.join("nlos.png")).unwrap();
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// Over an NLOS capture the film's tabs are greyed out: clicking one changes nothing.
+#[test]
+fn the_films_tabs_are_greyed_out_over_a_capture() {
+    let dir = capture_folder(Vec3::new(0.0, 0.0, 0.6), false, "tabs");
+    let mut h = harness(&dir);
+    h.run_steps(2);
+    assert!(h.state().nlos().is_some());
+    let before = h.state().settings.mode;
+    // A pointer's click, as a user's (an accessibility action reaches a disabled
+    // widget too).
+    let tab = h.get_by_label("Sensor").rect().center();
+    click_at(&mut h, tab);
+    h.run_steps(2);
+    assert_eq!(h.state().settings.mode, before);
+    std::fs::remove_dir_all(dir).unwrap();
+}

@@ -6,22 +6,35 @@ use crate::viewer::settings::Mode;
 use crate::viewer::source::Source;
 use eframe::egui;
 
+/// Why the film's tabs are greyed out over an NLOS capture.
+const NLOS_TABS: &str = "an NLOS capture shows its own view (measurements, reconstruction): \
+open a scene or a cube for the film's tabs";
+
 impl TprfApp {
     /// Mode tabs, "Open scene (glTF, XML)…", "Open cube…", the built-in scenes, pause/restart.
     pub(crate) fn top_bar_ui(&mut self, ui: &mut egui::Ui) {
         ui.horizontal_wrapped(|ui| {
             ui.strong("tprf");
             ui.separator();
-            ui.selectable_value(&mut self.settings.mode, Mode::Transient, "Transient")
-                .on_hover_text("Light in flight: time slices and TPRF plots");
-            ui.selectable_value(&mut self.settings.mode, Mode::Sensor, "Sensor")
-                .on_hover_text(
-                    "Light(t), Exposure_i(t) and the measurements M_i, from the cached TPRFs",
-                );
-            ui.selectable_value(&mut self.settings.mode, Mode::Phasor, "Phasor")
-                .on_hover_text(
-                    "A frequency's amplitude and phase images: the cube's phasor.npy, or computed from the film at mitransient's phasor_hdr_film frequencies",
-                );
+            // An NLOS capture has a view of its own: the tabs of a film do nothing there,
+            // so they are greyed out, saying why (the capture's view is taken out of
+            // `source` while it draws, which then reads `None`).
+            let film = !matches!(self.source, Source::Nlos(_) | Source::None);
+            ui.add_enabled_ui(film, |ui| {
+                ui.selectable_value(&mut self.settings.mode, Mode::Transient, "Transient")
+                    .on_hover_text("Light in flight: time slices and TPRF plots")
+                    .on_disabled_hover_text(NLOS_TABS);
+                ui.selectable_value(&mut self.settings.mode, Mode::Sensor, "Sensor")
+                    .on_hover_text(
+                        "Light(t), Exposure_i(t) and the measurements M_i, from the cached TPRFs",
+                    )
+                    .on_disabled_hover_text(NLOS_TABS);
+                ui.selectable_value(&mut self.settings.mode, Mode::Phasor, "Phasor")
+                    .on_hover_text(
+                        "A frequency's amplitude and phase images: the cube's phasor.npy, or computed from the film at mitransient's phasor_hdr_film frequencies",
+                    )
+                    .on_disabled_hover_text(NLOS_TABS);
+            });
             ui.separator();
             if ui
                 .button("Open scene (glTF, XML)…")
