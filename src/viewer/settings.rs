@@ -394,7 +394,7 @@ mod tests {
                 ..ViewerSettings::default()
             };
             let e = s.job().expect_err("an impossible sky was accepted");
-            assert!(e.starts_with("sky: sky radiance"), "{e}");
+            assert!(e.starts_with("Sky: sky radiance"), "{e}");
             assert_eq!(s.sanitized().sky_radiance_w_m2_sr, None);
         }
         let s = ViewerSettings {
