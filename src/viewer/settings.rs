@@ -409,6 +409,6 @@ mod tests {
         }
         .job()
         .unwrap_err();
-        assert_eq!(e, "dt: bin width -1 ns must be finite and > 0");
+        assert_eq!(e, "Bin width: bin width -1 ns must be finite and > 0");
     }
 }
