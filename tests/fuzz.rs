@@ -565,8 +565,11 @@ proptest! {
                 Some(v) => Err(format!("{what} {v}")),
                 None => Ok(()),
             };
-            if let Some(d) = model.first_return_depth(&m) {
-                no_inf("first-return depth", &d)?;
+            if let Some(r) = model.returns(&m) {
+                no_inf("return depths", &r.depth_m)?;
+                no_inf("return intensities", &r.intensity)?;
+                no_inf("strongest return", &r.strongest_m)?;
+                no_inf("last return", &r.last_m)?;
             }
             if let Some(a) = model.amcw(&m) {
                 no_inf("AMCW depth", &a.depth_m)?;

@@ -533,14 +533,30 @@ fn the_one_d_world_through_the_lidar_preset_gives_figure_7() {
         }
     }
     // The preset's derived output: depth of the first return, c t / 2 = 10.25 m.
-    let Some(depth) = m.first_return_depth(&meas) else {
-        panic!("the LiDAR preset has a first-return depth");
+    let Some(returns) = m.returns(&meas) else {
+        panic!("the LiDAR preset has returns");
     };
+    let depth = returns.first_m();
     assert!(
         (f64::from(depth[0]) - 10.25).abs() < 0.5 * C_M_PER_S * a.dt_s,
         "{}",
         depth[0]
     );
+    // Multi-echo: the three returns (the third, 0.069, is above the preset's level of
+    // 0.2 x the highest gate), each at half its path: 10.25, 25.25 and 40.25 m; the
+    // strongest is A's (0.3 against 0.288), the last the second pass's.
+    assert_eq!(returns.count, vec![3], "{returns:?}");
+    for (k, want) in [10.25, 25.25, 40.25].into_iter().enumerate() {
+        let got = f64::from(returns.depth_m[k]);
+        assert!(
+            (got - want).abs() < 0.5 * C_M_PER_S * a.dt_s,
+            "return {k} at {got} m, want {want}"
+        );
+    }
+    assert_eq!(returns.strongest_m[0], returns.depth_m[0]);
+    assert_eq!(returns.last_m[0], returns.depth_m[2]);
+    let e = &returns.intensity;
+    assert!(e[0] > e[1] && e[1] > e[2] && e[2] > 0.0, "{e:?}");
 }
 
 #[test]
@@ -641,7 +657,11 @@ fn bad_values_are_clear_errors_not_panics() {
         ),
         (
             "[exposure]\nkind = \"amcw\"\nfreq = 2e7\n[derived]\nfirst_return = {}\n",
-            "first_return",
+            "derived.returns",
+        ),
+        (
+            "[exposure]\nkind = \"box\"\nwidth = 1e-9\ncount = 4\n[derived]\nreturns = { max_returns = 0 }\n",
+            "max_returns",
         ),
         (
             "[exposure]\nkind = \"box\"\nwidth = 1e-9\n[derived]\namcw_depth = true\n",

@@ -2624,3 +2624,47 @@ fn quick_arrow_presses_each_step_a_bin() {
     h.step();
     assert_eq!(h.state().bin, from + 10);
 }
+
+/// The LiDAR's returns in the window: the depth image offers the first, strongest and
+/// last return and each echo of multi-echo; the readout under the cursor lists the
+/// pixel's returns, each at the depth the core's detector finds in the same gates.
+#[test]
+fn the_lidar_depth_image_offers_every_return() {
+    let side = 16;
+    let mut h = harness(ViewerSettings {
+        mode: Mode::Sensor,
+        ..small_settings("builtin:cornell", side, 64, 16)
+    });
+    wait_done(&mut h, Duration::from_secs(120));
+    wait_sensor(&mut h);
+    h.run_steps(2);
+    let snap = h.state().snapshot().unwrap();
+    let sensor = h.state().settings.sensor.clone();
+    let model = tprf_core::sensor::SensorModel::new(sensor, *snap.axis()).unwrap();
+    let returns = model
+        .returns(&model.measure_clean_film(&snap))
+        .expect("the LiDAR preset asks for returns");
+    assert_eq!(returns.max_returns, 3);
+    for choice in ["first", "strongest", "last", "2nd", "3rd"] {
+        h.get_by_label(choice);
+    }
+    // A pixel with a return: the readout gives its depth to the millimetre.
+    let (px, py) = (side / 2, side / 2);
+    let i = py * side + px;
+    let first = returns.first_m()[i];
+    assert!(first.is_finite(), "no return at the centre");
+    h.hover_at(pixel_pos(&h, "depth image", px, py, side, side));
+    h.run_steps(2);
+    let readout = label_with(&h, &format!("row {py}, column {px} · M_"));
+    assert!(
+        readout.contains(&format!("return {first:.3} m"))
+            || readout.contains(&format!("returns {first:.3} m")),
+        "{readout}: first return {first}"
+    );
+    // Choosing the last return keeps the colour bar's range (one range for all).
+    let bar = label_with(&h, "colour bar: depth");
+    h.get_by_label("last").click();
+    h.run_steps(2);
+    assert_eq!(h.state().sensor.echo, tprf_core::sensor::Echo::Last);
+    assert_eq!(label_with(&h, "colour bar: depth"), bar);
+}

@@ -25,6 +25,9 @@ ARRAYS = {
     "spad_histogram.npy": "spad_histogram", "spad_counts.npy": "spad_counts",
     "spad_coates.npy": "spad_coates", "spad_depth_histogram.npy": "spad_depth_histogram",
     "spad_depth_counts.npy": "spad_depth_counts", "spad_depth_coates.npy": "spad_depth_coates",
+    "depth_strongest.npy": "depth_strongest", "depth_last.npy": "depth_last",
+    "depth_returns.npy": "depth_returns", "return_intensity.npy": "return_intensity",
+    "return_count.npy": "return_count",
 }
 
 
@@ -82,6 +85,10 @@ def test_measure_is_tprf_sensor_bit_for_bit(tprf_bin, render_dir, tmp_path, pres
         assert same_bits(getattr(m, ARRAYS[name]), np.load(cli / name)), name
     for name in set(ARRAYS) - set(npys):
         assert getattr(m, ARRAYS[name]) is None, name
+    if preset == "lidar":
+        # Multi-echo's first return is the first-return depth image.
+        assert same_bits(m.depth_returns[0], m.depth)
+        assert m.depth_returns.shape[0] == 3 and m.return_count.dtype == np.uint16
     # Read-only arrays lent by the measurement: no copy per access.
     assert m.images.flags.writeable is False
     assert np.shares_memory(m.images, m.images)
@@ -152,8 +159,8 @@ def test_fields_are_attributes_and_bad_values_name_the_field(tmp_path):
     with pytest.raises(ValueError, match="light.fwhm_s"):
         s.light.fwhm_s = "two ns"
     # In the field's range, refused by the sensor's own checks: gates of no width all
-    # share one centre, which the first-return depth cannot read.
-    with pytest.raises(ValueError, match="derived.first_return needs at least two gates"):
+    # share one centre, which the return detector cannot read.
+    with pytest.raises(ValueError, match="derived.returns needs at least two gates"):
         s.exposure.width_s = 0
     with pytest.raises(AttributeError, match="centre_s, fwhm_s, energy"):
         s.light.fwhm = 1e-9

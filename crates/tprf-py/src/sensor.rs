@@ -26,7 +26,7 @@ use tprf_core::export::staging::Staging;
 use tprf_core::sensor::spad::Sampler;
 use tprf_core::sensor::{
     BUILTIN_PRESETS, Derived, Draws, Exposure, Field, Gates, LightPulse, Measurements, Pipeline,
-    Point, Quantity, Sensor, SensorModel, SpadImage, TimeOrigin,
+    Point, Quantity, ReturnImages, Sensor, SensorModel, SpadImage, TimeOrigin,
 };
 use tprf_core::units::{format_time, parse_time_s};
 
@@ -586,8 +586,8 @@ impl PySensor {
             text.push_str(&format!(", ambient_exposure_s={}", format_time(t)));
         }
         let mut derived = Vec::new();
-        if s.derived.first_return.is_some() {
-            derived.push("first-return depth");
+        if s.derived.returns.is_some() {
+            derived.push("returns (first, strongest, last, multi-echo depth)");
         }
         if s.derived.amcw_depth {
             derived.push("AMCW depth");
@@ -867,6 +867,26 @@ impl Measurement {
     fn image_shape(&self) -> [usize; 2] {
         [self.clean.height, self.clean.width]
     }
+
+    /// An array of the returns (`[H, W]`, or `[N, H, W]` when `echoes`), or None when
+    /// the sensor asks for none.
+    fn returns_array<'py>(
+        slf: &Bound<'py, Self>,
+        of: impl Fn(&ReturnImages) -> &[f32],
+        echoes: bool,
+    ) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let m = slf.get();
+        let Some(r) = &m.gates.returns else {
+            return Ok(None);
+        };
+        let [h, w] = m.image_shape();
+        let shape = if echoes {
+            vec![r.max_returns, h, w]
+        } else {
+            vec![h, w]
+        };
+        view(slf, of(r), &shape).map(Some)
+    }
 }
 
 #[pymethods]
@@ -891,16 +911,53 @@ impl Measurement {
     }
 
     /// First-return depth, float32 ``[H, W]``, metres (``c (t_return - light mean
-    /// time) / 2``; NaN: no return), when the sensor asks for it (``depth.npy``); else
-    /// None.
+    /// time) / 2``, measured from the light's mean emission time; NaN: no return), when
+    /// the sensor asks for returns (``depth.npy``); else None.
     #[getter]
     fn depth<'py>(slf: &Bound<'py, Self>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        Self::returns_array(slf, |r| r.first_m(), false)
+    }
+
+    /// The depth of each pixel's strongest return (highest intensity), float32
+    /// ``[H, W]``, metres (``depth_strongest.npy``), or None.
+    #[getter]
+    fn depth_strongest<'py>(slf: &Bound<'py, Self>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        Self::returns_array(slf, |r| &r.strongest_m, false)
+    }
+
+    /// The depth of each pixel's last return, float32 ``[H, W]``, metres
+    /// (``depth_last.npy``), or None.
+    #[getter]
+    fn depth_last<'py>(slf: &Bound<'py, Self>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        Self::returns_array(slf, |r| &r.last_m, false)
+    }
+
+    /// Multi-echo: up to N returns per pixel, earliest first, float32 ``[N, H, W]``,
+    /// metres, NaN past a pixel's last (``depth_returns.npy``; N is the sensor's
+    /// ``derived.returns.max_returns``), or None.
+    #[getter]
+    fn depth_returns<'py>(slf: &Bound<'py, Self>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        Self::returns_array(slf, |r| &r.depth_m, true)
+    }
+
+    /// Each return's intensity (the sum of its gate values, measurement units),
+    /// float32 ``[N, H, W]``, 0 past a pixel's last (``return_intensity.npy``), or None.
+    #[getter]
+    fn return_intensity<'py>(slf: &Bound<'py, Self>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        Self::returns_array(slf, |r| &r.intensity, true)
+    }
+
+    /// How many returns each pixel has (also past N), uint16 ``[H, W]``
+    /// (``return_count.npy``), or None.
+    #[getter]
+    fn return_count<'py>(slf: &Bound<'py, Self>) -> PyResult<Option<Bound<'py, PyAny>>> {
         let m = slf.get();
-        m.gates
-            .depth_m
-            .as_ref()
-            .map(|d| view(slf, d, &m.image_shape()))
-            .transpose()
+        let Some(r) = &m.gates.returns else {
+            return Ok(None);
+        };
+        let [h, w] = m.image_shape();
+        let a = PyArray1::from_slice(slf.py(), &r.count).reshape([h, w])?;
+        Ok(Some(a.into_any()))
     }
 
     /// AMCW phase, float32 ``[H, W]``, radians in ``[0, 2 pi)`` (``amcw_phase.npy``), or
@@ -1060,7 +1117,7 @@ impl Measurement {
     fn __repr__(&self) -> String {
         let (n, h, w) = self.shape();
         let mut parts = vec![format!("{n} gates x {h} x {w} pixels")];
-        if self.gates.depth_m.is_some() {
+        if self.gates.returns.is_some() {
             parts.push("depth".into());
         }
         if self.gates.amcw.is_some() {

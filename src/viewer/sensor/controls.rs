@@ -349,6 +349,15 @@ pub(crate) fn controls_ui(
     if let Some(spad) = &mut sensor.spad {
         spad_ui(ui, spad, dt_s);
     }
+    if let Some(returns) = &mut sensor.derived.returns {
+        ui.label(RichText::new("Returns").strong()).on_hover_text(
+            "the LiDAR's returns of each pixel's gate waveform: first, strongest, last \
+             and multi-echo depth",
+        );
+        if let Some((key, v)) = fields_ui(ui, "returns-grid", &returns.fields(), 0.0, dt_s, None) {
+            returns.set_field(key, v);
+        }
+    }
 
     ui.label(RichText::new("Ambient").strong());
     egui::Grid::new("ambient-grid")

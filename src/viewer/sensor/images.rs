@@ -14,7 +14,7 @@ use crate::viewer::layout::image_layout;
 use crate::viewer::textures::TextureCache;
 use eframe::egui::{self, RichText, Sense, TextureHandle, Vec2};
 use tprf_core::film::{FilmSnapshot, MAX_BINS};
-use tprf_core::sensor::Exposure;
+use tprf_core::sensor::{Echo, Exposure, ReturnImages};
 use tprf_core::units::format_time;
 
 /// What the user asked for about gates outside the film's window.
@@ -49,6 +49,7 @@ pub(crate) fn images_ui(
     let mut textures = std::mem::take(&mut state.textures);
     let mut gate_sel = state.gate;
     let mut view = state.spad_view;
+    let mut echo = state.echo;
     let restore = fit_note_ui(ui, state);
     let mut out = if state.spad_shown(snap).is_some() {
         ImagesOutcome {
@@ -56,8 +57,16 @@ pub(crate) fn images_ui(
             action: None,
         }
     } else {
-        measurement_images(ui, state, snap, &mut textures, &mut gate_sel, w, h)
+        measurement_images(
+            ui,
+            state,
+            snap,
+            &mut textures,
+            (&mut gate_sel, &mut echo),
+            (w, h),
+        )
     };
+    state.echo = echo;
     state.textures = textures;
     state.gate = gate_sel;
     state.spad_view = view;
@@ -417,20 +426,15 @@ fn coverage_ui(
     action
 }
 
-/// The images of [`images_ui`], drawn with `state` borrowed and its `textures` and gate
-/// selection taken out of it.
-#[allow(
-    clippy::too_many_arguments,
-    reason = "the sensor tab's state, one argument each; not yet a narrow context struct"
-)]
+/// The images of [`images_ui`], drawn with `state` borrowed and its `textures`, gate
+/// and return selections taken out of it.
 fn measurement_images(
     ui: &mut egui::Ui,
     state: &SensorState,
     snap: &FilmSnapshot,
     textures: &mut TextureCache<u64>,
-    gate_sel: &mut usize,
-    w: usize,
-    h: usize,
+    (gate_sel, echo): (&mut usize, &mut Echo),
+    (w, h): (usize, usize),
 ) -> ImagesOutcome {
     let mut out = ImagesOutcome::default();
     let (Some(model), Some(plane)) = (state.model.as_ref(), state.shown_plane(snap)) else {
@@ -481,7 +485,7 @@ fn measurement_images(
     let shown_cov = model.gates().get(gate).map_or(Coverage::Inside, |g| {
         coverage(g, pulse, snap.axis(), state.auto_start)
     });
-    let derived = measured.filter(|m| m.depth().is_some());
+    let derived = measured.filter(|m| m.depth(Echo::First).is_some());
     let avail = ui.available_size();
     let avail = Vec2::new(avail.x, avail.y - strip_height(avail.y, gates));
     let readout_h = 26.0;
@@ -575,23 +579,23 @@ fn measurement_images(
         let Some(m) = derived else {
             return;
         };
-        let Some(depth) = m.depth() else {
+        let Some(depth) = m.depth(*echo) else {
             return;
         };
-        let key = hash(&(m.snapshot, &m.sensor));
+        let key = hash(&(m.snapshot, &m.sensor, *echo));
         let (lo, hi) = m.depth_range;
-        let depth_block = |ui: &mut egui::Ui,
-                           textures: &mut TextureCache<u64>,
-                           out: &mut ImagesOutcome|
+        let mut depth_block = |ui: &mut egui::Ui,
+                               textures: &mut TextureCache<u64>,
+                               out: &mut ImagesOutcome|
          -> Option<(usize, usize)> {
             ui.vertical(|ui| {
                 ui.set_width(small.x);
-                let title = if two {
-                    "AMCW depth"
-                } else {
-                    "first-return depth"
-                };
-                ui.add(egui::Label::new(RichText::new(title).strong()).truncate());
+                match &m.returns {
+                    Some(r) => echo_choice(ui, echo, r),
+                    None => {
+                        ui.add(egui::Label::new(RichText::new("AMCW depth").strong()).truncate());
+                    }
+                }
                 let tex = textures.get(&ctx, "depth", key, || depth_image(depth, w, h, lo, hi));
                 let Picked { clicked, hover, .. } = pick(ui, &tex, w, h, small, "depth image");
                 out.clicked = out.clicked.or(clicked);
@@ -604,7 +608,10 @@ fn measurement_images(
                     },
                     unit: "m",
                     second: None,
-                    note: "depth = c × round-trip time / 2; black: no return",
+                    note: "depth = c × (return time − the light's mean emission time) / 2: \
+                           the distance along the pixel's ray when the light is beside \
+                           the camera, half the light → surface → eye path otherwise; \
+                           black: no return",
                 }
                 .ui(ui, small.x);
                 hover
@@ -800,7 +807,9 @@ fn readout(
     // The depth images on screen are the latest full measurement's (a pass behind
     // while the renderer runs): read out what is shown.
     if let Some(m) = measured_of_film(state, snap) {
-        if let Some(d) = m.depth().and_then(|d| d.get(i)) {
+        if let Some(r) = &m.returns {
+            s += &returns_readout(r, i);
+        } else if let Some(d) = m.depth(Echo::First).and_then(|d| d.get(i)) {
             if d.is_finite() {
                 s += &format!(" · depth {d:.3} m");
             } else {
@@ -814,6 +823,62 @@ fn readout(
         }
     }
     s
+}
+
+/// Pixel `i`'s returns in words: " · no return", " · return 3.120 m", or " · returns
+/// 3.120 m (0.81), 5.600 m (0.19)" with each return's share of the pixel's kept
+/// intensity, and how many more there are past the kept ones.
+fn returns_readout(r: &ReturnImages, i: usize) -> String {
+    let px = r.width * r.height;
+    let Some(&count) = r.count.get(i) else {
+        return String::new();
+    };
+    if count == 0 {
+        return " · no return".into();
+    }
+    let kept: Vec<(f32, f32)> = (0..r.max_returns)
+        .map(|k| (r.depth_m[k * px + i], r.intensity[k * px + i]))
+        .filter(|(d, _)| d.is_finite())
+        .collect();
+    let total: f32 = kept.iter().map(|(_, e)| e).sum();
+    let list: Vec<String> = kept
+        .iter()
+        .map(|(d, e)| match kept.len() {
+            1 => format!("{d:.3} m"),
+            _ => format!("{d:.3} m ({:.2})", e / total.max(f32::MIN_POSITIVE)),
+        })
+        .collect();
+    let more = usize::from(count).saturating_sub(kept.len());
+    let mut s = format!(
+        " · {} {}",
+        if count == 1 { "return" } else { "returns" },
+        list.join(", ")
+    );
+    if more > 0 {
+        s += &format!(" and {more} more");
+    }
+    s
+}
+
+/// The title of the LiDAR depth image: which return it shows, a choice of the first,
+/// strongest and last, and the k-th of multi-echo.
+fn echo_choice(ui: &mut egui::Ui, echo: &mut Echo, r: &ReturnImages) {
+    let several = r.count.iter().filter(|&&c| c > 1).count();
+    let mut choices = vec![Echo::First, Echo::Strongest, Echo::Last];
+    choices.extend((1..r.max_returns).map(Echo::Nth));
+    ui.horizontal_wrapped(|ui| {
+        ui.spacing_mut().item_spacing.x = 4.0;
+        ui.add(egui::Label::new(RichText::new("depth:").strong()))
+            .on_hover_text(format!(
+                "the depth of which of each pixel's returns the image shows; {several} \
+                 pixels have more than one (multi-echo keeps up to {} each, earliest \
+                 first)",
+                r.max_returns
+            ));
+        for c in choices {
+            ui.selectable_value(echo, c, c.label());
+        }
+    });
 }
 
 /// The latest measurement of all gates when it has the film's size: a pass behind

@@ -11,8 +11,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 use tprf_core::film::FilmSnapshot;
 use tprf_core::sensor::{
-    AmcwImage, Draws, Gates, Measurements, NoiseField, Pipeline, Sensor, SensorModel, SpadImage,
-    derived,
+    AmcwImage, Draws, Echo, Gates, Measurements, NoiseField, Pipeline, ReturnImages, Sensor,
+    SensorModel, SpadImage, derived,
 };
 use tprf_core::transport::ambient::AmbientImage;
 
@@ -166,7 +166,7 @@ pub(super) struct Measured {
     /// The ambient image it was measured with (compared by identity).
     pub(super) ambient: Option<Arc<AmbientImage>>,
     pub(super) m: Measurements,
-    pub(super) depth_m: Option<Vec<f32>>,
+    pub(super) returns: Option<ReturnImages>,
     pub(super) amcw: Option<AmcwImage>,
     /// The SPAD's histograms and depths, when the sensor has one.
     pub(super) spad: Option<SpadMeasured>,
@@ -189,11 +189,12 @@ pub(super) struct Measured {
 }
 
 impl Measured {
-    /// The depth image shown: first-return depth, else AMCW depth.
-    pub(super) fn depth(&self) -> Option<&[f32]> {
-        self.depth_m
-            .as_deref()
-            .or(self.amcw.as_ref().map(|a| a.depth_m.as_slice()))
+    /// The depth image shown: the return `echo`'s depth, else AMCW depth.
+    pub(super) fn depth(&self, echo: Echo) -> Option<&[f32]> {
+        match &self.returns {
+            Some(r) => Some(r.depth(echo)),
+            None => self.amcw.as_ref().map(|a| a.depth_m.as_slice()),
+        }
     }
 }
 
@@ -474,7 +475,7 @@ pub(super) fn measure_all(
         None => None,
     };
     let Gates {
-        m, depth_m, amcw, ..
+        m, returns, amcw, ..
     } = pipeline
         .gates(Draws::Kept(&mut noise_field))
         .map_err(|e| e.to_string())?;
@@ -495,7 +496,7 @@ pub(super) fn measure_all(
         sensor: model.sensor().clone(),
         ambient: ambient_image.clone(),
         m,
-        depth_m,
+        returns,
         amcw,
         spad,
         amcw_error_m,
@@ -507,7 +508,19 @@ pub(super) fn measure_all(
         error_abs_max,
         noise_field,
     };
-    measured.depth_range = measured.depth().map_or((0.0, 0.0), finite_range);
+    // One range for every return's image, so that switching between them compares.
+    measured.depth_range = match &measured.returns {
+        Some(r) => finite_range(
+            r.depth_m
+                .iter()
+                .chain(&r.strongest_m)
+                .chain(&r.last_m)
+                .copied()
+                .collect::<Vec<_>>()
+                .as_slice(),
+        ),
+        None => measured.depth(Echo::First).map_or((0.0, 0.0), finite_range),
+    };
     Ok(measured)
 }
 

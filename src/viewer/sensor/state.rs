@@ -15,7 +15,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, TryRecvError, channel};
 use std::time::{Duration, Instant};
 use tprf_core::film::FilmSnapshot;
-use tprf_core::sensor::{Measurements, NoiseField, PixelTrace, Sensor, SensorModel};
+use tprf_core::sensor::{Echo, Measurements, NoiseField, PixelTrace, Sensor, SensorModel};
 use tprf_core::transport::ambient::AmbientImage;
 
 /// SPAD histograms on screen ([`SensorState::spad_shown`]) and what they are of.
@@ -98,6 +98,8 @@ pub struct SensorState {
     pub gate: usize,
     /// Which SPAD histogram the images show.
     pub(super) spad_view: SpadView,
+    /// Which return the LiDAR depth image shows.
+    pub echo: Echo,
     /// The editor's handle being dragged.
     pub(super) drag: Option<Handle>,
     /// The editor's time range (`None`: fit to the window and pulse when next drawn).

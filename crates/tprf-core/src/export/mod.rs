@@ -538,8 +538,17 @@ impl std::str::FromStr for CubeFormat {
 
 /// Write a float32 C-order array.
 pub fn write_npy_f32(path: &Path, shape: &[u64], data: &[f32]) -> Result<(), ExportError> {
+    write_npy(path, shape, data)
+}
+
+/// Write a C-order array of `T`'s default dtype (`f32`: `<f4`, `u16`: `<u2`).
+pub fn write_npy<T: npyz::AutoSerialize + Copy>(
+    path: &Path,
+    shape: &[u64],
+    data: &[T],
+) -> Result<(), ExportError> {
     write_atomic(path, |w| {
-        let mut npy = npyz::WriteOptions::<f32>::new()
+        let mut npy = npyz::WriteOptions::<T>::new()
             .default_dtype()
             .shape(shape)
             .writer(w)

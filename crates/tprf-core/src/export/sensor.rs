@@ -53,7 +53,7 @@ use super::{NpyBands, NpyF32, write_csv, write_json, write_npy_f32, write_png_rg
 use crate::film::{TimeAxis, quantile};
 use crate::sensor::spad::{Sampler, spad_bytes_per_pixel};
 use crate::sensor::{
-    AmcwImage, FirstReturn, Gates, Measurements, Pipeline, SensorModel, SpadImage, derived,
+    AmcwImage, Gates, Measurements, Pipeline, Returns, SensorModel, SpadImage, derived,
 };
 
 /// The time window of a cube as `tprf.json` records it; other keys are ignored, so a
@@ -423,7 +423,7 @@ pub fn measure_cube(
         .map_or(tile_bytes, |free| tile_bytes.min(free.bytes / 4))
         / if single { 2 } else { 1 };
     let tiles = cube.tiles(budget);
-    let first_return = FirstReturn::default();
+    let first_return = Returns::default();
     for &(y0, x0, rows, cols) in &tiles {
         let tile = cube.read_tile((y0, x0, rows, cols), None)?;
         let tile = &tile[..];
@@ -582,8 +582,10 @@ pub struct SensorOutputs {
 /// Writes the files of a `tprf sensor` run into `out` (created if missing; files in it
 /// are replaced):
 /// - `sensor.npy`: float32 `[N, H, W]`, row 0 = top, the measurements;
-/// - with a first-return output: `depth.npy` (`c (t_return - light mean time) / 2`,
-///   metres, NaN where no return) and `depth.png`;
+/// - with a returns output: `depth.npy` (the first return, `c (t_return - light mean
+///   time) / 2`, metres, NaN where no return) and `depth.png`, `depth_strongest.npy`,
+///   `depth_last.npy` (`[H, W]`), multi-echo `depth_returns.npy` and
+///   `return_intensity.npy` (`[N, H, W]`), `return_count.npy` (uint16 `[H, W]`);
 /// - with AMCW gates: `amcw_phase.npy`, `amcw_amplitude.npy`, `amcw_depth.npy`,
 ///   `true_depth.npy`, `multipath_error.npy` (`[H, W]` each), `amcw_depth.png` and
 ///   `multipath_error.png`;
@@ -614,16 +616,46 @@ pub fn write_sensor_outputs(out: &Path, run: &SensorRun) -> Result<SensorOutputs
     )?;
 
     let mut derived_json = serde_json::Map::new();
-    if let Some(depth) = &gates.depth_m {
-        write_npy_f32(&out.join("depth.npy"), &[h as u64, w as u64], depth)?;
+    if let Some(r) = &gates.returns {
+        let image = [h as u64, w as u64];
+        let echoes = [r.max_returns as u64, h as u64, w as u64];
+        let depth = r.first_m();
+        write_npy_f32(&out.join("depth.npy"), &image, depth)?;
         write_depth_png(&out.join("depth.png"), w, h, depth)?;
-        files.extend(["depth.npy".into(), "depth.png".into()]);
+        write_npy_f32(&out.join("depth_strongest.npy"), &image, &r.strongest_m)?;
+        write_npy_f32(&out.join("depth_last.npy"), &image, &r.last_m)?;
+        write_npy_f32(&out.join("depth_returns.npy"), &echoes, &r.depth_m)?;
+        write_npy_f32(&out.join("return_intensity.npy"), &echoes, &r.intensity)?;
+        super::write_npy(&out.join("return_count.npy"), &image, &r.count)?;
+        files.extend(
+            [
+                "depth.npy",
+                "depth.png",
+                "depth_strongest.npy",
+                "depth_last.npy",
+                "depth_returns.npy",
+                "return_intensity.npy",
+                "return_count.npy",
+            ]
+            .map(String::from),
+        );
         let found = depth.iter().filter(|d| d.is_finite()).count();
+        let several = r.count.iter().filter(|&&c| c > 1).count();
         derived_json.insert(
-            "first_return".into(),
+            "returns".into(),
             serde_json::json!({
-                "depth": "c (t_return - light mean time) / 2, metres; NaN: no return",
+                "depth": "first return: c (t_return - light mean time) / 2, metres, \
+                          measured from the light's mean emission time; NaN: no return",
+                "depth_strongest": "the return of highest intensity, metres",
+                "depth_last": "the latest return, metres",
+                "depth_returns": "[N, H, W]: up to N returns per pixel, earliest first, \
+                                  metres; NaN past a pixel's last",
+                "return_intensity": "[N, H, W]: each return's sum of gate values \
+                                     (measurement units); 0 past a pixel's last",
+                "return_count": "uint16 [H, W]: how many returns each pixel has (also past N)",
+                "max_returns": r.max_returns,
                 "pixels_with_return": found,
+                "pixels_with_several_returns": several,
                 "light_mean_s": model.light().mean_s(),
             }),
         );

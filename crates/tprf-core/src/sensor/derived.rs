@@ -1,17 +1,19 @@
 //! Outputs derived from the measurements, where a preset asks for them:
 //!
-//! - **first-return depth** (full-waveform LiDAR): per pixel, the first return of the
-//!   gate waveform `M_i` against the gate centres, located by its centroid, minus the
-//!   light's mean emission time; depth `c (t - t_light) / 2`;
+//! - **returns** (full-waveform LiDAR): per pixel, the returns (echoes) of the gate
+//!   waveform `M_i` against the gate centres, each located by its centroid, minus the
+//!   light's mean emission time; depth `c (t - t_light) / 2`. A LiDAR reports the
+//!   first, the strongest and the last return, and multi-echo: up to N returns per
+//!   pixel with their intensities ([`find_returns`], [`ReturnImages`]);
 //! - **AMCW phase and depth**: per pixel, `theta = atan2(sum M_i sin phi_i,
 //!   sum M_i cos phi_i) - theta_0` (`theta_0` the phase the sensor reports for a return
 //!   at `tau = 0`, so a light's own delay cancels), depth `c theta / (4 pi f)`, unique
 //!   up to the ambiguity range `c / (2 f)`.
 //!
-//! "Depth" is half the optical path of the return, `c tau / 2`: the distance to the
-//! surface along the pixel's ray when the light sits beside the camera (LiDAR and ToF
-//! cameras), half the light -> surface -> eye path otherwise. `c` is
-//! [`crate::units::C_M_PER_S`].
+//! "Depth" is half the optical path of the return, `c tau / 2`, measured from the
+//! light's mean emission time: the distance to the surface along the pixel's ray when
+//! the light sits beside the camera (LiDAR and ToF cameras), half the light -> surface
+//! -> eye path otherwise. `c` is [`crate::units::C_M_PER_S`].
 
 use serde::{Deserialize, Serialize};
 use std::f64::consts::{PI, TAU};
@@ -27,30 +29,39 @@ use crate::units::C_M_PER_S;
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Derived {
-    /// Depth from the first return of each pixel's gate waveform.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub first_return: Option<FirstReturn>,
+    /// The returns of each pixel's gate waveform (first, strongest, last, multi-echo).
+    /// Files before 2026-11-29 call it `first_return`.
+    #[serde(skip_serializing_if = "Option::is_none", alias = "first_return")]
+    pub returns: Option<Returns>,
     /// AMCW phase, amplitude and depth per pixel (needs an `amcw` exposure).
     pub amcw_depth: bool,
 }
 
-/// How the first return of a waveform is found.
+/// How the returns of a waveform are found ([`find_returns`]).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
-pub struct FirstReturn {
-    /// A return starts where the waveform first reaches this fraction of the pixel's
-    /// highest sample (0 < threshold <= 1; default 0.2).
+pub struct Returns {
+    /// The detection level as a fraction of the pixel's highest sample (0 < threshold
+    /// <= 1; default 0.2): a return is a run of samples at or above it, and a valley
+    /// inside a run parts two returns where both sides rise above it by the level.
     pub threshold: f64,
     /// Pixels whose highest sample is not above this (measurement units) have no
     /// return (default 0).
     pub min_signal: f64,
+    /// How many returns per pixel multi-echo keeps, earliest first (1 to 16;
+    /// default 3). The strongest and the last return are chosen among all.
+    pub max_returns: usize,
 }
 
-impl Default for FirstReturn {
+/// The most returns multi-echo keeps per pixel.
+pub const MAX_RETURNS: usize = 16;
+
+impl Default for Returns {
     fn default() -> Self {
-        FirstReturn {
+        Returns {
             threshold: 0.2,
             min_signal: 0.0,
+            max_returns: 3,
         }
     }
 }
@@ -60,22 +71,29 @@ impl Derived {
     /// needs at least two gates with increasing centres; AMCW depth an `amcw` exposure
     /// with at least three phase steps.
     pub fn validate(&self, exposure: &Exposure, gates: &[Gate]) -> Result<(), SensorError> {
-        if let Some(fr) = &self.first_return {
-            non_negative("derived.first_return.threshold", fr.threshold)?;
+        if let Some(fr) = &self.returns {
+            non_negative("derived.returns.threshold", fr.threshold)?;
             if !(fr.threshold > 0.0 && fr.threshold <= 1.0) {
                 return Err(SensorError::OutOfRange {
-                    what: "derived.first_return.threshold".into(),
+                    what: "derived.returns.threshold".into(),
                     value: fr.threshold,
                     rule: "in (0, 1]",
                 });
             }
-            non_negative("derived.first_return.min_signal", fr.min_signal)?;
+            non_negative("derived.returns.min_signal", fr.min_signal)?;
+            if !(1..=MAX_RETURNS).contains(&fr.max_returns) {
+                return Err(SensorError::OutOfRange {
+                    what: "derived.returns.max_returns".into(),
+                    value: fr.max_returns as f64,
+                    rule: "from 1 to 16",
+                });
+            }
             let centres: Option<Vec<f64>> = gates.iter().map(Gate::centre_s).collect();
             match centres {
                 Some(c) if c.len() >= 2 && c.windows(2).all(|w| w[1] > w[0]) => {}
                 _ => {
                     return Err(SensorError::Invalid(
-                        "derived.first_return needs at least two gates with increasing \
+                        "derived.returns needs at least two gates with increasing \
                          centres (a waveform)"
                             .into(),
                     ));
@@ -103,55 +121,219 @@ pub fn depth_m(round_trip_s: f64) -> f64 {
     0.5 * C_M_PER_S * round_trip_s
 }
 
-/// The time of the first return of a waveform `values[i]` sampled at increasing
-/// `times_s[i]`: from the first sample at or above `threshold x` the highest one,
-/// up over its peak and down while it keeps falling and stays above the threshold;
-/// the return's time is the centroid of those samples. `None` when the highest sample
-/// is not above `min_signal` (or not positive).
-pub fn first_return_time(values: &[f64], times_s: &[f64], p: &FirstReturn) -> Option<f64> {
+/// One return (echo) of a waveform.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Return {
+    /// The centroid of the return's samples, `sum v_i t_i / sum v_i`, seconds.
+    pub time_s: f64,
+    /// The sum of the return's samples (measurement units): with gates that tile
+    /// time, proportional to the energy the return brought.
+    pub intensity: f64,
+}
+
+/// The returns of a waveform `values[i]` sampled at increasing `times_s[i]`, earliest
+/// first, into `out`. Detection: with `level = threshold x` the highest sample, a return
+/// is a run of samples at or above `level`; inside a run a valley parts two returns
+/// where the samples before it rose above it by at least `level` and the samples after
+/// it rise by as much (a hysteresis peak detector: noise wiggles smaller than the level
+/// do not split a return; the valley's sample goes to the earlier return). Extent: each
+/// return then takes in its flanks below the level, down to the local minimum (or zero)
+/// on each side, so its intensity is the whole echo's and not only its top. Each
+/// return's time is the centroid of its samples. None when the highest sample is not
+/// above `min_signal` (or not positive).
+pub fn find_returns(values: &[f64], times_s: &[f64], p: &Returns, out: &mut Vec<Return>) {
+    out.clear();
     let n = values.len().min(times_s.len());
     let values = &values[..n];
     let peak = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     if !(peak > p.min_signal && peak > 0.0) {
-        return None;
+        return;
     }
-    let threshold = p.threshold * peak;
-    let start = values.iter().position(|&v| v >= threshold)?;
-    let mut end = start;
-    while end + 1 < n && values[end + 1] >= values[end] {
-        end += 1;
+    let level = p.threshold * peak;
+    // The detected spans, inclusive.
+    let mut spans: Vec<(usize, usize)> = Vec::new();
+    let mut i = 0;
+    while i < n {
+        if !(values[i] >= level) {
+            i += 1;
+            continue;
+        }
+        // A run from `start`; `hi` its highest sample since the return began, `lo` the
+        // lowest since `hi` (at `lo_at`).
+        let mut start = i;
+        let (mut hi, mut lo, mut lo_at) = (values[i], values[i], i);
+        while i + 1 < n && values[i + 1] >= level {
+            i += 1;
+            let v = values[i];
+            if v > hi && hi - lo < level {
+                (hi, lo, lo_at) = (v, v, i);
+            } else if v < lo {
+                (lo, lo_at) = (v, i);
+            } else if hi - lo >= level && v - lo >= level {
+                spans.push((start, lo_at));
+                start = lo_at + 1;
+                let top = values[start..=i].iter().copied().fold(lo, f64::max);
+                (hi, lo, lo_at) = (top, v, i);
+            }
+        }
+        spans.push((start, i));
+        i += 1;
     }
-    while end + 1 < n && values[end + 1] <= values[end] && values[end + 1] >= threshold {
-        end += 1;
+    // The flanks: down from each end while the samples keep falling, short of the
+    // neighbouring returns.
+    for k in 0..spans.len() {
+        let floor = if k == 0 { 0 } else { spans[k - 1].1 + 1 };
+        let ceil = spans.get(k + 1).map_or(n - 1, |s| s.0 - 1);
+        let (mut from, mut to) = spans[k];
+        while from > floor && values[from - 1] > 0.0 && values[from - 1] <= values[from] {
+            from -= 1;
+        }
+        while to < ceil && values[to + 1] > 0.0 && values[to + 1] <= values[to] {
+            to += 1;
+        }
+        spans[k] = (from, to);
+        let (mut sum, mut moment) = (0.0, 0.0);
+        for (v, t) in values[from..=to].iter().zip(&times_s[from..=to]) {
+            sum += v;
+            moment += v * t;
+        }
+        if sum > 0.0 {
+            out.push(Return {
+                time_s: moment / sum,
+                intensity: sum,
+            });
+        }
     }
-    let (mut sum, mut moment) = (0.0, 0.0);
-    for (v, t) in values[start..=end].iter().zip(&times_s[start..=end]) {
-        sum += v;
-        moment += v * t;
-    }
-    (sum > 0.0).then(|| moment / sum)
 }
 
-/// First-return depth per pixel, `[H, W]` metres (NaN: no return), from gate
-/// waveforms: `c (t_return - light_mean_s) / 2` with `t_return` from
-/// [`first_return_time`] over the gate centres.
-pub fn first_return_depth(
+/// The time of the first return of a waveform ([`find_returns`]), seconds.
+pub fn first_return_time(values: &[f64], times_s: &[f64], p: &Returns) -> Option<f64> {
+    let mut out = Vec::new();
+    find_returns(values, times_s, p, &mut out);
+    out.first().map(|r| r.time_s)
+}
+
+/// A LiDAR's returns over the image: multi-echo `[N, H, W]` and the first, strongest
+/// and last return's depth `[H, W]` (metres, `c (t_return - light mean time) / 2`;
+/// NaN: no such return).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReturnImages {
+    pub width: usize,
+    pub height: usize,
+    /// N, the returns kept per pixel ([`Returns::max_returns`]).
+    pub max_returns: usize,
+    /// `[N, H, W]`: the k-th return's depth, earliest first, NaN past a pixel's last.
+    pub depth_m: Vec<f32>,
+    /// `[N, H, W]`: the k-th return's intensity ([`Return::intensity`]), 0 past a
+    /// pixel's last.
+    pub intensity: Vec<f32>,
+    /// `[H, W]`: how many returns each pixel has (all of them, also past N).
+    pub count: Vec<u16>,
+    /// `[H, W]`: the depth of the return of highest intensity.
+    pub strongest_m: Vec<f32>,
+    /// `[H, W]`: the depth of the latest return.
+    pub last_m: Vec<f32>,
+}
+
+/// Which of a pixel's returns a depth image shows.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Echo {
+    #[default]
+    First,
+    Strongest,
+    Last,
+    /// The k-th return, earliest first, from 0 (`Nth(0)` is `First`).
+    Nth(usize),
+}
+
+impl Echo {
+    /// Its name on screen: "first", "strongest", "last", "2nd", "3rd", "11th".
+    pub fn label(self) -> String {
+        match self {
+            Echo::First => "first".into(),
+            Echo::Strongest => "strongest".into(),
+            Echo::Last => "last".into(),
+            Echo::Nth(k) => {
+                let n = k + 1;
+                let suffix = match (n % 10, n % 100) {
+                    (_, 11..=13) => "th",
+                    (1, _) => "st",
+                    (2, _) => "nd",
+                    (3, _) => "rd",
+                    _ => "th",
+                };
+                format!("{n}{suffix}")
+            }
+        }
+    }
+}
+
+impl ReturnImages {
+    /// The depth image `[H, W]` of `echo` (metres, NaN: none); an `Nth` past N gives
+    /// the last kept.
+    pub fn depth(&self, echo: Echo) -> &[f32] {
+        let px = self.width * self.height;
+        match echo {
+            Echo::First => &self.depth_m[..px],
+            Echo::Strongest => &self.strongest_m,
+            Echo::Last => &self.last_m,
+            Echo::Nth(k) => {
+                let k = k.min(self.max_returns - 1);
+                &self.depth_m[k * px..(k + 1) * px]
+            }
+        }
+    }
+
+    /// The first return's depth `[H, W]`.
+    pub fn first_m(&self) -> &[f32] {
+        self.depth(Echo::First)
+    }
+}
+
+/// The returns of every pixel, from gate waveforms: depth `c (t_return -
+/// light_mean_s) / 2` with the returns from [`find_returns`] over the gate centres.
+pub fn return_images(
     m: &Measurements,
     gate_centres_s: &[f64],
     light_mean_s: f64,
-    p: &FirstReturn,
-) -> Vec<f32> {
+    p: &Returns,
+) -> ReturnImages {
     let pixels = m.width * m.height;
+    let n = p.max_returns.clamp(1, MAX_RETURNS);
+    let mut out = ReturnImages {
+        width: m.width,
+        height: m.height,
+        max_returns: n,
+        depth_m: vec![f32::NAN; n * pixels],
+        intensity: vec![0.0; n * pixels],
+        count: vec![0; pixels],
+        strongest_m: vec![f32::NAN; pixels],
+        last_m: vec![f32::NAN; pixels],
+    };
     let mut waveform = vec![0.0; m.gates];
-    (0..pixels)
-        .map(|px| {
-            for (i, w) in waveform.iter_mut().enumerate() {
-                *w = f64::from(m.values[i * pixels + px]);
-            }
-            first_return_time(&waveform, gate_centres_s, p)
-                .map_or(f32::NAN, |t| depth_m(t - light_mean_s) as f32)
-        })
-        .collect()
+    let mut found = Vec::new();
+    let depth = |r: &Return| depth_m(r.time_s - light_mean_s) as f32;
+    for px in 0..pixels {
+        for (i, w) in waveform.iter_mut().enumerate() {
+            *w = f64::from(m.values[i * pixels + px]);
+        }
+        find_returns(&waveform, gate_centres_s, p, &mut found);
+        out.count[px] = found.len().min(usize::from(u16::MAX)) as u16;
+        for (k, r) in found.iter().take(n).enumerate() {
+            out.depth_m[k * pixels + px] = depth(r);
+            out.intensity[k * pixels + px] = r.intensity as f32;
+        }
+        if let Some(last) = found.last() {
+            out.last_m[px] = depth(last);
+        }
+        if let Some(strong) = found
+            .iter()
+            .reduce(|a, b| if b.intensity > a.intensity { b } else { a })
+        {
+            out.strongest_m[px] = depth(strong);
+        }
+    }
+    out
 }
 
 /// The first return of every pixel's TPRF itself (bins as samples at their centres):
@@ -161,7 +343,7 @@ pub fn tprf_first_return_depth(
     width: usize,
     height: usize,
     axis: &TimeAxis,
-    p: &FirstReturn,
+    p: &Returns,
 ) -> Vec<f32> {
     let times: Vec<f64> = (0..axis.bins).map(|b| axis.bin_center_s(b)).collect();
     let mut waveform = vec![0.0; axis.bins];
@@ -177,7 +359,7 @@ pub fn tprf_first_return_depth(
 }
 
 /// [`tprf_first_return_depth`] of a film snapshot, a row at a time.
-pub fn tprf_first_return_depth_film(snap: &FilmSnapshot, p: &FirstReturn) -> Vec<f32> {
+pub fn tprf_first_return_depth_film(snap: &FilmSnapshot, p: &Returns) -> Vec<f32> {
     let mut row = Vec::new();
     let mut out = Vec::with_capacity(snap.width() * snap.height());
     for y in 0..snap.height() {
@@ -294,25 +476,131 @@ mod tests {
         v[11] = 3.0;
         v[12] = 6.0;
         v[13] = 3.0;
-        let p = FirstReturn {
+        let p = Returns {
             threshold: 0.1,
-            min_signal: 0.0,
+            ..Returns::default()
         };
         assert_eq!(first_return_time(&v, &times, &p), Some(5.0));
         // Above the first peak's height: the second return.
-        let p = FirstReturn {
+        let p = Returns {
             threshold: 0.4,
-            min_signal: 0.0,
+            ..Returns::default()
         };
         assert_eq!(first_return_time(&v, &times, &p), Some(12.0));
-        let p = FirstReturn {
+        let p = Returns {
             threshold: 0.1,
             min_signal: 10.0,
+            ..Returns::default()
         };
         assert_eq!(first_return_time(&v, &times, &p), None);
         assert_eq!(
-            first_return_time(&[0.0; 20], &times, &FirstReturn::default()),
+            first_return_time(&[0.0; 20], &times, &Returns::default()),
             None
+        );
+    }
+
+    /// Hand-made waveforms on 1 s samples: each return's centroid and sum worked out
+    /// by hand.
+    #[test]
+    fn returns_are_runs_above_the_level_parted_at_deep_valleys() {
+        let times: Vec<f64> = (0..30).map(|i| i as f64).collect();
+        let p = Returns {
+            threshold: 0.1,
+            max_returns: 4,
+            ..Returns::default()
+        };
+        let mut out = Vec::new();
+        // Two separate returns: (1, 2, 1) centred at 5, sum 4; (3, 6, 3) at 12, sum 12.
+        let mut v = vec![0.0; 30];
+        v[4..7].copy_from_slice(&[1.0, 2.0, 1.0]);
+        v[11..14].copy_from_slice(&[3.0, 6.0, 3.0]);
+        find_returns(&v, &times, &p, &mut out);
+        assert_eq!(
+            out,
+            vec![
+                Return {
+                    time_s: 5.0,
+                    intensity: 4.0
+                },
+                Return {
+                    time_s: 12.0,
+                    intensity: 12.0
+                }
+            ]
+        );
+        // A decaying backscatter (10, 8, 6, 4, 3) and a target (5, 3) on its tail, no
+        // gap: level 0.1 x 10 = 1; the valley (3) is 7 below the peak and the target
+        // rises 2 above it, so two returns: [10, 8, 6, 4, 3] then [5, 3].
+        let mut v = vec![0.0; 30];
+        v[0..7].copy_from_slice(&[10.0, 8.0, 6.0, 4.0, 3.0, 5.0, 3.0]);
+        find_returns(&v, &times, &p, &mut out);
+        assert_eq!(out.len(), 2, "{out:?}");
+        let t0 = (8.0 + 12.0 + 12.0 + 12.0) / 31.0;
+        assert!((out[0].time_s - t0).abs() < 1e-12 && out[0].intensity == 31.0);
+        assert!((out[1].time_s - (25.0 + 18.0) / 8.0).abs() < 1e-12);
+        assert_eq!(out[1].intensity, 8.0);
+        // A weak echo's flanks below the level (1.0) are its own: (0.5, 2, 0.4) has
+        // intensity 2.9 and centroid (5 + 22 + 4.8) / 2.9.
+        let mut v = vec![0.0; 30];
+        v[2..4].copy_from_slice(&[10.0, 6.0]);
+        v[10..13].copy_from_slice(&[0.5, 2.0, 0.4]);
+        find_returns(&v, &times, &p, &mut out);
+        assert_eq!(out.len(), 2, "{out:?}");
+        assert!((out[1].intensity - 2.9).abs() < 1e-12, "{out:?}");
+        assert!((out[1].time_s - 31.8 / 2.9).abs() < 1e-12, "{out:?}");
+        // An uptick of 0.5 on the tail (level 1) does not part it: one return.
+        let mut v = vec![0.0; 30];
+        v[0..6].copy_from_slice(&[10.0, 8.0, 6.0, 4.0, 4.5, 3.0]);
+        find_returns(&v, &times, &p, &mut out);
+        assert_eq!(out.len(), 1, "{out:?}");
+        assert_eq!(out[0].intensity, 35.5);
+        // A wiggle smaller than the level does not part a return: (2, 6, 5.5, 6, 2),
+        // level 0.2 x 6 = 1.2 > 0.5; centroid 258 / 21.5 = 12.
+        let mut v = vec![0.0; 30];
+        v[10..15].copy_from_slice(&[2.0, 6.0, 5.5, 6.0, 2.0]);
+        let p2 = Returns {
+            threshold: 0.2,
+            ..p
+        };
+        find_returns(&v, &times, &p2, &mut out);
+        assert_eq!(out.len(), 1, "{out:?}");
+        assert!((out[0].time_s - 12.0).abs() < 1e-12);
+        // Three returns; max_returns 2 keeps the first two, the strongest and last are
+        // chosen among all three. Two pixels: the second is dark.
+        let mut v = vec![0.0; 30];
+        v[2] = 1.0;
+        v[10] = 5.0;
+        v[20] = 2.0;
+        let m = Measurements {
+            width: 2,
+            height: 1,
+            gates: 30,
+            values: v.iter().flat_map(|&x| [x as f32, 0.0]).collect(),
+        };
+        let p3 = Returns {
+            threshold: 0.1,
+            max_returns: 2,
+            ..Returns::default()
+        };
+        let img = return_images(&m, &times, 0.0, &p3);
+        let d = |t: f64| depth_m(t) as f32;
+        assert_eq!(img.count, vec![3, 0]);
+        assert_eq!(img.depth(Echo::First)[0], d(2.0));
+        assert!(img.depth_m[1].is_nan() && img.depth_m[3].is_nan());
+        assert_eq!(img.depth_m[2], d(10.0));
+        assert_eq!(img.intensity, vec![1.0, 0.0, 5.0, 0.0]);
+        assert_eq!(img.strongest_m[0], d(10.0));
+        assert_eq!(img.last_m[0], d(20.0));
+        assert!(img.strongest_m[1].is_nan() && img.last_m[1].is_nan());
+        assert_eq!(img.depth(Echo::Nth(1))[0], d(10.0));
+        let labels: Vec<String> = [0, 1, 2, 3, 10, 11, 12, 20, 21]
+            .map(|k| Echo::Nth(k).label())
+            .into();
+        assert_eq!(
+            labels,
+            [
+                "1st", "2nd", "3rd", "4th", "11th", "12th", "13th", "21st", "22nd"
+            ]
         );
     }
 

@@ -9,6 +9,7 @@
 //! gate sequence of a kind sized for a time window, and the knots of the free
 //! (piecewise-linear) envelopes.
 
+use super::derived::{MAX_RETURNS, Returns};
 use super::exposure::{Exposure, MAX_GATES, TimeOrigin};
 use super::light::{LightPulse, MAX_LOBES};
 use super::noise::Noise;
@@ -636,6 +637,48 @@ impl Noise {
     }
 }
 
+impl Returns {
+    /// The return detector's editable numbers, in the order a form shows them.
+    pub fn fields(&self) -> Vec<Field> {
+        use Quantity::{Count, Number};
+        vec![
+            Field::new("threshold", "threshold", Number, self.threshold)
+                .range(1e-6, 1.0)
+                .help(
+                    "detection level as a fraction of each pixel's highest gate value: a \
+                     return is a run of gates at or above it; a valley parts two returns \
+                     where both sides rise above it by the level. Lower it for weak \
+                     echoes behind strong ones (a target behind fog)",
+                ),
+            Field::new("min_signal", "min signal", Number, self.min_signal)
+                .range(0.0, super::MAX_SCALE)
+                .help("pixels whose highest gate value is not above this have no return"),
+            Field::new(
+                "max_returns",
+                "returns kept",
+                Count,
+                self.max_returns as f64,
+            )
+            .range(1.0, MAX_RETURNS as f64)
+            .help("multi-echo: returns kept per pixel, earliest first"),
+        ]
+    }
+
+    /// Set the field `key` (as [`Self::fields`] names it) to `value`; false when there
+    /// is no such field.
+    pub fn set_field(&mut self, key: &str, value: f64) -> bool {
+        match key {
+            "threshold" => self.threshold = value,
+            "min_signal" => self.min_signal = value,
+            "max_returns" => {
+                self.max_returns = value.round().clamp(1.0, MAX_RETURNS as f64) as usize
+            }
+            _ => return false,
+        }
+        true
+    }
+}
+
 impl Spad {
     /// The SPAD's editable numbers (its acquisition mode aside), in the order a form
     /// shows them; the afterpulse delay only with afterpulsing on.
@@ -830,6 +873,17 @@ mod tests {
             assert_eq!(file.get(f.key).and_then(|x| x.as_float()), Some(0.5));
         }
         assert!(!noise.set_field("seed", 1.0));
+        // The return detector: each field is its key in the file, as numbers go there.
+        let mut returns = Returns::default();
+        for (f, v) in returns.fields().into_iter().zip([0.05, 2.5, 5.0]) {
+            assert!(returns.set_field(f.key, v), "returns.{}", f.key);
+            let file = toml::Value::try_from(returns).unwrap();
+            let got = file
+                .get(f.key)
+                .and_then(|x| x.as_float().or(x.as_integer().map(|i| i as f64)));
+            assert_eq!(got, Some(v), "returns.{}", f.key);
+        }
+        assert!(!returns.set_field("sigma", 1.0));
         // Afterpulsing on: its delay appears, and is set.
         assert!(spad.fields().iter().any(|f| f.key == "afterpulse_delay_s"));
         assert!(spad.afterpulse_delay_s > 0.0);

@@ -31,7 +31,8 @@
 //! - [`noise`]: Gaussian white noise, optional Poisson photon noise, `max(0, .)`;
 //! - [`pipeline`]: the one order of a measurement (clean, SPAD, ambient, noise,
 //!   derived) that `tprf sensor` and the window both follow;
-//! - [`derived`]: first-return depth, AMCW phase and depth;
+//! - [`derived`]: a LiDAR's returns (first, strongest, last, multi-echo), AMCW phase
+//!   and depth;
 //! - [`spad`]: a SPAD behind a TDC (a `tdc` exposure): pile-up, dead time,
 //!   afterpulsing, ambient light and dark counts, the Coates correction;
 //! - [`preset`]: sensor files (TOML) and the built-in presets;
@@ -53,7 +54,7 @@ mod quad;
 pub mod spad;
 mod values;
 
-pub use derived::{AmcwImage, Derived, FirstReturn};
+pub use derived::{AmcwImage, Derived, Echo, ReturnImages, Returns};
 pub use exposure::{Exposure, Gate, MAX_GATES, TimeOrigin};
 pub use fields::{EXPOSURE_KINDS, Field, HandleAt, LIGHT_KINDS, Quantity, kind_label};
 pub use kernel::{SparseKernel, compute_kernels};

@@ -5,7 +5,7 @@
 //! gates changed, and calls [`SensorModel::measure`] on its film snapshot when anything
 //! changed. Noise and derived-output edits never recompute kernels.
 
-use super::derived::{self, AmcwImage};
+use super::derived::{self, AmcwImage, ReturnImages};
 use super::exposure::{Exposure, Gate};
 use super::kernel::{BinTransfer, SparseKernel, compute_kernels, folded_kernels, kernel_bins};
 use super::light::Light;
@@ -283,16 +283,12 @@ impl SensorModel {
         self.gates.iter().map(Gate::centre_s).collect()
     }
 
-    /// First-return depth `[H, W]` (m, NaN: no return) when the sensor asks for it.
-    pub fn first_return_depth(&self, m: &Measurements) -> Option<Vec<f32>> {
-        let p = self.sensor.derived.first_return.as_ref()?;
+    /// The returns' depths and intensities (first, strongest, last, multi-echo) when
+    /// the sensor asks for them.
+    pub fn returns(&self, m: &Measurements) -> Option<ReturnImages> {
+        let p = self.sensor.derived.returns.as_ref()?;
         let centres = self.gate_centres_s()?;
-        Some(derived::first_return_depth(
-            m,
-            &centres,
-            self.light.mean_s(),
-            p,
-        ))
+        Some(derived::return_images(m, &centres, self.light.mean_s(), p))
     }
 
     /// For AMCW gates: the phase (rad) the sensor reports for a single return at

@@ -19,7 +19,9 @@
 use std::sync::atomic::AtomicBool;
 
 use super::spad::{Sampler, spad_expected_until, spad_rows, spad_sampler};
-use super::{AmcwImage, Measurements, NoiseField, SensorError, SensorModel, SpadImage};
+use super::{
+    AmcwImage, Measurements, NoiseField, ReturnImages, SensorError, SensorModel, SpadImage,
+};
 
 /// The inputs every step after the clean one reads.
 #[derive(Clone, Copy)]
@@ -52,9 +54,9 @@ pub struct Gates {
     /// in words) when the gates cannot take it (AMCW gates without
     /// `ambient_exposure_s`), and nothing was added.
     pub ambient: Option<Result<(), String>>,
-    /// First-return depth `[H, W]`, metres (NaN: no return), when the sensor asks for
-    /// it.
-    pub depth_m: Option<Vec<f32>>,
+    /// The returns' depths and intensities (first, strongest, last, multi-echo), when
+    /// the sensor asks for them.
+    pub returns: Option<ReturnImages>,
     /// AMCW phase, amplitude and depth, when the sensor has AMCW gates.
     pub amcw: Option<AmcwImage>,
 }
@@ -114,12 +116,12 @@ impl Pipeline<'_> {
             Draws::Fresh => model.apply_noise(&mut m),
             Draws::Kept(field) => model.apply_noise_cached(&mut m, field),
         }
-        let depth_m = model.first_return_depth(&m);
+        let returns = model.returns(&m);
         let amcw = model.amcw(&m);
         Ok(Gates {
             m,
             ambient,
-            depth_m,
+            returns,
             amcw,
         })
     }
@@ -213,7 +215,7 @@ mod tests {
             );
         }
         assert_eq!(g.ambient, Some(Ok(())));
-        assert!(g.depth_m.is_none() && g.amcw.is_none());
+        assert!(g.returns.is_none() && g.amcw.is_none());
         let mut one = clean.values.clone();
         add_ambient_to_gate(&model, 0, &mut one, &ambient);
         assert_eq!(one, g.m.values);

@@ -17,6 +17,7 @@ mod film_store;
 mod gltf_load;
 mod invariance;
 mod left_out;
+mod lidar_returns;
 mod media;
 mod nlos_reconstruct;
 mod spad;

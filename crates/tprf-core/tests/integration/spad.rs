@@ -15,7 +15,7 @@ use rand_pcg::Pcg64Mcg;
 use std::f64::consts::{PI, SQRT_2};
 
 use tprf_core::film::TimeAxis;
-use tprf_core::sensor::FirstReturn;
+use tprf_core::sensor::Returns;
 use tprf_core::sensor::light::FWHM_PER_SIGMA;
 use tprf_core::sensor::spad::sample::{pixel_stream, sample_pixel};
 use tprf_core::sensor::spad::{
@@ -952,9 +952,9 @@ fn pile_up_pulls_strong_returns_early() {
             &est,
             &img.centres_s,
             2.0 * NS,
-            &FirstReturn {
+            &Returns {
                 threshold: 0.2,
-                min_signal: 0.0,
+                ..Returns::default()
             },
             0,
             &mut Vec::new(),

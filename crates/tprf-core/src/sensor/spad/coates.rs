@@ -27,7 +27,7 @@
 
 use super::Acquisition;
 use super::detector::Detector;
-use crate::sensor::derived::{FirstReturn, depth_m};
+use crate::sensor::derived::{Returns, depth_m};
 
 /// The Coates estimate `N r_k` (events over all cycles as if there were no pile-up) of
 /// the histogram `counts` (`B` values) into `out`. A bin where every armed cycle fired
@@ -140,7 +140,7 @@ pub fn return_depth_m(
     values: &[f64],
     centres_s: &[f64],
     light_mean_s: f64,
-    p: &FirstReturn,
+    p: &Returns,
     half_width: usize,
     scratch: &mut Vec<f64>,
 ) -> f64 {

@@ -20,7 +20,7 @@ use super::coates::{coates, return_depth_m};
 use super::detector::{Detector, ExpectedScratch, Sampler};
 use super::sample::{MAX_EVENTS, pixel_stream, sample_pixel};
 use crate::sensor::measure::Measurements;
-use crate::sensor::{FirstReturn, SensorError, SensorModel};
+use crate::sensor::{Returns, SensorError, SensorModel};
 
 /// A SPAD's histograms and depths over an image.
 #[derive(Clone, Debug, PartialEq)]
@@ -324,7 +324,7 @@ struct Plan<'a> {
     seed: u64,
     centres_s: Vec<f64>,
     light_mean_s: f64,
-    first_return: FirstReturn,
+    returns: Returns,
     half_width: usize,
     signal: &'a Measurements,
     steady: &'a [f32],
@@ -380,7 +380,7 @@ impl<'a> Plan<'a> {
             seed: model.sensor().noise.seed,
             centres_s: model.gate_centres_s().unwrap_or_default(),
             light_mean_s: model.light().mean_s(),
-            first_return: model.sensor().derived.first_return.unwrap_or_default(),
+            returns: model.sensor().derived.returns.unwrap_or_default(),
             half_width: smoothing_bins(model, width_s),
             signal,
             steady,
@@ -475,7 +475,7 @@ impl<'a> Plan<'a> {
             v,
             &self.centres_s,
             self.light_mean_s,
-            &self.first_return,
+            &self.returns,
             self.half_width,
             scratch,
         ) as f32
