@@ -1053,8 +1053,11 @@ def write_markdown(path: Path, cfg, reports, env):
     L.append("# tprf vs mitransient: the race\n")
     L.append(f"Run {time.strftime('%Y-%m-%d %H:%M')}; {env['machine']}; {cfg.threads} threads each; "
              f"{env['versions']}; tprf `{env['tprf']}`.\n")
-    L.append(f"Film {cfg.width} x {cfg.height}, {cfg.bins} bins; load average at the start "
-             f"{env['load_start']}, at the end {loadavg()}.\n")
+    film = (f"Film {cfg.width} x {cfg.height}, {cfg.bins} bins" if any("film" not in r for r in reports)
+            else "Film: the scene file's (below)")
+    if any("film" not in r for r in reports) and any("film" in r for r in reports):
+        film += " (a scene read from a file: its own, below)"
+    L.append(f"{film}; load average at the start {env['load_start']}, at the end {loadavg()}.\n")
     L.append("Times: tprf = wall time of the `tprf render` process (start-up, scene load, BVH, "
              "render, writing the cube); tprf render = `render_seconds` of tprf.json (inside the "
              "render passes); mitransient = wall time of `mi.render` + reading the tensors back, "
@@ -1298,8 +1301,8 @@ def main(argv=None):
         "llvm": os.environ.get("DRJIT_LIBLLVM_PATH", ""),
     }
     log(f"the race: {env['machine']}; {env['versions']}; LLVM {env['llvm']}")
-    log(f"preset {cfg.preset}: film {cfg.width} x {cfg.height}, {cfg.bins} bins, {cfg.threads} threads; "
-        f"output in {out}")
+    log(f"preset {cfg.preset}: film {cfg.width} x {cfg.height}, {cfg.bins} bins (a scene read from a file: "
+        f"its own), {cfg.threads} threads; output in {out}")
 
     reports = []
     for n in names:
