@@ -219,6 +219,47 @@ SCENES = {
     "bright-room": lambda: scene_room(0.8, "bright-room"),
 }
 DEFAULT_SCENES = "room,corner"
+# Scenes read from a mitransient checkout (--mitransient PATH) rather than written here:
+# not in 'all', and their film is the file's.
+FILE_SCENES = ("staircase",)
+# The staircase's errors are larger (an area light, many bounces, 400 bins over 32 x 56
+# pixels): issue 48 compares at 20, 10 and 5 %.
+STAIRCASE_TARGETS = (0.2, 0.1, 0.05)
+
+
+@dataclass
+class FileScene:
+    """A scene both renderers read from one XML file that this script does not write."""
+
+    name: str
+    about: str
+    xml: Path
+    width: int
+    height: int
+    bins: int
+    bin_width_opl: float
+    window_opl: float = field(init=False)
+
+    def __post_init__(self):
+        self.window_opl = self.bins * self.bin_width_opl
+
+
+def scene_staircase(checkout: Path, out: Path) -> FileScene:
+    """mitransient's staircase made comparable by staircase.py beside this file."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import staircase
+
+    try:
+        xml, changed = staircase.build(checkout, out)
+    except staircase.BuildError as e:
+        raise SystemExit(f"--mitransient {checkout}: {e}")
+    return FileScene(
+        "staircase",
+        "mitransient's staircase example (Bitterli: 774 OBJ meshes, 10 JPEG textures, a "
+        f"rectangle area light), its {changed['roughplastic_to_diffuse']} rough plastics as "
+        "diffuse, camera_unwarp off (benches/race/staircase.py)",
+        xml, staircase.WIDTH_PX, staircase.HEIGHT_PX, staircase.BINS, staircase.BIN_WIDTH_OPL_M,
+    )  # fmt: skip
 
 
 def normalize(v):
@@ -924,13 +965,14 @@ def reference(s, tprf, mt, cfg, report, ref_path: Path, key: str):
     return ref, ref_err, sref_err
 
 
-def race(s, tprf, mt, cfg, ref, ref_err, sref_err, csv_path: Path, report):
+def race(s, tprf, mt, cfg, ref, ref_err, sref_err, csv_path: Path, report, stop_error=None):
+    stop_error = cfg.stop_error if stop_error is None else stop_error
     sref = ref.sum(2)
     rows = []
     active = {"tprf": True, "mitransient": True}
     runners = {"tprf": tprf, "mitransient": mt}
     spp, step = 1, 0
-    log(f"[{s.name}] race: spp 1, 2, 4, ... until cube error < {100 * cfg.stop_error:.2f} % or a "
+    log(f"[{s.name}] race: spp 1, 2, 4, ... until cube error < {100 * stop_error:.2f} % or a "
         f"run takes > {cfg.cap:.0f} s (reference error {100 * ref_err:.3f} % subtracted in quadrature)")
     while any(active.values()) and spp <= cfg.max_spp:
         order = ["tprf", "mitransient"] if step % 2 == 0 else ["mitransient", "tprf"]
@@ -955,7 +997,7 @@ def race(s, tprf, mt, cfg, ref, ref_err, sref_err, csv_path: Path, report):
             render = f", render passes {r.render_s:.3f} s" if name == "tprf" else ""
             log(f"  {name:11s} {spp:6d} spp  {r.wall_s:8.3f} s{render}{extra}  cube {100 * e:7.3f} %  "
                 f"steady {100 * se:7.3f} %  (CPU/wall {r.cpu_s / max(r.raw_wall_s, 1e-9):.2f})")
-            if e <= cfg.stop_error or r.wall_s > cfg.cap:
+            if e <= stop_error or r.wall_s > cfg.cap:
                 active[name] = False
         spp *= 2
         step += 1
@@ -967,17 +1009,17 @@ def race(s, tprf, mt, cfg, ref, ref_err, sref_err, csv_path: Path, report):
     return rows
 
 
-def summarize(s, rows, report):
+def summarize(s, rows, report, targets=TARGETS):
     by = {n: [r for r in rows if r["renderer"] == n] for n in ("tprf", "mitransient")}
     out = {}
     for n, rs in by.items():
         d = {}
         for key, tcol in (("wall", "wall_s"), ("render", "render_s")):
             pts = [(r[tcol], r["cube_err"]) for r in rs]
-            d[key] = {f"{int(100 * x)}%": time_to(pts, x) for x in TARGETS}
+            d[key] = {f"{int(100 * x)}%": time_to(pts, x) for x in targets}
             d[key + "_tail_a"] = tail_constant(pts)
         spts = [(r["wall_s"], r["steady_err"]) for r in rs]
-        d["steady"] = {f"{int(100 * x)}%": time_to(spts, x) for x in TARGETS}
+        d["steady"] = {f"{int(100 * x)}%": time_to(spts, x) for x in targets}
         big = rs[-1]
         d["per_spp_s"] = big["wall_s"] / big["spp"]
         d["largest_spp"] = big["spp"]
@@ -1011,8 +1053,11 @@ def write_markdown(path: Path, cfg, reports, env):
     L.append("# tprf vs mitransient: the race\n")
     L.append(f"Run {time.strftime('%Y-%m-%d %H:%M')}; {env['machine']}; {cfg.threads} threads each; "
              f"{env['versions']}; tprf `{env['tprf']}`.\n")
-    L.append(f"Film {cfg.width} x {cfg.height}, {cfg.bins} bins; load average at the start "
-             f"{env['load_start']}, at the end {loadavg()}.\n")
+    film = (f"Film {cfg.width} x {cfg.height}, {cfg.bins} bins" if any("film" not in r for r in reports)
+            else "Film: the scene file's (below)")
+    if any("film" not in r for r in reports) and any("film" in r for r in reports):
+        film += " (a scene read from a file: its own, below)"
+    L.append(f"{film}; load average at the start {env['load_start']}, at the end {loadavg()}.\n")
     L.append("Times: tprf = wall time of the `tprf render` process (start-up, scene load, BVH, "
              "render, writing the cube); tprf render = `render_seconds` of tprf.json (inside the "
              "render passes); mitransient = wall time of `mi.render` + reading the tensors back, "
@@ -1025,7 +1070,7 @@ def write_markdown(path: Path, cfg, reports, env):
     L.append("|---|--:|--:|--:|--:|--:|--:|")
     for rep in reports:
         sm = rep["summary"]
-        for x in TARGETS:
+        for x in rep.get("targets", TARGETS):
             k = f"{int(100 * x)}%"
             a, ar, b = sm["tprf"]["wall"][k], sm["tprf"]["render"][k], sm["mitransient"]["wall"][k]
             ratio = b[0] / a[0] if a[0] and b[0] else None
@@ -1038,7 +1083,7 @@ def write_markdown(path: Path, cfg, reports, env):
     L.append("|---|--:|--:|--:|--:|")
     for rep in reports:
         sm = rep["summary"]
-        for x in TARGETS:
+        for x in rep.get("targets", TARGETS):
             k = f"{int(100 * x)}%"
             a, b = sm["tprf"]["steady"][k], sm["mitransient"]["steady"][k]
             ratio = b[0] / a[0] if a[0] and b[0] else None
@@ -1071,8 +1116,9 @@ def write_markdown(path: Path, cfg, reports, env):
     L.append("")
     L.append("## Scenes\n")
     for rep in reports:
-        L.append(f"- **{rep['scene']}**: {rep['about']}; window 0 to {rep['window_opl']:.2f} m of optical "
-                 f"path ({cfg.bins} bins of {rep['bin_width_opl'] * 100:.3f} cm).")
+        film = f"{rep['film'][0]} x {rep['film'][1]}, " if "film" in rep else ""
+        L.append(f"- **{rep['scene']}**: {rep['about']}; {film}window 0 to {rep['window_opl']:.2f} m of "
+                 f"optical path ({rep.get('bins', cfg.bins)} bins of {rep['bin_width_opl'] * 100:.3f} cm).")
     L.append("")
     path.write_text("\n".join(L) + "\n")
 
@@ -1092,7 +1138,7 @@ def maybe_plot(path: Path, reports):
             ax.loglog([r["wall_s"] for r in rs], [100 * r["cube_err"] for r in rs], style, label=f"{n} cube")
             ax.loglog([r["wall_s"] for r in rs], [100 * r["steady_err"] for r in rs], style, alpha=0.4,
                       label=f"{n} steady")
-        for x in TARGETS:
+        for x in rep.get("targets", TARGETS):
             ax.axhline(100 * x, color="grey", lw=0.5)
         ax.set_title(rep["scene"])
         ax.set_xlabel("wall time, s")
@@ -1138,6 +1184,35 @@ def find_tprf(arg):
     return target / "release" / "tprf"
 
 
+def race_file_scene(n, exe, mi, dr, versions, tprf_version, cfg, out: Path):
+    """Reference and race on a scene read from a mitransient checkout (the staircase):
+    its film, time axis and max_depth are the file's; no twin check (its light is an
+    area light, not the point light the check looks for under; the reference's two long
+    renders are still compared against their noise). Targets 20, 10 and 5 % cube error."""
+    sdir = out / n
+    s = scene_staircase(Path(cfg.mitransient), sdir)
+    tprf = Tprf(exe, s.xml, sdir, s.width, s.height, s.bins, s.bin_width_opl, cfg.threads)
+    # The file fixes max_depth (65); load it once, whatever depth is asked for.
+    mt = Mitransient(mi, dr, lambda depth, f=s.xml: mi.load_file(str(f)), cfg.threads)
+    rep = {"scene": n, "about": s.about, "window_opl": s.window_opl, "bin_width_opl": s.bin_width_opl,
+           "film": [s.width, s.height], "bins": s.bins, "targets": list(STAIRCASE_TARGETS)}  # fmt: skip
+    log(f"\n[{n}] {s.about}; {s.width} x {s.height}, {s.bins} bins of {100 * s.bin_width_opl:.3f} cm; "
+        f"files in {sdir}; twin check skipped (an area light)")
+    t0 = time.perf_counter()
+    mt.scene(-1)
+    log(f"  mitransient load_file: {time.perf_counter() - t0:.2f} s (left out of its times)")
+    if cfg.twin_only:
+        return rep
+    key = hashlib.sha256(
+        json.dumps([s.xml.read_text(), s.width, s.height, s.bins, versions, tprf_version]).encode()
+    ).hexdigest()
+    ref, ref_err, sref_err = reference(s, tprf, mt, cfg, rep, sdir / "reference.npz", key)
+    rows = race(s, tprf, mt, cfg, ref, ref_err, sref_err, out / f"race_{n}.csv", rep,
+                stop_error=STAIRCASE_TARGETS[-1])
+    summarize(s, rows, rep, STAIRCASE_TARGETS)
+    return rep
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -1146,7 +1221,11 @@ def main(argv=None):
                     "and numpy, then run this script with it")
     ap.add_argument("--preset", choices=PRESETS, default="full")
     ap.add_argument("--scenes", default=DEFAULT_SCENES,
-                    help=f"comma-separated, from {', '.join(SCENES)} (default {DEFAULT_SCENES}); 'all'")
+                    help=f"comma-separated, from {', '.join(SCENES)} (default {DEFAULT_SCENES}); 'all' "
+                    f"(those four); or {', '.join(FILE_SCENES)} (needs --mitransient)")
+    ap.add_argument("--mitransient", metavar="CHECKOUT",
+                    help="a mitransient checkout (work tree or bare git repository): the staircase "
+                    "scene is built from its examples/ by staircase.py")
     ap.add_argument("--out", default=str(REPO / "out" / "race"), help="output folder (default out/race)")
     ap.add_argument("--tprf", help="tprf binary (default $TPRF, else $CARGO_TARGET_DIR or target/ + release/tprf)")
     ap.add_argument("--build", action="store_true", help="cargo build --release --bin tprf first")
@@ -1191,8 +1270,10 @@ def main(argv=None):
         return 0
     names = list(SCENES) if cfg.scenes == "all" else [x.strip() for x in cfg.scenes.split(",") if x.strip()]
     for n in names:
-        if n not in SCENES:
-            raise SystemExit(f"unknown scene '{n}' (have {', '.join(SCENES)})")
+        if n not in SCENES and n not in FILE_SCENES:
+            raise SystemExit(f"unknown scene '{n}' (have {', '.join((*SCENES, *FILE_SCENES))})")
+        if n in FILE_SCENES and not cfg.mitransient:
+            raise SystemExit(f"--scenes {n}: give a mitransient checkout with --mitransient PATH")
 
     loaded, why = load_mitsuba()
     if loaded is None:
@@ -1220,11 +1301,16 @@ def main(argv=None):
         "llvm": os.environ.get("DRJIT_LIBLLVM_PATH", ""),
     }
     log(f"the race: {env['machine']}; {env['versions']}; LLVM {env['llvm']}")
-    log(f"preset {cfg.preset}: film {cfg.width} x {cfg.height}, {cfg.bins} bins, {cfg.threads} threads; "
-        f"output in {out}")
+    log(f"preset {cfg.preset}: film {cfg.width} x {cfg.height}, {cfg.bins} bins (a scene read from a file: "
+        f"its own), {cfg.threads} threads; output in {out}")
 
     reports = []
     for n in names:
+        if n in FILE_SCENES:
+            reports.append(race_file_scene(n, exe, mi, dr, versions, tprf_version, cfg, out))
+            (out / "summary.json").write_text(json.dumps({"config": vars(cfg), "env": env, "scenes": reports},
+                                                         indent=1, default=str))
+            continue
         s = SCENES[n]()
         orient(s)
         bw = s.window_opl / cfg.bins
