@@ -71,6 +71,13 @@ fn pixel_pos(
     )
 }
 
+/// Opens `builtin:NAME` from the top bar's menu of built-in scenes.
+fn open_builtin(h: &mut Harness<'static, TprfApp>, name: &str) {
+    h.get_by_label("Built-in scene ⏷").click();
+    h.run_steps(2);
+    h.get_by_label(&format!("builtin:{name}")).click();
+}
+
 /// A mouse click (press and release, no movement) at `pos`.
 fn click_at(h: &mut Harness<'static, TprfApp>, pos: Pos2) {
     h.hover_at(pos);
@@ -334,6 +341,34 @@ fn the_layout_fits_at_every_window_size() {
             editor.left(),
             "the measurement image",
         );
+        inside(
+            h.get_by_label("depth image").rect(),
+            editor.left(),
+            "the depth image",
+        );
+        // The top bar is one row: Pause beside the tabs, the built-in scenes a menu.
+        let tab = h.get_by_label("Transient").rect();
+        let pause = h.get_by_label("⏸ Pause").rect();
+        assert!(
+            (pause.center().y - tab.center().y).abs() < 2.0 && pause.right() <= w,
+            "{size}: Pause at {pause:?}, the tabs at {tab:?}"
+        );
+        // The SPAD: its views, its depth image and its histogram reachable.
+        h.state_mut().settings.sensor = Sensor::builtin("spad").unwrap();
+        h.run_steps(2);
+        let snap = h.state().snapshot().unwrap();
+        let start = Instant::now();
+        while !h.state().sensor.is_current(&snap) && start.elapsed() < Duration::from_secs(60) {
+            h.step();
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        h.run_steps(3);
+        let editor = h.get_by_label("envelope editor").rect();
+        for what in ["expected", "one realisation", "Coates", "SPAD depth image"] {
+            inside(h.get_by_label(what).rect(), editor.left(), what);
+        }
+        let title = h.get_by_label_contains("SPAD histogram of pixel").rect();
+        inside(title, w, "the SPAD histogram's title");
     }
 }
 
@@ -650,7 +685,7 @@ fn a_bad_scene_is_reported_in_the_window() {
         h.state().messages()
     );
     // The window keeps running and a built-in can be opened from it.
-    h.get_by_label("builtin:cornell").click();
+    open_builtin(&mut h, "cornell");
     h.step();
     assert_eq!(h.state().settings.scene, "builtin:cornell");
 }
@@ -1649,7 +1684,7 @@ fn a_new_scene_opens_where_its_light_is() {
         "a restart of the same scene keeps its bin"
     );
     h.state_mut().bin = bins - 1;
-    h.get_by_label("builtin:canopy").click();
+    open_builtin(&mut h, "canopy");
     let start = Instant::now();
     while h.state().status().map(|s| s.state) != Some(WorkerState::Done)
         || h.state().settings.scene != "builtin:canopy"
@@ -2514,7 +2549,7 @@ fn time_and_pulse_origins_do_not_outlive_their_scene() {
 
     // Another scene starts from the user's own settings, not the file's (the film, the
     // clock), and says so; the file's messages go with it.
-    h.get_by_label("builtin:cornell").click();
+    open_builtin(&mut h, "cornell");
     h.run_steps(2);
     let r = h.state().request().expect("a render of the built-in scene");
     assert_eq!(
@@ -2540,7 +2575,7 @@ fn time_and_pulse_origins_do_not_outlive_their_scene() {
         });
     h.run_steps(2);
     h.state_mut().pending.width = 24;
-    h.get_by_label("builtin:cornell").click();
+    open_builtin(&mut h, "cornell");
     h.run_steps(2);
     let r = h.state().request().expect("a render");
     assert_eq!((r.width, r.height), (24, 16));
@@ -2571,7 +2606,7 @@ fn a_failed_scenes_message_goes_with_it() {
     }
     let m = h.state().messages().join("\n");
     assert!(m.contains("missing.glb"), "the failure is said: {m}");
-    h.get_by_label("builtin:cornell").click();
+    open_builtin(&mut h, "cornell");
     h.run_steps(4);
     let m = h.state().messages().join("\n");
     assert!(!m.contains("missing.glb"), "{m}");
@@ -2667,4 +2702,50 @@ fn the_lidar_depth_image_offers_every_return() {
     h.run_steps(2);
     assert_eq!(h.state().sensor.echo, tprf_core::sensor::Echo::Last);
     assert_eq!(label_with(&h, "colour bar: depth"), bar);
+}
+
+/// `TPRF_SCREENSHOTS=1 cargo test --release --test viewer -- --ignored layout_shots`
+/// renders the window at 1024 x 700, 1280 x 800 and 1920 x 1080 in each mode (the
+/// transient view, the LiDAR, the SPAD) into `target/tmp/layout/`, to look at.
+#[test]
+#[ignore = "writes target/tmp/layout/; run by hand"]
+fn layout_shots() {
+    if std::env::var_os("TPRF_SCREENSHOTS").is_none() {
+        eprintln!("set TPRF_SCREENSHOTS=1 to write target/tmp/layout/");
+        return;
+    }
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("layout");
+    std::fs::create_dir_all(&dir).unwrap();
+    for (w, hgt) in [(1024.0, 700.0), (1280.0, 800.0), (1920.0, 1080.0)] {
+        let settings = small_settings("builtin:cornell", 64, 128, 64);
+        let mut h = Harness::builder()
+            .with_size(Vec2::new(w, hgt))
+            .build_eframe(move |cc| TprfApp::with_settings(cc, settings, Start::Default));
+        wait_done(&mut h, Duration::from_secs(120));
+        h.state_mut().playing = false;
+        h.state_mut().selection = Some(Selection::pixel(32, 20));
+        h.state_mut().bin = 40;
+        let shot = |h: &mut Harness<'static, TprfApp>, name: &str| {
+            h.run_steps(3);
+            let mut img = h.render().expect("a wgpu adapter for screenshots");
+            tprf::viewer::over_background(&mut img, &h.ctx.global_style().visuals);
+            img.save(dir.join(format!("{name}_{w}x{hgt}.png"))).unwrap();
+        };
+        shot(&mut h, "transient");
+        h.state_mut().settings.mode = Mode::Sensor;
+        h.run_steps(3);
+        wait_sensor(&mut h);
+        shot(&mut h, "lidar");
+        h.state_mut().settings.sensor = Sensor::builtin("spad").unwrap();
+        h.run_steps(2);
+        let snap = h.state().snapshot().unwrap();
+        let start = Instant::now();
+        while (!h.state().sensor.is_current(&snap) || h.state().sensor.spad_sampling())
+            && start.elapsed() < Duration::from_secs(120)
+        {
+            h.step();
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        shot(&mut h, "spad");
+    }
 }

@@ -6,6 +6,9 @@ use crate::viewer::plotting;
 use eframe::egui::{self, RichText};
 use egui_plot::{AxisHints, Line, Plot, PlotPoints};
 
+/// The error plot's height, points (its axes included).
+pub(crate) const ERROR_PLOT_H: f32 = 130.0;
+
 impl TprfApp {
     /// Nothing for a loaded cube or before the first estimate.
     pub(crate) fn error_plot_ui(&mut self, ui: &mut egui::Ui) {
@@ -25,7 +28,7 @@ impl TprfApp {
             .map(|(t, e)| [t.log10(), e.log10()])
             .collect();
         Plot::new("error-plot")
-            .height(130.0)
+            .height(ERROR_PLOT_H)
             .allow_drag(false)
             .allow_zoom(false)
             .allow_scroll(false)

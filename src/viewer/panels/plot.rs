@@ -144,7 +144,13 @@ impl TprfApp {
                 .fold(0.0f64, |m, &v| m.max(v));
             if max > 0.0 { max * 1e-6 } else { 1e-30 }
         });
-        let plot_h = (ui.available_height() - 150.0).max(160.0);
+        // Room under the plot for the error plot: its title row, the plot, the spacing
+        // between them (150 once clipped the error plot's axis label at every size).
+        let error_block = super::error_plot::ERROR_PLOT_H
+            + ui.text_style_height(&egui::TextStyle::Body)
+            + 3.0 * ui.spacing().item_spacing.y
+            + 4.0;
+        let plot_h = (ui.available_height() - error_block).max(160.0);
         let y_label = if log {
             format!("radiance per bin, log ({BIN_UNIT})")
         } else {

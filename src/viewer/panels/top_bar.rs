@@ -52,11 +52,22 @@ impl TprfApp {
             {
                 self.choose_file(FileAction::OpenCube);
             }
-            for name in tprf_core::scene::builtin::NAMES {
-                if ui.button(format!("builtin:{name}")).clicked() {
-                    self.open_scene(format!("builtin:{name}"));
+            // The built-in scenes in a menu: five buttons made the bar wrap at 1024 px
+            // and moved Pause and Restart to a second row.
+            ui.menu_button("Built-in scene ⏷", |ui| {
+                for (name, what) in BUILTINS {
+                    if ui
+                        .button(format!("builtin:{name}"))
+                        .on_hover_text(what)
+                        .clicked()
+                    {
+                        self.open_scene(format!("builtin:{name}"));
+                        ui.close();
+                    }
                 }
-            }
+            })
+            .response
+            .on_hover_text("Open a scene built into tprf (no file needed)");
             ui.separator();
             match &self.source {
                 Source::Live(w) => {
@@ -80,5 +91,42 @@ impl TprfApp {
                 Source::None => {}
             }
         });
+    }
+}
+
+/// The built-in scenes the menu offers, each with what it shows.
+const BUILTINS: [(&str, &str); 5] = [
+    (
+        "cornell",
+        "the Cornell box, lit by a point light under its ceiling: light in flight, \
+         multipath between the walls",
+    ),
+    (
+        "canopy",
+        "airborne LiDAR over a partly covered foliage layer, 100 m up, under the sun: \
+         two returns per pixel",
+    ),
+    (
+        "nlos-z",
+        "tal's NLOS quickstart: a Z hidden behind a relay wall (a capture, then a \
+         reconstruction)",
+    ),
+    (
+        "nlos-shapes",
+        "NLOS: three shapes at different depths behind a relay wall",
+    ),
+    (
+        "fog",
+        "a road in 50 m fog: a pedestrian, two cars and a sign at 22-78 m",
+    ),
+];
+
+#[cfg(test)]
+mod tests {
+    /// The menu offers every built-in scene the core knows, in its order.
+    #[test]
+    fn the_menu_offers_every_builtin() {
+        let names: Vec<&str> = super::BUILTINS.iter().map(|(n, _)| *n).collect();
+        assert_eq!(names, tprf_core::scene::builtin::NAMES);
     }
 }

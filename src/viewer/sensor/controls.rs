@@ -350,11 +350,21 @@ pub(crate) fn controls_ui(
         spad_ui(ui, spad, dt_s);
     }
     if let Some(returns) = &mut sensor.derived.returns {
-        ui.label(RichText::new("Returns").strong()).on_hover_text(
-            "the LiDAR's returns of each pixel's gate waveform: first, strongest, last \
-             and multi-echo depth",
-        );
-        if let Some((key, v)) = fields_ui(ui, "returns-grid", &returns.fields(), 0.0, dt_s, None) {
+        // A SPAD's depth is its histogram's first return: multi-echo is the gates'.
+        let spad = sensor.spad.is_some();
+        ui.label(RichText::new("Returns").strong())
+            .on_hover_text(if spad {
+                "how the first return of each pixel's histogram is found"
+            } else {
+                "the LiDAR's returns of each pixel's gate waveform: first, strongest, last \
+             and multi-echo depth"
+            });
+        let fields: Vec<_> = returns
+            .fields()
+            .into_iter()
+            .filter(|f| !(spad && f.key == "max_returns"))
+            .collect();
+        if let Some((key, v)) = fields_ui(ui, "returns-grid", &fields, 0.0, dt_s, None) {
             returns.set_field(key, v);
         }
     }

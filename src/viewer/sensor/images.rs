@@ -128,7 +128,12 @@ fn spad_images(
         let l = ui.label(format!("TDC bin k (of {bins})"));
         ui.add(egui::Slider::new(gate_sel, 0..=bins.saturating_sub(1)))
             .labelled_by(l.id);
-        ui.label(gate_time_label(model, bin));
+        ui.add(egui::Label::new(gate_time_label(model, bin)).truncate());
+    });
+    // The histogram's views on a row of their own: beside the slider they ran past the
+    // panel at 1024 px and widened it under the right panel.
+    ui.horizontal(|ui| {
+        ui.label("histogram:");
         for v in SpadView::ALL {
             ui.selectable_value(view, v, v.label());
         }

@@ -207,11 +207,19 @@ fn spad_plot_ui(
                 tprf_core::units::format_time(s.dead_time_s)
             )
         });
-    ui.label(RichText::new(format!(
-        "SPAD histogram of pixel (row {y}, column {x}) over {} cycles: expected (piled up), one \
-             realisation, its Coates estimate, and N r_k without pile-up{dead}",
-        spad.map_or(0, |s| s.cycles)
-    )));
+    // The title on one line; what the curves are, in its tooltip (four lines of text
+    // left the histogram below the fold at 1024 x 700).
+    let cycles = spad.map_or(0, |s| s.cycles);
+    ui.add(
+        egui::Label::new(format!(
+            "SPAD histogram of pixel (row {y}, column {x}), {cycles} cycles"
+        ))
+        .truncate(),
+    )
+    .on_hover_text(format!(
+        "Over {cycles} cycles: expected (piled up), one realisation, its Coates estimate, and \
+         N r_k without pile-up{dead}"
+    ));
     // Head room above the highest curve for the legend, which would hide the peak.
     let top = [&counts[..], &expected[..], &coates[..]]
         .into_iter()
@@ -220,8 +228,9 @@ fn spad_plot_ui(
         .chain(px.unpiled.iter().chain(&px.signal).copied())
         .filter(|v| v.is_finite())
         .fold(0.0, f64::max);
+    // At least 220 points (the panel scrolls): its legend of six curves covers ~110.
     let plot = Plot::new("sensor-spad")
-        .height(to_bottom(ui, bottom, height))
+        .height(to_bottom(ui, bottom, height.max(220.0)))
         .allow_drag(false)
         .include_y(0.0)
         .include_y(1.7 * top)
