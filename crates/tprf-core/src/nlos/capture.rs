@@ -259,6 +259,18 @@ pub fn render_capture(
     settings: &CaptureSettings,
     progress: &Progress,
 ) -> Result<Capture, NlosError> {
+    render_capture_with(scene, settings, progress, &|| {})
+}
+
+/// [`render_capture`], calling `point_done` (from the worker thread that rendered it)
+/// after each sensor point is counted in `progress.points_done`: what a caller's
+/// progress report and cancel hang on ([`crate::request::CaptureRequest::run`]).
+pub fn render_capture_with(
+    scene: Arc<Scene>,
+    settings: &CaptureSettings,
+    progress: &Progress,
+    point_done: &(dyn Fn() + Sync),
+) -> Result<Capture, NlosError> {
     let start = std::time::Instant::now();
     let geometry = resolve(&scene, settings)?;
     let per_sensor = geometry.lasers_per_sensor();
@@ -286,6 +298,7 @@ pub fn render_capture(
             let rays = trace_point(&hidden, &geometry, settings, s, &mut acc);
             progress.rays.fetch_add(rays, Ordering::Relaxed);
             progress.points_done.fetch_add(1, Ordering::Relaxed);
+            point_done();
             let inv = 1.0 / settings.spp as f64;
             acc.iter().map(|v| (v * inv) as f32).collect()
         })
