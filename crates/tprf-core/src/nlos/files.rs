@@ -386,6 +386,30 @@ pub struct LoadedCapture {
 }
 
 impl LoadedCapture {
+    /// A rendered capture as [`read_capture`] reads its folder back (the same grids,
+    /// normals, device positions and axis in metres), without the files: what a
+    /// reconstruction of a capture in memory reads. `path` names it in messages.
+    pub fn of(c: &Capture, path: PathBuf) -> LoadedCapture {
+        let g = &c.geometry;
+        let m = CaptureMetadata::of(c);
+        LoadedCapture {
+            path,
+            h: c.h.clone(),
+            h_shape: c.shape(),
+            exhaustive: matches!(g.scan, Scan::Exhaustive { .. }),
+            sensor_grid: g.sensors.iter().map(|p| p.position).collect(),
+            sensor_shape: g.grid,
+            laser_grid: g.lasers.iter().map(|p| p.position).collect(),
+            laser_shape: g.laser_grid,
+            sensor_normal: Some(g.wall.normal).filter(|n| n.length() > 0.5),
+            sensor_xyz: Some(g.sensor_origin),
+            laser_xyz: Some(g.laser_origin),
+            delta_t_m: m.delta_t_m,
+            t_start_m: m.t_start_m,
+            device_legs: g.device_legs,
+        }
+    }
+
     pub fn bins(&self) -> usize {
         self.h_shape.first().copied().unwrap_or(0)
     }
