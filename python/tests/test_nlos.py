@@ -2,7 +2,11 @@
 built-in NLOS scene (tal's Z, 1 m in front of a 2 m x 2 m relay wall in the plane z = 0),
 and against the files tprf nlos writes."""
 
+import os
+import signal
 import subprocess
+import threading
+import time
 
 import numpy as np
 import pytest
@@ -137,3 +141,18 @@ def test_bad_settings_name_the_setting():
         tprf.nlos.reconstruct("nowhere", method="xyz")
     with pytest.raises(TypeError, match="together"):
         tprf.nlos.reconstruct("nowhere", center=(0, 0, 1))
+
+
+def test_ctrl_c_interrupts_a_capture_at_once():
+    # Far more samples than a test has time for: only the interrupt ends it, and the
+    # points running stop too (the next capture is not slowed by them).
+    timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
+    timer.start()
+    start = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        tprf.nlos.capture("builtin:nlos-z", grid=(2, 2), spp=1 << 31, threads=2,
+                          progress=False)
+    timer.join()
+    assert time.monotonic() - start < 30
+    c = tprf.nlos.capture("builtin:nlos-z", grid=(2, 2), spp=8, progress=False)
+    assert c.H.shape[1:] == (2, 2)

@@ -63,11 +63,16 @@ fn json_of(value: &impl serde::Serialize, py: Python<'_>) -> PyResult<Py<PyAny>>
 struct Reporter {
     tx: Sender<(u64, u64)>,
     cancel: Arc<AtomicBool>,
+    /// The count last sent (the capture also asks while points run: sent once).
+    sent: Option<u64>,
 }
 
 impl CaptureObserver for Reporter {
     fn points(&mut self, done: u64, total: u64) -> ControlFlow<()> {
-        let _ = self.tx.send((done, total));
+        if self.sent != Some(done) {
+            self.sent = Some(done);
+            let _ = self.tx.send((done, total));
+        }
         if self.cancel.load(Ordering::Relaxed) {
             ControlFlow::Break(())
         } else {
@@ -278,7 +283,11 @@ pub fn capture(
         std::thread::Builder::new()
             .name("tprf nlos".into())
             .spawn(move || {
-                let mut reporter = Reporter { tx, cancel };
+                let mut reporter = Reporter {
+                    tx,
+                    cancel,
+                    sent: None,
+                };
                 request.run(Arc::new(scene), &mut reporter)
             })
             .map_err(|e| PyRuntimeError::new_err(format!("cannot start the capture thread: {e}")))?

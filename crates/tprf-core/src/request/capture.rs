@@ -155,9 +155,11 @@ pub trait CaptureObserver {
     /// the render's time.
     fn message(&mut self, _line: &str) {}
 
-    /// After each sensor point (from the worker thread that rendered it): `done` of
-    /// `total` points. [`ControlFlow::Break`] cancels the capture (the points not begun
-    /// are skipped and [`CaptureRequest::run`] returns [`CaptureError::Cancelled`]).
+    /// After each sensor point, and while points run every
+    /// [`crate::nlos::capture::POLL_SAMPLES`] samples (from the worker threads): `done` of
+    /// `total` points. [`ControlFlow::Break`] cancels the capture (the points running
+    /// stop, the others are skipped, and [`CaptureRequest::run`] returns
+    /// [`CaptureError::Cancelled`]).
     fn points(&mut self, _done: u64, _total: u64) -> ControlFlow<()> {
         ControlFlow::Continue(())
     }
@@ -501,7 +503,7 @@ impl CaptureRequest {
         let pool = self.thread_pool()?;
         let progress = Progress::default();
         let observer = Mutex::new(observer);
-        let point_done = || {
+        let poll = || {
             let done = progress.points_done.load(Ordering::Relaxed);
             let stop = match observer.lock() {
                 Ok(mut o) => o.points(done, total).is_break(),
@@ -511,8 +513,7 @@ impl CaptureRequest {
                 progress.cancel.store(true, Ordering::Relaxed);
             }
         };
-        let captured =
-            pool.install(|| render_capture_with(scene, &settings, &progress, &point_done));
+        let captured = pool.install(|| render_capture_with(scene, &settings, &progress, &poll));
         let observer = observer.into_inner().map_err(|_| CaptureError::Cancelled)?;
         if progress.cancel.load(Ordering::Relaxed) {
             return Err(CaptureError::Cancelled);
@@ -895,9 +896,25 @@ mod tests {
             ..r
         };
         assert!(matches!(
-            one_thread.run(scene, &mut stop),
+            one_thread.run(scene.clone(), &mut stop),
             Err(CaptureError::Cancelled)
         ));
         assert_eq!(stop.calls, 1);
+        // A point of far more samples than a test has time for is asked about while it
+        // runs: the third look stops it.
+        let endless = CaptureRequest {
+            grid: [1, 1],
+            spp: 1 << 30,
+            ..one_thread
+        };
+        let mut stop = Count {
+            stop_after: Some(3),
+            ..Count::default()
+        };
+        assert!(matches!(
+            endless.run(scene, &mut stop),
+            Err(CaptureError::Cancelled)
+        ));
+        assert_eq!((stop.calls, stop.last), (3, (0, 1)));
     }
 }
