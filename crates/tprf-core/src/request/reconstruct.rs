@@ -114,7 +114,7 @@ impl std::str::FromStr for VolumeSpec {
 }
 
 impl std::fmt::Display for VolumeSpec {
-    /// The command line's form, which [`VolumeSpec::from_str`] reads back.
+    /// The command line's form, which its `FromStr` reads back.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let [cx, cy, cz] = self.center;
         let [sx, sy, sz] = self.size;
