@@ -386,6 +386,36 @@ fn the_files_round_trip() {
         let json: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(dir.join("nlos.json")).unwrap()).unwrap();
         assert_eq!(json["delta_t_m"].as_f64().unwrap(), r.delta_t_m);
+        // The capture in memory reads as its folder does (what Python reconstructs).
+        let m = tprf_core::nlos::files::LoadedCapture::of(&c, dir.clone());
+        assert_eq!(
+            (
+                &m.h,
+                &m.h_shape,
+                m.exhaustive,
+                m.sensor_shape,
+                m.laser_shape
+            ),
+            (
+                &r.h,
+                &r.h_shape,
+                r.exhaustive,
+                r.sensor_shape,
+                r.laser_shape
+            )
+        );
+        assert_eq!(
+            (&m.sensor_grid, &m.laser_grid),
+            (&r.sensor_grid, &r.laser_grid)
+        );
+        assert_eq!(
+            (m.sensor_normal, m.sensor_xyz, m.laser_xyz),
+            (r.sensor_normal, r.sensor_xyz, r.laser_xyz)
+        );
+        assert_eq!(
+            (m.delta_t_m.to_bits(), m.t_start_m.to_bits(), m.device_legs),
+            (r.delta_t_m.to_bits(), r.t_start_m.to_bits(), r.device_legs)
+        );
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -360,3 +360,89 @@ fn a_measure_job_is_the_measurement_its_options_make() {
     let e = stderr(&tprf(&["batch", manifest.to_str().unwrap()]));
     assert!(e.contains("measure 1") && e.contains("sed"), "{e}");
 }
+
+/// A manifest's `[[capture]]` and `[[reconstruct]]` jobs are the capture and the
+/// reconstruction `tprf nlos` and `tprf nlos reconstruct` make with the same options
+/// (their keys are the options' names): the same `H.npy`, `nlos.hdf5` and `volume.npy`,
+/// bit for bit, the reconstruction made after the capture it reads; `nlos.json` holds
+/// the request; complete, they are skipped; a bad key is named.
+#[test]
+fn capture_and_reconstruct_jobs_are_what_their_options_make() {
+    let dir = tempdir("nlos-jobs");
+    let manifest = dir.join("n.toml");
+    std::fs::write(
+        &manifest,
+        "[[reconstruct]]\ncapture = \"cap\"\nout = \"rec\"\nmethod = \"bp\"\n\
+         volume = { center = [0, 0, 1], size = [1.5, 1.5, 1], voxels = [8, 8, 6] }\n\n\
+         [[capture]]\nscene = \"builtin:nlos-z\"\nout = \"cap\"\ngrid = [6, 5]\nconfocal = true\n\
+         spp = 8\ndt = \"1cm\"\n",
+    )
+    .unwrap();
+    let o = tprf(&["batch", manifest.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let cap = dir.join("by-hand-cap");
+    let o = tprf(&[
+        "nlos",
+        "builtin:nlos-z",
+        "--grid",
+        "6x5",
+        "--confocal",
+        "--spp",
+        "8",
+        "--dt",
+        "1cm",
+        "--out",
+        cap.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for file in ["H.npy", "nlos.hdf5"] {
+        assert_eq!(
+            std::fs::read(dir.join("cap").join(file)).unwrap(),
+            std::fs::read(cap.join(file)).unwrap(),
+            "{file}: the batch's is not tprf nlos's"
+        );
+    }
+    let meta: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("cap/nlos.json")).unwrap()).unwrap();
+    assert_eq!(meta["request"]["grid"], serde_json::json!([6, 5]));
+    assert_eq!(meta["request"]["confocal"], serde_json::json!(true));
+    assert_eq!(meta["h_shape"], serde_json::json!([meta["bins"], 6, 5]));
+    let rec = dir.join("by-hand-rec");
+    let o = tprf(&[
+        "nlos",
+        "reconstruct",
+        cap.to_str().unwrap(),
+        "--method",
+        "bp",
+        "--volume",
+        "0,0,1:1.5,1.5,1:8,8,6",
+        "--out",
+        rec.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read(dir.join("rec/volume.npy")).unwrap(),
+        std::fs::read(rec.join("volume.npy")).unwrap(),
+        "volume.npy: the batch's is not tprf nlos reconstruct's"
+    );
+    let o = tprf(&["batch", manifest.to_str().unwrap(), "--list"]);
+    let listed = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(
+        listed.contains("cap\tcomplete") && listed.contains("rec\tcomplete"),
+        "{listed}"
+    );
+    std::fs::write(
+        &manifest,
+        "[[capture]]\nscene = \"builtin:nlos-z\"\nout = \"x\"\ngrid = [0, 4]\n",
+    )
+    .unwrap();
+    let e = stderr(&tprf(&["batch", manifest.to_str().unwrap()]));
+    assert!(e.contains("grid 0x4: a grid needs"), "{e}");
+    std::fs::write(
+        &manifest,
+        "[[reconstruct]]\ncapture = \"cap\"\nout = \"y\"\nmethd = \"bp\"\n",
+    )
+    .unwrap();
+    let e = stderr(&tprf(&["batch", manifest.to_str().unwrap()]));
+    assert!(e.contains("reconstruct 1") && e.contains("methd"), "{e}");
+}

@@ -1,4 +1,5 @@
-"""tprf from Python: transient cubes and time-of-flight sensors as numpy arrays.
+"""tprf from Python: transient cubes, time-of-flight sensors and NLOS captures as numpy
+arrays.
 
 The computing is tprf-core's own Rust code (the module ``tprf._tprf``), the same
 functions the ``tprf`` command calls, with the GIL released; ``tprf.dist`` runs renders
@@ -10,7 +11,8 @@ Conventions (as in tprf's files): lengths in metres, times in seconds; a cube is
 unit-energy pulse leaving the light at t = 0.
 """
 
+from . import nlos
 from ._render import Renderer, render
 from ._tprf import Cube, Measurement, Sensor, __version__, load
 
-__all__ = ["Cube", "Measurement", "Renderer", "Sensor", "load", "render", "__version__"]
+__all__ = ["Cube", "Measurement", "Renderer", "Sensor", "load", "nlos", "render", "__version__"]

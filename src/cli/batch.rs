@@ -28,6 +28,17 @@
 //! out = "out/cornell-gated-s2"
 //! preset = "builtin:gated"
 //! seed = 2
+//!
+//! [[capture]]           # an NLOS capture (tprf nlos's options), after the measurements
+//! scene = "builtin:nlos-z"
+//! out = "out/nlos-z"
+//! grid = [32, 32]
+//! confocal = true
+//!
+//! [[reconstruct]]       # a reconstruction (tprf nlos reconstruct's options), last
+//! capture = "out/nlos-z"
+//! out = "out/nlos-z-fk"
+//! method = "fk"
 //! ```
 
 use std::collections::BTreeSet;
@@ -37,7 +48,9 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use serde::Deserialize;
-use tprf_core::request::{MeasureError, MeasureRequest, RenderRequest, RequestError};
+use tprf_core::request::{
+    CaptureRequest, MeasureError, MeasureRequest, ReconstructRequest, RenderRequest, RequestError,
+};
 
 #[derive(Args, Debug)]
 pub struct BatchArgs {
@@ -77,7 +90,11 @@ struct SweepTable {
 /// [`RenderRequest`] fields (the keys of `tprf render`'s options: `width`, `spp`, `t0`,
 /// `max_bounces` ...) and a job's own keys (`name`, `scene`, `out`, `sensors`); each
 /// `[[measure]]` a [`MeasureRequest`]'s fields (`tprf sensor`'s options: `dir`,
-/// `preset`, `exposure`, `seed` ...) and its `name` and `out`, run after the renders.
+/// `preset`, `exposure`, `seed` ...) and its `name` and `out`, run after the renders;
+/// each `[[capture]]` a [`CaptureRequest`]'s (`tprf nlos`'s options: `scene`, `grid`,
+/// `confocal`, `spp` ...) and each `[[reconstruct]]` a [`ReconstructRequest`]'s (`tprf
+/// nlos reconstruct`'s: `capture`, `method`, `volume` ...), with their `name` and `out`,
+/// run in that order after the measurements.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct Manifest {
@@ -89,6 +106,10 @@ struct Manifest {
     sweep: Vec<SweepTable>,
     #[serde(default)]
     measure: Vec<toml::Table>,
+    #[serde(default)]
+    capture: Vec<toml::Table>,
+    #[serde(default)]
+    reconstruct: Vec<toml::Table>,
 }
 
 /// One job of a batch, its paths resolved.
@@ -116,6 +137,16 @@ pub enum Work {
     /// A measurement of a cube already rendered (`[[measure]]`: `tprf sensor`'s
     /// options, its `dir` resolved against the manifest's folder), validated.
     Measure(MeasureRequest),
+    /// An NLOS capture (`[[capture]]`: `tprf nlos`'s options, its scene resolved
+    /// against the manifest's folder), validated; a Mitsuba NLOS scene's settings fill
+    /// the keys it does not give (`given`) when it runs.
+    Capture {
+        request: Box<CaptureRequest>,
+        given: BTreeSet<String>,
+    },
+    /// A reconstruction (`[[reconstruct]]`: `tprf nlos reconstruct`'s options, its
+    /// capture resolved against the manifest's folder), validated.
+    Reconstruct(ReconstructRequest),
 }
 
 /// A scene's short name: `cornell` for `builtin:cornell`, the file stem of a path.
@@ -327,6 +358,79 @@ pub fn load_jobs(path: &Path) -> Result<Vec<Job>> {
             work: Work::Measure(request),
         });
     }
+    // [[capture]] and [[reconstruct]]: a name, an out, and the rest a request's keys.
+    let named =
+        |kind: &str, i: usize, table: &toml::Table| -> Result<(String, PathBuf, toml::Table)> {
+            let what = || format!("{}: {kind} {}", not_manifest(), i + 1);
+            let mut t = table.clone();
+            let mut text = |key: &str| -> Result<Option<String>> {
+                match t.remove(key) {
+                    None => Ok(None),
+                    Some(toml::Value::String(s)) => Ok(Some(s)),
+                    Some(v) => bail!("{}: {key} must be a string (got {v})", what()),
+                }
+            };
+            let name = text("name")?;
+            let Some(out) = text("out")? else {
+                bail!("{} has no out", what());
+            };
+            let out = resolve_out(Path::new(&out));
+            let name = name.unwrap_or_else(|| {
+                out.file_name().map_or_else(
+                    || out.display().to_string(),
+                    |n| n.to_string_lossy().into_owned(),
+                )
+            });
+            Ok((name, out, t))
+        };
+    for (i, table) in m.capture.iter().enumerate() {
+        let (name, out, t) = named("capture", i, table)?;
+        if !t.contains_key("scene") {
+            bail!("{}: capture {} has no scene", not_manifest(), i + 1);
+        }
+        let given: BTreeSet<String> = t.keys().cloned().collect();
+        let request: CaptureRequest = toml::Value::Table(t)
+            .try_into()
+            .with_context(|| format!("{}: capture {}", not_manifest(), i + 1))?;
+        let request = CaptureRequest {
+            scene: resolve_scene(&request.scene),
+            ..request
+        };
+        request
+            .validate()
+            .map_err(|e| super::nlos::capture_error(e, str::to_string))
+            .with_context(|| format!("{}: job '{name}'", path.display()))?;
+        jobs.push(Job {
+            name,
+            out,
+            work: Work::Capture {
+                request: Box::new(request),
+                given,
+            },
+        });
+    }
+    for (i, table) in m.reconstruct.iter().enumerate() {
+        let (name, out, t) = named("reconstruct", i, table)?;
+        if !t.contains_key("capture") {
+            bail!("{}: reconstruct {} has no capture", not_manifest(), i + 1);
+        }
+        let request: ReconstructRequest = toml::Value::Table(t)
+            .try_into()
+            .with_context(|| format!("{}: reconstruct {}", not_manifest(), i + 1))?;
+        let request = ReconstructRequest {
+            capture: resolve_out(&request.capture),
+            ..request
+        };
+        request
+            .validate()
+            .map_err(|e| super::nlos::reconstruct_error(e, str::to_string))
+            .with_context(|| format!("{}: job '{name}'", path.display()))?;
+        jobs.push(Job {
+            name,
+            out,
+            work: Work::Reconstruct(request),
+        });
+    }
     let (mut names, mut outs) = (BTreeSet::new(), BTreeSet::new());
     for j in &jobs {
         if !names.insert(j.name.clone()) {
@@ -367,6 +471,9 @@ pub fn incomplete(job: &Job) -> Option<String> {
                 .find_map(|p| missing(sensor_dir(job, p).join("sensor.json")))
         }),
         Work::Measure(_) => missing(job.out.join("sensor.json")),
+        Work::Capture { .. } => missing(job.out.join(tprf_core::nlos::files::JSON_NAME))
+            .or_else(|| missing(job.out.join(tprf_core::nlos::files::HDF5_NAME))),
+        Work::Reconstruct(_) => missing(job.out.join("volume.json")),
     }
 }
 
@@ -452,6 +559,26 @@ pub fn run_job(job: &Job, threads: Option<usize>, force: bool) -> Result<JobOutc
                 }
                 e => e.into(),
             })?;
+            return Ok(JobOutcome::Done);
+        }
+        Work::Capture { request, given } => {
+            super::args::check_out("out", &job.out, &[Path::new(&request.scene)])?;
+            let request = CaptureRequest {
+                threads: threads.or(request.threads),
+                ..(**request).clone()
+            };
+            super::nlos::capture_request(request, |k| given.contains(k), &job.out, str::to_string)
+                .context("its capture")?;
+            return Ok(JobOutcome::Done);
+        }
+        Work::Reconstruct(request) => {
+            super::args::check_out("out", &job.out, &[&request.capture])?;
+            let request = ReconstructRequest {
+                threads: threads.or(request.threads),
+                ..request.clone()
+            };
+            super::nlos::reconstruct_request(&request, &job.out, str::to_string)
+                .context("its reconstruction")?;
             return Ok(JobOutcome::Done);
         }
     };

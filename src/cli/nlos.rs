@@ -1,22 +1,22 @@
 //! `tprf nlos SCENE --out DIR`: a non-line-of-sight capture (the transients a SPAD
 //! focused on a grid of relay-wall points records), written as tal's `nlos.hdf5`,
-//! `H.npy` and `nlos.json`.
+//! `H.npy` and `nlos.json`; `tprf nlos reconstruct` and `tprf nlos spad` on a capture.
+//! The capture and the reconstruction are `tprf_core::request`'s `CaptureRequest` and
+//! `ReconstructRequest`: the options make one, and this command reports progress.
 
+use std::ops::ControlFlow;
 use std::path::PathBuf;
-use std::sync::Arc;
-use std::sync::atomic::Ordering;
-use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
-use tprf_core::nlos::capture::{Progress, render_capture};
-use tprf_core::nlos::files::write_capture_folder;
-use tprf_core::nlos::{CaptureSettings, Scan};
-use tprf_core::scene::{self, Channel, FileSetting, NlosFileSettings};
-use tprf_core::units::{C_M_PER_S, format_time};
-
-use super::args::{thread_pool, time_s};
+use serde::Serialize;
+use tprf_core::nlos::reconstruct::Method;
+use tprf_core::request::{
+    CaptureError, CaptureObserver, CaptureRequest, ReconstructError, ReconstructRequest,
+    VolumeSpec, parse_length_m,
+};
+use tprf_core::scene::Channel;
 
 #[derive(Args, Debug)]
 #[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
@@ -62,33 +62,39 @@ pub struct SpadArgs {
     pub out: PathBuf,
 }
 
-#[derive(Args, Debug)]
+/// `tprf nlos reconstruct`'s options: one per [`ReconstructRequest`] field, named as it
+/// is serialised (an option not given is left out), and the output folder.
+#[derive(Args, Debug, Serialize)]
 pub struct ReconstructArgs {
     /// The capture: a `tprf nlos` output folder, or an HDF5 file in tal's format.
     pub capture: PathBuf,
     /// bp (back-projection), fbp (filtered back-projection), fk (f-k migration,
-    /// confocal captures) or pf (phasor fields).
-    #[arg(long, default_value = "fbp")]
-    pub method: String,
+    /// confocal captures) or pf (phasor fields). Default fbp.
+    #[arg(long, value_parser = parse_method)]
+    pub method: Option<Method>,
     /// Output folder (a new or empty one, or an earlier tprf output).
     #[arg(long)]
+    #[serde(skip)]
     pub out: PathBuf,
     /// The voxel volume, CX,CY,CZ:SX,SY,SZ:NX,NY,NZ: centre (world, metres), size along
     /// the wall's u, v and normal (metres), voxels along them. Default: the sensor
     /// grid's extent and lattice, from the wall to the farthest depth the time axis
     /// reaches.
-    #[arg(long)]
-    pub volume: Option<String>,
+    #[arg(long, value_parser = parse_volume, allow_hyphen_values = true)]
+    pub volume: Option<VolumeSpec>,
     /// Central wavelength of the phasor-field kernel (fbp, pf), with a length unit
     /// (m cm mm); default four grid spacings. Its Gaussian's sigma is it over sqrt(2).
-    #[arg(long)]
-    pub wavelength: Option<String>,
+    #[arg(long, value_parser = parse_length_m)]
+    pub wavelength: Option<f64>,
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
 }
 
-#[derive(Args, Debug)]
+/// `tprf nlos`'s options: one per [`CaptureRequest`] field, named as it is serialised
+/// (an option not given is left out, and takes a Mitsuba NLOS scene's setting or the
+/// request's default), and the output folder.
+#[derive(Args, Debug, Serialize)]
 pub struct CaptureArgs {
     /// A .gltf/.glb/.xml (Mitsuba) path or builtin:NAME (builtin:nlos-z, builtin:nlos-shapes) holding a
     /// planar relay wall and the hidden geometry.
@@ -96,6 +102,7 @@ pub struct CaptureArgs {
     /// Output folder (nlos.hdf5, H.npy, nlos.json): a new or empty one, or an earlier
     /// tprf output (replaced whole); anything else is refused up front.
     #[arg(long)]
+    #[serde(skip)]
     pub out: Option<PathBuf>,
     /// Name of the relay wall's object (its glTF node, else its mesh; a Mitsuba scene's
     /// shape id, else the shape holding the nlos_capture_meter). Default relay_wall.
@@ -103,56 +110,60 @@ pub struct CaptureArgs {
     pub relay_wall: Option<String>,
     /// Sensor points on the wall, along its u and v axes: NXxNY. Default 64x64 (a
     /// Mitsuba NLOS scene: its capture meter's).
-    #[arg(long)]
-    pub grid: Option<String>,
+    #[arg(long, value_parser = parse_grid)]
+    pub grid: Option<[usize; 2]>,
     /// The laser at each sensor point in turn (the default is one fixed laser point).
     #[arg(long, conflicts_with_all = ["exhaustive", "laser_point"])]
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub confocal: bool,
     /// Every point of --laser-grid with every sensor point.
     #[arg(long, conflicts_with = "laser_point")]
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub exhaustive: bool,
-    /// Laser points of an exhaustive scan: NXxNY.
-    #[arg(long, default_value = "8x8", requires = "exhaustive")]
-    pub laser_grid: String,
+    /// Laser points of an exhaustive scan: NXxNY. Default 8x8.
+    #[arg(long, value_parser = parse_grid, requires = "exhaustive")]
+    pub laser_grid: Option<[usize; 2]>,
     /// The one laser point, X,Y,Z metres (projected onto the wall); default the wall's centre.
-    #[arg(long)]
-    pub laser_point: Option<String>,
+    #[arg(long, value_parser = parse_point, allow_hyphen_values = true)]
+    pub laser_point: Option<[f32; 3]>,
     /// Laser device position X,Y,Z metres (default: tal's, 0.5 m left of the wall's
     /// centre and 0.25 m in front).
-    #[arg(long)]
-    pub laser_origin: Option<String>,
+    #[arg(long, value_parser = parse_point, allow_hyphen_values = true)]
+    pub laser_origin: Option<[f32; 3]>,
     /// SPAD device position X,Y,Z metres (default as --laser-origin).
-    #[arg(long)]
-    pub sensor_origin: Option<String>,
+    #[arg(long, value_parser = parse_point, allow_hyphen_values = true)]
+    pub sensor_origin: Option<[f32; 3]>,
     /// Number of time bins (default: up to the longest three-bounce path).
     #[arg(long)]
     pub bins: Option<usize>,
     /// Bin width, with a unit: s ms us ns ps fs, or m cm mm km of optical path. Default
     /// 3mm (a Mitsuba NLOS scene: its film's bin_width_opl).
-    #[arg(long)]
-    pub dt: Option<String>,
+    #[arg(long, value_parser = time_value)]
+    pub dt: Option<f64>,
     /// Start of the time axis, with a unit as --dt. Default 0m (a Mitsuba NLOS scene: its
     /// film's start_opl).
-    #[arg(long)]
-    pub t0: Option<String>,
+    #[arg(long, value_parser = time_value, allow_hyphen_values = true)]
+    pub t0: Option<f64>,
     /// Times start when the pulse hits the wall and end when light returns to it (tal's
     /// default): the device-to-wall legs are left out. Without it they count (a Mitsuba
     /// NLOS scene: as its account_first_and_last_bounces says).
     #[arg(long)]
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub unwarped: bool,
     /// Samples per sensor point (an exhaustive scan's samples serve every laser point).
     /// Default 256 (a Mitsuba NLOS scene: its capture meter's sample_count).
     #[arg(long)]
     pub spp: Option<u32>,
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
+    /// Seed of the samples (default 0): the capture is a function of the request.
+    #[arg(long)]
+    pub seed: Option<u64>,
     /// Largest number of scattering events in the hidden scene (the two on the wall not
     /// counted). Default 1024 (a Mitsuba NLOS scene: its max_depth - 3).
     #[arg(long)]
     pub max_bounces: Option<u32>,
-    /// The spectral band: red, green, blue or gray.
-    #[arg(long, default_value_t = Channel::Gray, value_parser = parse_channel)]
-    pub channel: Channel,
+    /// The spectral band: red, green, blue or gray (default gray).
+    #[arg(long, value_parser = parse_channel)]
+    pub channel: Option<Channel>,
     /// Worker threads (default: all cores). The output does not depend on it.
     #[arg(long)]
     pub threads: Option<usize>,
@@ -163,30 +174,45 @@ fn parse_channel(s: &str) -> Result<Channel, String> {
         .map_err(|e: tprf_core::scene::UnknownChannel| e.to_string())
 }
 
-/// `NXxNY` as two counts; the error names `flag`.
-fn parse_grid(text: &str, flag: &str) -> Result<[usize; 2]> {
+fn parse_method(s: &str) -> Result<Method, String> {
+    s.parse()
+}
+
+fn parse_volume(s: &str) -> Result<VolumeSpec, String> {
+    s.parse()
+}
+
+/// `--dt`/`--t0`: a time with a unit, in seconds.
+fn time_value(text: &str) -> Result<f64, String> {
+    tprf_core::units::parse_time_s(text)
+}
+
+/// `NXxNY` as two counts.
+fn parse_grid(text: &str) -> Result<[usize; 2], String> {
     let parts: Vec<&str> = text.split(['x', 'X']).collect();
     let [a, b] = parts.as_slice() else {
-        bail!("{flag} {text}: expected NXxNY, e.g. 64x64");
+        return Err(format!("{text}: expected NXxNY, e.g. 64x64"));
     };
     let n = |s: &str| {
         s.trim()
             .parse::<usize>()
-            .with_context(|| format!("{flag} {text}: '{s}' is not a whole number"))
+            .map_err(|_| format!("{text}: '{s}' is not a whole number"))
     };
     Ok([n(a)?, n(b)?])
 }
 
-/// `X,Y,Z` metres; the error names `flag`.
-fn parse_point(text: &str, flag: &str) -> Result<[f32; 3]> {
+/// `X,Y,Z` metres.
+fn parse_point(text: &str) -> Result<[f32; 3], String> {
     let v: Vec<f32> = text
         .split(',')
         .map(|s| s.trim().parse::<f32>())
         .collect::<Result<_, _>>()
-        .with_context(|| format!("{flag} {text}: expected X,Y,Z in metres"))?;
+        .map_err(|_| format!("{text}: expected X,Y,Z in metres"))?;
     match v.as_slice() {
         [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([*x, *y, *z]),
-        _ => bail!("{flag} {text}: expected three finite numbers X,Y,Z in metres"),
+        _ => Err(format!(
+            "{text}: expected three finite numbers X,Y,Z in metres"
+        )),
     }
 }
 
@@ -198,153 +224,63 @@ pub fn run(a: &NlosArgs) -> Result<()> {
     }
 }
 
-/// The capture the flags ask for, each flag not given taken from `file` (a Mitsuba NLOS
-/// scene's settings), else its default; with what came from the file, in words.
-fn settings_of(a: &CaptureArgs, file: &NlosFileSettings) -> Result<(CaptureSettings, Vec<String>)> {
-    let mut used = Vec::new();
-    let mut from_file = |flag: &str, value: String, at: &str| {
-        used.push(format!("{flag} {value} ({at})"));
-    };
-    let grid = match (&a.grid, &file.grid) {
-        (Some(g), _) => parse_grid(g, "--grid")?,
-        (None, Some(g)) => {
-            from_file("--grid", format!("{}x{}", g.value[0], g.value[1]), &g.from);
-            g.value.map(|n| usize::try_from(n).unwrap_or(usize::MAX))
-        }
-        (None, None) => [64, 64],
-    };
-    let flagged_scan = a.confocal || a.exhaustive || a.laser_point.is_some();
-    let kind = match (&file.capture_type, flagged_scan) {
-        (Some(k), false) => {
-            from_file("the scan", k.value.clone(), &k.from);
-            k.value.as_str()
-        }
-        _ if a.confocal => "confocal",
-        _ if a.exhaustive => "exhaustive",
-        _ => "single",
-    };
-    let scan = match kind {
-        "confocal" => Scan::Confocal,
-        "exhaustive" if a.exhaustive => {
-            let [lx, ly] = parse_grid(&a.laser_grid, "--laser-grid")?;
-            Scan::Exhaustive { lx, ly }
-        }
-        // mitransient's exhaustive scan lights the sensor grid's points.
-        "exhaustive" => Scan::Exhaustive {
-            lx: grid[0],
-            ly: grid[1],
-        },
-        _ => Scan::Single {
-            laser_point: match (&a.laser_point, &file.laser_point) {
-                (Some(p), _) => Some(parse_point(p, "--laser-point")?),
-                (None, Some(f)) => {
-                    from_file("--laser-point", format!("{:?}", f.value), &f.from);
-                    Some(f.value.map(|c| c as f32))
-                }
-                (None, None) => None,
-            },
-        },
-    };
-    let point = |p: &Option<String>, flag| p.as_deref().map(|p| parse_point(p, flag)).transpose();
-    let mut origin = |given: Option<[f32; 3]>, f: &Option<FileSetting<[f64; 3]>>, flag: &str| {
-        given.or_else(|| {
-            f.as_ref().map(|f| {
-                from_file(flag, format!("{:?}", f.value), &f.from);
-                f.value.map(|c| c as f32)
-            })
-        })
-    };
-    let laser_origin = origin(
-        point(&a.laser_origin, "--laser-origin")?,
-        &file.laser_origin,
-        "--laser-origin",
-    );
-    let sensor_origin = origin(
-        point(&a.sensor_origin, "--sensor-origin")?,
-        &file.sensor_origin,
-        "--sensor-origin",
-    );
-    if a.bins == Some(0) {
-        bail!("--bins 0: a capture needs at least one time bin");
+/// A capture request's field as `tprf nlos` names it: `--laser-grid` for `laser_grid`,
+/// and in the notes of what a scene file set, `the scan` and `device legs`.
+pub fn capture_flag(field: &str) -> String {
+    match field {
+        "scan" => "the scan".into(),
+        "unwarped" => "device legs".into(),
+        f => super::args::flag(f),
     }
-    let mut opl = |given: &Option<String>,
-                   f: &Option<FileSetting<f64>>,
-                   flag: &str,
-                   default: &str|
-     -> Result<f64> {
-        match (given, f) {
-            (Some(t), _) => time_s(t, flag),
-            (None, Some(f)) => {
-                from_file(flag, format!("{}m of optical path", f.value), &f.from);
-                Ok(f.value / C_M_PER_S)
-            }
-            (None, None) => time_s(default, flag),
-        }
-    };
-    let dt_s = opl(&a.dt, &file.dt_opl_m, "--dt", "3mm")?;
-    let t0_s = opl(&a.t0, &file.t0_opl_m, "--t0", "0m")?;
-    let bins = a.bins.or_else(|| {
-        file.bins.as_ref().map(|b| {
-            from_file("--bins", b.value.to_string(), &b.from);
-            usize::try_from(b.value).unwrap_or(usize::MAX)
-        })
-    });
-    let device_legs = if a.unwarped {
-        false
-    } else if let Some(l) = &file.device_legs {
-        from_file(
-            "device legs",
-            if l.value { "included" } else { "left out" }.into(),
-            &l.from,
-        );
-        l.value
-    } else {
-        true
-    };
-    let spp = match (a.spp, &file.spp) {
-        (Some(s), _) => s,
-        (None, Some(f)) => {
-            from_file("--spp", f.value.to_string(), &f.from);
-            u32::try_from(f.value).unwrap_or(u32::MAX)
-        }
-        (None, None) => 256,
-    };
-    let max_bounces = match (a.max_bounces, &file.hidden_bounces) {
-        (Some(m), _) => m,
-        (None, Some(f)) => {
-            from_file("--max-bounces", f.value.to_string(), &f.from);
-            f.value
-        }
-        (None, None) => 1024,
-    };
-    let relay_wall = match (&a.relay_wall, &file.relay_wall) {
-        (Some(r), _) => r.clone(),
-        (None, Some(f)) => {
-            from_file("--relay-wall", f.value.clone(), &f.from);
-            f.value.clone()
-        }
-        (None, None) => "relay_wall".into(),
-    };
-    Ok((
-        CaptureSettings {
-            relay_wall,
-            grid,
-            scan,
-            laser_origin,
-            sensor_origin,
-            bins,
-            dt_s,
-            t0_s,
-            device_legs,
-            spp,
-            seed: a.seed,
-            max_bounces,
-            channel: a.channel,
-        },
-        used,
-    ))
 }
 
+/// The options given, keyed as the request's fields (an option not given is left out).
+fn given_of(args: &impl Serialize) -> Result<serde_json::Map<String, serde_json::Value>> {
+    match serde_json::to_value(args).context("the options as a request")? {
+        serde_json::Value::Object(mut map) => {
+            map.retain(|_, v| !v.is_null());
+            Ok(map)
+        }
+        v => bail!("the options read as {v}, not as a request"),
+    }
+}
+
+impl CaptureArgs {
+    /// The capture these options describe (not yet validated, no scene file read), and
+    /// the keys given.
+    pub fn request(&self) -> Result<(CaptureRequest, serde_json::Map<String, serde_json::Value>)> {
+        let given = given_of(self)?;
+        let request = serde_json::from_value(given.clone().into())
+            .context("the options as a capture request")?;
+        Ok((request, given))
+    }
+}
+
+impl ReconstructArgs {
+    /// The reconstruction these options describe (not yet validated).
+    pub fn request(&self) -> Result<ReconstructRequest> {
+        serde_json::from_value(given_of(self)?.into())
+            .context("the options as a reconstruction request")
+    }
+}
+
+/// A capture's error as the command line (`flag`) or a manifest names its fields.
+pub fn capture_error(e: CaptureError, flag: impl Fn(&str) -> String) -> anyhow::Error {
+    match e {
+        CaptureError::Invalid(p) => anyhow::anyhow!(p.text_with(flag)),
+        e => e.into(),
+    }
+}
+
+/// A reconstruction's error as the command line (`flag`) or a manifest names its fields.
+pub fn reconstruct_error(e: ReconstructError, flag: impl Fn(&str) -> String) -> anyhow::Error {
+    match e {
+        ReconstructError::Invalid(p) => anyhow::anyhow!(p.text_with(flag)),
+        e => e.into(),
+    }
+}
+
+/// `tprf nlos SCENE --out DIR`.
 fn capture(a: &CaptureArgs) -> Result<()> {
     let Some(scene_name) = a.scene.as_deref() else {
         bail!("tprf nlos: give a SCENE to capture, e.g. tprf nlos builtin:nlos-z --out capture");
@@ -352,136 +288,114 @@ fn capture(a: &CaptureArgs) -> Result<()> {
     let Some(out) = a.out.as_deref() else {
         bail!("tprf nlos {scene_name}: give the output folder with --out DIR");
     };
-    // The flags first, so a bad one is refused before the scene loads.
-    settings_of(a, &NlosFileSettings::default())?;
-    let scene_path = std::path::Path::new(scene_name);
-    super::args::check_out("--out", out, &[scene_path])?;
-    let (scene, file) = scene::load_with_settings(scene_name)?;
-    // mitransient's NLOS integrator watched by a camera (no capture meter): the file is
-    // a camera's view, which tprf render renders; tprf nlos needs a wall to capture.
-    if file.nlos_view && a.relay_wall.is_none() {
-        bail!(
-            "{scene_name} is mitransient's NLOS integrator watched by a camera (no nlos_capture_meter on a relay wall): render its view with tprf render {scene_name} --out {}, or capture a wall with tprf nlos {scene_name} --relay-wall ID (its shapes' ids)",
-            out.display()
-        );
-    }
-    let (settings, used) = settings_of(a, &file.nlos.unwrap_or_default())?;
-    for u in used {
-        eprintln!("from the scene file: {u}");
-    }
-    for note in &scene.notes {
-        eprintln!("note: {note}");
-    }
-    let scene = Arc::new(scene);
-    // The geometry first, so a bad wall or grid is refused before any work.
-    let geometry = tprf_core::nlos::setup::resolve(&scene, &settings)?;
-    eprintln!(
-        "relay wall '{}': {:.3} m x {:.3} m; {} sensor points, {} laser point{}; {} bins of {} ({:.4} m) from {}{}",
-        geometry.wall.name,
-        geometry.wall.width_m,
-        geometry.wall.height_m,
-        geometry.sensors.len(),
-        geometry.lasers.len(),
-        if geometry.lasers.len() == 1 { "" } else { "s" },
-        geometry.axis.bins,
-        format_time(geometry.axis.dt_s),
-        geometry.axis.dt_s * C_M_PER_S,
-        format_time(geometry.axis.t0_s),
-        if geometry.device_legs {
-            ", device legs included"
-        } else {
-            ", unwarped"
-        },
-    );
-    let pool = thread_pool(a.threads)?;
-    let progress = Progress::default();
-    let bar = ProgressBar::new(geometry.sensors.len() as u64);
-    bar.set_style(
-        ProgressStyle::with_template("{bar:40} {pos}/{len} sensor points, {elapsed} ({eta} left)")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    let capture = std::thread::scope(|s| {
-        let worker =
-            s.spawn(|| pool.install(|| render_capture(scene.clone(), &settings, &progress)));
-        while !worker.is_finished() {
-            bar.set_position(progress.points_done.load(Ordering::Relaxed));
-            std::thread::sleep(Duration::from_millis(100));
-        }
-        worker.join()
-    })
-    .map_err(|_| anyhow::anyhow!("the capture's worker thread panicked"))??;
-    bar.finish_and_clear();
-    eprintln!(
-        "rendered in {:.2} s ({:.1} M rays)",
-        capture.render_s,
-        capture.rays as f64 / 1e6
-    );
-    super::interrupt::catch();
-    super::interrupt::check()?;
-    write_capture_folder(&capture, out, &[scene_path])
-        .with_context(|| format!("writing {}", out.display()))?;
-    super::interrupt::check()?;
+    let (request, given) = a.request()?;
+    // The options first, so a bad one is refused before the scene loads.
+    request
+        .validate()
+        .map_err(|e| capture_error(e, capture_flag))?;
+    super::args::check_out("--out", out, &[std::path::Path::new(scene_name)])?;
+    capture_request(request, |k| given.contains_key(k), out, capture_flag)?;
     println!("{}", out.display());
     Ok(())
 }
 
-/// Three comma-separated values of `T`; the error names the part of --volume.
-fn triple<T: std::str::FromStr>(text: &str, what: &str) -> Result<[T; 3]> {
-    let v: Vec<T> = text
-        .split(',')
-        .map(|s| s.trim().parse::<T>())
-        .collect::<Result<_, _>>()
-        .map_err(|_| anyhow::anyhow!("--volume: {what} '{text}' is not three numbers X,Y,Z"))?;
-    v.try_into()
-        .map_err(|_| anyhow::anyhow!("--volume: {what} '{text}' is not three numbers X,Y,Z"))
+/// Capture `request` into the folder `out` with a progress bar over the sensor points
+/// and the capture's lines on stderr (what came from a scene file among them, fields
+/// named by `flag`); `given(key)`: whether the caller gave the field (a scene file's
+/// setting does not replace it). Ctrl-C while writing drops what was written.
+pub fn capture_request(
+    mut request: CaptureRequest,
+    given: impl Fn(&str) -> bool,
+    out: &std::path::Path,
+    flag: impl Fn(&str) -> String + Copy,
+) -> Result<()> {
+    let mut bar = PointsBar::default();
+    request
+        .capture_to_folder(out, given, flag, &mut bar)
+        .map_err(|e| capture_error(e, flag))?;
+    Ok(())
 }
 
-fn reconstruct(a: &ReconstructArgs) -> Result<()> {
-    use tprf_core::nlos::files::{read_capture, write_reconstruction_folder};
-    use tprf_core::nlos::reconstruct::{self as rec, GridFrame, Method, Volume, Wave};
-    let method: Method = a
-        .method
-        .parse()
-        .map_err(|e: String| anyhow::anyhow!("--method: {e}"))?;
-    super::args::check_out("--out", &a.out, &[&a.capture])?;
-    let capture = read_capture(&a.capture)?;
-    let frame = GridFrame::of(&capture)?;
-    let volume = match &a.volume {
-        None => Volume::default_for(&capture, &frame)?,
-        Some(text) => {
-            let parts: Vec<&str> = text.split(':').collect();
-            let [c, s, n] = parts.as_slice() else {
-                bail!(
-                    "--volume {text}: expected CX,CY,CZ:SX,SY,SZ:NX,NY,NZ (centre, size, voxels)"
-                );
-            };
-            let center: [f32; 3] = triple(c, "centre")?;
-            Volume::new(
-                &frame,
-                glam::Vec3::from(center),
-                triple(s, "size")?,
-                triple(n, "voxels")?,
-            )?
+/// The capture's lines on stderr and a progress bar over its sensor points, shown from
+/// the first point until the capture says something else; Ctrl-C caught once the files
+/// are being written.
+#[derive(Default)]
+struct PointsBar {
+    bar: Option<ProgressBar>,
+}
+
+impl PointsBar {
+    fn done(&mut self) {
+        if let Some(bar) = self.bar.take() {
+            bar.finish_and_clear();
         }
-    };
-    let wave = a
-        .wavelength
-        .as_deref()
-        .map(|w| -> Result<Wave> {
-            let m = time_s(w, "--wavelength")? * C_M_PER_S;
-            Ok(Wave {
-                wavelength_m: m,
-                sigma_m: m / std::f64::consts::SQRT_2,
-            })
-        })
-        .transpose()?;
-    let pool = thread_pool(a.threads)?;
-    let r = pool.install(|| rec::reconstruct(&capture, method, &volume, wave))?;
+    }
+}
+
+impl CaptureObserver for PointsBar {
+    fn message(&mut self, line: &str) {
+        self.done();
+        eprintln!("{line}");
+    }
+
+    fn points(&mut self, done: u64, total: u64) -> ControlFlow<()> {
+        let bar = self.bar.get_or_insert_with(|| {
+            let bar = ProgressBar::new(total);
+            bar.set_style(
+                ProgressStyle::with_template(
+                    "{bar:40} {pos}/{len} sensor points, {elapsed} ({eta} left)",
+                )
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+            );
+            bar
+        });
+        bar.set_position(done);
+        ControlFlow::Continue(())
+    }
+
+    fn writing(&mut self) -> ControlFlow<()> {
+        self.done();
+        // Ctrl-C from here on drops what was written (the staging folder) and leaves the
+        // old output as it was; checked between files.
+        super::interrupt::catch();
+        match super::interrupt::check() {
+            Ok(()) => ControlFlow::Continue(()),
+            Err(_) => ControlFlow::Break(()),
+        }
+    }
+}
+
+impl Drop for PointsBar {
+    fn drop(&mut self) {
+        self.done();
+    }
+}
+
+/// `tprf nlos reconstruct CAPTURE --out DIR`.
+fn reconstruct(a: &ReconstructArgs) -> Result<()> {
+    let request = a.request()?;
+    request
+        .validate()
+        .map_err(|e| reconstruct_error(e, super::args::flag))?;
+    super::args::check_out("--out", &a.out, &[&a.capture])?;
+    reconstruct_request(&request, &a.out, super::args::flag)?;
+    println!("{}", a.out.display());
+    Ok(())
+}
+
+/// Reconstruct as `tprf nlos reconstruct` does, into the folder `out`, saying the peak
+/// on stderr; errors name fields by `flag`.
+pub fn reconstruct_request(
+    request: &ReconstructRequest,
+    out: &std::path::Path,
+    flag: impl Fn(&str) -> String + Copy,
+) -> Result<()> {
+    let r = request.run().map_err(|e| reconstruct_error(e, flag))?;
     let peak = r.peak();
     let p = r.volume.voxel_center(peak[0], peak[1], peak[2]);
     eprintln!(
         "{}: {} x {} x {} voxels in {:.3} s; peak at voxel {:?}, ({:.3}, {:.3}, {:.3}) m",
-        method.name(),
+        r.method.name(),
         r.volume.voxels[0],
         r.volume.voxels[1],
         r.volume.voxels[2],
@@ -492,10 +406,11 @@ fn reconstruct(a: &ReconstructArgs) -> Result<()> {
         p.z
     );
     super::interrupt::catch();
-    write_reconstruction_folder(&r, &a.capture, &a.out)
-        .with_context(|| format!("writing {}", a.out.display()))?;
+    request
+        .write_folder(&r, out)
+        .map_err(|e| reconstruct_error(e, flag))
+        .with_context(|| format!("writing {}", out.display()))?;
     super::interrupt::check()?;
-    println!("{}", a.out.display());
     Ok(())
 }
 
@@ -563,4 +478,123 @@ fn spad(a: &SpadArgs) -> Result<()> {
     staging.commit()?;
     println!("{}", a.out.display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::FromArgMatches;
+    use std::collections::BTreeSet;
+    use tprf_core::request::serde_keys;
+
+    /// A command's options as request keys (`--laser-grid` as `laser_grid`), `--out`
+    /// aside: the folder is where a request is written, not part of it.
+    fn flags<A: Args>(name: &'static str) -> BTreeSet<String> {
+        A::augment_args(clap::Command::new(name))
+            .get_arguments()
+            .map(|a| match a.get_long() {
+                Some(long) => long.replace('-', "_"),
+                None => a.get_id().to_string(),
+            })
+            .filter(|f| f != "out")
+            .collect()
+    }
+
+    fn keys<'de, T: serde::Deserialize<'de>>() -> BTreeSet<String> {
+        serde_keys::<T>().iter().map(|k| k.to_string()).collect()
+    }
+
+    /// Every key a `CaptureRequest` reads is a `tprf nlos` option, and every option a
+    /// key; so for a `ReconstructRequest` and `tprf nlos reconstruct`.
+    #[test]
+    fn every_capture_and_reconstruct_key_is_a_flag() {
+        assert_eq!(keys::<CaptureRequest>(), flags::<CaptureArgs>("nlos"));
+        assert_eq!(
+            keys::<ReconstructRequest>(),
+            flags::<ReconstructArgs>("reconstruct")
+        );
+    }
+
+    fn capture_args(args: &[&str]) -> CaptureArgs {
+        let m = CaptureArgs::augment_args(clap::Command::new("nlos"))
+            .try_get_matches_from(std::iter::once("nlos").chain(args.iter().copied()))
+            .unwrap_or_else(|e| panic!("{args:?}: {e}"));
+        CaptureArgs::from_arg_matches(&m).unwrap()
+    }
+
+    /// The options reach the request's fields, values as the command line reads them
+    /// (grids, points, times with units); nothing given is the default request, and
+    /// only what was given counts as given.
+    #[test]
+    fn options_make_the_request() {
+        let (r, given) = capture_args(&["builtin:nlos-z"]).request().unwrap();
+        assert_eq!(r, CaptureRequest::new("builtin:nlos-z"));
+        assert_eq!(given.keys().collect::<Vec<_>>(), ["scene"]);
+        let (r, given) = capture_args(&[
+            "builtin:nlos-z",
+            "--grid",
+            "16x8",
+            "--exhaustive",
+            "--laser-grid",
+            "3x2",
+            "--laser-origin",
+            "-0.5,0,0.25",
+            "--dt",
+            "5mm",
+            "--t0",
+            "1ns",
+            "--unwarped",
+            "--seed",
+            "3",
+            "--channel",
+            "red",
+            "--out",
+            "o",
+        ])
+        .request()
+        .unwrap();
+        assert_eq!(
+            r,
+            CaptureRequest {
+                grid: [16, 8],
+                exhaustive: true,
+                laser_grid: Some([3, 2]),
+                laser_origin: Some([-0.5, 0.0, 0.25]),
+                dt_s: tprf_core::units::parse_time_s("5mm").unwrap(),
+                t0_s: 1e-9,
+                unwarped: true,
+                seed: 3,
+                channel: Channel::Red,
+                ..CaptureRequest::new("builtin:nlos-z")
+            }
+        );
+        assert!(given.contains_key("laser_grid") && !given.contains_key("spp"));
+        let m = ReconstructArgs::augment_args(clap::Command::new("reconstruct"))
+            .try_get_matches_from([
+                "reconstruct",
+                "cap",
+                "--method",
+                "pf",
+                "--volume",
+                "0,0,1:1.5,1.5,1:12,12,10",
+                "--wavelength",
+                "5cm",
+                "--out",
+                "o",
+            ])
+            .unwrap();
+        let r = ReconstructArgs::from_arg_matches(&m)
+            .unwrap()
+            .request()
+            .unwrap();
+        assert_eq!(
+            r,
+            ReconstructRequest {
+                method: Method::Pf,
+                volume: Some("0,0,1:1.5,1.5,1:12,12,10".parse().unwrap()),
+                wavelength_m: Some(parse_length_m("5cm").unwrap()),
+                ..ReconstructRequest::new("cap")
+            }
+        );
+    }
 }

@@ -1,10 +1,11 @@
-//! The `tprf` Python package's native module (`tprf._tprf`): tprf-core's renders, cubes
-//! and sensors as Python objects and numpy arrays. The Python layer (`python/tprf/`)
+//! The `tprf` Python package's native module (`tprf._tprf`): tprf-core's renders, cubes,
+//! sensors and NLOS captures and reconstructions as Python objects and numpy arrays. The Python layer (`python/tprf/`)
 //! adds the progress bar, unit strings and the Dask driver; everything that computes is
 //! here, in the core's own functions, with the GIL released.
 
 mod cube;
 mod errors;
+mod nlos;
 mod render;
 mod sensor;
 
@@ -17,6 +18,10 @@ fn _tprf(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<render::Renderer>()?;
     m.add_function(wrap_pyfunction!(render::render, m)?)?;
     m.add_function(wrap_pyfunction!(render::resolve_request, m)?)?;
+    m.add_class::<nlos::NlosCapture>()?;
+    m.add_class::<nlos::NlosVolume>()?;
+    m.add_function(wrap_pyfunction!(nlos::capture, m)?)?;
+    m.add_function(wrap_pyfunction!(nlos::reconstruct, m)?)?;
     m.add_class::<sensor::PySensor>()?;
     m.add_class::<sensor::SensorPart>()?;
     m.add_class::<sensor::Measurement>()?;

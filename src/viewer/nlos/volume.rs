@@ -1,11 +1,12 @@
 //! The reconstruction volume as typed in the window: centre (world, metres), size along
 //! the wall's `u`, `v`, `n` (metres) and voxels along them, the same three triples as
-//! `tprf nlos reconstruct --volume CX,CY,CZ:SX,SY,SZ:NX,NY,NZ`, validated by
-//! [`Volume::new`] (no empty or oversized volume, none reaching the wall or behind it).
+//! `tprf nlos reconstruct --volume CX,CY,CZ:SX,SY,SZ:NX,NY,NZ`, read by the request's
+//! [`VolumeSpec`] and validated by [`Volume::new`] (no empty or oversized volume, none
+//! reaching the wall or behind it).
 //! Pure text to value, tested without a window.
 
-use glam::Vec3;
 use tprf_core::nlos::reconstruct::{GridFrame, Volume};
+use tprf_core::request::VolumeSpec;
 
 /// The volume's three fields as text.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -30,12 +31,12 @@ impl VolumeText {
     }
 
     /// The volume the fields describe in `frame`, or a message naming the field and
-    /// what to type.
+    /// what to type: the reconstruction request's volume ([`VolumeSpec`], read as
+    /// `tprf nlos reconstruct --volume` and a manifest read it), resolved in the frame.
     pub fn parse(&self, frame: &GridFrame) -> Result<Volume, String> {
-        let center: [f32; 3] = triple(&self.center, "centre", "x, y, z in metres")?;
-        let size: [f32; 3] = triple(&self.size, "size", "along u, v, n in metres")?;
-        let voxels: [usize; 3] = triple(&self.voxels, "voxels", "whole numbers along u, v, n")?;
-        Volume::new(frame, Vec3::from(center), size, voxels).map_err(|e| {
+        let spec = VolumeSpec::from_parts(&self.center, &self.size, &self.voxels)
+            .map_err(|e| format!("volume {e}"))?;
+        spec.volume_in(frame).map_err(|e| {
             // The core's message names the command-line flag; here it is the fields.
             e.to_string().replace("--volume: ", "volume: ")
         })
@@ -49,26 +50,10 @@ fn round4(v: f32) -> String {
     if s == "-0" { "0".into() } else { s.into() }
 }
 
-/// Three values separated by commas or spaces.
-fn triple<T: std::str::FromStr>(text: &str, what: &str, hint: &str) -> Result<[T; 3], String> {
-    let bad = || {
-        format!(
-            "volume {what} '{}': type three numbers, {hint}",
-            text.trim()
-        )
-    };
-    let v: Vec<T> = text
-        .split(|c: char| c == ',' || c.is_whitespace())
-        .filter(|s| !s.is_empty())
-        .map(|s| s.parse::<T>())
-        .collect::<Result<_, _>>()
-        .map_err(|_| bad())?;
-    v.try_into().map_err(|_| bad())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Vec3;
 
     fn frame() -> GridFrame {
         GridFrame {

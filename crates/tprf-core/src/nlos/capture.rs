@@ -259,6 +259,20 @@ pub fn render_capture(
     settings: &CaptureSettings,
     progress: &Progress,
 ) -> Result<Capture, NlosError> {
+    render_capture_with(scene, settings, progress, &|| {})
+}
+
+/// [`render_capture`], calling `poll` (from the worker threads) after each sensor point
+/// is counted in `progress.points_done`, and every [`POLL_SAMPLES`] samples while a point
+/// runs: what a caller's progress report and cancel hang on
+/// ([`crate::request::CaptureRequest::run`]). Once `progress.cancel` is set, the points
+/// running stop within [`POLL_SAMPLES`] samples and the others are skipped.
+pub fn render_capture_with(
+    scene: Arc<Scene>,
+    settings: &CaptureSettings,
+    progress: &Progress,
+    poll: &(dyn Fn() + Sync),
+) -> Result<Capture, NlosError> {
     let start = std::time::Instant::now();
     let geometry = resolve(&scene, settings)?;
     let per_sensor = geometry.lasers_per_sensor();
@@ -283,9 +297,18 @@ pub fn render_capture(
                 return vec![0.0; per_sensor * bins];
             }
             let mut acc = vec![0.0f64; per_sensor * bins];
-            let rays = trace_point(&hidden, &geometry, settings, s, &mut acc);
+            let stop = || {
+                poll();
+                progress.cancel.load(Ordering::Relaxed)
+            };
+            let rays = trace_point(&hidden, &geometry, settings, s, &mut acc, &stop);
             progress.rays.fetch_add(rays, Ordering::Relaxed);
+            if progress.cancel.load(Ordering::Relaxed) {
+                // Stopped part way (or after): not a point done.
+                return Vec::new();
+            }
             progress.points_done.fetch_add(1, Ordering::Relaxed);
+            poll();
             let inv = 1.0 / settings.spp as f64;
             acc.iter().map(|v| (v * inv) as f32).collect()
         })
@@ -323,14 +346,19 @@ pub fn render_capture(
 /// slots (from `dim::vertex(2, _)`, after these).
 const SLOT_POINT: u32 = 1;
 
+/// Samples of a sensor point between two looks at whether the capture is cancelled.
+pub const POLL_SAMPLES: u32 = 256;
+
 /// All samples of sensor point `s`: adds `spp` times the transients' mean into `acc`
-/// (`[laser][bin]`); returns the rays traced.
+/// (`[laser][bin]`), unless `stop` (asked every [`POLL_SAMPLES`] samples) says the
+/// capture is cancelled; returns the rays traced.
 fn trace_point(
     hidden: &Hidden,
     g: &CaptureGeometry,
     settings: &CaptureSettings,
     s: usize,
     acc: &mut [f64],
+    stop: &dyn Fn() -> bool,
 ) -> u64 {
     let Some(sensor) = g.sensors.get(s) else {
         return 0;
@@ -376,7 +404,10 @@ fn trace_point(
     let min_leg = laser_legs.iter().copied().fold(f64::INFINITY, f64::min);
     let mut rng = Sampler::new(settings.seed, 0, s as u64);
     let mut rays = 0u64;
-    for _ in 0..settings.spp {
+    for i in 0..settings.spp {
+        if i > 0 && i % POLL_SAMPLES == 0 && stop() {
+            break;
+        }
         rng.start_sample();
         let Some((tri, u, v)) = hidden.sample_point(rng.get2(SLOT_POINT)) else {
             break;

@@ -105,6 +105,10 @@ pub struct CaptureMetadata {
     pub h_units: String,
     pub render_s: f64,
     pub rays: u64,
+    /// The request that made the capture (`tprf nlos`'s options, as a batch manifest's
+    /// `[[capture]]` keys: [`crate::request::CaptureRequest`]), when one did.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub request: Option<serde_json::Value>,
 }
 
 impl CaptureMetadata {
@@ -149,6 +153,7 @@ impl CaptureMetadata {
                 .into(),
             render_s: c.render_s,
             rays: c.rays,
+            request: None,
         }
     }
 }
@@ -381,6 +386,30 @@ pub struct LoadedCapture {
 }
 
 impl LoadedCapture {
+    /// A rendered capture as [`read_capture`] reads its folder back (the same grids,
+    /// normals, device positions and axis in metres), without the files: what a
+    /// reconstruction of a capture in memory reads. `path` names it in messages.
+    pub fn of(c: &Capture, path: PathBuf) -> LoadedCapture {
+        let g = &c.geometry;
+        let m = CaptureMetadata::of(c);
+        LoadedCapture {
+            path,
+            h: c.h.clone(),
+            h_shape: c.shape(),
+            exhaustive: matches!(g.scan, Scan::Exhaustive { .. }),
+            sensor_grid: g.sensors.iter().map(|p| p.position).collect(),
+            sensor_shape: g.grid,
+            laser_grid: g.lasers.iter().map(|p| p.position).collect(),
+            laser_shape: g.laser_grid,
+            sensor_normal: Some(g.wall.normal).filter(|n| n.length() > 0.5),
+            sensor_xyz: Some(g.sensor_origin),
+            laser_xyz: Some(g.laser_origin),
+            delta_t_m: m.delta_t_m,
+            t_start_m: m.t_start_m,
+            device_legs: g.device_legs,
+        }
+    }
+
     pub fn bins(&self) -> usize {
         self.h_shape.first().copied().unwrap_or(0)
     }
@@ -595,6 +624,10 @@ pub struct VolumeMetadata {
     pub peak_voxel: [usize; 3],
     pub peak_m: [f32; 3],
     pub seconds: f64,
+    /// The request that made the reconstruction (`tprf nlos reconstruct`'s options:
+    /// [`crate::request::ReconstructRequest`]), when one did.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub request: Option<serde_json::Value>,
 }
 
 /// Write a reconstruction folder: `volume.npy` (`[Z, Y, X]` f32), `volume.json`, and the
@@ -604,6 +637,17 @@ pub fn write_reconstruction_folder(
     r: &super::reconstruct::Reconstruction,
     capture: &Path,
     out: &Path,
+) -> Result<(), NlosError> {
+    write_reconstruction_folder_with(r, capture, out, None)
+}
+
+/// [`write_reconstruction_folder`], `volume.json` holding `request` (the request that
+/// made the reconstruction) when given.
+pub fn write_reconstruction_folder_with(
+    r: &super::reconstruct::Reconstruction,
+    capture: &Path,
+    out: &Path,
+    request: Option<serde_json::Value>,
 ) -> Result<(), NlosError> {
     let staging = Staging::new(out, &[capture])?;
     let dir = staging.path();
@@ -624,6 +668,7 @@ pub fn write_reconstruction_folder(
         peak_voxel: peak,
         peak_m: r.volume.voxel_center(peak[0], peak[1], peak[2]).to_array(),
         seconds: r.seconds,
+        request,
     };
     write_json(&dir.join("volume.json"), &meta)?;
     for ((w, h, values), name) in

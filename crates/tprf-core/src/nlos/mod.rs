@@ -22,7 +22,7 @@ pub mod setup;
 pub mod spad;
 pub mod wall;
 
-pub use capture::{Capture, render_capture};
+pub use capture::{Capture, render_capture, render_capture_with};
 pub use setup::{CaptureGeometry, CaptureSettings, Scan};
 pub use wall::RelayWall;
 

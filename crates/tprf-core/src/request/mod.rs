@@ -21,22 +21,27 @@
 //! - [`worker::RenderWorker`]: that render on a background thread, for the window.
 //!
 //! [`MeasureRequest`] does the same for a measurement of a rendered cube by a sensor
-//! (`tprf sensor`, a batch manifest's sensor jobs).
+//! (`tprf sensor`, a batch manifest's sensor jobs), [`CaptureRequest`] for an NLOS
+//! capture (`tprf nlos`) and [`ReconstructRequest`] for the reconstruction of a hidden
+//! scene from one (`tprf nlos reconstruct`).
 //!
 //! Units: times in seconds (read from a number of seconds, or text with a unit:
 //! `"3ns"`, `"1.5m"` of optical path), lengths in metres, angles in degrees, radiance in
 //! W m^-2 sr^-1.
 
 mod camera;
+mod capture;
 mod file_defaults;
 mod folder;
 mod keys;
 mod measure;
 mod memory;
+mod reconstruct;
 mod session;
 pub mod worker;
 
 pub use camera::apply_camera;
+pub use capture::{CaptureError, CaptureObserver, CaptureRequest, Quiet};
 pub use file_defaults::FileNote;
 pub use folder::{
     Observer, Rendered, Written, cube_metadata, render, render_to_folder, write_folder,
@@ -44,6 +49,7 @@ pub use folder::{
 pub use keys::serde_keys;
 pub use measure::{MeasureError, MeasureRequest, Measured};
 pub use memory::{MemoryLimit, MemoryRefusal, MemoryStop};
+pub use reconstruct::{ReconstructError, ReconstructRequest, VolumeSpec, parse_length_m};
 pub use session::Session;
 
 use crate::export::phasor::PhasorBand;
