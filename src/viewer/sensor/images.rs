@@ -261,7 +261,7 @@ fn spad_images(
         });
         ui.vertical(|ui| {
             ui.set_width(size.x);
-            let (lo, hi) = sp.depth_range(*view);
+            let (lo, hi) = sp.depth_range();
             ui.add(
                 egui::Label::new(
                     RichText::new(match preview {

@@ -52,7 +52,9 @@ pub(super) struct SpadMeasured {
     /// stands for the `s x s` block from `(i s, j s)` ([`preview_spad`]).
     pub(super) step: usize,
     robust_max: [Option<f64>; 3],
-    depth_range: [(f32, f32); 3],
+    /// The expected histogram's depth range: one colour range for every view, so the
+    /// realisation's and Coates's depths compare with it (outliers saturate).
+    depth_range: (f32, f32),
 }
 
 impl SpadMeasured {
@@ -74,7 +76,7 @@ impl SpadMeasured {
     fn new(image: SpadImage) -> SpadMeasured {
         let views = SpadView::ALL;
         let robust_max = views.map(|v| tprf_core::film::robust_max(spad_values(&image, v)));
-        let depth_range = views.map(|v| finite_range(spad_depth(&image, v)));
+        let depth_range = finite_range(spad_depth(&image, SpadView::Expected));
         SpadMeasured {
             image,
             step: 1,
@@ -134,8 +136,8 @@ impl SpadMeasured {
         self.robust_max[self.shown(view).index()]
     }
 
-    pub(super) fn depth_range(&self, view: SpadView) -> (f32, f32) {
-        self.depth_range[self.shown(view).index()]
+    pub(super) fn depth_range(&self) -> (f32, f32) {
+        self.depth_range
     }
 }
 
