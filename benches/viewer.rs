@@ -462,6 +462,59 @@ fn spad_edits(side: usize, bins: usize, edits: usize, light: bool) {
 /// renders to `spp` from the moment it opens; then the CLI renders the same film to the
 /// same spp with the worker's thread count and the same bounce layers (3), timed from
 /// process start to exit (writing `tprf.npy` included), with the render time it reports.
+/// Seconds the window takes from opening to `spp` samples on a `side`^2 x `bins` film
+/// of builtin:cornell, stepped at up to 60 frames a second with the pointer over the
+/// image; `playing`: playback on (a new slice every frame) or paused. Each frame is
+/// also drawn through wgpu where an adapter exists (software Vulkan here: the cost a
+/// machine without a GPU pays), so the UI's share of the cores shows.
+fn window_seconds(side: usize, bins: usize, spp: u64, playing: bool) -> f64 {
+    let settings = ViewerSettings {
+        width: side,
+        height: side,
+        bins,
+        spp_target: spp,
+        ..ViewerSettings::default()
+    };
+    let opened = Instant::now();
+    let mut h = Harness::builder()
+        .with_size(Vec2::new(1280.0, 800.0))
+        .build_eframe(move |cc| TprfApp::with_settings(cc, settings, Start::Default));
+    let mut hovering = false;
+    let mut draw = true;
+    loop {
+        let t = Instant::now();
+        h.state_mut().playing = playing;
+        h.step();
+        if draw {
+            // No adapter: the tessellation alone, as before.
+            draw = h.render().is_ok();
+        }
+        if !draw {
+            let shapes = h.output().shapes.clone();
+            let _ = h.ctx.tessellate(shapes, 1.0);
+        }
+        if !hovering && let Some(n) = h.query_by_label("time slice") {
+            let c = n.rect().center();
+            h.hover_at(Pos2::new(c.x, c.y));
+            hovering = true;
+        }
+        let status = h.state().status();
+        if let Some(s) = &status
+            && let tprf_core::request::worker::WorkerState::Failed(e) = &s.state
+        {
+            panic!("render failed: {e}");
+        }
+        if status.is_some_and(|s| s.spp >= spp) {
+            return opened.elapsed().as_secs_f64();
+        }
+        assert!(
+            opened.elapsed() < Duration::from_secs(600),
+            "window too slow"
+        );
+        std::thread::sleep(Duration::from_micros(16_667).saturating_sub(t.elapsed()));
+    }
+}
+
 fn throughput() {
     let threads = std::thread::available_parallelism()
         .map_or(1, |n| n.get())
@@ -471,48 +524,12 @@ fn throughput() {
         "\nWindow against CLI, builtin:cornell, {threads} render thread(s), same spp, one run\n"
     );
     println!(
-        "| film | spp | window wall s | window spp/s | CLI wall s | CLI render s | CLI spp/s (wall) | window / CLI | CLI wall / render |"
+        "| film | spp | window wall s, playing | paused | playing / paused rate | CLI wall s | CLI render s | window (playing) / CLI rate | CLI wall / render |"
     );
     println!("|---|---|---|---|---|---|---|---|---|");
     for (side, bins, spp) in [(256usize, 512usize, 32u64), (512, 1024, 8)] {
-        let settings = ViewerSettings {
-            width: side,
-            height: side,
-            bins,
-            spp_target: spp,
-            ..ViewerSettings::default()
-        };
-        let opened = Instant::now();
-        let mut h = Harness::builder()
-            .with_size(Vec2::new(1280.0, 800.0))
-            .build_eframe(move |cc| TprfApp::with_settings(cc, settings, Start::Default));
-        let mut hovering = false;
-        let window_s = loop {
-            let t = Instant::now();
-            h.step();
-            let shapes = h.output().shapes.clone();
-            let _ = h.ctx.tessellate(shapes, 1.0);
-            if !hovering && let Some(n) = h.query_by_label("time slice") {
-                let c = n.rect().center();
-                h.hover_at(Pos2::new(c.x, c.y));
-                hovering = true;
-            }
-            let status = h.state().status();
-            if let Some(s) = &status
-                && let tprf_core::request::worker::WorkerState::Failed(e) = &s.state
-            {
-                panic!("render failed: {e}");
-            }
-            if status.is_some_and(|s| s.spp >= spp) {
-                break opened.elapsed().as_secs_f64();
-            }
-            assert!(
-                opened.elapsed() < Duration::from_secs(600),
-                "window too slow"
-            );
-            std::thread::sleep(Duration::from_micros(16_667).saturating_sub(t.elapsed()));
-        };
-        drop(h);
+        let window_s = window_seconds(side, bins, spp, true);
+        let paused_s = window_seconds(side, bins, spp, false);
         let out = std::env::temp_dir().join(format!("tprf-bench-throughput-{side}"));
         let started = Instant::now();
         let run = std::process::Command::new(env!("CARGO_BIN_EXE_tprf"))
@@ -535,7 +552,8 @@ fn throughput() {
         let _ = std::fs::remove_dir_all(&out);
         let (w_rate, c_rate) = (spp as f64 / window_s, spp as f64 / cli_s);
         println!(
-            "| {side} x {side} x {bins} | {spp} | {window_s:.1} | {w_rate:.2} | {cli_s:.1} | {render_s:.1} | {c_rate:.2} | {:.2} | {:.2} |",
+            "| {side} x {side} x {bins} | {spp} | {window_s:.1} | {paused_s:.1} | {:.2} | {cli_s:.1} | {render_s:.1} | {:.2} | {:.2} |",
+            paused_s / window_s,
             w_rate / c_rate,
             cli_s / render_s
         );
