@@ -31,9 +31,9 @@
 //! choice other than the cheaper one (1 split; light vertices off) is taken only where
 //! its predicted work times variance is lower beyond the pilot's noise: by
 //! [`CONFIDENCE_Z`] standard errors of the log ratio, the standard error the jackknife's
-//! over [`GROUPS`] groups of the pilot's pixels. A split gain within one standard error
-//! of that threshold runs another round of the pilot (other sample streams, the same
-//! pixels; up to [`MAX_ROUNDS`]) before it is decided.
+//! over [`GROUPS`] groups of the pilot's pixels, or for a split not clearly ahead by
+//! that, the error between rounds of the pilot (other sample streams, the same pixels;
+//! up to [`MAX_ROUNDS`]), see [`splits_beyond_noise`].
 //!
 //! Light vertices: the pilot runs with and without them (each with its own best
 //! split, by the rules above) and keeps them on where that lowers the predicted work
@@ -233,6 +233,13 @@ impl GroupSums {
             samples: self.samples + o.samples,
         }
     }
+    fn scale(self, f: f64) -> GroupSums {
+        GroupSums {
+            variance: self.variance * f,
+            rays: self.rays * f,
+            samples: self.samples * f,
+        }
+    }
     fn sub(self, o: GroupSums) -> GroupSums {
         GroupSums {
             variance: self.variance - o.variance,
@@ -328,57 +335,146 @@ const MAX_ROUNDS: u32 = 4;
 /// The split by the model of the module doc from the pilots at 1 and [`MAX_SPLITS`]
 /// splits (`pilot(splits, round)`: per pixel group, the same pixels' sample streams at
 /// both), with its predicted work times variance: the model's best `k` where it beats
-/// `k = 1` beyond the pilot's noise ([`better_beyond_noise`]), else 1. Where the gain is
-/// within one standard error of that threshold, another round of the pilot is added
-/// (up to [`MAX_ROUNDS`]) before it is decided, so that a scene whose choices are close
-/// is not split by some seeds and not by others.
+/// `k = 1` beyond the pilot's noise, else 1.
+///
+/// The first round decides where the model picks 1, or where `k` beats 1 by over
+/// [`CONFIDENCE_Z`] + 1 standard errors of the jackknife over pixel groups
+/// ([`gain_in_standard_errors`]). That error is an overestimate: it counts how the gain
+/// varies across the film, which the pilot's fixed grid sees alike on every seed. So
+/// the rest take more rounds (up to [`MAX_ROUNDS`]) and are decided by the error of
+/// the gain between rounds ([`gain_over_round_noise`]), once it is over or under the
+/// threshold by one standard error (or at the last round, by the threshold alone): a
+/// scene whose choices are close is then not split by some seeds and not by others.
 fn splits_beyond_noise(
     mut pilot: impl FnMut(u32, u32) -> Vec<GroupSums>,
     cap: u32,
 ) -> (u32, Estimate) {
-    // Each group's sums at 1 and at MAX_SPLITS, over the rounds so far.
-    let mut pairs: Vec<[GroupSums; 2]> = Vec::new();
+    // Per round, each group's sums at 1 and at MAX_SPLITS.
+    let mut rounds: Vec<Vec<[GroupSums; 2]>> = Vec::new();
+    let mut splits = 1;
     for round in 0..MAX_ROUNDS {
         let (at_1, at_k) = (pilot(1, round), pilot(MAX_SPLITS, round));
-        if pairs.is_empty() {
-            pairs = vec![[GroupSums::default(); 2]; at_1.len().min(at_k.len())];
-        }
-        for (p, (&a, &b)) in pairs.iter_mut().zip(at_1.iter().zip(&at_k)) {
-            *p = [p[0].add(a), p[1].add(b)];
-        }
-        let total = |leave: Option<usize>| {
-            let mut t = [GroupSums::default(); 2];
-            for (i, p) in pairs.iter().enumerate() {
-                if Some(i) != leave {
-                    t = [t[0].add(p[0]), t[1].add(p[1])];
+        let pairs: Vec<[GroupSums; 2]> = at_1.iter().zip(&at_k).map(|(&a, &b)| [a, b]).collect();
+        rounds.push(pairs);
+        let z = if round == 0 {
+            let pairs = &rounds[0];
+            let total = |leave: Option<usize>| {
+                let mut t = [GroupSums::default(); 2];
+                for (i, p) in pairs.iter().enumerate() {
+                    if Some(i) != leave {
+                        t = [t[0].add(p[0]), t[1].add(p[1])];
+                    }
                 }
-            }
-            t
-        };
-        let whole = Model::from(&total(None));
-        let splits = whole.best_splits(cap);
-        let estimate_at = |k: u32| Estimate {
-            whole: whole.work_x_variance(k),
-            left_out: (0..pairs.len())
-                .map(|i| Model::from(&total(Some(i))).work_x_variance(k))
-                .collect(),
-        };
-        let at_one = estimate_at(1);
-        if splits == 1 {
-            return (1, at_one);
-        }
-        let at_best = estimate_at(splits);
-        let z = gain_in_standard_errors(&at_one, &at_best);
-        let undecided = (z - CONFIDENCE_Z).abs() < 1.0 && round + 1 < MAX_ROUNDS;
-        if !undecided {
-            return if z > CONFIDENCE_Z {
-                (splits, at_best)
-            } else {
-                (1, at_one)
+                t
             };
+            let whole = Model::from(&total(None));
+            splits = whole.best_splits(cap);
+            if splits == 1 {
+                break;
+            }
+            let estimate_at = |k: u32| Estimate {
+                whole: whole.work_x_variance(k),
+                left_out: (0..pairs.len())
+                    .map(|i| Model::from(&total(Some(i))).work_x_variance(k))
+                    .collect(),
+            };
+            let z = gain_in_standard_errors(&estimate_at(1), &estimate_at(splits));
+            if z > CONFIDENCE_Z + 1.0 {
+                break;
+            }
+            continue;
+        } else {
+            gain_over_round_noise(&rounds, splits)
+        };
+        if (z - CONFIDENCE_Z).abs() >= 1.0 || round + 1 == MAX_ROUNDS {
+            if z <= CONFIDENCE_Z {
+                splits = 1;
+            }
+            break;
         }
     }
-    unreachable!("the last round decides")
+    let total = rounds
+        .iter()
+        .flatten()
+        .fold([GroupSums::default(); 2], |t, p| {
+            [t[0].add(p[0]), t[1].add(p[1])]
+        });
+    let groups = rounds.first().map_or(0, Vec::len);
+    let whole = Model::from(&total);
+    // The groups left out of every round, for the light-vertex comparison.
+    let left_out = (0..groups)
+        .map(|i| {
+            let mut t = total;
+            for r in &rounds {
+                t = [t[0].sub(r[i][0]), t[1].sub(r[i][1])];
+            }
+            Model::from(&t).work_x_variance(splits)
+        })
+        .collect();
+    let estimate = Estimate {
+        whole: whole.work_x_variance(splits),
+        left_out,
+    };
+    (splits, estimate)
+}
+
+/// `theta / se` for `theta = ln(W(1) / W(k))`, the log gain of `k` splits over 1 by the
+/// model of all rounds' sums, and `se` its standard error from the differences between
+/// rounds (the same pixels, other sample streams): by the delta method, `se^2 = sum_g
+/// R / (R - 1) sum_r (grad theta . (x_gr - mean_r x_gr))^2` over the groups `g` and the
+/// `R` rounds `r` of group sums `x_gr`, the gradient's products taken as central
+/// differences of `theta`. 0 with under two rounds or a model not finite and positive;
+/// infinite where the rounds agree and the gain is positive.
+fn gain_over_round_noise(rounds: &[Vec<[GroupSums; 2]>], k: u32) -> f64 {
+    let r = rounds.len();
+    if r < 2 {
+        return 0.0;
+    }
+    let theta = |t: &[GroupSums; 2]| {
+        let m = Model::from(t);
+        let (w1, wk) = (m.work_x_variance(1), m.work_x_variance(k));
+        if w1 > 0.0 && wk > 0.0 && w1.is_finite() && wk.is_finite() {
+            (w1 / wk).ln()
+        } else {
+            f64::NAN
+        }
+    };
+    let total = rounds
+        .iter()
+        .flatten()
+        .fold([GroupSums::default(); 2], |t, p| {
+            [t[0].add(p[0]), t[1].add(p[1])]
+        });
+    let whole = theta(&total);
+    if !whole.is_finite() {
+        return 0.0;
+    }
+    let groups = rounds.iter().map(Vec::len).min().unwrap_or(0);
+    let rf = r as f64;
+    let mut variance = 0.0;
+    for g in 0..groups {
+        let sum = rounds.iter().fold([GroupSums::default(); 2], |t, round| {
+            [t[0].add(round[g][0]), t[1].add(round[g][1])]
+        });
+        let mean = [sum[0].scale(1.0 / rf), sum[1].scale(1.0 / rf)];
+        for round in rounds {
+            let v = [round[g][0].sub(mean[0]), round[g][1].sub(mean[1])];
+            let up = theta(&[total[0].add(v[0]), total[1].add(v[1])]);
+            let down = theta(&[total[0].sub(v[0]), total[1].sub(v[1])]);
+            let d = (up - down) / 2.0;
+            variance += rf / (rf - 1.0) * d * d;
+        }
+    }
+    let se = variance.sqrt();
+    if !se.is_finite() {
+        0.0
+    } else if se > 0.0 {
+        whole / se
+    } else if whole > 0.0 {
+        f64::INFINITY
+    } else {
+        0.0
+    }
 }
 
 /// Splitting theory's model (module doc) from pilots at 1 and [`MAX_SPLITS`] splits:
@@ -555,8 +651,17 @@ mod tests {
     /// 4 <= 2 x 3`), `(c1 + 2 c2)(P + B / 2) = 8` against `(c1 + c2)(P + B) = 9` at `k =
     /// 1` and `5 x 5 / 3` at `k = 3`: a gain of 1.125 over one split.
     /// Group `g`'s variance at [`MAX_SPLITS`] is off by a factor `1 + noise` for even
-    /// `g`, `1 - noise` for odd `g`, signs flipped in odd rounds.
-    fn model_groups(splits: u32, round: u32, groups: usize, noise: f64) -> Vec<GroupSums> {
+    /// `g`, `1 - noise` for odd `g`, signs flipped in odd rounds (the pilot's noise);
+    /// its `B` is `B (1 + spread)` and its `P` is `P (1 - spread)` for `g mod 4 < 2`, the
+    /// signs the other way for the others, in every round (how the gain varies across
+    /// the film: the same on every seed).
+    fn model_groups(
+        splits: u32,
+        round: u32,
+        groups: usize,
+        noise: f64,
+        spread: f64,
+    ) -> Vec<GroupSums> {
         let p = (TARGET_SPP / PILOT_SAMPLES as f64).sqrt();
         let (b, c1, c2) = (2.0, 2.0, 1.0);
         let k = splits as f64;
@@ -569,6 +674,8 @@ mod tests {
                     -1.0
                 };
                 let off = if splits == 1 { 1.0 } else { 1.0 + sign * noise };
+                let side = if g % 4 < 2 { 1.0 } else { -1.0 };
+                let (p, b) = (p * (1.0 - side * spread), b * (1.0 + side * spread));
                 GroupSums {
                     variance: samples * (p + b / k) * off,
                     rays: samples * (c1 + k * c2),
@@ -627,7 +734,7 @@ mod tests {
             let (k, estimate) = splits_beyond_noise(
                 |splits, round| {
                     calls += 1;
-                    model_groups(splits, round, GROUPS, noise)
+                    model_groups(splits, round, GROUPS, noise, 0.0)
                 },
                 MAX_SPLITS,
             );
@@ -641,52 +748,86 @@ mod tests {
         // A little noise: the gain of 1.125 is still far beyond it.
         assert_eq!(run(0.005).0, 2);
         // Noise of 80 % per group at MAX_SPLITS: the predicted gain is within the noise,
-        // the cheaper choice stays (9 = (c1 + c2)(P + B)), decided in one round.
+        // the cheaper choice stays (9 = (c1 + c2)(P + B)), decided by the second round.
         let (k, whole, calls) = run(0.8);
-        assert_eq!((k, calls), (1, 2));
+        assert_eq!((k, calls), (1, 4));
         assert!((whole - 9.0).abs() < 1e-9, "{whole}");
     }
 
     #[test]
-    fn an_undecided_pilot_takes_another_round() {
-        // Noise that cancels over two rounds (signs flipped in the second): the first
-        // round leaves the gain within one standard error of the threshold, the second
-        // decides for the model's k = 2 (four pilots in all).
-        let mut calls = 0;
-        let noise = 0.25;
-        let first = |splits| model_groups(splits, 0, GROUPS, noise);
-        let z = {
-            let ones = first(1);
-            let ks = first(MAX_SPLITS);
-            let pairs: Vec<_> = ones.iter().zip(&ks).map(|(&a, &b)| [a, b]).collect();
-            let sum = |leave: Option<usize>| {
-                let mut t = [GroupSums::default(); 2];
-                for (i, p) in pairs.iter().enumerate() {
-                    if Some(i) != leave {
-                        t = [t[0].add(p[0]), t[1].add(p[1])];
-                    }
+    fn a_gain_varying_across_the_film_is_not_taken_for_noise() {
+        // Groups whose B differs by a factor 9 (0.4 and 3.6) and P by a factor 9 the
+        // other way, the same in every round:
+        // the jackknife over pixel groups puts the gain of k = 2 within its threshold
+        // plus one standard error, but the rounds agree, so more rounds decide for k = 2
+        // (four pilots: rounds 0 and 1).
+        let spread = 0.8;
+        let first = |splits| model_groups(splits, 0, GROUPS, 0.0, spread);
+        let pairs: Vec<_> = first(1)
+            .into_iter()
+            .zip(first(MAX_SPLITS))
+            .map(|(a, b)| [a, b])
+            .collect();
+        let sum = |leave: Option<usize>| {
+            let mut t = [GroupSums::default(); 2];
+            for (i, p) in pairs.iter().enumerate() {
+                if Some(i) != leave {
+                    t = [t[0].add(p[0]), t[1].add(p[1])];
                 }
-                Model::from(&t)
-            };
-            let at = |k| Estimate {
-                whole: sum(None).work_x_variance(k),
-                left_out: (0..GROUPS)
-                    .map(|i| sum(Some(i)).work_x_variance(k))
-                    .collect(),
-            };
-            gain_in_standard_errors(&at(1), &at(2))
+            }
+            Model::from(&t)
         };
+        let at = |k| Estimate {
+            whole: sum(None).work_x_variance(k),
+            left_out: (0..GROUPS)
+                .map(|i| sum(Some(i)).work_x_variance(k))
+                .collect(),
+        };
+        let z = gain_in_standard_errors(&at(1), &at(2));
         assert!(
-            (z - CONFIDENCE_Z).abs() < 1.0,
-            "round one's gain: {z} standard errors"
+            z < CONFIDENCE_Z + 1.0,
+            "the pixel groups' jackknife: {z} standard errors"
         );
+        let mut calls = 0;
         let (k, _) = splits_beyond_noise(
             |splits, round| {
                 calls += 1;
-                model_groups(splits, round, GROUPS, noise)
+                model_groups(splits, round, GROUPS, 0.0, spread)
             },
             MAX_SPLITS,
         );
         assert_eq!((k, calls), (2, 4));
+        // And the error between rounds by hand: two rounds whose group sums differ only
+        // in one group's variance at MAX_SPLITS.
+        let ones = model_groups(1, 0, 2, 0.0, 0.0);
+        let ks = model_groups(MAX_SPLITS, 0, 2, 0.0, 0.0);
+        let round: Vec<[GroupSums; 2]> = ones.iter().zip(&ks).map(|(&a, &b)| [a, b]).collect();
+        let mut rounds = vec![round.clone(), round];
+        rounds[0][0][1].variance *= 1.1;
+        rounds[1][0][1].variance *= 0.9;
+        // theta(x) = ln(W(1) / W(2)) of the model of the totals; the round deviations of
+        // group 0 are +-d (d = 0.1 x its variance at MAX_SPLITS), so se^2 = 2 x 2 x
+        // ((theta(T + d) - theta(T - d)) / 2)^2.
+        let total = rounds
+            .iter()
+            .flatten()
+            .fold([GroupSums::default(); 2], |t, p| {
+                [t[0].add(p[0]), t[1].add(p[1])]
+            });
+        let theta = |extra: f64| {
+            let mut t = total;
+            t[1].variance += extra;
+            let m = Model::from(&t);
+            (m.work_x_variance(1) / m.work_x_variance(2)).ln()
+        };
+        let d = 0.1 * ks[0].variance;
+        let se = (4.0 * ((theta(d) - theta(-d)) / 2.0).powi(2)).sqrt();
+        let z = gain_over_round_noise(&rounds, 2);
+        assert!(
+            (z - theta(0.0) / se).abs() < 1e-9 * z.abs(),
+            "{z} against {}",
+            theta(0.0) / se
+        );
+        assert_eq!(gain_over_round_noise(&rounds[..1], 2), 0.0);
     }
 }
