@@ -8,8 +8,8 @@
 //! ```
 //!
 //! The time axis starts at 0 with `BINS` bins of `DT_M` metres of optical path each. With
-//! `OUT.npy` the cube `[H, W, T]` is written there (`benches/race/staircase_error.py`
-//! compares such cubes); `THREADS` is 1 unless given.
+//! `OUT.npy` the cube `[H, W, T]` is written there (to compare with numpy, as
+//! `benches/race/staircase_ab.py` compares `tprf render` cubes); `THREADS` is 1 unless given.
 use std::ops::ControlFlow;
 use std::sync::Arc;
 use std::time::Instant;

@@ -30,10 +30,10 @@
 //! for seeds 0-6, a sample costing 1.7x (2 splits) or 2.4x (4) one of 1 split). So a
 //! choice other than the cheaper one (1 split; light vertices off) is taken only where
 //! its predicted work times variance is lower beyond the pilot's noise: by
-//! [`CONFIDENCE_Z`] standard errors of the log ratio, the standard error the jackknife's
-//! over [`GROUPS`] groups of the pilot's pixels, or for a split not clearly ahead by
+//! `CONFIDENCE_Z` (2) standard errors of the log ratio, the jackknife's standard error
+//! over `GROUPS` (16) groups of the pilot's pixels or, for a split not clearly ahead by
 //! that, the error between rounds of the pilot (other sample streams, the same pixels;
-//! up to [`MAX_ROUNDS`]), see [`splits_beyond_noise`].
+//! up to `MAX_ROUNDS`, 4; see `splits_beyond_noise`).
 //!
 //! Light vertices: the pilot runs with and without them (each with its own best
 //! split, by the rules above) and keeps them on where that lowers the predicted work
