@@ -370,18 +370,31 @@ impl TprfApp {
             self.view_bar_ui(ui, view, snap, size.x);
             return hovered;
         }
-        let (title, label) = match view {
+        // Short titles (the small images' were cut off at 1280 px), what each shows in
+        // the tooltip.
+        let (title, label, what) = match view {
             View::Slice => (
                 format!("Time slice · {}", bin_label(snap.axis(), self.bin)),
                 "time slice",
+                "the radiance arriving in the scrubber's bin",
             ),
-            View::Steady => ("Steady state (sum over time)".to_string(), "steady image"),
-            View::Rainbow => ("Rainbow (hue = peak arrival)".to_string(), "rainbow image"),
+            View::Steady => (
+                "Steady state".to_string(),
+                "steady image",
+                "each pixel's TPRF summed over time: the ordinary image",
+            ),
+            View::Rainbow => (
+                "Rainbow".to_string(),
+                "rainbow image",
+                "hue: when each pixel's light peaks (see its colour bar); brightness: its \
+                 steady energy, square-rooted",
+            ),
         };
         ui.add_sized(
             Vec2::new(size.x, TITLE_H - 4.0),
             egui::Label::new(RichText::new(title).strong()).truncate(),
-        );
+        )
+        .on_hover_text(what);
         let tex = self.texture(view, snap);
         let hovered = self.image_ui(ui, tex, snap, size, label);
         self.view_bar_ui(ui, view, snap, size.x);

@@ -631,12 +631,11 @@ fn measurement_images(
             ui.vertical(|ui| {
                 ui.set_width(small.x);
                 let a = m.error_abs_max;
-                ui.add(
-                    egui::Label::new(
-                        RichText::new("multipath error: AMCW − true first return").strong(),
-                    )
-                    .truncate(),
-                );
+                ui.add(egui::Label::new(RichText::new("multipath error").strong()).truncate())
+                    .on_hover_text(
+                        "AMCW depth − the depth of the TPRF's own first return (the \
+                         single-scattering layer's, when the render kept bounce layers)",
+                    );
                 let tex = textures.get(&ctx, "amcw-error", key, || error_image(err, w, h, a));
                 let Picked { clicked, hover, .. } =
                     pick(ui, &tex, w, h, small, "multipath error image");
