@@ -150,8 +150,15 @@ pub fn find_returns(values: &[f64], times_s: &[f64], p: &Returns, out: &mut Vec<
         return;
     }
     let level = p.threshold * peak;
-    // The detected spans, inclusive.
-    let mut spans: Vec<(usize, usize)> = Vec::new();
+    // Each detected span (inclusive) is measured once the next is known: its flank runs
+    // short of the next return. `floor`: the first sample after the previous return.
+    let mut pending: Option<(usize, usize)> = None;
+    let mut floor = 0;
+    let mut detected = |span: (usize, usize), out: &mut Vec<Return>| {
+        if let Some(done) = pending.replace(span) {
+            floor = measure_return(values, times_s, done, (floor, span.0 - 1), out) + 1;
+        }
+    };
     let mut i = 0;
     while i < n {
         if !(values[i] >= level) {
@@ -170,47 +177,48 @@ pub fn find_returns(values: &[f64], times_s: &[f64], p: &Returns, out: &mut Vec<
             } else if v < lo {
                 (lo, lo_at) = (v, i);
             } else if hi - lo >= level && v - lo >= level {
-                spans.push((start, lo_at));
+                detected((start, lo_at), out);
                 start = lo_at + 1;
                 let top = values[start..=i].iter().copied().fold(lo, f64::max);
                 (hi, lo, lo_at) = (top, v, i);
             }
         }
-        spans.push((start, i));
+        detected((start, i), out);
         i += 1;
     }
-    // The flanks: down from each end while the samples keep falling, short of the
-    // neighbouring returns.
-    for k in 0..spans.len() {
-        let floor = if k == 0 { 0 } else { spans[k - 1].1 + 1 };
-        let ceil = spans.get(k + 1).map_or(n - 1, |s| s.0 - 1);
-        let (mut from, mut to) = spans[k];
-        while from > floor && values[from - 1] > 0.0 && values[from - 1] <= values[from] {
-            from -= 1;
-        }
-        while to < ceil && values[to + 1] > 0.0 && values[to + 1] <= values[to] {
-            to += 1;
-        }
-        spans[k] = (from, to);
-        let (mut sum, mut moment) = (0.0, 0.0);
-        for (v, t) in values[from..=to].iter().zip(&times_s[from..=to]) {
-            sum += v;
-            moment += v * t;
-        }
-        if sum > 0.0 {
-            out.push(Return {
-                time_s: moment / sum,
-                intensity: sum,
-            });
-        }
+    if let Some(last) = pending {
+        measure_return(values, times_s, last, (floor, n - 1), out);
     }
 }
 
-/// The time of the first return of a waveform ([`find_returns`]), seconds.
-pub fn first_return_time(values: &[f64], times_s: &[f64], p: &Returns) -> Option<f64> {
-    let mut out = Vec::new();
-    find_returns(values, times_s, p, &mut out);
-    out.first().map(|r| r.time_s)
+/// The return detected over `(from, to)`: its flanks added, down from each end while
+/// the samples keep falling and stay positive, within `(floor, ceil)`; its centroid
+/// and sum pushed onto `out` (when positive). Gives the return's last sample.
+fn measure_return(
+    values: &[f64],
+    times_s: &[f64],
+    (mut from, mut to): (usize, usize),
+    (floor, ceil): (usize, usize),
+    out: &mut Vec<Return>,
+) -> usize {
+    while from > floor && values[from - 1] > 0.0 && values[from - 1] <= values[from] {
+        from -= 1;
+    }
+    while to < ceil && values[to + 1] > 0.0 && values[to + 1] <= values[to] {
+        to += 1;
+    }
+    let (mut sum, mut moment) = (0.0, 0.0);
+    for (v, t) in values[from..=to].iter().zip(&times_s[from..=to]) {
+        sum += v;
+        moment += v * t;
+    }
+    if sum > 0.0 {
+        out.push(Return {
+            time_s: moment / sum,
+            intensity: sum,
+        });
+    }
+    to
 }
 
 /// A LiDAR's returns over the image: multi-echo `[N, H, W]` and the first, strongest
@@ -347,13 +355,15 @@ pub fn tprf_first_return_depth(
 ) -> Vec<f32> {
     let times: Vec<f64> = (0..axis.bins).map(|b| axis.bin_center_s(b)).collect();
     let mut waveform = vec![0.0; axis.bins];
+    let mut found = Vec::new();
     cube.chunks_exact(axis.bins)
         .take(width * height)
         .map(|px| {
             for (w, &v) in waveform.iter_mut().zip(px) {
                 *w = f64::from(v);
             }
-            first_return_time(&waveform, &times, p).map_or(f32::NAN, |t| depth_m(t) as f32)
+            find_returns(&waveform, &times, p, &mut found);
+            found.first().map_or(f32::NAN, |r| depth_m(r.time_s) as f32)
         })
         .collect()
 }
@@ -464,6 +474,13 @@ pub fn wrapped_difference(a: f64, b: f64, period: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The time of the first return of a waveform, seconds.
+    fn first_return_time(values: &[f64], times_s: &[f64], p: &Returns) -> Option<f64> {
+        let mut out = Vec::new();
+        find_returns(values, times_s, p, &mut out);
+        out.first().map(|r| r.time_s)
+    }
 
     #[test]
     fn first_return_finds_the_first_peak() {

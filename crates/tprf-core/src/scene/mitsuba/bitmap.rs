@@ -64,6 +64,18 @@ fn decode_image(path: &Path, what: &str) -> Result<image::DynamicImage, SceneErr
     DynamicImage::from_decoder(decoder).map_err(|e| bad(format!("cannot decode: {e}")))
 }
 
+/// Whether `image` holds 8-bit channels (sRGB-encoded as stored, unless read raw).
+fn is_eight_bit(image: &image::DynamicImage) -> bool {
+    use image::DynamicImage;
+    matches!(
+        image,
+        DynamicImage::ImageLuma8(_)
+            | DynamicImage::ImageLumaA8(_)
+            | DynamicImage::ImageRgb8(_)
+            | DynamicImage::ImageRgba8(_)
+    )
+}
+
 /// Decode an image file into linear RGB values, as Mitsuba's `bitmap` texture reads
 /// them: 8-bit files decoded from sRGB (`raw`: their values `v / 255` as they are),
 /// 16-bit and floating-point ones (OpenEXR) as stored, unclamped.
@@ -72,16 +84,9 @@ pub(super) fn decode_linear_rgb(
     what: &str,
     raw: bool,
 ) -> Result<IrradianceImage, SceneError> {
-    use image::DynamicImage;
     let image = decode_image(path, what)?;
     let (width, height) = (image.width(), image.height());
-    let eight_bit = matches!(
-        image,
-        DynamicImage::ImageLuma8(_)
-            | DynamicImage::ImageLumaA8(_)
-            | DynamicImage::ImageRgb8(_)
-            | DynamicImage::ImageRgba8(_)
-    );
+    let eight_bit = is_eight_bit(&image);
     let rgb = if eight_bit && !raw {
         image
             .into_rgba8()
@@ -107,16 +112,9 @@ pub(super) fn decode_linear_rgb(
 /// (`raw`: their values are linear, encoded to sRGB), 16-bit and floating-point ones
 /// (OpenEXR) from linear values. The decoded size is budgeted before any pixel is read.
 pub(super) fn decode_bitmap(path: &Path, what: &str, raw: bool) -> Result<Texture, SceneError> {
-    use image::DynamicImage;
     let image = decode_image(path, what)?;
     let (w, h) = (image.width(), image.height());
-    let eight_bit = matches!(
-        image,
-        DynamicImage::ImageLuma8(_)
-            | DynamicImage::ImageLumaA8(_)
-            | DynamicImage::ImageRgb8(_)
-            | DynamicImage::ImageRgba8(_)
-    );
+    let eight_bit = is_eight_bit(&image);
     let rgba8: Vec<[u8; 4]> = if eight_bit && !raw {
         image.into_rgba8().pixels().map(|p| p.0).collect()
     } else {
