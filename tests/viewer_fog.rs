@@ -346,3 +346,32 @@ fn pixel_env(name: &str, default: (usize, usize)) -> (usize, usize) {
         })
         .unwrap_or(default)
 }
+
+/// `builtin:fog` first opened: the automatic window holds the targets behind the fog
+/// (the car in the next lane 35 m away: out and back 233 ns), and the view opens on
+/// their returns, not on the backscatter where every pixel peaks. The nearest surface
+/// the camera sees is the road 1.2 / tan(10 deg) = 6.8 m ahead (20 degrees field of
+/// view, level): the opening slice is after its return (45 ns) and before the car's.
+#[test]
+fn fog_opens_on_the_returns_of_the_targets_behind_it() {
+    let mut h = harness(fog_settings(48, 27, 128, 1));
+    h.state_mut().playing = false;
+    wait_done(&mut h, None);
+    let axis = *h.state().snapshot().unwrap().axis();
+    let car_s = 2.0 * 35.0 / C_M_PER_S;
+    assert!(
+        axis.end_s() >= car_s,
+        "{axis:?} ends before the car's return"
+    );
+    let road_s = 2.0 * 1.2 / 10f64.to_radians().tan() / C_M_PER_S;
+    let t = axis.bin_center_s(h.state().bin);
+    assert!(
+        t >= road_s && t <= car_s,
+        "opened at {} ns, not between the road's first return {} ns and the car's {} ns",
+        t * 1e9,
+        road_s * 1e9,
+        car_s * 1e9
+    );
+    let returns_s = h.state().status().unwrap().surface_returns_s.unwrap();
+    assert_eq!(axis.bin_of(returns_s), Some(h.state().bin));
+}

@@ -298,8 +298,16 @@ impl eframe::App for TprfApp {
                 }
                 self.keep_time_s = None;
             }
+            // In fog every pixel peaks with the backscatter at the start: a scene with
+            // media opens where its surfaces' returns arrive (the window's pilot).
+            let opening = || {
+                self.status()
+                    .and_then(|st| st.surface_returns_s)
+                    .and_then(|t| s.axis().bin_of(t))
+                    .or_else(|| super::timeline::light_bin(s.peak_bins()))
+            };
             if self.seek_light
-                && let Some(b) = super::timeline::light_bin(s.peak_bins())
+                && let Some(b) = opening()
             {
                 self.bin = b.min(bins.saturating_sub(1));
                 self.seek_light = false;

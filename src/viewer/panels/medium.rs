@@ -3,8 +3,9 @@
 //! `V`: extinction `3.912 / V` per metre) as a number and a slider, its albedo and
 //! Henyey-Greenstein `g`. A new fog restarts the render with it as the request's
 //! `medium` (the old film stays on screen until the new one has light); a bad value is
-//! a message and renders nothing. "Window out to 2 V" renders the time axis that holds
-//! the targets' returns through the fog (the automatic one ends with its backscatter).
+//! a message and renders nothing. "Window out to 2 V" renders the time axis out to the
+//! range the fog lets a return come back from (the automatic one is the scene's surfaces'
+//! and the fog's light).
 //! A scene in clear air is offered a fog to add (its visibility ten times the scene's
 //! size), as `tprf render --medium` would render it.
 
@@ -160,8 +161,8 @@ impl TprfApp {
                 self.set_fog(None);
             }
         });
-        // The automatic window holds 99.5 % of the light, which in fog is the backscatter
-        // near the sensor: the targets' returns come later. Out to 2 V a return keeps
+        // The automatic window holds 99.5 % of the light and of the surfaces' returns
+        // timed without the fog; this button sets the range by the fog. Out to 2 V a return keeps
         // e^(-4 x 3.912) = 2e-7 of its light; farther is lost in the fog.
         // (The range as the button writes it: the scene's f32 extinction makes 50 m fog
         // 50.0000002 m.)
@@ -171,9 +172,8 @@ impl TprfApp {
         if ui
             .button(format!("Window out to {} m (2 V)", number_text(range_m)))
             .on_hover_text(
-                "render the time axis 0 … 4 V / c: the targets' returns through the fog. \
-                 The automatic window holds 99.5 % of the light, which in fog is its \
-                 backscatter near the sensor",
+                "render the time axis 0 … 4 V / c: the targets' returns through the fog \
+                 out to where they keep e^(-4 × 3.912) = 2e-7 of their light",
             )
             .clicked()
         {

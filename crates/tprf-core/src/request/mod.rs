@@ -96,7 +96,7 @@ pub struct RenderRequest {
     )]
     pub t0_s: Option<f64>,
     /// Bin width, seconds (`dt`; unset: the window holding 99.5 % of a pilot render's
-    /// energy, over `bins`).
+    /// energy, and with media of the surfaces' returns, over `bins`: [`crate::transport::auto_window`]).
     #[serde(
         rename = "dt",
         deserialize_with = "time_s",

@@ -6,7 +6,7 @@ use crate::export::shard::ShardSpec;
 use crate::film::{FilmLayout, TimeAxis, TimeFilter, TprfFilm};
 use crate::scene::{self, Camera, PulseOrigin, Scene};
 use crate::transport::progressive::{self, PassReport, PassSize};
-use crate::transport::{Renderer, auto_window};
+use crate::transport::{Renderer, choose_window};
 use std::ops::ControlFlow;
 use std::sync::Arc;
 use std::time::Instant;
@@ -23,6 +23,7 @@ pub struct Session {
     film: TprfFilm,
     shard: Option<ShardSpec>,
     setup_s: f64,
+    surface_returns_s: Option<f64>,
     memory: MemoryBudget,
     memory_stop: Option<MemoryStop>,
 }
@@ -109,7 +110,8 @@ impl Session {
                  with participating media (render it with the pulse leaving the light)",
             )));
         }
-        let axis = auto_window(&renderer, request.window())?;
+        let chosen = choose_window(&renderer, request.window())?;
+        let axis = chosen.axis;
         let layout = FilmLayout {
             width: request.width,
             height: request.height,
@@ -137,6 +139,7 @@ impl Session {
             film,
             shard,
             setup_s: start.elapsed().as_secs_f64(),
+            surface_returns_s: chosen.surface_returns_s,
             memory,
             memory_stop: None,
         })
@@ -248,6 +251,12 @@ impl Session {
 
     pub fn axis(&self) -> TimeAxis {
         *self.film.axis()
+    }
+
+    /// When the surfaces' returns arrive, in a scene with media whose window was chosen
+    /// automatically ([`crate::transport::ChosenWindow::surface_returns_s`]), seconds.
+    pub fn surface_returns_s(&self) -> Option<f64> {
+        self.surface_returns_s
     }
 
     /// The shard rendered (`None`: the whole image).

@@ -61,6 +61,9 @@ pub struct WorkerStatus {
     /// (elapsed seconds, relative error estimate) after each pass with both halves.
     pub error_history: Vec<(f64, f64)>,
     pub axis: Option<TimeAxis>,
+    /// When the surfaces' returns arrive in a scene with media ([`Session::surface_returns_s`]):
+    /// where a view of it opens.
+    pub surface_returns_s: Option<f64>,
     pub triangles: usize,
     pub notes: Vec<String>,
     /// Bins and bytes the film stores, against a dense cube.
@@ -154,6 +157,7 @@ impl RenderWorker {
                 rays: 0,
                 error_history: Vec::new(),
                 axis: None,
+                surface_returns_s: None,
                 triangles: 0,
                 notes: Vec::new(),
                 store: StoreStats::default(),
@@ -323,11 +327,13 @@ fn render(
     let triangles = session.scene().triangles.len();
     let mut ambient_pending = has_ambient(session.renderer());
     let axis = session.axis();
+    let surface_returns_s = session.surface_returns_s();
     set_status(shared, |s| {
         s.state = WorkerState::Rendering;
         s.setup_s = setup_start.elapsed().as_secs_f64();
         s.updated_at = Some(Instant::now());
         s.axis = Some(axis);
+        s.surface_returns_s = surface_returns_s;
         s.triangles = triangles;
         s.notes = notes;
         s.ambient_pending = ambient_pending;

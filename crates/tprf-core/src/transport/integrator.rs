@@ -327,6 +327,17 @@ impl Renderer {
         }
     }
 
+    /// This renderer with its media emptied ([`Media::without_extinction`]): the same
+    /// surfaces, lights and camera, light crossing each medium at its index without
+    /// scattering or attenuation. `None` for a scene without media.
+    pub fn without_extinction(&self) -> Option<Renderer> {
+        let media = self.media.as_ref()?;
+        Some(Renderer {
+            media: Some(Arc::new(media.without_extinction())),
+            ..self.with_camera(self.camera)
+        })
+    }
+
     /// Ray-offset length scale, metres: 1e-6 of the diagonal of the bounds of the
     /// scene's triangles and lights and `camera`'s position (1e-6 for an empty or
     /// non-finite scene).
@@ -347,6 +358,13 @@ impl Renderer {
     /// Whether the scene has participating media (rendered by [`super::media`]).
     pub fn has_media(&self) -> bool {
         self.media.is_some()
+    }
+
+    /// The scene-wide medium's extinction per metre and refractive index in the band
+    /// rendered, when it is homogeneous; `None` without media or with a density grid.
+    pub fn scene_extinction(&self) -> Option<(f32, f32)> {
+        let m = self.media.as_ref()?.scene;
+        m.grid.is_none().then_some((m.sigma_t, m.n))
     }
 
     pub(super) fn lights(&self) -> &Lights {

@@ -18,4 +18,4 @@ mod window;
 
 pub use integrator::{PassStats, RayKind, RenderSettings, Renderer, Sink};
 pub use split::Strategy;
-pub use window::{WindowError, WindowRequest, auto_window};
+pub use window::{ChosenWindow, WindowError, WindowRequest, auto_window, choose_window};

@@ -203,6 +203,33 @@ impl Media {
         })
     }
 
+    /// These media with nothing in them: every region clear (no scattering, no
+    /// absorption, no density grid) at its own refractive index, so light crosses them
+    /// in the same time as through the media themselves. The automatic window's pilot
+    /// renders the surfaces' returns with it ([`super::window`]).
+    pub fn without_extinction(&self) -> Media {
+        let clear = |m: BandMedium| BandMedium::clear(m.n);
+        Media {
+            scene: clear(self.scene),
+            boundaries: self
+                .boundaries
+                .iter()
+                .map(|b| match *b {
+                    Boundary::Surface { inside } => Boundary::Surface {
+                        inside: clear(inside),
+                    },
+                    Boundary::IndexMatched { inside } => Boundary::IndexMatched {
+                        inside: clear(inside),
+                    },
+                })
+                .collect(),
+            has_index_matched: self.has_index_matched,
+            n_min: self.n_min,
+            n_max: self.n_max,
+            grids: Vec::new(),
+        }
+    }
+
     /// The ray from `origin` along unit `dir` in `region`'s density grid; `None` for a
     /// homogeneous medium, or a ray that misses the grid's box.
     pub(crate) fn grid_line(
