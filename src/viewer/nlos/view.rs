@@ -391,15 +391,21 @@ fn projection_ui(
         ColorBar {
             of: "projections",
             ramp: &ramp,
-            scale: BarScale::Linear {
-                lo: 0.0,
-                hi: if max > 0.0 { max as f64 } else { 1.0 },
-            },
-            unit: "relative",
+            scale: BarScale::Linear { lo: 0.0, hi: 1.0 },
+            unit: "× peak",
             second: None,
-            note: "the method's own scale; white: the volume's largest value",
+            note: f.request.method.value_meaning(),
         }
         .ui(ui, size.x + MetreImage::outer_size(Vec2::ZERO).x);
+        ui.label(
+            RichText::new(format!(
+                "1 = the volume's peak, {} ({}: hover the bar for its unit)",
+                crate::viewer::axes::format_value(f64::from(max), ""),
+                f.request.method.name()
+            ))
+            .weak()
+            .small(),
+        );
     }
 }
 

@@ -64,6 +64,31 @@ impl Method {
             Method::Pf => "pf",
         }
     }
+
+    /// What a voxel's value is, in words and units (the capture's `H` is per bin: W
+    /// m^-2 sr^-1 s per joule of laser pulse). Values compare within one volume; across
+    /// methods only their shapes do.
+    pub fn value_meaning(self) -> &'static str {
+        match self {
+            Method::Bp => {
+                "the sum over the capture's transients of H at the voxel's path length \
+                 (H's unit, W m⁻² sr⁻¹ s per J, summed over the wall)"
+            }
+            Method::Fbp => {
+                "the magnitude of the sum over the transients of H filtered by the phasor \
+                 kernel (a Gaussian of sum 1 times a carrier) at the voxel's path length \
+                 (H's unit summed over the wall)"
+            }
+            Method::Pf => {
+                "the magnitude of the wall's phasor field propagated to the voxel \
+                 (H's unit summed over the wall, each point weighted by 1/d, confocal 1/d², d in m)"
+            }
+            Method::Fk => {
+                "|ψ|² after Stolt's migration of the transients scaled by t: H's unit \
+                 squared on the method's own scale"
+            }
+        }
+    }
 }
 
 /// The wall's frame as the capture's sensor grid gives it.
@@ -444,17 +469,24 @@ pub fn reconstruct(
     let values = match method {
         Method::Bp => {
             let (k, tr) = transients(c);
+            let tr: Vec<[f32; 1]> = tr.into_iter().map(|v| [v]).collect();
             backproject(c, volume, &pairs(c), k, &tr)
+                .into_iter()
+                .map(|[v]| v)
+                .collect()
         }
         Method::Fbp => {
             let (k, tr) = transients(c);
             let filtered = phasor_filter(&tr, k, c.bins(), c.delta_t_m, wave);
             drop(tr);
-            let p = pairs(c);
-            let part = |f: fn(&Complex32) -> f32| -> Vec<f32> { filtered.iter().map(f).collect() };
-            let re = backproject(c, volume, &p, k, &part(|z| z.re));
-            let im = backproject(c, volume, &p, k, &part(|z| z.im));
-            re.iter().zip(&im).map(|(a, b)| a.hypot(*b)).collect()
+            // Real and imaginary parts back-projected together: one path length per
+            // voxel and transient for both.
+            let parts: Vec<[f32; 2]> = filtered.iter().map(|z| [z.re, z.im]).collect();
+            drop(filtered);
+            backproject(c, volume, &pairs(c), k, &parts)
+                .into_iter()
+                .map(|[a, b]| a.hypot(b))
+                .collect()
         }
         Method::Pf => phasor_fields(c, &frame, volume, wave)?,
         Method::Fk => fk_migration(c, &frame, volume)?,
@@ -472,7 +504,13 @@ pub fn reconstruct(
 /// Blocks of voxels are the parallel work; within one, each transient is read once and
 /// added to every voxel of the block, so the transient and the block's sums stay in
 /// the cache.
-fn backproject(c: &LoadedCapture, volume: &Volume, p: &Pairs, k: usize, tr: &[f32]) -> Vec<f32> {
+fn backproject<const C: usize>(
+    c: &LoadedCapture,
+    volume: &Volume,
+    p: &Pairs,
+    k: usize,
+    tr: &[[f32; C]],
+) -> Vec<[f32; C]> {
     let t = c.bins();
     let [nx, _, _] = volume.voxels;
     let inv_dt = (1.0 / c.delta_t_m) as f32;
@@ -480,7 +518,7 @@ fn backproject(c: &LoadedCapture, volume: &Volume, p: &Pairs, k: usize, tr: &[f3
     let confocal =
         !c.exhaustive && p.of.iter().all(|&(l, s)| l == s) && p.lasers.len() == p.sensors.len();
     let rows_per_block = (4096 / nx.max(1)).max(1);
-    let mut out = vec![0.0f32; volume.len()];
+    let mut out = vec![[0.0f32; C]; volume.len()];
     out.par_chunks_mut(nx * rows_per_block)
         .enumerate()
         .for_each(|(block, sums)| {
@@ -501,28 +539,51 @@ fn backproject(c: &LoadedCapture, volume: &Volume, p: &Pairs, k: usize, tr: &[f3
                     .map(|l| pos.iter().map(|x| (*x - *l).length()).collect())
                     .collect()
             };
+            let xs: Vec<f32> = pos.iter().map(|p| p.x).collect();
+            let ys: Vec<f32> = pos.iter().map(|p| p.y).collect();
+            let zs: Vec<f32> = pos.iter().map(|p| p.z).collect();
+            // Each transient padded with a zero at index `t`: a path outside the time
+            // axis reads it, so the inner loops have no branch and vectorise.
+            let mut padded = vec![[0.0f32; C]; t + 1];
+            let mut bins = vec![0u32; sums.len()];
+            let last = t as f32;
             for (ki, &(li, si)) in p.of.iter().enumerate().take(k) {
                 let Some(h) = tr.get(ki * t..(ki + 1) * t) else {
                     continue;
                 };
+                padded[..t].copy_from_slice(h);
                 let s = p.sensors[si as usize];
                 // Bin of a path: (path - t0) / dt, the legs folded into the offset.
                 let offset = (p.legs_m[ki] - t0) * inv_dt;
+                // floor((path - t0) / dt) for a path inside the axis: truncation, as the
+                // bin is >= 0 there (no floor call: it would not vectorise).
+                let bin = |b: f32| {
+                    if b >= 0.0 && b < last {
+                        b as u32
+                    } else {
+                        t as u32
+                    }
+                };
+                // Distances from the voxels' coordinates as three arrays (vectorised).
+                let dist = |i: usize| {
+                    let (dx, dy, dz) = (xs[i] - s.x, ys[i] - s.y, zs[i] - s.z);
+                    (dx * dx + dy * dy + dz * dz).sqrt()
+                };
                 if confocal {
                     let two = 2.0 * inv_dt;
-                    for (x, o) in pos.iter().zip(sums.iter_mut()) {
-                        let b = ((*x - s).length() * two + offset).floor();
-                        if b >= 0.0 && b < t as f32 {
-                            *o += h[b as usize];
-                        }
+                    for (i, b) in bins.iter_mut().enumerate() {
+                        *b = bin(dist(i) * two + offset);
                     }
                 } else {
                     let dl = &d_l[li as usize];
-                    for ((x, o), l) in pos.iter().zip(sums.iter_mut()).zip(dl) {
-                        let b = (((*x - s).length() + l) * inv_dt + offset).floor();
-                        if b >= 0.0 && b < t as f32 {
-                            *o += h[b as usize];
-                        }
+                    for ((i, b), l) in bins.iter_mut().enumerate().zip(dl) {
+                        *b = bin((dist(i) + l) * inv_dt + offset);
+                    }
+                }
+                for (o, &b) in sums.iter_mut().zip(&bins) {
+                    let v = padded[(b as usize).min(t)];
+                    for j in 0..C {
+                        o[j] += v[j];
                     }
                 }
             }
