@@ -2749,3 +2749,79 @@ fn layout_shots() {
         shot(&mut h, "spad");
     }
 }
+
+/// A saved time slice carries its legend (issue 44: exported PNGs had no colour bar or
+/// time): the film's pixels enlarged by a whole factor to 360 px wide, each the colour
+/// the plain PNG (legend off) has for it, over a strip whose bar runs from inferno's 0
+/// to its 1 (colorous, the ramp the window shows) with its labels and the slice's time
+/// written in dark pixels.
+#[test]
+fn a_saved_slice_carries_its_legend() {
+    let dir = std::env::temp_dir().join(format!("tprf-legend-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut h = harness(small_settings("builtin:cornell", 12, 16, 1));
+    h.state_mut().file_dialogs = false;
+    wait_done(&mut h, Duration::from_secs(60));
+    h.state_mut().playing = false;
+    h.run_steps(2);
+    let save = |h: &mut Harness<'static, TprfApp>, path: &std::path::Path| {
+        // (The Save section is below the fold of the left panel at 1280 x 800.)
+        h.state_mut()
+            .choose_file(tprf::viewer::FileAction::SaveSlicePng);
+        h.run_steps(2);
+        h.get_by_label("path").focus();
+        h.step();
+        h.event(Event::Key {
+            key: Key::A,
+            physical_key: None,
+            pressed: true,
+            repeat: false,
+            modifiers: Modifiers::COMMAND,
+        });
+        h.step();
+        h.get_by_label("path")
+            .type_text(&path.display().to_string());
+        h.step();
+        h.get_by_label("OK").click();
+        let start = Instant::now();
+        loop {
+            h.step();
+            if let Ok(img) = image::open(path) {
+                break img.to_rgb8();
+            }
+            assert!(start.elapsed() < Duration::from_secs(30), "no {path:?}");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    };
+    let with = save(&mut h, &dir.join("with.png"));
+    h.state_mut().settings.png_legend = false;
+    h.run_steps(2);
+    let plain = save(&mut h, &dir.join("plain.png"));
+    assert_eq!(plain.dimensions(), (12, 12));
+    let k = 360 / 12;
+    let strip = tprf_core::export::legend::LEGEND_H as u32;
+    assert_eq!(with.dimensions(), (360, 12 * k + strip));
+    for y in 0..12 {
+        for x in 0..12 {
+            assert_eq!(
+                with.get_pixel(x * k + k / 2, y * k + k / 2),
+                plain.get_pixel(x, y),
+                "pixel ({x}, {y})"
+            );
+        }
+    }
+    let inferno = |t: f64| {
+        let c = colorous::INFERNO.eval_continuous(t);
+        [c.r, c.g, c.b]
+    };
+    let bar_y = 12 * k + 12;
+    assert_eq!(with.get_pixel(12, bar_y).0, inferno(0.0));
+    assert_eq!(with.get_pixel(347, bar_y).0, inferno(1.0));
+    let text = (12 * k + 22..12 * k + strip)
+        .flat_map(|y| (0..360).map(move |x| (x, y)))
+        .filter(|&(x, y)| with.get_pixel(x, y).0.iter().all(|&c| c < 128))
+        .count();
+    assert!(text > 200, "labels and the time: {text} dark pixels");
+    let _ = std::fs::remove_dir_all(&dir);
+}

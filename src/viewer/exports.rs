@@ -4,7 +4,8 @@
 //! thread never waits for one.
 
 use super::app::TprfApp;
-use super::colormap;
+use super::axes::BarScale;
+use super::colormap::{self, ColorMap};
 use super::tone::{self, View};
 use eframe::egui;
 use std::path::{Path, PathBuf};
@@ -12,6 +13,7 @@ use std::sync::Arc;
 use std::sync::mpsc::{Receiver, Sender, channel};
 use std::thread::JoinHandle;
 use tprf_core::export;
+use tprf_core::export::legend::{Legend, four_digits, with_legend};
 use tprf_core::film::FilmSnapshot;
 use tprf_core::units::C_M_PER_S;
 
@@ -94,6 +96,83 @@ fn write_png_rgba(path: &Path, w: usize, h: usize, rgba: Vec<u8>) -> anyhow::Res
     })?)
 }
 
+/// What a saved image's legend says: its colour bar (the view's colours, its exposure's
+/// range) and a line naming what it shows.
+struct ViewLegend {
+    map: Option<ColorMap>,
+    bar: BarScale,
+    unit: &'static str,
+    note: String,
+}
+
+impl ViewLegend {
+    fn of(
+        view: View,
+        snap: &FilmSnapshot,
+        bin: usize,
+        exposure: &tone::Exposure,
+        settings: &super::ViewerSettings,
+    ) -> ViewLegend {
+        let axis = snap.axis();
+        let (map, unit, note) = match view {
+            View::Slice => (
+                Some(settings.colormap),
+                // ASCII units: the PNG's font has no superscripts.
+                "W m-2 sr-1 s",
+                format!(
+                    "t = {} ns ({} m), bin {} of {}",
+                    four_digits(axis.bin_center_s(bin) * 1e9),
+                    four_digits(axis.bin_center_s(bin) * C_M_PER_S),
+                    bin,
+                    axis.bins
+                ),
+            ),
+            View::Steady => (
+                Some(ColorMap::Gray),
+                "W m-2 sr-1",
+                format!("steady state: the sum over {} bins", axis.bins),
+            ),
+            View::Rainbow => (
+                None,
+                "",
+                "hue: the time of each pixel's peak; brightness: its energy".to_string(),
+            ),
+        };
+        ViewLegend {
+            map,
+            bar: exposure.bar_scale(),
+            unit,
+            note,
+        }
+    }
+
+    /// `rgba` (`w x h`) with this legend under it, as a PNG at `path`.
+    fn write(&self, path: &Path, w: usize, h: usize, rgba: &[u8]) -> anyhow::Result<()> {
+        let Some(map) = self.map else {
+            return write_png_rgba(path, w, h, rgba.to_vec());
+        };
+        let rgb: Vec<u8> = rgba
+            .chunks_exact(4)
+            .flat_map(|p| [p[0], p[1], p[2]])
+            .collect();
+        let ramp = |t: f64| colormap::color_of(map, t);
+        let (lo, hi, log) = match self.bar {
+            BarScale::Linear { lo, hi } => (lo, hi, false),
+            BarScale::Log { lo, hi } => (lo, hi, true),
+        };
+        let legend = Legend {
+            ramp: &ramp,
+            lo,
+            hi,
+            log,
+            unit: self.unit,
+            note: &self.note,
+        };
+        let (rgb, cw, ch) = with_legend(rgb, w, h, &legend)?;
+        Ok(export::write_png_rgb(path, cw, ch, rgb)?)
+    }
+}
+
 /// Every bin of `snap` through `tone` and `map` as `dir/NNNN.png` and the animated
 /// `dir/tprf.gif` (looping, [`GIF_FPS`] frames a second). `dir` is an output folder as
 /// the CLI's (`export::staging`): new, empty or an earlier tprf output, written beside
@@ -144,11 +223,19 @@ fn write_frames_and_gif(
 impl TprfApp {
     /// Save `view` of `snap` at `path` as shown (encoded in the background).
     pub(super) fn save_view_png(&mut self, view: View, snap: &Arc<FilmSnapshot>, path: PathBuf) {
-        let (rgba, _) = tone::view_pixels(view, snap, self.bin, &self.settings, &mut self.scratch);
+        let (rgba, exposure) =
+            tone::view_pixels(view, snap, self.bin, &self.settings, &mut self.scratch);
         let (w, h) = (snap.width(), snap.height());
         let what = path.display().to_string();
-        let write = move || write_png_rgba(&path, w, h, rgba);
-        if let Err(e) = self.exports.spawn(&self.ctx, what, write) {
+        let result = if self.settings.png_legend {
+            let legend = ViewLegend::of(view, snap, self.bin, &exposure, &self.settings);
+            let write = move || legend.write(&path, w, h, &rgba);
+            self.exports.spawn(&self.ctx, what, write)
+        } else {
+            let write = move || write_png_rgba(&path, w, h, rgba);
+            self.exports.spawn(&self.ctx, what, write)
+        };
+        if let Err(e) = result {
             self.messages.push(e);
         }
     }

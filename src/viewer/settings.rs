@@ -48,6 +48,9 @@ pub struct ViewerSettings {
     pub ev: f32,
     pub log_image: bool,
     pub colormap: ColorMap,
+    /// Saved images carry a legend: their colour bar with its scale and unit, and a
+    /// line saying what they show (a slice's time).
+    pub png_legend: bool,
     pub plot_log: bool,
     /// Per-bounce curves shown, by bounce layer (0: the light seen directly, off by
     /// default; the others on); a layer past the end takes its default.
@@ -189,6 +192,7 @@ impl Default for ViewerSettings {
             exposure: ExposureMode::PerFrame,
             ev: 0.0,
             log_image: false,
+            png_legend: true,
             colormap: ColorMap::Inferno,
             plot_log: false,
             bounces_shown: Vec::new(),

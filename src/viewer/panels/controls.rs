@@ -349,6 +349,12 @@ impl TprfApp {
                 self.choose_file(FileAction::SaveVideo);
             }
         });
+        ui.checkbox(&mut self.settings.png_legend, "PNG with legend")
+            .on_hover_text(
+                "the slice and steady PNGs carry their colour bar (scale and unit) and a \
+                 line saying what they show (the slice's time), so the file reads on its \
+                 own; off: the film's pixels only, one PNG pixel per film pixel",
+            );
         if self.exports.busy() {
             ui.horizontal(|ui| {
                 ui.spinner();

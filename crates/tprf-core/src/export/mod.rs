@@ -15,6 +15,7 @@ use std::path::{Path, PathBuf};
 
 pub mod ambient;
 pub mod bulk_file;
+pub mod legend;
 mod npy_read;
 pub mod phasor;
 pub mod sensor;

@@ -49,6 +49,7 @@ macro_rules! bail {
     };
 }
 
+use super::legend::{Legend, LegendError, with_legend};
 use super::{NpyBands, NpyF32, write_csv, write_json, write_npy_f32, write_png_rgb};
 use crate::film::{TimeAxis, quantile};
 use crate::sensor::spad::{Sampler, spad_bytes_per_pixel};
@@ -1031,7 +1032,7 @@ fn spad_json(model: &SensorModel, spad: &SpadFiles) -> serde_json::Value {
 
 /// A depth image as grey PNG, linear in depth from the 1 % to the 99 % quantile:
 /// nearest white, farthest dark grey, no depth black; with its scale under it
-/// ([`with_scale`]).
+/// ([`with_legend`]).
 fn write_depth_png(path: &Path, w: usize, h: usize, depth: &[f32]) -> Result<()> {
     let values = || depth.iter().map(|&d| f64::from(d));
     let (lo, hi) = (
@@ -1052,19 +1053,20 @@ fn write_depth_png(path: &Path, w: usize, h: usize, depth: &[f32]) -> Result<()>
             [0, 0, 0]
         });
     }
-    let scale = Scale {
+    let scale = Legend {
         ramp: &grey,
         lo,
         hi: lo + span,
+        log: false,
         unit: "m",
         note: "depth; black: no return",
     };
-    let (rgb, cw, ch) = with_scale(rgb, w, h, &scale)?;
+    let (rgb, cw, ch) = with_legend(rgb, w, h, &scale).map_err(legend_error)?;
     Ok(write_png_rgb(path, cw, ch, rgb)?)
 }
 
 /// A signed image as PNG: blue below 0, white at 0, red above, saturating at
-/// `+- scale`; NaN black; with its scale under it ([`with_scale`]).
+/// `+- scale`; NaN black; with its scale under it ([`with_legend`]).
 fn write_signed_png(path: &Path, w: usize, h: usize, values: &[f32], scale: f64) -> Result<()> {
     let scale = scale.max(1e-300);
     // t = 0 at -scale, 1/2 at 0, 1 at +scale.
@@ -1085,133 +1087,24 @@ fn write_signed_png(path: &Path, w: usize, h: usize, values: &[f32], scale: f64)
             [0, 0, 0]
         });
     }
-    let bar = Scale {
+    let bar = Legend {
         ramp: &colour,
         lo: -scale,
         hi: scale,
+        log: false,
         unit: "m",
         note: "AMCW depth - true depth; black: none",
     };
-    let (rgb, cw, ch) = with_scale(rgb, w, h, &bar)?;
+    let (rgb, cw, ch) = with_legend(rgb, w, h, &bar).map_err(legend_error)?;
     Ok(write_png_rgb(path, cw, ch, rgb)?)
 }
 
-/// The colour scale drawn under an image: `ramp(t)` for `t` from 0 (at `lo`) to 1
-/// (at `hi`), in `unit`, with a note.
-struct Scale<'a> {
-    ramp: &'a dyn Fn(f64) -> [u8; 3],
-    lo: f64,
-    hi: f64,
-    unit: &'a str,
-    note: &'a str,
-}
-
-/// Height of the scale strip, pixels.
-const SCALE_H: usize = 56;
-/// Narrowest picture with a scale: a smaller image is enlarged by a whole factor
-/// (pixels stay square and sharp) so the scale's labels fit.
-const SCALE_MIN_W: usize = 360;
-
-/// The image `rgb` (`w x h`) enlarged by the smallest whole factor that makes it at
-/// least [`SCALE_MIN_W`] wide, over a white strip holding its colour bar with `lo`,
-/// the middle and `hi` written in `unit`, and the note: what a PNG of a measurement
-/// needs to be read. Returns the picture and its size.
-fn with_scale(rgb: Vec<u8>, w: usize, h: usize, scale: &Scale) -> Result<(Vec<u8>, usize, usize)> {
-    if w == 0 || h == 0 || rgb.len() != 3 * w * h {
-        return Ok((rgb, w, h));
+/// A legend that could not be drawn, as the sensor files' error.
+fn legend_error(e: LegendError) -> SensorFilesError {
+    match e {
+        LegendError::Budget(b) => SensorFilesError::Export(ExportError::from(b)),
+        LegendError::Draw(why) => SensorFilesError::Invalid(why),
     }
-    let k = SCALE_MIN_W.div_ceil(w).max(1);
-    let (cw, ch) = (w * k, h * k + SCALE_H);
-    crate::budget::check(
-        (3 * cw * ch) as u64,
-        "a depth picture",
-        format_args!("{cw} x {ch} pixels"),
-    )
-    .map_err(|e| SensorFilesError::Export(e.into()))?;
-    let mut out = vec![255u8; 3 * cw * ch];
-    for y in 0..h * k {
-        for x in 0..w * k {
-            let src = 3 * ((y / k) * w + x / k);
-            let dst = 3 * (y * cw + x);
-            out[dst..dst + 3].copy_from_slice(&rgb[src..src + 3]);
-        }
-    }
-    // The bar: a quarter of the strip's height, inset from the edges.
-    let (bx0, bx1) = (12, cw.saturating_sub(12).max(13));
-    let (by0, by1) = (h * k + 6, h * k + 20);
-    for x in bx0..bx1 {
-        let c = (scale.ramp)((x - bx0) as f64 / (bx1 - bx0 - 1).max(1) as f64);
-        for y in by0..by1 {
-            let dst = 3 * (y * cw + x);
-            out[dst..dst + 3].copy_from_slice(&c);
-        }
-    }
-    draw_scale_text(&mut out, (cw, ch), (bx0, bx1, by1), scale)
-        .map_err(|e| SensorFilesError::Invalid(format!("cannot draw a depth scale: {e}")))?;
-    Ok((out, cw, ch))
-}
-
-/// `v` to four significant digits: `0.6123`, `12.35`, `1.235e4`.
-fn four_digits(v: f64) -> String {
-    if v == 0.0 || !v.is_finite() {
-        return format!("{v}");
-    }
-    let mag = v.abs().log10().floor();
-    if !(-3.0..4.0).contains(&mag) {
-        return format!("{v:.3e}");
-    }
-    format!("{v:.*}", (3.0 - mag).max(0.0) as usize)
-}
-
-/// The labels of [`with_scale`]'s bar (plotters, in egui's bundled Ubuntu font: no
-/// system font needed).
-fn draw_scale_text(
-    buf: &mut [u8],
-    (cw, ch): (usize, usize),
-    (bx0, bx1, by1): (usize, usize, usize),
-    scale: &Scale,
-) -> std::result::Result<(), Box<dyn std::error::Error>> {
-    use plotters::prelude::*;
-    use plotters::style::text_anchor::{HPos, Pos, VPos};
-    static FONT: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    let ok = *FONT.get_or_init(|| {
-        plotters::style::register_font(
-            "sans-serif",
-            FontStyle::Normal,
-            epaint_default_fonts::UBUNTU_LIGHT,
-        )
-        .is_ok()
-    });
-    if !ok {
-        return Err("no font".into());
-    }
-    let root = BitMapBackend::with_buffer(buf, (cw as u32, ch as u32)).into_drawing_area();
-    let font = ("sans-serif", 13).into_font().color(&BLACK);
-    let label = |v: f64| format!("{} {}", four_digits(v), scale.unit);
-    let y = (by1 + 2) as i32;
-    let (x0, x1) = (bx0 as i32, bx1 as i32);
-    for (text, x, h) in [
-        (label(scale.lo), x0, HPos::Left),
-        (
-            label(0.5 * (scale.lo + scale.hi)),
-            (x0 + x1) / 2,
-            HPos::Center,
-        ),
-        (label(scale.hi), x1, HPos::Right),
-    ] {
-        root.draw(&Text::new(
-            text,
-            (x, y),
-            font.clone().pos(Pos::new(h, VPos::Top)),
-        ))?;
-    }
-    root.draw(&Text::new(
-        scale.note.to_string(),
-        ((x0 + x1) / 2, y + 17),
-        font.pos(Pos::new(HPos::Center, VPos::Top)),
-    ))?;
-    root.present()?;
-    Ok(())
 }
 
 /// `pixel_Y_X.csv` (per bin: time, TPRF, TPRF * Light, each gate's share of M_i) and
@@ -1275,7 +1168,10 @@ mod tests {
         let path = dir.join("depth.png");
         write_depth_png(&path, 2, 1, &[1.0, 3.0]).unwrap();
         let img = image::open(&path).unwrap().to_rgb8();
-        assert_eq!(img.dimensions(), (360, 180 + SCALE_H as u32));
+        assert_eq!(
+            img.dimensions(),
+            (360, 180 + super::super::legend::LEGEND_H as u32)
+        );
         let far = (255.0f64 * 0.15).round() as u8;
         assert_eq!(img.get_pixel(0, 0).0, [255; 3]);
         assert_eq!(img.get_pixel(179, 179).0, [255; 3]);
@@ -1287,9 +1183,6 @@ mod tests {
             .filter(|&(x, y)| img.get_pixel(x, y).0[0] < 128)
             .count();
         assert!(text > 100, "labels: {text} dark pixels");
-        assert_eq!(four_digits(0.61234), "0.6123");
-        assert_eq!(four_digits(12.346), "12.35");
-        assert_eq!(four_digits(12346.0), "1.235e4");
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
