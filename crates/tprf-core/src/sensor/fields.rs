@@ -661,6 +661,20 @@ impl Returns {
             )
             .range(1.0, MAX_RETURNS as f64)
             .help("multi-echo: returns kept per pixel, earliest first"),
+            Field::new("cfar_factor", "CFAR factor", Number, self.cfar_factor)
+                .range(0.0, 1e6)
+                .help(
+                    "0: off. Else a gate counts only at this many times its local \
+                     background (the greater of the means of the gates before and after \
+                     it): a fog's falling backscatter is not a return, a target out of it \
+                     is. With it, lower the threshold (0.005) for targets behind fog",
+                ),
+            Field::new("cfar_guard", "CFAR guard", Count, self.cfar_guard as f64)
+                .range(1.0, 64.0)
+                .help("gates each side left out of the background: about a return's half width"),
+            Field::new("cfar_train", "CFAR train", Count, self.cfar_train as f64)
+                .range(1.0, 256.0)
+                .help("gates each side averaged into the background"),
         ]
     }
 
@@ -673,6 +687,9 @@ impl Returns {
             "max_returns" => {
                 self.max_returns = value.round().clamp(1.0, MAX_RETURNS as f64) as usize
             }
+            "cfar_factor" => self.cfar_factor = value,
+            "cfar_guard" => self.cfar_guard = value.round().clamp(1.0, 64.0) as usize,
+            "cfar_train" => self.cfar_train = value.round().clamp(1.0, 256.0) as usize,
             _ => return false,
         }
         true
