@@ -15,6 +15,7 @@ mod analytic;
 mod builtin_assets;
 mod film_store;
 mod gltf_load;
+mod gradients;
 mod invariance;
 mod left_out;
 mod lidar_returns;
