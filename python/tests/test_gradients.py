@@ -3,6 +3,7 @@
 reasons, the inverse example converging."""
 
 import re
+import warnings
 import subprocess
 import sys
 
@@ -90,3 +91,39 @@ def test_inverse_example_recovers_the_albedos(tmp_path):
     assert len(errors) == 2 and max(errors) < 2.0, run.stdout
     history = np.loadtxt(tmp_path / "history.csv", delimiter=",")
     assert history[-1, 1] < 0.3 * history[0, 1]
+
+
+def test_sensor_measure_vjp_against_the_measurement():
+    cube = tprf.render("builtin:cornell", width=8, height=8, spp=8, bins=64, dt="100ps",
+                       progress=False)
+    s = tprf.Sensor.preset("builtin:lidar")
+    s.exposure = "box:start=3ns,width=0.4ns,count=24"
+    s.light.fwhm_s = 1e-9
+    s.light.centre_s = 0.6e-9
+
+    def loss(sensor, w):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            m = sensor.measure(cube, noise_sigma=0, photons_per_energy=0)
+        return float(np.sum(w.astype(np.float64) * m.images))
+
+    rng = np.random.default_rng(5)
+    w = rng.uniform(0.1, 1.0, size=(24, 8, 8)).astype(np.float32)
+    grads, d_cube = s.measure_vjp(cube, w, ["light.centre_s", "light.fwhm_s", "light.energy"])
+    assert d_cube.shape == cube.data.shape
+    l = loss(s, w)
+    # The measurement is linear in the cube and in the energy.
+    assert np.sum(d_cube.astype(np.float64) * cube.data) == pytest.approx(l, rel=1e-5)
+    assert grads["light.energy"] == pytest.approx(l, rel=1e-6)
+    # Central differences of Sensor.measure (float32 images: a step of 10 ps).
+    for name, value in [("centre_s", 0.6e-9), ("fwhm_s", 1e-9)]:
+        step = 1e-11
+        setattr(s.light, name, value + step)
+        up = loss(s, w)
+        setattr(s.light, name, value - step)
+        down = loss(s, w)
+        setattr(s.light, name, value)
+        fd = (up - down) / (2 * step)
+        assert grads[f"light.{name}"] == pytest.approx(fd, rel=2e-3), name
+    with pytest.raises(ValueError, match="noise.sigma"):
+        s.measure_vjp(cube, w, ["noise.sigma"])

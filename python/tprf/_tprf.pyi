@@ -182,6 +182,10 @@ class Sensor:
         """AMCW only: seconds of ambient light per unit of emitted energy, or None."""
     @ambient_exposure_s.setter
     def ambient_exposure_s(self, value: Optional[Time]) -> None: ...
+    def measure_vjp(self, cube: Cube, weights: npt.NDArray[np.float32],
+                    fields: Sequence[str] = ()) -> Tuple[Dict[str, float], npt.NDArray[np.float32]]:
+        """The gradient of sum(weights * clean measurement) with respect to the light's and
+        gates' fields ("light.centre_s", "exposure.start_s", ...) and to the cube."""
     def measure(self, cube: Union[Cube, str, PathLike[str]], *, seed: Optional[int] = None,
                 ambient_scale: Optional[float] = None, ambient_exposure: Optional[Time] = None,
                 cycles: Optional[int] = None, noise_sigma: Optional[float] = None,

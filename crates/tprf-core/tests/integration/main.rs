@@ -21,5 +21,6 @@ mod left_out;
 mod lidar_returns;
 mod media;
 mod nlos_reconstruct;
+mod sensor_gradients;
 mod spad;
 mod window;
