@@ -70,7 +70,7 @@ impl Bsdf {
     /// with sampling detached: `(weight, d weight / d rho)` for the path, `f |cos| /
     /// pdf` with `f` and `df/drho` the target's (`d`: its [`Bsdf::d_base`]) and `pdf`
     /// the sampler's. For a delta lobe, the sampler's weight times the ratio of the
-    /// lobe's values ([`Bsdf::delta_value`]). `target` and `self` must be the same model
+    /// lobe's values (`delta_value`). `target` and `self` must be the same model
     /// (the sampler differs only in `rho`).
     pub fn detached_weights(
         &self,
