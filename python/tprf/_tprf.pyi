@@ -89,6 +89,24 @@ class Renderer:
     @property
     def request(self) -> dict[str, Any]: ...
 
+class Differentiable:
+    """A request differentiable with respect to named parameters; tprf.Differentiable
+    wraps it."""
+
+    def __init__(self, request_json: str, wrt: list[str]) -> None: ...
+    @property
+    def names(self) -> list[str]: ...
+    @property
+    def values(self) -> list[float]: ...
+    @property
+    def axis(self) -> tuple[float, float, int]: ...
+    @property
+    def shape(self) -> tuple[int, int, int]: ...
+    def forward(self, values: list[tuple[str, float]], seed: int,
+                progress: Optional[Progress] = None) -> Cube: ...
+    def backward(self, weights: Any, seed: int,
+                 progress: Optional[Progress] = None) -> list[float]: ...
+
 Time = Union[float, int, str]
 """Seconds, or text with a unit: "2ns", "150ps", "30cm" (of optical path, t = opl / c)."""
 
@@ -164,6 +182,10 @@ class Sensor:
         """AMCW only: seconds of ambient light per unit of emitted energy, or None."""
     @ambient_exposure_s.setter
     def ambient_exposure_s(self, value: Optional[Time]) -> None: ...
+    def measure_vjp(self, cube: Cube, weights: npt.NDArray[np.float32],
+                    fields: Sequence[str] = ()) -> Tuple[Dict[str, float], npt.NDArray[np.float32]]:
+        """The gradient of sum(weights * clean measurement) with respect to the light's and
+        gates' fields ("light.centre_s", "exposure.start_s", ...) and to the cube."""
     def measure(self, cube: Union[Cube, str, PathLike[str]], *, seed: Optional[int] = None,
                 ambient_scale: Optional[float] = None, ambient_exposure: Optional[Time] = None,
                 cycles: Optional[int] = None, noise_sigma: Optional[float] = None,

@@ -4,6 +4,7 @@
 //! here, in the core's own functions, with the GIL released.
 
 mod cube;
+mod differentiable;
 mod errors;
 mod nlos;
 mod render;
@@ -16,6 +17,7 @@ fn _tprf(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<cube::Cube>()?;
     m.add_function(wrap_pyfunction!(cube::load, m)?)?;
     m.add_class::<render::Renderer>()?;
+    m.add_class::<differentiable::Differentiable>()?;
     m.add_function(wrap_pyfunction!(render::render, m)?)?;
     m.add_function(wrap_pyfunction!(render::resolve_request, m)?)?;
     m.add_class::<nlos::NlosCapture>()?;

@@ -21,7 +21,8 @@ use crate::cube::Cube;
 use crate::errors::IntoPy;
 
 /// `tprf.json`'s `format` of a cube not written to files (`Cube.save` writes its own).
-const IN_MEMORY: &str = "tprf cube in memory, not saved: Cube.save writes tprf.npy or tprf.zarr";
+pub(crate) const IN_MEMORY: &str =
+    "tprf cube in memory, not saved: Cube.save writes tprf.npy or tprf.zarr";
 
 /// How often the waiting thread wakes to report progress and check for Ctrl-C.
 const POLL: Duration = Duration::from_millis(50);
@@ -70,19 +71,19 @@ pub fn resolve_request(request_json: &str) -> PyResult<(String, Vec<String>)> {
 }
 
 /// What the render thread tells the waiting one after each pass.
-struct Pass {
-    spp: u64,
-    passes: u64,
-    error_estimate: Option<f64>,
-    wall_s: f64,
+pub(crate) struct Pass {
+    pub spp: u64,
+    pub passes: u64,
+    pub error_estimate: Option<f64>,
+    pub wall_s: f64,
 }
 
 /// The render thread's observer: passes sent to the waiting thread; the render ends at
 /// the next pass once `cancel` is set (an interrupt) or `stop` says so.
-struct Reporter<F> {
-    tx: Sender<Pass>,
-    cancel: Arc<AtomicBool>,
-    stop: F,
+pub(crate) struct Reporter<F> {
+    pub tx: Sender<Pass>,
+    pub cancel: Arc<AtomicBool>,
+    pub stop: F,
 }
 
 impl<F: FnMut(&PassReport, &TprfFilm) -> bool + Send> Observer for Reporter<F> {
@@ -110,7 +111,7 @@ impl<F: FnMut(&PassReport, &TprfFilm) -> bool + Send> Observer for Reporter<F> {
 }
 
 /// Why [`wait`] returned without the render thread's result.
-enum Stopped<T> {
+pub(crate) enum Stopped<T> {
     /// Ctrl-C, another signal's exception, or the progress callback's: the thread runs
     /// on to the end of its pass, and is handed back.
     Interrupted(PyErr, JoinHandle<T>),
@@ -118,14 +119,14 @@ enum Stopped<T> {
     Failed(PyErr),
 }
 
-fn panicked() -> PyErr {
+pub(crate) fn panicked() -> PyErr {
     PyRuntimeError::new_err("the render thread panicked (a bug in tprf: please report it)")
 }
 
 /// Wait for the render thread `handle` with the GIL released, calling `progress(spp,
 /// passes, error_estimate, wall_s)` after each pass it reports on `rx`. Ctrl-C (or any
 /// pending signal's exception) sets `cancel` and is returned at once.
-fn wait<T: Send + 'static>(
+pub(crate) fn wait<T: Send + 'static>(
     py: Python<'_>,
     handle: JoinHandle<T>,
     rx: Receiver<Pass>,

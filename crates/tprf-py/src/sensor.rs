@@ -476,6 +476,46 @@ impl PySensor {
     /// or ``"1ms"``), ``cycles`` (SPAD laser cycles), ``noise_sigma``,
     /// ``photons_per_energy``; ``pixels``: (row, column) pairs whose traces
     /// ``Measurement.save`` writes as CSV (``--pixel``). The GIL is released meanwhile.
+    /// measure_vjp(cube, weights, fields=[]) -> (dict[str, float], ndarray)
+    ///
+    /// The gradient of ``L = sum(weights * M)``, ``M`` the clean measurement
+    /// ``sum_b TPRF[b] K_i[b]`` ``[N, H, W]`` (before ambient light and noise), with
+    /// respect to the sensor's ``fields`` (``"light.centre_s"``, ``"exposure.start_s"``,
+    /// ...: central differences of the exact kernels, docs/gradients.md) and to the cube
+    /// (``sum_i weights[i] K_i``, float32 ``[H, W, T]``: the weights of a
+    /// ``Differentiable.backward`` that fits a scene to a measurement).
+    #[pyo3(signature = (cube, weights, fields=Vec::new()))]
+    fn measure_vjp(
+        &self,
+        py: Python<'_>,
+        cube: &Bound<'_, Cube>,
+        weights: Bound<'_, numpy::PyArrayDyn<f32>>,
+        fields: Vec<String>,
+    ) -> PyResult<(Py<PyDict>, Py<PyAny>)> {
+        let cube = cube.get();
+        let meta = cube.meta();
+        let axis = tprf_core::film::TimeAxis::new(meta.t0_s, meta.dt_s, meta.bins).py_err()?;
+        let data = cube.data_array().bind(py).readonly();
+        let data = data.as_slice()?;
+        let weights = weights.readonly();
+        let w = weights.as_slice()?;
+        let (width, height) = (meta.width, meta.height);
+        let sensor = &self.sensor;
+        let vjp = py
+            .detach(|| {
+                tprf_core::sensor::gradient::measurement_vjp(
+                    sensor, axis, data, width, height, w, &fields,
+                )
+            })
+            .py_err()?;
+        let out = PyDict::new(py);
+        for (name, g) in fields.iter().zip(&vjp.fields) {
+            out.set_item(name, g)?;
+        }
+        let d_cube = PyArray1::from_vec(py, vjp.cube).reshape([height, width, axis.bins])?;
+        Ok((out.unbind(), d_cube.into_any().unbind()))
+    }
+
     #[pyo3(signature = (cube, *, seed=None, ambient_scale=None, ambient_exposure=None,
         cycles=None, noise_sigma=None, photons_per_energy=None, pixels=Vec::new()))]
     #[allow(

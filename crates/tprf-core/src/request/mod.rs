@@ -31,17 +31,20 @@
 
 mod camera;
 mod capture;
+mod differentiable;
 mod file_defaults;
 mod folder;
 mod keys;
 mod measure;
 mod memory;
+pub mod parameter;
 mod reconstruct;
 mod session;
 pub mod worker;
 
 pub use camera::apply_camera;
 pub use capture::{CaptureError, CaptureObserver, CaptureRequest, Quiet};
+pub use differentiable::{Differentiable, DifferentiableError, Forward};
 pub use file_defaults::FileNote;
 pub use folder::{
     Observer, Rendered, Written, cube_metadata, render, render_to_folder, write_folder,

@@ -43,6 +43,7 @@ pub mod ambient;
 pub mod derived;
 pub mod exposure;
 pub mod fields;
+pub mod gradient;
 pub mod kernel;
 pub mod light;
 pub mod measure;

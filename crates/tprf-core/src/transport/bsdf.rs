@@ -14,6 +14,7 @@
 //! surface.
 
 pub mod conductor;
+pub mod derivative;
 pub mod fresnel;
 pub mod microfacet;
 pub mod plastic;

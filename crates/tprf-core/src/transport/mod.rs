@@ -7,6 +7,7 @@ pub mod adaptive;
 pub mod ambient;
 pub mod bsdf;
 mod connect;
+pub mod derivative;
 mod integrator;
 pub mod lights;
 pub mod media;

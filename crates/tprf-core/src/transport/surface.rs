@@ -8,6 +8,8 @@ use std::sync::{Arc, OnceLock};
 
 use super::bsdf::{BandModel, Bsdf, BsdfParams};
 
+pub mod derivative;
+
 /// sRGB 8-bit code -> linear value.
 fn srgb_to_linear_lut() -> &'static [f32; 256] {
     static LUT: OnceLock<[f32; 256]> = OnceLock::new();

@@ -235,6 +235,41 @@ impl Plastic {
         }
     }
 
+    /// The plastic whose diffuse albedo is the derivative with respect to `rho` of
+    /// [`Plastic::new`]'s (`1 / (1 - F_dr) / eta^2`, or `1 / (1 - rho F_dr)^2 / eta^2`
+    /// when `nonlinear`) and whose coat reflects nothing (it does not depend on `rho`):
+    /// for [`super::derivative`].
+    pub(super) fn d_base(coat: &PlasticCoat, rho: f32) -> Plastic {
+        let rho = rho.max(0.0);
+        let inner = 1.0
+            - if coat.nonlinear {
+                rho * coat.internal_reflectance
+            } else {
+                coat.internal_reflectance
+            };
+        let d = if !(inner > 0.0) {
+            0.0
+        } else if coat.nonlinear {
+            1.0 / (inner * inner)
+        } else {
+            1.0 / inner
+        };
+        Plastic {
+            coat: *coat,
+            diffuse: d * coat.inv_eta * coat.inv_eta,
+            specular: 0.0,
+        }
+    }
+
+    /// A smooth coat's mirror value toward `wo`, `specular x F(cos_o)` (what its
+    /// sample weight divides by the coat's probability); 0 for a rough coat.
+    pub(super) fn mirror_value(&self, wo: Vec3) -> f32 {
+        match self.coat.rough {
+            None => self.specular * fresnel_dielectric(wo.z, self.coat.inv_eta),
+            Some(_) => 0.0,
+        }
+    }
+
     /// Whether a non-delta lobe is present (next-event estimation is useful).
     pub fn has_smooth_lobe(&self) -> bool {
         self.diffuse > 0.0 || self.coat.rough.is_some()
