@@ -83,7 +83,7 @@ def test_torch_autograd_matches_backward():
 
 
 def test_inverse_example_recovers_the_albedos(tmp_path):
-    run = subprocess.run([sys.executable, str(REPO / "examples" / "inverse_albedo.py"), "--out",
+    run = subprocess.run([sys.executable, str(REPO / "python" / "examples" / "inverse_albedo.py"), "--out",
                           str(tmp_path), "--size", "32", "--spp", "16", "--steps", "40"],
                          capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, run.stderr

@@ -6,7 +6,7 @@ Each step renders the cube at the current values (``forward``, its own seed) and
 gradient ``dL/dtheta = backward(2 (cube - target))`` with another seed, so that the
 product of the two noisy factors is unbiased. Adam steps on the parameters; the estimate is the mean of the last 10 iterates.
 
-    python examples/inverse_albedo.py --out out/inverse --size 32 --spp 16 --steps 40
+    python python/examples/inverse_albedo.py --out out/inverse --size 32 --spp 16 --steps 40
 """
 
 import argparse
