@@ -18,6 +18,7 @@ mod gltf_load;
 mod invariance;
 mod left_out;
 mod lidar_returns;
+mod luminescence;
 mod media;
 mod nlos_reconstruct;
 mod spad;
