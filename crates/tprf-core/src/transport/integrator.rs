@@ -5,7 +5,7 @@
 use super::bsdf::{Bsdf, Frame, LobeKind};
 use super::connect::{EyeVertex, LazyLightVertex, connected_weight};
 use super::lights::Lights;
-use super::luminescence::{self, Choice, DelaySampling, Splat};
+use super::luminescence::{self, Choice, Decay, DelaySampling};
 use super::media::Media;
 use super::sampler::{Sampler, dim};
 use super::split::Strategy;
@@ -81,6 +81,50 @@ impl<S: Sink> Sink for FromBounce<'_, S> {
     #[inline(always)]
     fn time_axis(&self) -> Option<TimeAxis> {
         self.inner.time_axis()
+    }
+}
+
+/// `inner` with every contribution spread over the later bins by `decay`
+/// ([`Decay::splat`]: [`DelaySampling::Splat`]); where `inner` has no time axis, delayed by `fallback_delay_s`
+/// and weighted by `fallback_weight` (a delay drawn for the window) instead.
+struct Splat<'a, S> {
+    inner: &'a mut S,
+    decay: &'a Decay,
+    fallback_delay_s: f64,
+    fallback_weight: f64,
+}
+
+impl<S: Sink> Sink for Splat<'_, S> {
+    fn add(&mut self, arrival_s: f64, value: f64, scatterings: u32) {
+        match self.inner.time_axis() {
+            Some(axis) => {
+                let inner = &mut *self.inner;
+                self.decay.splat(&axis, arrival_s, value, |t, v| {
+                    inner.add(t, v, scatterings);
+                });
+            }
+            None => self.inner.add(
+                arrival_s + self.fallback_delay_s,
+                value * self.fallback_weight,
+                scatterings,
+            ),
+        }
+    }
+    fn window_end_s(&self) -> f64 {
+        self.inner.window_end_s()
+    }
+    // Light arriving before the window may be re-emitted into it.
+    fn window_start_s(&self) -> f64 {
+        f64::NEG_INFINITY
+    }
+    fn left_out(&mut self, why: LeftOut) {
+        self.inner.left_out(why);
+    }
+    fn ray(&mut self, origin: Vec3, dir: Vec3, t_max_m: f32, kind: RayKind) {
+        self.inner.ray(origin, dir, t_max_m, kind);
+    }
+    fn time_axis(&self) -> Option<TimeAxis> {
+        None
     }
 }
 
@@ -708,7 +752,16 @@ impl Renderer {
                 && let Some(lum) = self.surfaces.luminescence(hit.triangle, sp.front)
             {
                 let rest_s = luminescence::nearest_light_s(lights, sp.position);
-                match luminescence::choose(lum, path.opl_m, rest_s, path.scatterings, rng, sink) {
+                let (start_s, end_s) = (sink.window_start_s(), sink.window_end_s());
+                match luminescence::choose(
+                    lum,
+                    path.opl_m,
+                    rest_s,
+                    path.scatterings,
+                    rng,
+                    start_s,
+                    end_s,
+                ) {
                     Choice::Reflect { weight } => path.throughput *= weight,
                     Choice::Reemit {
                         bsdf,

@@ -31,10 +31,9 @@
 //! path going on; docs/luminescence.md measures the two.
 
 use super::bsdf::{Bsdf, BsdfParams};
-use super::integrator::{RayKind, Sink};
 use super::lights::Lights;
 use super::sampler::Sampler;
-use crate::film::{LeftOut, TimeAxis};
+use crate::film::TimeAxis;
 use crate::scene::{Channel, Luminescence, Material};
 use crate::units::C_M_PER_S;
 use glam::Vec3;
@@ -476,7 +475,8 @@ pub(super) fn nearest_light_s(lights: &Lights, p: Vec3) -> f64 {
 }
 
 /// Choose reflection or re-emission at a vertex of material `lum` met after
-/// `scatterings` events at optical length `opl_m`, the window being `sink`'s; a
+/// `scatterings` events at optical length `opl_m`, the window being
+/// `[window_start_s, window_end_s]` (the sink's); a
 /// re-emission's delay is drawn by [`Decay::sample_for_window`], the window's reach being
 /// the delays that land the light in the window by the shortest way on,
 /// `min_rest_s` ([`nearest_light_s`]): none after it can arrive in time, the ones before
@@ -488,7 +488,8 @@ pub(super) fn choose<'a>(
     min_rest_s: f64,
     scatterings: u32,
     rng: &Sampler,
-    sink: &impl Sink,
+    window_start_s: f64,
+    window_end_s: f64,
 ) -> Choice<'a> {
     let p = lum.reemit_p;
     if p < 1.0 && draw(rng, scatterings, 0) >= p as f64 {
@@ -497,8 +498,8 @@ pub(super) fn choose<'a>(
         };
     }
     let now_s = opl_m / C_M_PER_S + min_rest_s;
-    let lo = sink.window_start_s() - now_s;
-    let hi = sink.window_end_s() - now_s;
+    let lo = window_start_s - now_s;
+    let hi = window_end_s - now_s;
     if !(hi > 0.0) {
         return Choice::Late;
     }
@@ -515,50 +516,6 @@ pub(super) fn choose<'a>(
         delay_weight: w,
         delay_opl_m: delay_s * C_M_PER_S,
         decay: &lum.decay,
-    }
-}
-
-/// `inner` with every contribution spread over the later bins by `decay`
-/// ([`Decay::splat`]); where `inner` has no time axis, delayed by `fallback_delay_s`
-/// and weighted by `fallback_weight` (a draw of the mixture) instead.
-pub(super) struct Splat<'a, S> {
-    pub inner: &'a mut S,
-    pub decay: &'a Decay,
-    pub fallback_delay_s: f64,
-    pub fallback_weight: f64,
-}
-
-impl<S: Sink> Sink for Splat<'_, S> {
-    fn add(&mut self, arrival_s: f64, value: f64, scatterings: u32) {
-        match self.inner.time_axis() {
-            Some(axis) => {
-                let inner = &mut *self.inner;
-                self.decay.splat(&axis, arrival_s, value, |t, v| {
-                    inner.add(t, v, scatterings);
-                });
-            }
-            None => self.inner.add(
-                arrival_s + self.fallback_delay_s,
-                value * self.fallback_weight,
-                scatterings,
-            ),
-        }
-    }
-    fn window_end_s(&self) -> f64 {
-        self.inner.window_end_s()
-    }
-    // Light arriving before the window may be re-emitted into it.
-    fn window_start_s(&self) -> f64 {
-        f64::NEG_INFINITY
-    }
-    fn left_out(&mut self, why: LeftOut) {
-        self.inner.left_out(why);
-    }
-    fn ray(&mut self, origin: Vec3, dir: Vec3, t_max_m: f32, kind: RayKind) {
-        self.inner.ray(origin, dir, t_max_m, kind);
-    }
-    fn time_axis(&self) -> Option<TimeAxis> {
-        None
     }
 }
 

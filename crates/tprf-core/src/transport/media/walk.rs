@@ -237,7 +237,16 @@ impl Renderer {
                 && let Some(lum) = self.surfaces().luminescence(hit.triangle, sp.front)
             {
                 let rest_s = luminescence::nearest_light_s(lights, sp.position);
-                match luminescence::choose(lum, path.opl_m, rest_s, path.scatterings, rng, sink) {
+                let (start_s, end_s) = (sink.window_start_s(), sink.window_end_s());
+                match luminescence::choose(
+                    lum,
+                    path.opl_m,
+                    rest_s,
+                    path.scatterings,
+                    rng,
+                    start_s,
+                    end_s,
+                ) {
                     Choice::Reflect { weight } => path.throughput *= weight,
                     Choice::Reemit {
                         bsdf,
