@@ -85,3 +85,8 @@ fn spad_at_1e9_cycles_and_saturation_stays_exact() {
 fn extreme_media_match_single_scattering_and_the_white_furnace_decay() {
     all_pass(tprf_core::report::stability::extreme_media(Size::Test));
 }
+
+#[test]
+fn a_1_ms_phosphor_on_10_ps_bins_matches_its_closed_form() {
+    all_pass(tprf_core::report::stability::stiff_luminescence(Size::Test));
+}

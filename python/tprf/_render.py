@@ -106,7 +106,7 @@ def render(scene: Union[str, PathLike], *, width: Optional[int] = None,
            seed: int = 0, uniform: bool = False, max_bounces: Optional[int] = None,
            bounces_separate: int = 0, threads: Optional[int] = None,
            progress: bool = True, **options: Any) -> Cube:
-    """Render ``scene`` (``"builtin:cornell"``, a ``.gltf``/``.glb`` path) into a
+    """Render ``scene`` (``"builtin:cornell"``, ``"builtin:flim"``..., a ``.gltf``/``.glb`` path) into a
     transient cube in memory: the same passes, numbers and metadata as ``tprf render``
     with the same settings and seed (``tprf.npy`` bit for bit).
 

@@ -224,6 +224,9 @@ class Measurement:
     def multipath_error(self) -> Optional[npt.NDArray[np.float32]]:
         """amcw_depth - true_depth wrapped into [-c/4f, c/4f), metres, [H, W], or None."""
     @property
+    def flim_lifetime(self) -> Optional[npt.NDArray[np.float32]]:
+        """FLIM's two-gate lifetime dt / ln(M1 / M2) [H, W], seconds, or None."""
+    @property
     def spad_histogram(self) -> Optional[npt.NDArray[np.float32]]:
         """Expected SPAD counts over all cycles, [B, H, W], or None."""
     @property

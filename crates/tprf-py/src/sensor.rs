@@ -632,6 +632,9 @@ impl PySensor {
         if s.derived.amcw_depth {
             derived.push("AMCW depth");
         }
+        if s.derived.flim_lifetime {
+            derived.push("FLIM lifetime");
+        }
         if !derived.is_empty() {
             text.push_str(&format!("\n  derived: {}", derived.join(", ")));
         }
@@ -1033,6 +1036,18 @@ impl Measurement {
             .amcw
             .as_ref()
             .map(|a| view(slf, &a.depth_m, &m.image_shape()))
+            .transpose()
+    }
+
+    /// FLIM's two-gate lifetime ``tau = dt / ln(M1 / M2)``, float32 ``[H, W]``, seconds
+    /// (``flim_lifetime.npy``; NaN where the first gate is not brighter), or None.
+    #[getter]
+    fn flim_lifetime<'py>(slf: &Bound<'py, Self>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let m = slf.get();
+        m.gates
+            .flim_lifetime_s
+            .as_ref()
+            .map(|t| view(slf, t, &m.image_shape()))
             .transpose()
     }
 

@@ -95,7 +95,7 @@ impl TprfApp {
 }
 
 /// The built-in scenes the menu offers, each with what it shows.
-const BUILTINS: [(&str, &str); 5] = [
+const BUILTINS: [(&str, &str); 6] = [
     (
         "cornell",
         "the Cornell box, lit by a point light under its ceiling: light in flight, \
@@ -118,6 +118,11 @@ const BUILTINS: [(&str, &str); 5] = [
     (
         "fog",
         "a road in 50 m fog: a pedestrian, two cars and a sign at 22-78 m",
+    ),
+    (
+        "flim",
+        "fluorescence lifetimes: two dye spots of one colour, 1 ns and 4 ns, told apart \
+         only by their decay after the laser pulse",
     ),
 ];
 

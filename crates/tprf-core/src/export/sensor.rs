@@ -590,6 +590,8 @@ pub struct SensorOutputs {
 /// - with AMCW gates: `amcw_phase.npy`, `amcw_amplitude.npy`, `amcw_depth.npy`,
 ///   `true_depth.npy`, `multipath_error.npy` (`[H, W]` each), `amcw_depth.png` and
 ///   `multipath_error.png`;
+/// - with a FLIM lifetime output: `flim_lifetime.npy` (`[H, W]`, seconds, NaN where
+///   the first gate is not brighter than the second);
 /// - per requested pixel `Y,X`: `pixel_Y_X.csv` and `pixel_Y_X_gates.csv`;
 /// - `sensor.json`: the model, the cube's window, the gates and their kernels, the
 ///   derived outputs, the file list and the timings.
@@ -711,6 +713,26 @@ pub fn write_sensor_outputs(out: &Path, run: &SensorRun) -> Result<SensorOutputs
                 "multipath_error": "amcw_depth - true_depth wrapped into [-ambiguity/2, ambiguity/2), metres",
                 "multipath_error_median_abs_m": median,
                 "multipath_error_p95_abs_m": p95,
+            }),
+        );
+    }
+
+    if let Some(tau) = &gates.flim_lifetime_s {
+        write_npy_f32(&out.join("flim_lifetime.npy"), &[h as u64, w as u64], tau)?;
+        files.push("flim_lifetime.npy".into());
+        let finite: Vec<f64> = tau
+            .iter()
+            .filter(|t| t.is_finite())
+            .map(|&t| f64::from(t))
+            .collect();
+        derived_json.insert(
+            "flim".into(),
+            serde_json::json!({
+                "lifetime": "tau = dt / ln(M_1 / M_2) from gates 0 and 1 (box gates of \
+                             equal width, starts dt apart), seconds; NaN where M_1 <= M_2",
+                "gate_spacing_s": crate::sensor::derived::flim_gate_spacing_s(model.gates()),
+                "pixels_with_lifetime": finite.len(),
+                "median_s": quantile(finite.iter().copied(), 0.5),
             }),
         );
     }

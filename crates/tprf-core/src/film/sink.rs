@@ -208,6 +208,12 @@ impl<'a> PixelSink<'a> {
         }
     }
 
+    /// The time axis contributions are binned on.
+    #[inline]
+    pub fn axis(&self) -> TimeAxis {
+        self.axis
+    }
+
     /// End of the time window, seconds: a path already later than this cannot contribute.
     #[inline]
     pub fn window_end_s(&self) -> f64 {

@@ -1,6 +1,6 @@
 //! Exact answers the renderer is measured against, derived independently of it: the
 //! transient furnace ([`furnace`]), a plane lit by a point light on the camera's axis
-//! ([`plane`]) and the paper's 1-D world built as a 3-D scene of mirrors ([`oned_scene`]).
+//! ([`plane`]; made luminescent: [`luminescent_plane`]) and the paper's 1-D world built as a 3-D scene of mirrors ([`oned_scene`]).
 //!
 //! Each reference builds its own scene and, for any film shape, the expected cube: per
 //! pixel, per time bin, the integral over the bin of the pixel's radiance (DESIGN.md).
@@ -12,6 +12,7 @@
 //! `analytic:oned?world=assets/oned/figure4.json` (see [`Analytic::parse`]).
 
 pub mod furnace;
+pub mod luminescent_plane;
 pub mod oned_scene;
 pub mod plane;
 mod quadrature;

@@ -306,7 +306,7 @@ impl Plane {
     }
 
     /// The `q` with `arrival_s(q) = t_s` (bisection; `arrival_s` increases with q).
-    fn q_of_arrival(&self, t_s: f64, q_max: f64) -> f64 {
+    pub(super) fn q_of_arrival(&self, t_s: f64, q_max: f64) -> f64 {
         let (mut lo, mut hi) = (0.0, q_max);
         for _ in 0..200 {
             let mid = 0.5 * (lo + hi);
@@ -337,7 +337,7 @@ impl Plane {
         }
     }
 
-    fn pixel_rect(&self, x: usize, y: usize, w: usize, h: usize) -> Rect {
+    pub(super) fn pixel_rect(&self, x: usize, y: usize, w: usize, h: usize) -> Rect {
         self.footprint(x as f64, x as f64 + 1.0, y as f64, y as f64 + 1.0, w, h)
     }
 

@@ -697,6 +697,7 @@ impl RenderRequest {
             adaptive: !self.uniform,
             time_origin: self.time_origin,
             pulse_origin: self.pulse_origin,
+            luminescence_delay: Default::default(),
         }
     }
 

@@ -18,6 +18,8 @@
 //!   the setup from the side, so a camera render shows it.
 //! - `fog`: a road in fog seen by a car's LiDAR: a pedestrian, two cars and a sign at
 //!   22-78 m, a pulsed laser beside the camera, fog of visibility 50 m ([`fog`]).
+//! - `flim`: fluorescence-lifetime imaging: two dye spots of the same colour and
+//!   lifetimes 1 ns and 4 ns on a slide under a pulsed laser ([`flim`]).
 //!
 //! World space is glTF's: metres, +Y up; the scenes are deterministic (a fixed-seed
 //! PRNG), so a render of them is reproducible. Triangles are stored grouped by material,
@@ -30,8 +32,9 @@ use super::{
 use glam::{Affine3A, Vec2, Vec3, Vec3A};
 
 /// Names accepted after `builtin:`.
-pub const NAMES: &[&str] = &["cornell", "canopy", "nlos-z", "nlos-shapes", "fog"];
+pub const NAMES: &[&str] = &["cornell", "canopy", "nlos-z", "nlos-shapes", "fog", "flim"];
 
+pub mod flim;
 pub mod fog;
 
 /// Build a built-in scene.
@@ -42,6 +45,7 @@ pub fn load(name: &str) -> Result<Scene, SceneError> {
         "nlos-z" => nlos_z(),
         "nlos-shapes" => nlos_shapes(),
         "fog" => fog::fog(),
+        "flim" => flim::flim(),
         _ => return Err(SceneError::UnknownBuiltin(name.to_string())),
     };
     scene.validate()?;

@@ -9,12 +9,14 @@ pub mod camera;
 pub mod density;
 pub mod gltf_load;
 pub mod gltf_save;
+pub mod luminescence;
 pub mod medium;
 pub mod mitsuba;
 pub mod time_origin;
 
 pub use camera::{Camera, FovAxis};
 pub use density::DensityGrid;
+pub use luminescence::{DecayComponent, Luminescence};
 pub use medium::Medium;
 pub use time_origin::{PulseOrigin, TimeOrigin, UnknownOrigin};
 
@@ -125,6 +127,9 @@ pub struct Material {
     /// default), or one of Mitsuba's models exactly (the fields above then hold the
     /// nearest metallic-roughness material, which a glTF export writes).
     pub model: SurfaceModel,
+    /// Light the surface stores and re-emits later (fluorescence, phosphorescence):
+    /// [`Luminescence`]. `None`: every reflection is immediate.
+    pub luminescence: Option<Luminescence>,
 }
 
 /// The scattering model of a [`Material`].
@@ -194,6 +199,7 @@ impl Default for Material {
             one_sided: false,
             medium: None,
             model: SurfaceModel::MetallicRoughness,
+            luminescence: None,
         }
     }
 }
@@ -688,6 +694,10 @@ impl Scene {
                     "material '{}': base colour {:?} is negative or not finite",
                     m.name, m.base_color
                 )));
+            }
+            if let Some(l) = &m.luminescence {
+                let base = [m.base_color[0], m.base_color[1], m.base_color[2]];
+                l.check(&m.name, base).map_err(SceneError::Invalid)?;
             }
             if let Some(f) = &m.emission_falloff {
                 f.check().map_err(|e| {

@@ -10,6 +10,13 @@
 //!   at `tau = 0`, so a light's own delay cancels), depth `c theta / (4 pi f)`, unique
 //!   up to the ambiguity range `c / (2 f)`.
 //!
+//! - **FLIM lifetime** (fluorescence-lifetime imaging's rapid lifetime determination):
+//!   per pixel, from two box gates of equal width whose starts are `dt` apart, the
+//!   lifetime of a single-exponential decay `tau = dt / ln(M_1 / M_2)`
+//!   ([`flim_lifetime_s`]). Exact for a decay `e^{-t/tau}` that starts before both gates
+//!   (each gate then holds `tau e^{-t_i/tau} (1 - e^{-w/tau})`); a mixture of lifetimes
+//!   gives an average between them.
+//!
 //! "Depth" is half the optical path of the return, `c tau / 2`, measured from the
 //! light's mean emission time: the distance to the surface along the pixel's ray when
 //! the light sits beside the camera (LiDAR and ToF cameras), half the light -> surface
@@ -35,6 +42,9 @@ pub struct Derived {
     pub returns: Option<Returns>,
     /// AMCW phase, amplitude and depth per pixel (needs an `amcw` exposure).
     pub amcw_depth: bool,
+    /// FLIM's two-gate lifetime per pixel, `tau = dt / ln(M_1 / M_2)` from the first two
+    /// gates (box gates of equal width, the second starting `dt` after the first).
+    pub flim_lifetime: bool,
 }
 
 /// How the returns of a waveform are found ([`find_returns`]).
@@ -133,6 +143,13 @@ impl Derived {
                 }
             }
         }
+        if self.flim_lifetime && flim_gate_spacing_s(gates).is_none() {
+            return Err(SensorError::Invalid(
+                "derived.flim_lifetime needs its first two gates to be box gates of equal \
+                 width, the second starting after the first"
+                    .into(),
+            ));
+        }
         if self.amcw_depth {
             match exposure {
                 Exposure::Amcw { phase_steps, .. } if *phase_steps >= 3 => {}
@@ -147,6 +164,48 @@ impl Derived {
         }
         Ok(())
     }
+}
+
+/// The spacing `dt` (seconds) of the two gates FLIM's lifetime is taken from: the
+/// starts of gates 0 and 1 when both are box gates of equal width (to 1e-9 of it) and
+/// the second starts later; else `None`.
+pub fn flim_gate_spacing_s(gates: &[Gate]) -> Option<f64> {
+    let (
+        Some(Gate::Box {
+            start_s: a0,
+            end_s: a1,
+            ..
+        }),
+        Some(Gate::Box {
+            start_s: b0,
+            end_s: b1,
+            ..
+        }),
+    ) = (gates.first(), gates.get(1))
+    else {
+        return None;
+    };
+    let (wa, wb) = (a1 - a0, b1 - b0);
+    let same = (wa - wb).abs() <= 1e-9 * wa.abs().max(wb.abs());
+    (same && wa > 0.0 && b0 > a0).then_some(b0 - a0)
+}
+
+/// FLIM's rapid lifetime determination per pixel: `tau = dt / ln(M_1 / M_2)`, seconds,
+/// from gates 0 and 1 of `m` (`dt` their spacing, [`flim_gate_spacing_s`]); NaN where
+/// `M_1 <= M_2` or `M_2 <= 0` (no decay to measure). `[H, W]`.
+pub fn flim_lifetime_s(m: &Measurements, dt_s: f64) -> Vec<f32> {
+    let pixels = m.width * m.height;
+    (0..pixels)
+        .map(|px| {
+            let m1 = m.values.get(px).map_or(0.0, |&v| f64::from(v));
+            let m2 = m.values.get(pixels + px).map_or(0.0, |&v| f64::from(v));
+            if m2 > 0.0 && m1 > m2 {
+                (dt_s / (m1 / m2).ln()) as f32
+            } else {
+                f32::NAN
+            }
+        })
+        .collect()
 }
 
 /// Depth (m) of a round-trip time (s): `c t / 2`.
@@ -528,6 +587,46 @@ pub fn wrapped_difference(a: f64, b: f64, period: f64) -> f64 {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn flim_lifetime_is_rapid_lifetime_determination() {
+        // Gates [2, 4) and [4, 6) ns on e^{-t/tau}: M_i = tau e^{-t_i/tau} (1 - e^{-2/tau})
+        // by hand, for tau 1 ns and 4 ns; a pixel whose second gate is not darker has none.
+        let gate = |a: f64| Gate::Box {
+            start_s: a * 1e-9,
+            end_s: (a + 2.0) * 1e-9,
+            gain: 1.0,
+        };
+        let gates = [gate(2.0), gate(4.0)];
+        assert_eq!(flim_gate_spacing_s(&gates), Some(2e-9));
+        let m_of = |tau: f64, t: f64| (tau * (-t / tau).exp() * (1.0 - (-2.0 / tau).exp())) as f32;
+        let m = Measurements {
+            gates: 2,
+            height: 1,
+            width: 3,
+            values: vec![
+                m_of(1.0, 2.0),
+                m_of(4.0, 2.0),
+                1.0,
+                m_of(1.0, 4.0),
+                m_of(4.0, 4.0),
+                1.0,
+            ],
+        };
+        let tau = flim_lifetime_s(&m, 2e-9);
+        assert!((f64::from(tau[0]) / 1e-9 - 1.0).abs() < 1e-5, "{}", tau[0]);
+        assert!((f64::from(tau[1]) / 4e-9 - 1.0).abs() < 1e-5, "{}", tau[1]);
+        assert!(tau[2].is_nan());
+        // Unequal widths, other kinds or a second gate not after the first: refused.
+        let wide = Gate::Box {
+            start_s: 4e-9,
+            end_s: 7e-9,
+            gain: 1.0,
+        };
+        assert_eq!(flim_gate_spacing_s(&[gate(2.0), wide]), None);
+        assert_eq!(flim_gate_spacing_s(&[gate(4.0), gate(2.0)]), None);
+        assert_eq!(flim_gate_spacing_s(&[gate(2.0)]), None);
+    }
     use super::*;
 
     /// The time of the first return of a waveform, seconds.

@@ -332,6 +332,16 @@ impl SensorModel {
         self.sensor.derived.amcw_depth && matches!(self.sensor.exposure, Exposure::Amcw { .. })
     }
 
+    /// FLIM's two-gate lifetime image `[H, W]` (seconds, [`derived::flim_lifetime_s`])
+    /// when the sensor asks for it and its first two gates allow it.
+    pub fn flim_lifetime(&self, m: &Measurements) -> Option<Vec<f32>> {
+        if !self.sensor.derived.flim_lifetime {
+            return None;
+        }
+        let dt_s = derived::flim_gate_spacing_s(&self.gates)?;
+        Some(derived::flim_lifetime_s(m, dt_s))
+    }
+
     /// AMCW phase, amplitude and depth when the sensor asks for them.
     pub fn amcw(&self, m: &Measurements) -> Option<AmcwImage> {
         if !self.wants_amcw() {

@@ -59,6 +59,8 @@ pub struct Gates {
     pub returns: Option<ReturnImages>,
     /// AMCW phase, amplitude and depth, when the sensor has AMCW gates.
     pub amcw: Option<AmcwImage>,
+    /// FLIM's two-gate lifetime `[H, W]`, seconds, when the sensor asks for it.
+    pub flim_lifetime_s: Option<Vec<f32>>,
 }
 
 impl Pipeline<'_> {
@@ -118,11 +120,13 @@ impl Pipeline<'_> {
         }
         let returns = model.returns(&m);
         let amcw = model.amcw(&m);
+        let flim_lifetime_s = model.flim_lifetime(&m);
         Ok(Gates {
             m,
             ambient,
             returns,
             amcw,
+            flim_lifetime_s,
         })
     }
 }

@@ -43,6 +43,7 @@ pub const BUILTIN_PRESETS: &[(&str, &str)] = &[
     ),
     ("amcw", include_str!("../../../../assets/sensors/amcw.toml")),
     ("spad", include_str!("../../../../assets/sensors/spad.toml")),
+    ("flim", include_str!("../../../../assets/sensors/flim.toml")),
 ];
 
 /// A whole TPRF sensor: light, gates, noise, derived outputs. It is plain data

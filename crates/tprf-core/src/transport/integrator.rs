@@ -5,6 +5,7 @@
 use super::bsdf::{Bsdf, Frame, LobeKind};
 use super::connect::{EyeVertex, LazyLightVertex, connected_weight};
 use super::lights::Lights;
+use super::luminescence::{self, Choice, Decay, DelaySampling};
 use super::media::Media;
 use super::sampler::{Sampler, dim};
 use super::split::Strategy;
@@ -38,6 +39,13 @@ pub trait Sink {
     /// engine benchmark records the rays to replay them against the BVH alone.
     #[inline(always)]
     fn ray(&mut self, _origin: Vec3, _dir: Vec3, _t_max_m: f32, _kind: RayKind) {}
+    /// The bins contributions land in, when the sink is a film's: lets a luminescent
+    /// vertex deposit its decay's integral per bin ([`super::DelaySampling::Splat`]).
+    /// `None` by default.
+    #[inline(always)]
+    fn time_axis(&self) -> Option<TimeAxis> {
+        None
+    }
 }
 
 /// `inner` with the contributions of fewer than `min` scattering events left out
@@ -70,6 +78,54 @@ impl<S: Sink> Sink for FromBounce<'_, S> {
     fn ray(&mut self, origin: Vec3, dir: Vec3, t_max_m: f32, kind: RayKind) {
         self.inner.ray(origin, dir, t_max_m, kind);
     }
+    #[inline(always)]
+    fn time_axis(&self) -> Option<TimeAxis> {
+        self.inner.time_axis()
+    }
+}
+
+/// `inner` with every contribution spread over the later bins by `decay`
+/// ([`Decay::splat`]: [`DelaySampling::Splat`]); where `inner` has no time axis, delayed by `fallback_delay_s`
+/// and weighted by `fallback_weight` (a delay drawn for the window) instead.
+struct Splat<'a, S> {
+    inner: &'a mut S,
+    decay: &'a Decay,
+    fallback_delay_s: f64,
+    fallback_weight: f64,
+}
+
+impl<S: Sink> Sink for Splat<'_, S> {
+    fn add(&mut self, arrival_s: f64, value: f64, scatterings: u32) {
+        match self.inner.time_axis() {
+            Some(axis) => {
+                let inner = &mut *self.inner;
+                self.decay.splat(&axis, arrival_s, value, |t, v| {
+                    inner.add(t, v, scatterings);
+                });
+            }
+            None => self.inner.add(
+                arrival_s + self.fallback_delay_s,
+                value * self.fallback_weight,
+                scatterings,
+            ),
+        }
+    }
+    fn window_end_s(&self) -> f64 {
+        self.inner.window_end_s()
+    }
+    // Light arriving before the window may be re-emitted into it.
+    fn window_start_s(&self) -> f64 {
+        f64::NEG_INFINITY
+    }
+    fn left_out(&mut self, why: LeftOut) {
+        self.inner.left_out(why);
+    }
+    fn ray(&mut self, origin: Vec3, dir: Vec3, t_max_m: f32, kind: RayKind) {
+        self.inner.ray(origin, dir, t_max_m, kind);
+    }
+    fn time_axis(&self) -> Option<TimeAxis> {
+        None
+    }
 }
 
 /// What a traced ray is for.
@@ -97,6 +153,10 @@ impl Sink for PixelSink<'_> {
     #[inline]
     fn left_out(&mut self, why: LeftOut) {
         PixelSink::left_out(self, why);
+    }
+    #[inline]
+    fn time_axis(&self) -> Option<TimeAxis> {
+        Some(self.axis())
     }
 }
 
@@ -146,6 +206,9 @@ pub struct RenderSettings {
     /// When the pulse starts: as it leaves the light, or at the first surface it lights
     /// (the leg from the light left out of every arrival time): see [`PulseOrigin`].
     pub pulse_origin: PulseOrigin,
+    /// How a luminescent vertex's delay reaches the film: its decay's integral deposited
+    /// per bin (the default) or drawn ([`DelaySampling`]).
+    pub luminescence_delay: DelaySampling,
 }
 
 impl Default for RenderSettings {
@@ -163,6 +226,7 @@ impl Default for RenderSettings {
             adaptive: true,
             time_origin: TimeOrigin::Pinhole,
             pulse_origin: PulseOrigin::Light,
+            luminescence_delay: DelaySampling::Splat,
         }
     }
 }
@@ -657,7 +721,7 @@ impl Renderer {
                 sink.left_out(LeftOut::PathPastWindow);
                 break; // already too late to arrive inside the window
             }
-            let sp = self.surfaces.at(&hit, origin, dir);
+            let mut sp = self.surfaces.at(&hit, origin, dir);
             // Virtual interface: the uncovered fraction passes straight through, undelayed.
             let u_cover = || match path.pass_throughs {
                 0 => rng.get1(slot(dim::COVERAGE)),
@@ -700,11 +764,91 @@ impl Renderer {
             if path.scatterings >= s.max_bounces {
                 break;
             }
+            // A luminescent surface reflects, or re-emits later ([`luminescence`]).
+            let mut splat = None;
+            if self.surfaces.any_luminescent()
+                && let Some(lum) = self.surfaces.luminescence(hit.triangle, sp.front)
+            {
+                let rest_s = luminescence::nearest_light_s(lights, sp.position);
+                let (start_s, end_s) = (sink.window_start_s(), sink.window_end_s());
+                match luminescence::choose(
+                    lum,
+                    path.opl_m,
+                    rest_s,
+                    path.scatterings,
+                    rng,
+                    start_s,
+                    end_s,
+                ) {
+                    Choice::Reflect { weight } => path.throughput *= weight,
+                    Choice::Reemit {
+                        bsdf,
+                        weight,
+                        delay_weight,
+                        delay_opl_m,
+                        decay,
+                    } => {
+                        sp.bsdf = *bsdf;
+                        path.throughput *= weight;
+                        // No light-vertex join finds a re-emission: its estimate here
+                        // takes the whole weight.
+                        path.connected_pdf = 0.0;
+                        match s.luminescence_delay {
+                            DelaySampling::Sampled => {
+                                path.throughput *= delay_weight as f32;
+                                path.opl_m += delay_opl_m;
+                            }
+                            DelaySampling::Splat => {
+                                splat = Some((decay, delay_weight, delay_opl_m))
+                            }
+                        }
+                    }
+                    Choice::Late => {
+                        sink.left_out(LeftOut::PathPastWindow);
+                        break;
+                    }
+                }
+            }
             let bsdf = sp.bsdf;
             let frame = Frame::new(sp.n_shading);
             let wo = frame.to_local(-dir);
             // Where shadow rays from this vertex start.
             let p_out = sp.position + sp.n_face * self.offset_m(sp.position);
+            if let Some((decay, delay_weight, delay_opl_m)) = splat {
+                // Its next-event estimates spread over the later bins, no joins; the
+                // path goes on with the drawn delay.
+                if s.nee && bsdf.has_smooth_lobe() {
+                    let mut spread = Splat {
+                        inner: &mut *sink,
+                        decay,
+                        fallback_delay_s: delay_opl_m / C_M_PER_S,
+                        fallback_weight: delay_weight,
+                    };
+                    rays += self.next_event::<AMBIENT>(
+                        lights,
+                        &bsdf,
+                        &frame,
+                        wo,
+                        sp.position,
+                        p_out,
+                        sp.n_face,
+                        path.opl_m,
+                        path.ior_here,
+                        path.throughput * path.share,
+                        path.scatterings,
+                        0.0,
+                        rng,
+                        &mut spread,
+                    );
+                }
+                path.throughput *= delay_weight as f32;
+                path.opl_m += delay_opl_m;
+                match self.scatter(&sp, &frame, wo, path, rng) {
+                    Some(next) => path = next,
+                    None => break,
+                }
+                continue;
+            }
             if s.nee && bsdf.has_smooth_lobe() {
                 // The density with which the last vertex's BSDF sample found this one,
                 // per unit area, when that vertex was also joined to the light vertex.

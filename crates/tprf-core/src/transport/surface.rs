@@ -7,6 +7,7 @@ use glam::{Vec2, Vec3};
 use std::sync::{Arc, OnceLock};
 
 use super::bsdf::{BandModel, Bsdf, BsdfParams};
+use super::luminescence::BandLuminescence;
 
 pub mod derivative;
 
@@ -137,6 +138,9 @@ pub struct Surfaces {
     /// The scene's materials in this band, then the default material (for triangles
     /// without a valid material).
     materials: Vec<BandMaterial>,
+    /// Per entry of `materials`, its luminescence in this band; empty when no material
+    /// is luminescent in it.
+    luminescence: Vec<Option<BandLuminescence>>,
 }
 
 impl BandMaterial {
@@ -210,12 +214,41 @@ impl Surfaces {
                 }
             })
             .collect();
+        let mut luminescence: Vec<Option<BandLuminescence>> = scene
+            .materials
+            .iter()
+            .map(|m| BandLuminescence::new(m, channel))
+            .collect();
+        if luminescence.iter().all(Option::is_none) {
+            luminescence.clear();
+        } else {
+            luminescence.push(None); // the default material
+        }
         Surfaces {
             scene,
             channel,
             triangles,
             materials,
+            luminescence,
         }
+    }
+
+    /// Whether any material is luminescent in this band.
+    #[inline(always)]
+    pub fn any_luminescent(&self) -> bool {
+        !self.luminescence.is_empty()
+    }
+
+    /// The luminescence of `triangle`'s material in this band, seen from the `front` or
+    /// the back (none from the back of a one-sided material, which absorbs).
+    #[inline]
+    pub fn luminescence(&self, triangle: u32, front: bool) -> Option<&BandLuminescence> {
+        let rec = self.record(triangle);
+        let i = (rec.material_and_flags & !HAS_VERTEX_NORMALS) as usize;
+        if !front && self.band_material(rec).one_sided {
+            return None;
+        }
+        self.luminescence.get(i)?.as_ref()
     }
 
     #[inline]

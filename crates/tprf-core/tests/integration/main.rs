@@ -19,6 +19,7 @@ mod gradients;
 mod invariance;
 mod left_out;
 mod lidar_returns;
+mod luminescence;
 mod media;
 mod nlos_reconstruct;
 mod sensor_gradients;

@@ -4,7 +4,8 @@
 //! from a wall, grazing light and view, coincident faces and degenerate triangles, and
 //! the sensor on hand-made TPRFs (pulses, gates, noise, huge values, a SPAD at 10^9
 //! cycles with saturating returns and ambient), and extreme participating media (an
-//! optical depth of 1e4, an albedo of 0.9999, fog at 1 mm and at 10 km).
+//! optical depth of 1e4, an albedo of 0.9999, fog at 1 mm and at 10 km), and a
+//! luminescent surface of lifetime 1 ms on 10 ps bins.
 //!
 //! Most rows compare with an answer derived independently of the renderer (a closed
 //! form, a quadrature, the renewal equation, an exact sum): [`Kind::Reference`]. The
@@ -22,6 +23,7 @@
 mod cases_bins;
 mod cases_furnace;
 mod cases_geometry;
+mod cases_luminescence;
 mod cases_media;
 mod cases_scales;
 mod cases_sensor;
@@ -31,6 +33,7 @@ mod verdict;
 pub use cases_bins::bins;
 pub use cases_furnace::stiff_furnace;
 pub use cases_geometry::{bad_faces, grazing, light_near_wall};
+pub use cases_luminescence::stiff_luminescence;
 pub use cases_media::extreme_media;
 pub use cases_scales::scales;
 pub use cases_sensor::{pulses_and_gates, sensor_extremes, spad_extremes};
@@ -53,6 +56,7 @@ pub fn cases() -> Vec<(&'static str, Case)> {
         ("sensor extremes", sensor_extremes),
         ("SPAD extremes", spad_extremes),
         ("extreme media", extreme_media),
+        ("stiff luminescence", stiff_luminescence),
     ]
 }
 

@@ -8,7 +8,9 @@ use super::decode::{Decoded, Encoded, Encoding, MAX_TEXTURE_SIDE, decode_texture
 use super::resource::open_image;
 use super::validate::{invalid, uri_label};
 use crate::scene::medium::volume_absorption_per_m;
-use crate::scene::{AlphaMode, AngularFalloff, Material, Medium, SceneError, TextureRef};
+use crate::scene::{
+    AlphaMode, AngularFalloff, Luminescence, Material, Medium, SceneError, TextureRef,
+};
 
 impl Builder<'_> {
     /// The scene material for a glTF material (converted on first use); the glTF default
@@ -49,6 +51,7 @@ impl Builder<'_> {
         let medium = self.medium_of(m)?;
         let emission_falloff = self.emission_falloff_of(m)?;
         let one_sided = self.one_sided_of(m)?;
+        let luminescence = self.luminescence_of(m)?;
         Ok(Material {
             name: name_or_index(m.name(), "materials", m.index().unwrap_or_default()),
             base_color: pbr.base_color_factor(),
@@ -77,7 +80,22 @@ impl Builder<'_> {
             one_sided,
             medium,
             model: crate::scene::SurfaceModel::MetallicRoughness,
+            luminescence,
         })
+    }
+
+    /// A material's luminescence, from its extras `{"tprf": {"luminescence": {...}}}`
+    /// ([`Luminescence::from_json`]; ranges checked with the scene).
+    fn luminescence_of(&mut self, m: &gltf::Material) -> Result<Option<Luminescence>, SceneError> {
+        let what = format!("materials[{}]", m.index().unwrap_or_default());
+        let extras = tprf_extras(m.extras(), self.file, &what)?;
+        let Some(v) = extras.as_ref().and_then(|t| t.get("luminescence")) else {
+            return Ok(None);
+        };
+        let what = format!("{what} extras tprf.luminescence");
+        Luminescence::from_json(v, &what)
+            .map(Some)
+            .map_err(|e| invalid(self.file, e))
     }
 
     /// Whether the material's back face absorbs all light, from its extras

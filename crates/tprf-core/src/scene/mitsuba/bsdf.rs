@@ -18,6 +18,10 @@
 //!   default) or GGX of the given `alpha`, `specular_reflectance`; `material="none"` (the
 //!   default) a perfect mirror;
 //! - `twosided` around an exact BSDF; `null`: no surface (coverage 0);
+//! - tprf's own `tprf_luminescent` around one BSDF: that BSDF's reflection plus
+//!   luminescence (`yield`, `lifetime` in seconds, or `yield_k` / `lifetime_k` for up to
+//!   three components, `rise_time`, `emission_color`; `scene::luminescence`). Mitsuba has
+//!   no such plugin: a file using it renders only in tprf;
 //! - one-sided BSDFs (`diffuse`, `plastic`, `conductor` and their rough kinds outside a
 //!   `twosided`) black from behind, as Mitsuba's (`Material::one_sided`).
 //!
@@ -48,8 +52,8 @@ use super::shapes::uv_transform;
 use super::xml::{Color, Object, err};
 use super::{Builder, MaterialKey, MaterialSlot};
 use crate::scene::{
-    AlphaMode, ImageWrap, IrradianceImage, Material, Microfacet, MicrofacetDistribution,
-    SceneError, SurfaceModel, Texture, TextureRef,
+    AlphaMode, DecayComponent, ImageWrap, IrradianceImage, Luminescence, Material, Microfacet,
+    MicrofacetDistribution, SceneError, SurfaceModel, Texture, TextureRef,
 };
 use std::path::Path;
 
@@ -217,6 +221,84 @@ impl Builder<'_> {
         self.materials.push(c.material);
         self.material_of.insert(key, slot);
         Ok(slot)
+    }
+
+    /// The luminescence of a `tprf_luminescent` wrapper (docs/mitsuba.md): `yield` and
+    /// `lifetime` (seconds), or `yield_1`/`lifetime_1` ... `yield_3`/`lifetime_3` for
+    /// two or three exponential components; `rise_time` (seconds) and `emission_color`
+    /// optional. Ranges are checked with the scene ([`Luminescence::check`]).
+    fn luminescence(&self, o: &Object) -> Result<Luminescence, SceneError> {
+        let mut components = Vec::new();
+        if o.prop("lifetime").is_some() || o.prop("yield").is_some() {
+            if o.prop("lifetime_1").is_some() {
+                return Err(err(
+                    &o.loc,
+                    format!(
+                        "{}: give yield and lifetime, or yield_1, lifetime_1, ... (not both)",
+                        o.describe()
+                    ),
+                ));
+            }
+            components.push(DecayComponent {
+                yield_: o.float("yield", f64::NAN)? as f32,
+                lifetime_s: o.float("lifetime", f64::NAN)?,
+            });
+        }
+        for k in 1..=3 {
+            let (y, t) = (format!("yield_{k}"), format!("lifetime_{k}"));
+            if o.prop(&y).is_some() || o.prop(&t).is_some() {
+                components.push(DecayComponent {
+                    yield_: o.float(&y, f64::NAN)? as f32,
+                    lifetime_s: o.float(&t, f64::NAN)?,
+                });
+            }
+        }
+        if components.is_empty() {
+            return Err(err(
+                &o.loc,
+                format!(
+                    "{} needs <float name=\"yield\"> and <float name=\"lifetime\"> (seconds)",
+                    o.describe()
+                ),
+            ));
+        }
+        let rise_s = match o.prop("rise_time") {
+            Some(_) => Some(o.float("rise_time", f64::NAN)?),
+            None => None,
+        };
+        let emission_color = match o.color("emission_color", Some([1.0; 3]))? {
+            Some(Color::Rgb(c)) => c.map(|v| v as f32),
+            Some(Color::Texture(_)) => {
+                return Err(err(
+                    &o.loc,
+                    format!("{}: emission_color must be a constant colour", o.describe()),
+                ));
+            }
+            None => [1.0; 3],
+        };
+        let l = Luminescence {
+            components,
+            rise_s,
+            emission_color,
+        };
+        // Checked here too, so the error names the line (the scene's check repeats it
+        // against the base colour the nested BSDF gives).
+        for (k, c) in l.components.iter().enumerate() {
+            if !(c.yield_.is_finite() && c.lifetime_s.is_finite() && c.lifetime_s > 0.0) {
+                return Err(err(
+                    &o.loc,
+                    format!(
+                        "{}: component {} has yield {} and lifetime {} s: give both, the \
+                         lifetime finite and > 0 seconds",
+                        o.describe(),
+                        k + 1,
+                        c.yield_,
+                        c.lifetime_s
+                    ),
+                ));
+            }
+        }
+        Ok(l)
     }
 
     /// A constant colour, or a texture object for the base colour slot only (`slot`
@@ -447,6 +529,31 @@ impl Builder<'_> {
                     c.material.base_color[3] *= a as f32;
                     c.material.alpha_mode = AlphaMode::Blend;
                 }
+                self.depth -= 1;
+                return Ok(c);
+            }
+            "tprf_luminescent" => {
+                let luminescence = self.luminescence(o)?;
+                let inner: Vec<usize> = o
+                    .children()
+                    .filter(|(_, c)| self.parsed.objects[*c].tag == "bsdf")
+                    .map(|(p, c)| {
+                        p.used.set(true);
+                        c
+                    })
+                    .collect();
+                let [first] = inner[..] else {
+                    return Err(err(
+                        &o.loc,
+                        format!(
+                            "{} needs exactly one nested <bsdf> (the reflection), has {}",
+                            o.describe(),
+                            inner.len()
+                        ),
+                    ));
+                };
+                let mut c = self.convert(first)?;
+                c.material.luminescence = Some(luminescence);
                 self.depth -= 1;
                 return Ok(c);
             }

@@ -8,6 +8,7 @@ use crate::film::LeftOut;
 use crate::transport::bsdf::{Bsdf, Frame, LobeKind};
 use crate::transport::integrator::{RayKind, Renderer, Sink, outside, power_heuristic};
 use crate::transport::lights::Punctual;
+use crate::transport::luminescence::{self, Choice};
 use crate::transport::sampler::{Sampler, dim};
 use crate::transport::surface::SurfacePoint;
 use crate::units::C_M_PER_S;
@@ -187,7 +188,7 @@ impl Renderer {
                 .get(hit.triangle as usize)
                 .map_or(u32::MAX, |a| a.material);
             let boundary = media.boundary(material);
-            let sp = self.surfaces().at(&hit, origin, dir);
+            let mut sp = self.surfaces().at(&hit, origin, dir);
             // Index-matched boundary: into (or out of) its medium, straight on.
             if let Boundary::IndexMatched { inside } = boundary {
                 path.region = if sp.front { inside } else { media.scene };
@@ -229,6 +230,40 @@ impl Renderer {
             }
             if path.scatterings >= s.max_bounces {
                 break;
+            }
+            // A luminescent surface reflects, or re-emits after a drawn delay (the media
+            // loop always draws it: `transport::luminescence`).
+            if self.surfaces().any_luminescent()
+                && let Some(lum) = self.surfaces().luminescence(hit.triangle, sp.front)
+            {
+                let rest_s = luminescence::nearest_light_s(lights, sp.position);
+                let (start_s, end_s) = (sink.window_start_s(), sink.window_end_s());
+                match luminescence::choose(
+                    lum,
+                    path.opl_m,
+                    rest_s,
+                    path.scatterings,
+                    rng,
+                    start_s,
+                    end_s,
+                ) {
+                    Choice::Reflect { weight } => path.throughput *= weight,
+                    Choice::Reemit {
+                        bsdf,
+                        weight,
+                        delay_weight,
+                        delay_opl_m,
+                        ..
+                    } => {
+                        sp.bsdf = *bsdf;
+                        path.throughput *= weight * delay_weight as f32;
+                        path.opl_m += delay_opl_m;
+                    }
+                    Choice::Late => {
+                        sink.left_out(LeftOut::PathPastWindow);
+                        break;
+                    }
+                }
             }
             let frame = Frame::new(sp.n_shading);
             let wo = frame.to_local(-dir);
