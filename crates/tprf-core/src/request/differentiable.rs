@@ -85,6 +85,11 @@ impl Differentiable {
         if wrt.is_empty() {
             return Err(DifferentiableError::Wrt("no parameter named".into()));
         }
+        // Refused up front, not after a forward render: the derivative walk has no
+        // re-emission.
+        if let Some(m) = scene.materials.iter().find(|m| m.luminescence.is_some()) {
+            return Err(VjpError::Luminescent(m.name.clone()).into());
+        }
         if wrt.len() > MAX_WRT {
             return Err(VjpError::TooMany(wrt.len()).into());
         }

@@ -103,6 +103,13 @@ pub enum VjpError {
          surfaces seen through them) are not implemented yet"
     )]
     Media,
+    /// The derivative walk has no re-emission (`transport::luminescence`): its paths
+    /// would miss the delayed light.
+    #[error(
+        "material {0:?} is luminescent: re-emitted light is not differentiated yet (its \
+         paths would be left out of the gradient)"
+    )]
+    Luminescent(String),
     #[error("a parameter refers to {0}, which the scene does not have")]
     NoSuchIndex(String),
     #[error("{0} is {1}: an emission or intensity being differentiated must be positive")]
@@ -281,6 +288,9 @@ impl Renderer {
             return Err(VjpError::Media);
         }
         let scene = self.scene();
+        if let Some(m) = scene.materials.iter().find(|m| m.luminescence.is_some()) {
+            return Err(VjpError::Luminescent(m.name.clone()));
+        }
         let lookup = Lookup::new(wrt, scene.materials.len(), scene.lights.len())?;
         let rows: Vec<[f64; MAX_WRT]> = (0..h)
             .into_par_iter()

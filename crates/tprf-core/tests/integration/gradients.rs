@@ -448,6 +448,14 @@ fn bad_parameters_are_refused_by_name() {
     d.forward(&[], 1, &mut Silent).unwrap();
     let e = d.backward(&[1.0; 7], 1, go).unwrap_err().to_string();
     assert!(e.contains("7 values") && e.contains("4 x 4 x 20"), "{e}");
+    // A luminescent scene is refused up front: the derivative walk has no re-emission.
+    let mut s = plane.scene();
+    s.materials[0].luminescence = Some(tprf_core::scene::Luminescence::single(0.3, 4e-9));
+    let e = text(
+        Differentiable::with_scene(&req, Arc::new(s), &names(&["material:plane.albedo"]))
+            .map(|_| ()),
+    );
+    assert!(e.contains("luminescent") && e.contains("plane"), "{e}");
     // Names may hold dots: the field is after the last one.
     let mut s = plane.scene();
     s.materials[0].name = "lambert_0.5".into();
