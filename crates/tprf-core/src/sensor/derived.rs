@@ -233,7 +233,7 @@ pub struct Return {
 /// on each side, so its intensity is the whole echo's and not only its top. Each
 /// return's time is the centroid of its samples. None when the highest sample is not
 /// above `min_signal` (or not positive). With [`Returns::cfar_factor`] a sample must
-/// also reach that many times its local background ([`cfar_background`]) to be in a
+/// also reach that many times its local background (`cfar_background`) to be in a
 /// run.
 pub fn find_returns(values: &[f64], times_s: &[f64], p: &Returns, out: &mut Vec<Return>) {
     out.clear();

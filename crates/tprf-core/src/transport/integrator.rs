@@ -391,7 +391,7 @@ impl Renderer {
         }
     }
 
-    /// This renderer with its media emptied ([`Media::without_extinction`]): the same
+    /// This renderer with its media emptied (`Media::without_extinction`): the same
     /// surfaces, lights and camera, light crossing each medium at its index without
     /// scattering or attenuation. `None` for a scene without media.
     pub fn without_extinction(&self) -> Option<Renderer> {
