@@ -2225,20 +2225,7 @@ fn a_typed_pose_round_trips_is_recorded_saved_and_reset() {
             .as_deref(),
         Some("cornell_camera.gltf")
     );
-    h.get_by_label("path").focus();
-    h.step();
-    h.event(Event::Key {
-        key: Key::A,
-        physical_key: None,
-        pressed: true,
-        repeat: false,
-        modifiers: Modifiers::COMMAND,
-    });
-    h.step();
-    h.get_by_label("path")
-        .type_text(&path.display().to_string());
-    h.step();
-    h.get_by_label("OK").click();
+    type_path_and_ok(&mut h, &path);
     let start = Instant::now();
     while !h.state().messages().iter().any(|m| m.starts_with("saved ")) {
         h.step();
@@ -2612,6 +2599,25 @@ fn a_failed_scenes_message_goes_with_it() {
     assert!(!m.contains("missing.glb"), "{m}");
 }
 
+/// In the open path window: select the field's text (the suggested name), type `path`
+/// over it and press OK.
+fn type_path_and_ok(h: &mut Harness<'static, TprfApp>, path: &std::path::Path) {
+    h.get_by_label("path").focus();
+    h.step();
+    h.event(Event::Key {
+        key: Key::A,
+        physical_key: None,
+        pressed: true,
+        repeat: false,
+        modifiers: Modifiers::COMMAND,
+    });
+    h.step();
+    h.get_by_label("path")
+        .type_text(&path.display().to_string());
+    h.step();
+    h.get_by_label("OK").click();
+}
+
 /// Saves start from a name made of the scene and what is saved, not an empty field.
 #[test]
 fn saves_suggest_the_scenes_name() {
@@ -2770,20 +2776,7 @@ fn a_saved_slice_carries_its_legend() {
         h.state_mut()
             .choose_file(tprf::viewer::FileAction::SaveSlicePng);
         h.run_steps(2);
-        h.get_by_label("path").focus();
-        h.step();
-        h.event(Event::Key {
-            key: Key::A,
-            physical_key: None,
-            pressed: true,
-            repeat: false,
-            modifiers: Modifiers::COMMAND,
-        });
-        h.step();
-        h.get_by_label("path")
-            .type_text(&path.display().to_string());
-        h.step();
-        h.get_by_label("OK").click();
+        type_path_and_ok(h, path);
         let start = Instant::now();
         loop {
             h.step();

@@ -469,8 +469,7 @@ pub fn reconstruct(
     let values = match method {
         Method::Bp => {
             let (k, tr) = transients(c);
-            let tr: Vec<[f32; 1]> = tr.into_iter().map(|v| [v]).collect();
-            backproject(c, volume, &pairs(c), k, &tr)
+            backproject::<1>(c, volume, &pairs(c), k, &tr)
                 .into_iter()
                 .map(|[v]| v)
                 .collect()
@@ -481,9 +480,9 @@ pub fn reconstruct(
             drop(tr);
             // Real and imaginary parts back-projected together: one path length per
             // voxel and transient for both.
-            let parts: Vec<[f32; 2]> = filtered.iter().map(|z| [z.re, z.im]).collect();
+            let parts: Vec<f32> = filtered.iter().flat_map(|z| [z.re, z.im]).collect();
             drop(filtered);
-            backproject(c, volume, &pairs(c), k, &parts)
+            backproject::<2>(c, volume, &pairs(c), k, &parts)
                 .into_iter()
                 .map(|[a, b]| a.hypot(b))
                 .collect()
@@ -500,7 +499,8 @@ pub fn reconstruct(
     })
 }
 
-/// Back-projection of the transients `tr` (`[k][t]`) onto `volume` (see the module doc).
+/// Back-projection of the transients `tr` (`[k][t][C]`: `C` values per bin back-projected
+/// together, one path length for all) onto `volume` (see the module doc).
 /// Blocks of voxels are the parallel work; within one, each transient is read once and
 /// added to every voxel of the block, so the transient and the block's sums stay in
 /// the cache.
@@ -509,7 +509,7 @@ fn backproject<const C: usize>(
     volume: &Volume,
     p: &Pairs,
     k: usize,
-    tr: &[[f32; C]],
+    tr: &[f32],
 ) -> Vec<[f32; C]> {
     let t = c.bins();
     let [nx, _, _] = volume.voxels;
@@ -548,10 +548,12 @@ fn backproject<const C: usize>(
             let mut bins = vec![0u32; sums.len()];
             let last = t as f32;
             for (ki, &(li, si)) in p.of.iter().enumerate().take(k) {
-                let Some(h) = tr.get(ki * t..(ki + 1) * t) else {
+                let Some(h) = tr.get(ki * t * C..(ki + 1) * t * C) else {
                     continue;
                 };
-                padded[..t].copy_from_slice(h);
+                for (p, v) in padded.iter_mut().zip(h.chunks_exact(C)) {
+                    p.copy_from_slice(v);
+                }
                 let s = p.sensors[si as usize];
                 // Bin of a path: (path - t0) / dt, the legs folded into the offset.
                 let offset = (p.legs_m[ki] - t0) * inv_dt;

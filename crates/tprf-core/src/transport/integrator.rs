@@ -402,6 +402,40 @@ impl Renderer {
         })
     }
 
+    /// Whether a path at surface point `sp` of `triangle` (after `scatterings` events, at
+    /// `opl_m`) reflects or is re-emitted later ([`luminescence::choose`], the window
+    /// being `sink`'s); `None` when the material there is not luminescent (no number
+    /// drawn). The surface and the media loops both ask it.
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "the vertex and its path's state, as the walks hold them"
+    )]
+    #[inline]
+    pub(super) fn luminescent_choice<S: Sink + ?Sized>(
+        &self,
+        lights: &Lights,
+        triangle: u32,
+        sp: &SurfacePoint,
+        opl_m: f64,
+        scatterings: u32,
+        rng: &Sampler,
+        sink: &S,
+    ) -> Option<Choice<'_>> {
+        if !self.surfaces.any_luminescent() {
+            return None;
+        }
+        let lum = self.surfaces.luminescence(triangle, sp.front)?;
+        Some(luminescence::choose(
+            lum,
+            opl_m,
+            luminescence::nearest_light_s(lights, sp.position),
+            scatterings,
+            rng,
+            sink.window_start_s(),
+            sink.window_end_s(),
+        ))
+    }
+
     /// Ray-offset length scale, metres: 1e-6 of the diagonal of the bounds of the
     /// scene's triangles and lights and `camera`'s position (1e-6 for an empty or
     /// non-finite scene).
@@ -766,20 +800,16 @@ impl Renderer {
             }
             // A luminescent surface reflects, or re-emits later ([`luminescence`]).
             let mut splat = None;
-            if self.surfaces.any_luminescent()
-                && let Some(lum) = self.surfaces.luminescence(hit.triangle, sp.front)
-            {
-                let rest_s = luminescence::nearest_light_s(lights, sp.position);
-                let (start_s, end_s) = (sink.window_start_s(), sink.window_end_s());
-                match luminescence::choose(
-                    lum,
-                    path.opl_m,
-                    rest_s,
-                    path.scatterings,
-                    rng,
-                    start_s,
-                    end_s,
-                ) {
+            if let Some(choice) = self.luminescent_choice(
+                lights,
+                hit.triangle,
+                &sp,
+                path.opl_m,
+                path.scatterings,
+                rng,
+                sink,
+            ) {
+                match choice {
                     Choice::Reflect { weight } => path.throughput *= weight,
                     Choice::Reemit {
                         bsdf,

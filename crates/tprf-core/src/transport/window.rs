@@ -207,20 +207,18 @@ pub fn choose_window(renderer: &Renderer, req: WindowRequest) -> Result<ChosenWi
     // In a medium most of the light is its backscatter near the camera, and a target
     // behind it returns a small share later: the surfaces' returns are timed by a second
     // pilot with the media emptied (same indices, so the same arrival times).
-    let clear = renderer.without_extinction();
-    let pilots = [Some(renderer), clear.as_ref()];
+    let own = pilot_arrivals(renderer, horizon_s, req.aspect);
+    let clear = renderer
+        .without_extinction()
+        .map(|r| pilot_arrivals(&r, horizon_s, req.aspect));
+    let surface_returns_s = match (&clear, renderer.scene_extinction()) {
+        (Some(c), Some((sigma_t, n))) => returns_time_s(c, f64::from(sigma_t), f64::from(n)),
+        _ => None,
+    };
     let mut first_s = f64::INFINITY;
     let mut held_s = f64::NEG_INFINITY;
     let mut last_s = f64::NEG_INFINITY;
-    let mut surface_returns_s = None;
-    for (i, pilot) in pilots.into_iter().enumerate() {
-        let Some(pilot) = pilot else { continue };
-        let mut arrivals = pilot_arrivals(pilot, horizon_s, req.aspect);
-        if i == 1
-            && let Some((sigma_t, n)) = renderer.scene_extinction()
-        {
-            surface_returns_s = returns_time_s(&arrivals, f64::from(sigma_t), f64::from(n));
-        }
+    for mut arrivals in std::iter::once(own).chain(clear) {
         if let Some(&(t, _)) = arrivals.last() {
             last_s = last_s.max(t);
         }

@@ -8,7 +8,7 @@ use crate::film::LeftOut;
 use crate::transport::bsdf::{Bsdf, Frame, LobeKind};
 use crate::transport::integrator::{RayKind, Renderer, Sink, outside, power_heuristic};
 use crate::transport::lights::Punctual;
-use crate::transport::luminescence::{self, Choice};
+use crate::transport::luminescence::Choice;
 use crate::transport::sampler::{Sampler, dim};
 use crate::transport::surface::SurfacePoint;
 use crate::units::C_M_PER_S;
@@ -233,20 +233,16 @@ impl Renderer {
             }
             // A luminescent surface reflects, or re-emits after a drawn delay (the media
             // loop always draws it: `transport::luminescence`).
-            if self.surfaces().any_luminescent()
-                && let Some(lum) = self.surfaces().luminescence(hit.triangle, sp.front)
-            {
-                let rest_s = luminescence::nearest_light_s(lights, sp.position);
-                let (start_s, end_s) = (sink.window_start_s(), sink.window_end_s());
-                match luminescence::choose(
-                    lum,
-                    path.opl_m,
-                    rest_s,
-                    path.scatterings,
-                    rng,
-                    start_s,
-                    end_s,
-                ) {
+            if let Some(choice) = self.luminescent_choice(
+                lights,
+                hit.triangle,
+                &sp,
+                path.opl_m,
+                path.scatterings,
+                rng,
+                sink,
+            ) {
+                match choice {
                     Choice::Reflect { weight } => path.throughput *= weight,
                     Choice::Reemit {
                         bsdf,
