@@ -342,6 +342,7 @@ fn run_case(case: &Case, make_scene: impl FnOnce() -> Scene) -> Figures {
         height: case.height,
         axis,
         bounces_separate: 0,
+        luminescence: false,
     };
     // 1. The transient render, as `tprf render` runs it, on a fresh film each time.
     let render_once = || {
@@ -498,6 +499,7 @@ fn main() {
         height: 256,
         axis: TimeAxis::new(0.0, 1e-11, 1024).expect("axis"),
         bounces_separate,
+        luminescence: false,
     };
     let (film, film_s, film_bytes, _) = measured(|| TprfFilm::new(cube(0)).expect("film"));
     drop(black_box(film));

@@ -126,6 +126,7 @@ fn main() {
             height: H,
             axis,
             bounces_separate: 0,
+            luminescence: false,
         };
         let mut sparse_s = f64::INFINITY;
         let mut dense_s = f64::INFINITY;

@@ -31,6 +31,7 @@ fn errors_by_spp(spec: &str, w: usize, h: usize, bins: usize, max_spp: u64) -> V
         height: h,
         axis,
         bounces_separate: 0,
+        luminescence: false,
     })
     .unwrap();
     let mut out = Vec::new();
@@ -159,6 +160,7 @@ fn the_tent_filter_has_a_bias_floor_against_box_bins() {
         height: 4,
         axis,
         bounces_separate: 0,
+        luminescence: false,
     };
     let mut film = TprfFilm::new(layout)
         .unwrap()

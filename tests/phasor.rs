@@ -41,6 +41,7 @@ fn snapshot(w: usize, h: usize, axis: TimeAxis, cube: &[f32]) -> FilmSnapshot {
         height: h,
         axis,
         bounces_separate: 0,
+        luminescence: false,
     };
     FilmSnapshot::from_dense(layout, 1, 1, cube, &[], None)
 }

@@ -446,3 +446,59 @@ fn capture_and_reconstruct_jobs_are_what_their_options_make() {
     let e = stderr(&tprf(&["batch", manifest.to_str().unwrap()]));
     assert!(e.contains("reconstruct 1") && e.contains("methd"), "{e}");
 }
+
+/// `tprf.json` holds the request that made the cube (issue 43): read back, it is a
+/// `RenderRequest` with the options given on the command line, and rendering it again
+/// makes the same cube, bit for bit.
+#[test]
+fn a_cubes_json_holds_the_request_that_renders_it_again() {
+    let dir = tempdir("request-echo");
+    let first = dir.join("first");
+    let o = tprf(&[
+        "render",
+        "builtin:cornell",
+        "--out",
+        first.to_str().unwrap(),
+        "--width",
+        "10",
+        "--height",
+        "8",
+        "--bins",
+        "24",
+        "--spp",
+        "4",
+        "--seed",
+        "7",
+        "--t0",
+        "0.5m",
+        "--dt",
+        "40ps",
+        "--bounces-separate",
+        "2",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let meta = json(&first.join("tprf.json"));
+    let request: tprf_core::request::RenderRequest =
+        serde_json::from_value(meta["request"].clone()).expect("a render request");
+    assert_eq!(
+        (
+            request.width,
+            request.height,
+            request.seed,
+            request.bounces_separate
+        ),
+        (10, 8, 7, 2)
+    );
+    assert_eq!(request.scene, "builtin:cornell");
+    let again = dir.join("again");
+    struct Quiet;
+    impl tprf_core::request::Observer for Quiet {}
+    tprf_core::request::render_to_folder(&request, &again, &mut Quiet).expect("renders");
+    for file in ["tprf.npy", "tprf_bounces.npy"] {
+        assert!(
+            std::fs::read(first.join(file)).unwrap() == std::fs::read(again.join(file)).unwrap(),
+            "{file} differs when rendered again from tprf.json's request"
+        );
+    }
+    assert_eq!(json(&again.join("tprf.json"))["request"], meta["request"]);
+}

@@ -1134,6 +1134,7 @@ fn ramp_snapshot(side: usize, bins: usize, scale: f32) -> FilmSnapshot {
         height: side,
         axis: TimeAxis::new(1e-9, 1e-10, bins).unwrap(),
         bounces_separate: 0,
+        luminescence: false,
     };
     let cube: Vec<f32> = (0..side * side * bins)
         .map(|i| scale * ((i / bins) + (i % bins) + 1) as f32)
@@ -1665,6 +1666,103 @@ fn bounce_curves_follow_the_films_layers() {
         }
         assert!(total.iter().sum::<f64>() > 0.0, "K = {k}: a dark pixel");
     }
+}
+
+/// A luminescent scene's cube keeps the re-emitted light in a layer of its own (issue
+/// 47): `builtin:flim` rendered with `--bounces-separate 1` has the direct, 1 and >1
+/// layers and then "re-emitted"; the window names and colours it, the four add up to
+/// the pixel's TPRF, and once the excitation's last reflection has passed (the slide is
+/// 0.15 m away: every path that was not re-emitted has arrived within a few hundred
+/// ps) the whole TPRF is the re-emitted light's.
+#[test]
+fn a_luminescent_cube_keeps_its_re_emitted_light_apart() {
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("viewer-flim-layers-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_tprf"))
+        .args([
+            "render",
+            "builtin:flim",
+            "--spp",
+            "16",
+            "--width",
+            "16",
+            "--height",
+            "16",
+        ])
+        .args(["--bins", "96", "--bounces-separate", "1", "--out"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("tprf.json")).unwrap()).unwrap();
+    assert_eq!(meta["luminescence_layer"], serde_json::json!(true));
+    let mut h = Harness::builder()
+        .with_size(Vec2::new(1280.0, 800.0))
+        .build_eframe(move |cc| {
+            TprfApp::with_settings(cc, ViewerSettings::default(), Start::Cube(dir))
+        });
+    h.run_steps(3);
+    let snap = h.state().snapshot().expect("the cube is shown");
+    assert_eq!((snap.layers(), snap.luminescence_layer()), (4, Some(3)));
+    // A pixel on a dye (the spots' centres lie at 0.3 and 0.7 of the width).
+    h.state_mut().selection = Some(Selection::pixel(5, 8));
+    h.step();
+    h.get_by_label("re-emitted");
+    h.get_by_label("direct").click();
+    h.step();
+    let curves = h.state().plotted_curves(&snap);
+    let names: Vec<&str> = curves
+        .iter()
+        .filter(|c| c.dashed)
+        .map(|c| c.name.as_str())
+        .collect();
+    assert_eq!(
+        names,
+        [
+            "direct (0 bounces)",
+            "1 bounce",
+            ">1 bounces",
+            "re-emitted (luminescence)"
+        ]
+    );
+    let total = &curves[0].values;
+    let re_emitted = &curves[4].values;
+    let axis = snap.axis();
+    // The excitation's direct return: the first lit bin of the 1-bounce layer.
+    let first = curves[2]
+        .values
+        .iter()
+        .position(|&v| v > 0.0)
+        .expect("a reflection");
+    let late = first + (1.0e-9 / axis.dt_s).ceil() as usize;
+    let mut late_light = 0.0;
+    for (b, t) in total.iter().enumerate() {
+        let sum: f64 = curves
+            .iter()
+            .filter(|c| c.dashed)
+            .map(|c| c.values[b])
+            .sum();
+        assert!(
+            (sum - t).abs() <= 1e-4 * t.abs().max(1e-9),
+            "bin {b}: layers {sum}, total {t}"
+        );
+        if b >= late {
+            assert!(
+                (re_emitted[b] - t).abs() <= 1e-4 * t.abs().max(1e-9),
+                "bin {b}, {:.2} ns: re-emitted {}, total {t}",
+                axis.bin_center_s(b) * 1e9,
+                re_emitted[b]
+            );
+            late_light += t;
+        }
+    }
+    assert!(late_light > 0.0, "no light after the excitation");
 }
 
 /// A new scene opens where its light is (the scrubber was left on a late bin, after
@@ -2817,4 +2915,46 @@ fn a_saved_slice_carries_its_legend() {
         .count();
     assert!(text > 200, "labels and the time: {text} dark pixels");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The FLIM preset's lifetime image sits beside the measurement on `builtin:flim`, and
+/// the readout over each dye gives that dye's lifetime (1 ns and 4 ns, the scene's own
+/// decays: rapid lifetime determination is exact for one exponential).
+#[test]
+fn the_flim_preset_shows_each_dyes_lifetime() {
+    let side = 24;
+    let mut settings = ViewerSettings {
+        mode: Mode::Sensor,
+        ..small_settings("builtin:flim", side, 128, 64)
+    };
+    settings.sensor = Sensor::builtin("flim").unwrap();
+    let mut h = harness(settings);
+    wait_done(&mut h, Duration::from_secs(180));
+    wait_sensor(&mut h);
+    h.run_steps(2);
+    h.get_by_label("FLIM lifetime");
+    let mut found = Vec::new();
+    // The spots' centres lie at 0.3 and 0.7 of the image's width, on its middle row
+    // (builtin:flim: 25 mm squares, centres 20 mm either side of the slide's middle).
+    for fx in [0.3, 0.7] {
+        let (px, py) = ((fx * side as f64) as usize, side / 2);
+        h.hover_at(pixel_pos(&h, "lifetime image", px, py, side, side));
+        h.run_steps(2);
+        let readout = label_with(&h, &format!("row {py}, column {px} · M_"));
+        found.push(number_after(&readout, "lifetime "));
+    }
+    // TPRF_FLIM_SHOT=FILE: a picture of the tab, to look at.
+    if let Some(path) = std::env::var_os("TPRF_FLIM_SHOT")
+        && let Some(shot) = render(&mut h)
+    {
+        shot.save(path).unwrap();
+    }
+    found.sort_by(f64::total_cmp);
+    let expected = tprf_core::scene::builtin::flim::FLIM_LIFETIMES_S.map(|t| t * 1e9);
+    for (got, want) in found.iter().zip(expected) {
+        assert!(
+            (got - want).abs() < 0.05 * want,
+            "lifetimes {found:?} ns, the dyes' {expected:?} ns"
+        );
+    }
 }

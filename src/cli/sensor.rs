@@ -139,6 +139,18 @@ pub fn measure(
             e.median_abs_m, e.p95_abs_m, e.ambiguity_m
         );
     }
+    if let Some(f) = m.flim {
+        eprintln!(
+            "FLIM: lifetime median {:.3} ns (5-95 %: {:.3} to {:.3} ns) in {} of {} pixels \
+             (gates {:.3} ns apart)",
+            f.median_s * 1e9,
+            f.p05_s * 1e9,
+            f.p95_s * 1e9,
+            f.pixels_with_lifetime,
+            f.pixels,
+            f.gate_spacing_s * 1e9
+        );
+    }
     eprintln!(
         "wrote {} ({} gates x {} x {}; kernels {:.1} ms, measurement {:.1} ms{}, noise \
          {:.1} ms)",

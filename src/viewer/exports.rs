@@ -307,6 +307,7 @@ mod tests {
             height: 2,
             axis: TimeAxis::new(0.0, 1e-9, 4).unwrap(),
             bounces_separate: 0,
+            luminescence: false,
         };
         let cube: Vec<f32> = (0..24).map(|i| i as f32).collect();
         let snap = Arc::new(FilmSnapshot::from_dense(layout, 1, 1, &cube, &[], None));

@@ -178,6 +178,7 @@ mod tests {
             height: 2,
             axis: TimeAxis::new(0.0, 1e-9, 5).unwrap(),
             bounces_separate: 0,
+            luminescence: false,
         };
         FilmSnapshot::from_dense(layout, 1, 1, &[value; 30], &[], None)
     }

@@ -217,6 +217,7 @@ mod tests {
             height: 20,
             axis: TimeAxis::new(0.0, 1e-9, 2).unwrap(),
             bounces_separate: 0,
+            luminescence: false,
         };
         let mut cube = vec![0.0f32; 800];
         for p in 0..400 {

@@ -109,11 +109,13 @@ pub fn render_with(
     bounces_separate: u32,
 ) -> Rendered {
     let renderer = Renderer::new(Arc::new(scene), settings);
+    let luminescence = renderer.is_luminescent();
     let mut film = TprfFilm::new(FilmLayout {
         width: w,
         height: h,
         axis,
         bounces_separate,
+        luminescence,
     })
     .expect("film");
     render(&renderer, &mut film, &Schedule::spp(spp), |_, _| {

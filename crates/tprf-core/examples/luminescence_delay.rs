@@ -61,6 +61,7 @@ fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
                     height: h,
                     axis,
                     bounces_separate: 0,
+                    luminescence: false,
                 })?;
                 let t = Instant::now();
                 pool.install(|| {

@@ -49,6 +49,7 @@ fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
         height,
         axis,
         bounces_separate: 0,
+        luminescence: false,
     };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)

@@ -34,7 +34,7 @@
 //! // A window from the first light to where 99.9 % of it has arrived, 64 bins.
 //! let request = WindowRequest { bins: 64, ..WindowRequest::default() };
 //! let axis = auto_window(&renderer, request)?;
-//! let layout = FilmLayout { width: 8, height: 8, axis, bounces_separate: 2 };
+//! let layout = FilmLayout { width: 8, height: 8, axis, bounces_separate: 2 , luminescence: false};
 //! let mut film = TprfFilm::new(layout)?;
 //! progressive::render(&renderer, &mut film, &Schedule::spp(4), |_, _| ControlFlow::Continue(()));
 //!

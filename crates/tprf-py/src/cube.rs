@@ -126,7 +126,9 @@ impl Cube {
     }
 
     /// The per-bounce layers, float32 ``[K + 2, H, W, T]`` (layer 0: light seen directly,
-    /// 1..K: that many scattering events, K + 1: more), or None when not rendered
+    /// 1..K: that many scattering events, K + 1: more; in a scene with a luminescent
+    /// material one more, K + 2, the light it re-emitted, the others holding the rest:
+    /// ``metadata["luminescence_layer"]``), or None when not rendered
     /// (``bounces_separate=0``).
     #[getter]
     fn bounces<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray4<f32>>> {
@@ -183,6 +185,7 @@ impl Cube {
                 height: h,
                 axis: TimeAxis::new(m.t0_s, m.dt_s, t)?,
                 bounces_separate: m.bounces_separate,
+                luminescence: m.luminescence_layer,
             };
             let snap =
                 FilmSnapshot::from_dense(layout, m.spp, m.passes, data, bounces, m.error_estimate);

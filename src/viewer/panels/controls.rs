@@ -75,7 +75,12 @@ impl TprfApp {
                 row(
                     "bounce layers",
                     if snapshot.layers() > 1 {
-                        format!("{}", snapshot.layers())
+                        match snapshot.luminescence_layer() {
+                            Some(_) => {
+                                format!("{} (the last: re-emitted light)", snapshot.layers())
+                            }
+                            None => format!("{}", snapshot.layers()),
+                        }
                     } else {
                         "none".into()
                     },

@@ -47,15 +47,20 @@ const BOUNCE_COLORS: [Color32; 6] = [
     Color32::from_rgb(0xb8, 0xc8, 0x00),
     Color32::from_rgb(0x00, 0xa0, 0xe0),
 ];
-/// ... and more than the film keeps apart (its last layer).
+/// ... and more than the film keeps apart (its last bounce layer) ...
 const REST_COLOR: Color32 = Color32::from_rgb(0xb4, 0xb4, 0xb4);
+/// ... and the light a luminescent surface re-emitted (its luminescence layer).
+const LUMINESCENCE_COLOR: Color32 = Color32::from_rgb(0x00, 0xff, 0x40);
 
-/// The colour of bounce layer `l` of a film with `layers` of them (layer 0 direct, the
-/// last "more than K"; see [`plot::bounce_layer_name`]).
-fn bounce_color(l: usize, layers: usize) -> Color32 {
+/// The colour of layer `l` of a film with `layers` of them and its luminescence layer
+/// at `luminescence` (layer 0 direct, the last bounce layer "more than K"; see
+/// [`plot::bounce_layer_name`]).
+fn bounce_color(l: usize, layers: usize, luminescence: Option<usize>) -> Color32 {
+    let bounce_layers = layers - usize::from(luminescence.is_some());
     match l {
+        l if Some(l) == luminescence => LUMINESCENCE_COLOR,
         0 => DIRECT_COLOR,
-        l if l + 1 == layers => REST_COLOR,
+        l if l + 1 == bounce_layers => REST_COLOR,
         l => BOUNCE_COLORS[(l - 1) % BOUNCE_COLORS.len()],
     }
 }
@@ -74,7 +79,7 @@ mod tests {
         let all: Vec<Color32> = PIN_COLORS
             .iter()
             .chain(&BOUNCE_COLORS)
-            .chain([&DIRECT_COLOR, &REST_COLOR])
+            .chain([&DIRECT_COLOR, &REST_COLOR, &LUMINESCENCE_COLOR])
             .chain(std::iter::once(&SCRUBBER_COLOR))
             .copied()
             .collect();

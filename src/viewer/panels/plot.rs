@@ -24,13 +24,27 @@ pub struct Curve {
     pub dashed: bool,
 }
 
-/// The name of bounce layer `l` of a film with `layers` of them ([`FilmLayout`]:
-/// layer 0 the emitter seen directly, `1..=K` that many scattering events, `K + 1`
-/// more than `K`, for `K = layers - 2`), long (a legend's) or short (a checkbox's).
+/// The name of layer `l` of a film with `layers` of them and its luminescence layer at
+/// `luminescence` ([`FilmLayout`]: layer 0 the emitter seen directly, `1..=K` that many
+/// scattering events, `K + 1` more than `K`, then the light re-emitted by luminescent
+/// surfaces when the film keeps it apart), long (a legend's) or short (a checkbox's).
 ///
 /// [`FilmLayout`]: tprf_core::film::FilmLayout
-pub fn bounce_layer_name(l: usize, layers: usize, long: bool) -> String {
-    let k = layers.saturating_sub(2);
+pub fn bounce_layer_name(
+    l: usize,
+    layers: usize,
+    luminescence: Option<usize>,
+    long: bool,
+) -> String {
+    if Some(l) == luminescence {
+        return if long {
+            "re-emitted (luminescence)"
+        } else {
+            "re-emitted"
+        }
+        .into();
+    }
+    let k = (layers - usize::from(luminescence.is_some())).saturating_sub(2);
     match (l, long) {
         (0, true) => "direct (0 bounces)".into(),
         (0, false) => "direct".into(),
@@ -54,11 +68,11 @@ impl TprfApp {
                 values: sel.tprf(snap, None),
                 dashed: false,
             });
-            let layers = snap.layers();
+            let (layers, lum) = (snap.layers(), snap.luminescence_layer());
             for l in (0..layers).filter(|&l| self.settings.bounce_shown(l)) {
                 curves.push(Curve {
-                    name: bounce_layer_name(l, layers, true),
-                    color: bounce_color(l, layers),
+                    name: bounce_layer_name(l, layers, lum, true),
+                    color: bounce_color(l, layers, lum),
                     values: sel.tprf(snap, Some(l)),
                     dashed: true,
                 });
@@ -81,17 +95,20 @@ impl TprfApp {
         ui.horizontal_wrapped(|ui| {
             ui.checkbox(&mut self.settings.plot_log, "log");
             // A curve per bounce layer the film has (none without layers).
-            let layers = snap.layers();
+            let (layers, lum) = (snap.layers(), snap.luminescence_layer());
             if layers > 0 {
                 ui.label("bounces:").on_hover_text(
                     "the selection's TPRF split by scattering events (the film's bounce \
-                     layers): direct is the light seen straight from an emitter",
+                     layers): direct is the light seen straight from an emitter; \
+                     re-emitted, where the scene has luminescent surfaces, is the light \
+                     they re-emitted later (the bounce layers then hold the rest)",
                 );
                 for l in 0..layers {
                     let mut on = self.settings.bounce_shown(l);
-                    let name = bounce_layer_name(l, layers, false);
+                    let name = bounce_layer_name(l, layers, lum, false);
+                    let colour = bounce_color(l, layers, lum);
                     if ui
-                        .checkbox(&mut on, RichText::new(name).color(bounce_color(l, layers)))
+                        .checkbox(&mut on, RichText::new(name).color(colour))
                         .changed()
                     {
                         self.settings.set_bounce_shown(l, on);

@@ -298,7 +298,7 @@ pub(crate) fn controls_ui(
     });
     let dt_s = axis.map_or(1e-10, |a| a.dt_s);
 
-    ui.label(RichText::new("Light(t)").color(LIGHT_COLOR).strong());
+    let heading = ui.label(RichText::new("Light(t)").color(LIGHT_COLOR).strong());
     let kind = sensor.light.kind_name();
     let mut new_kind = kind;
     egui::ComboBox::from_id_salt("light-kind")
@@ -307,7 +307,9 @@ pub(crate) fn controls_ui(
             for (k, l) in LIGHT_KINDS {
                 ui.selectable_value(&mut new_kind, k, *l);
             }
-        });
+        })
+        .response
+        .labelled_by(heading.id);
     if new_kind != kind {
         // A new pulse leaves at the trigger, t = 0, like the rendered one.
         sensor.light = LightPulse::of_kind(new_kind, 0.0, 4.0 * dt_s);
@@ -317,7 +319,7 @@ pub(crate) fn controls_ui(
         sensor.light.set_field(key, v);
     }
 
-    ui.label(RichText::new("Exposure_i(t)").color(GATE_COLOR).strong());
+    let heading = ui.label(RichText::new("Exposure_i(t)").color(GATE_COLOR).strong());
     let kind = sensor.exposure.kind_name();
     let mut new_kind = kind;
     egui::ComboBox::from_id_salt("exposure-kind")
@@ -326,7 +328,9 @@ pub(crate) fn controls_ui(
             for (k, l) in EXPOSURE_KINDS {
                 ui.selectable_value(&mut new_kind, k, *l);
             }
-        });
+        })
+        .response
+        .labelled_by(heading.id);
     if new_kind != kind
         && let Some(axis) = axis
     {

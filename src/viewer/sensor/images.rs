@@ -490,7 +490,7 @@ fn measurement_images(
     let shown_cov = model.gates().get(gate).map_or(Coverage::Inside, |g| {
         coverage(g, pulse, snap.axis(), state.auto_start)
     });
-    let derived = measured.filter(|m| m.depth(Echo::First).is_some());
+    let derived = measured.filter(|m| m.smalls() > 0);
     let avail = ui.available_size();
     let avail = Vec2::new(avail.x, avail.y - strip_height(avail.y, gates));
     let readout_h = 26.0;
@@ -498,9 +498,10 @@ fn measurement_images(
     let extra = title_h + BAR_H + 8.0;
     let aspect = w.max(1) as f32 / h.max(1) as f32;
     // Two derived images (AMCW depth and its multipath error): the measurement large,
-    // those two beside or under it, as the main tab lays out its images. One (first
-    // return depth): two equal columns. None: the measurement alone.
-    let two = derived.is_some_and(|m| m.amcw_error_m.is_some());
+    // those two beside or under it, as the main tab lays out its images. One (a
+    // return's depth, or FLIM's lifetime): two equal columns. None: the measurement
+    // alone.
+    let two = derived.is_some_and(|m| m.smalls() >= 2);
     let (big, small, below) = if two {
         let l = image_layout((avail.x, avail.y - readout_h), aspect, extra, 12.0);
         (
@@ -584,15 +585,13 @@ fn measurement_images(
         let Some(m) = derived else {
             return;
         };
-        let Some(depth) = m.depth(*echo) else {
-            return;
-        };
         let key = hash(&(m.snapshot, &m.sensor, *echo));
         let (lo, hi) = m.depth_range;
         let mut depth_block = |ui: &mut egui::Ui,
                                textures: &mut TextureCache<u64>,
                                out: &mut ImagesOutcome|
          -> Option<(usize, usize)> {
+            let depth = m.depth(*echo)?;
             ui.vertical(|ui| {
                 ui.set_width(small.x);
                 match &m.returns {
@@ -654,10 +653,47 @@ fn measurement_images(
             })
             .inner
         };
+        let lifetime_block = |ui: &mut egui::Ui,
+                              textures: &mut TextureCache<u64>,
+                              out: &mut ImagesOutcome|
+         -> Option<(usize, usize)> {
+            let tau = m.flim_lifetime_s.as_ref()?;
+            ui.vertical(|ui| {
+                ui.set_width(small.x);
+                ui.add(egui::Label::new(RichText::new("FLIM lifetime").strong()).truncate())
+                    .on_hover_text(
+                        "each pixel's fluorescence lifetime from gates 0 and 1 (rapid \
+                         lifetime determination): tau = dt / ln(M_0 / M_1), dt the gates' \
+                         spacing; exact for one exponential decay",
+                    );
+                let top_ns = f64::from(m.lifetime_top_s) * 1e9;
+                let tex = textures.get(&ctx, "flim-lifetime", key, || {
+                    lifetime_image(tau, w, h, m.lifetime_top_s)
+                });
+                let Picked { clicked, hover, .. } = pick(ui, &tex, w, h, small, "lifetime image");
+                out.clicked = out.clicked.or(clicked);
+                ColorBar {
+                    of: "lifetime",
+                    ramp: &colormap::turbo,
+                    scale: BarScale::Linear {
+                        lo: 0.0,
+                        hi: top_ns.max(1e-6),
+                    },
+                    unit: "ns",
+                    second: None,
+                    note: "lifetime tau, 0 to the 99th percentile of the image's; black: \
+                           no decay between the gates (M_0 <= M_1, or no light)",
+                }
+                .ui(ui, small.x);
+                hover
+            })
+            .inner
+        };
         let mut smalls = |ui: &mut egui::Ui| {
             let a = depth_block(ui, textures, out);
             let b = error_block(ui, textures, out);
-            hovered = hovered.or(a).or(b);
+            let c = lifetime_block(ui, textures, out);
+            hovered = hovered.or(a).or(b).or(c);
         };
         if below {
             ui.horizontal_top(|ui| smalls(ui));
@@ -793,8 +829,8 @@ fn gate_strip<'a>(
     clicked
 }
 
-/// What the window says of pixel `(x, y)` in sensor mode: M_i with its unit, the depth
-/// and multipath error where shown.
+/// What the window says of pixel `(x, y)` in sensor mode: M_i with its unit, the depth,
+/// multipath error and lifetime where shown.
 fn readout(
     state: &SensorState,
     snap: &FilmSnapshot,
@@ -824,6 +860,13 @@ fn readout(
             && e.is_finite()
         {
             s += &format!(" · multipath error {e:+.3} m");
+        }
+        if let Some(&tau) = m.flim_lifetime_s.as_ref().and_then(|t| t.get(i)) {
+            if tau.is_finite() {
+                s += &format!(" · lifetime {:.3} ns", f64::from(tau) * 1e9);
+            } else {
+                s += " · lifetime: no decay";
+            }
         }
     }
     s
@@ -910,6 +953,11 @@ fn depth_image(depth: &[f32], w: usize, h: usize, lo: f32, hi: f32) -> egui::Col
         })
         .collect();
     egui::ColorImage::from_rgba_unmultiplied([w, h], &px)
+}
+
+/// Lifetime (s) in turbo from 0 to `top_s`, saturating; no decay is black.
+fn lifetime_image(tau_s: &[f32], w: usize, h: usize, top_s: f32) -> egui::ColorImage {
+    depth_image(tau_s, w, h, 0.0, top_s)
 }
 
 /// Signed error, blue (too near) – white – red (too far), saturating at `a`.

@@ -174,6 +174,9 @@ pub(super) struct Measured {
     pub(super) spad: Option<SpadMeasured>,
     /// AMCW depth minus the depth of the TPRF's own first return (multipath error), m.
     pub(super) amcw_error_m: Option<Vec<f32>>,
+    /// FLIM's two-gate lifetime `[H, W]`, seconds, when the sensor asks for it
+    /// ([`tprf_core::sensor::derived::flim_lifetime_s`]).
+    pub(super) flim_lifetime_s: Option<Vec<f32>>,
     pub(super) millis: f64,
     /// Milliseconds the SPAD's realisation took, once drawn.
     pub(super) sample_millis: Option<f64>,
@@ -186,11 +189,22 @@ pub(super) struct Measured {
     /// Finite range of the depth image (m), and the largest |multipath error| (m).
     pub(super) depth_range: (f32, f32),
     pub(super) error_abs_max: f32,
+    /// The lifetime image's colour range, seconds: 0 to the 99th percentile of its
+    /// finite values (a few spot-edge pixels with little light read far longer).
+    pub(super) lifetime_top_s: f32,
     /// The noise draws, handed back to be reused by the next measurement.
     pub(super) noise_field: NoiseField,
 }
 
 impl Measured {
+    /// How many derived images are shown beside the measurement: depth, multipath
+    /// error, lifetime.
+    pub(super) fn smalls(&self) -> usize {
+        usize::from(self.depth(Echo::First).is_some())
+            + usize::from(self.amcw_error_m.is_some())
+            + usize::from(self.flim_lifetime_s.is_some())
+    }
+
     /// The depth image shown: the return `echo`'s depth, else AMCW depth.
     pub(super) fn depth(&self, echo: Echo) -> Option<&[f32]> {
         match &self.returns {
@@ -477,7 +491,11 @@ pub(super) fn measure_all(
         None => None,
     };
     let Gates {
-        m, returns, amcw, ..
+        m,
+        returns,
+        amcw,
+        flim_lifetime_s,
+        ..
     } = pipeline
         .gates(Draws::Kept(&mut noise_field))
         .map_err(|e| e.to_string())?;
@@ -491,6 +509,9 @@ pub(super) fn measure_all(
             .filter(|x| x.is_finite())
             .fold(0.0f32, |a, x| a.max(x.abs()))
     });
+    let lifetime_top_s = flim_lifetime_s.as_deref().map_or(0.0, |t| {
+        tprf_core::film::quantile(t.iter().map(|&x| f64::from(x)), 0.99).unwrap_or(0.0) as f32
+    });
     let mut measured = Measured {
         snapshot: snap.generation(),
         film: snap.film(),
@@ -502,12 +523,14 @@ pub(super) fn measure_all(
         amcw,
         spad,
         amcw_error_m,
+        flim_lifetime_s,
         millis: started.elapsed().as_secs_f64() * 1e3,
         sample_millis: None,
         clean,
         robust_max,
         depth_range: (0.0, 0.0),
         error_abs_max,
+        lifetime_top_s,
         noise_field,
     };
     // One range for every return's image, so that switching between them compares.
@@ -633,6 +656,7 @@ mod tests {
             height: side,
             axis: TimeAxis::new(1e-9, 1e-10, bins).unwrap(),
             bounces_separate: 0,
+            luminescence: false,
         };
         let cube: Vec<f32> = (0..side * side * bins)
             .map(|i| ((i / bins) + (i % bins) + 1) as f32)
@@ -674,6 +698,7 @@ mod tests {
             height: side,
             axis: TimeAxis::new(0.0, 1e-10, bins).unwrap(),
             bounces_separate: 0,
+            luminescence: false,
         };
         let mut cube = vec![0.0f32; side * side * bins];
         for p in 0..side * side {

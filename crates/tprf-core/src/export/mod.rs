@@ -174,6 +174,11 @@ pub struct CubeMetadata {
     /// Per-bounce layers in `tprf_bounces.npy` (0 = none): layer 0 = light seen directly,
     /// 1..=K = that many scattering events, K+1 = more.
     pub bounces_separate: u32,
+    /// Whether `tprf_bounces.npy` has one more layer after those, K+2: the light
+    /// re-emitted by a luminescent surface (the others then hold the rest). Older
+    /// files: false.
+    #[serde(default)]
+    pub luminescence_layer: bool,
     pub threads: usize,
     /// Wall time of the render, seconds (scene loading and writing included).
     pub wall_seconds: f64,
@@ -231,6 +236,12 @@ pub struct CubeMetadata {
     /// `phasor.npy` or `tprf.zarr/phasor` and its frequencies ([`phasor`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub phasor: Option<phasor::PhasorMetadata>,
+    /// The request that made the render (`tprf render`'s options, as a batch manifest's
+    /// `[[job]]` keys: [`crate::request::RenderRequest`], every field written, its
+    /// defaults included), when one did: enough to render the cube again. Older files
+    /// hold none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub request: Option<serde_json::Value>,
 }
 
 /// Why a render stopped before its target, as `tprf.json` records it.
@@ -768,7 +779,7 @@ pub fn load_snapshot(dir: &Path) -> Result<(CubeMetadata, FilmSnapshot), ExportE
     let bounces = if meta.bounces_separate > 0 && bounces_path.exists() {
         let b = NpyF32::open(&bounces_path)?;
         let expected = vec![
-            meta.bounces_separate as u64 + 2,
+            meta.bounces_separate as u64 + 2 + u64::from(meta.luminescence_layer),
             meta.height as u64,
             meta.width as u64,
             meta.bins as u64,
@@ -794,6 +805,7 @@ pub fn load_snapshot(dir: &Path) -> Result<(CubeMetadata, FilmSnapshot), ExportE
         } else {
             0
         },
+        luminescence: meta.luminescence_layer,
     };
     let (w, h, t) = (meta.width as u64, meta.height as u64, meta.bins as u64);
     let layers = bounces.as_ref().map_or(0, |b| b.shape()[0] as usize);

@@ -578,6 +578,21 @@ pub struct SensorOutputs {
     pub files: Vec<String>,
     /// The AMCW depth's error, when the sensor has AMCW gates.
     pub multipath: Option<MultipathError>,
+    /// FLIM's lifetime image in numbers, when the sensor asks for it.
+    pub flim: Option<FlimSummary>,
+}
+
+/// FLIM's lifetime image in numbers: how many pixels measured a decay and the spread of
+/// their lifetimes, seconds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FlimSummary {
+    pub pixels_with_lifetime: usize,
+    pub pixels: usize,
+    pub median_s: f64,
+    pub p05_s: f64,
+    pub p95_s: f64,
+    /// The two gates' spacing `dt`, seconds.
+    pub gate_spacing_s: f64,
 }
 
 /// Writes the files of a `tprf sensor` run into `out` (created if missing; files in it
@@ -717,24 +732,40 @@ pub fn write_sensor_outputs(out: &Path, run: &SensorRun) -> Result<SensorOutputs
         );
     }
 
+    let mut flim = None;
     if let Some(tau) = &gates.flim_lifetime_s {
         write_npy_f32(&out.join("flim_lifetime.npy"), &[h as u64, w as u64], tau)?;
-        files.push("flim_lifetime.npy".into());
+        write_lifetime_png(&out.join("flim_lifetime.png"), w, h, tau)?;
+        files.extend(["flim_lifetime.npy", "flim_lifetime.png"].map(String::from));
         let finite: Vec<f64> = tau
             .iter()
             .filter(|t| t.is_finite())
             .map(|&t| f64::from(t))
             .collect();
+        let q = |q| quantile(finite.iter().copied(), q).unwrap_or(f64::NAN);
+        let gate_spacing_s =
+            crate::sensor::derived::flim_gate_spacing_s(model.gates()).unwrap_or(f64::NAN);
+        let summary = FlimSummary {
+            pixels_with_lifetime: finite.len(),
+            pixels: tau.len(),
+            median_s: q(0.5),
+            p05_s: q(0.05),
+            p95_s: q(0.95),
+            gate_spacing_s,
+        };
         derived_json.insert(
             "flim".into(),
             serde_json::json!({
                 "lifetime": "tau = dt / ln(M_1 / M_2) from gates 0 and 1 (box gates of \
                              equal width, starts dt apart), seconds; NaN where M_1 <= M_2",
-                "gate_spacing_s": crate::sensor::derived::flim_gate_spacing_s(model.gates()),
+                "gate_spacing_s": gate_spacing_s,
                 "pixels_with_lifetime": finite.len(),
                 "median_s": quantile(finite.iter().copied(), 0.5),
+                "p05_s": quantile(finite.iter().copied(), 0.05),
+                "p95_s": quantile(finite.iter().copied(), 0.95),
             }),
         );
+        flim = Some(summary);
     }
 
     if let Some(spad) = run.spad {
@@ -806,7 +837,11 @@ pub fn write_sensor_outputs(out: &Path, run: &SensorRun) -> Result<SensorOutputs
         },
     });
     write_json(&out.join("sensor.json"), &json)?;
-    Ok(SensorOutputs { files, multipath })
+    Ok(SensorOutputs {
+        files,
+        multipath,
+        flim,
+    })
 }
 
 /// What [`write_spad_files`] wrote and found.
@@ -1082,6 +1117,36 @@ fn write_depth_png(path: &Path, w: usize, h: usize, depth: &[f32]) -> Result<()>
         log: false,
         unit: "m",
         note: "depth; black: no return",
+    };
+    let (rgb, cw, ch) = with_legend(rgb, w, h, &scale).map_err(legend_error)?;
+    Ok(write_png_rgb(path, cw, ch, rgb)?)
+}
+
+/// A lifetime image (seconds) as grey PNG, linear from 0 (dark grey) to the 99 %
+/// quantile (white), saturating; no decay black; its scale in ns under it
+/// ([`with_legend`]).
+fn write_lifetime_png(path: &Path, w: usize, h: usize, tau_s: &[f32]) -> Result<()> {
+    let top_ns = 1e9 * quantile(tau_s.iter().map(|&t| f64::from(t)), 0.99).unwrap_or(0.0);
+    let top_ns = top_ns.max(1e-9);
+    let grey = |t: f64| {
+        let g = (255.0 * (0.15 + 0.85 * t.clamp(0.0, 1.0))).round() as u8;
+        [g, g, g]
+    };
+    let mut rgb = Vec::with_capacity(3 * tau_s.len());
+    for &t in tau_s {
+        rgb.extend(if t.is_finite() {
+            grey(1e9 * f64::from(t) / top_ns)
+        } else {
+            [0, 0, 0]
+        });
+    }
+    let scale = Legend {
+        ramp: &grey,
+        lo: 0.0,
+        hi: top_ns,
+        log: false,
+        unit: "ns",
+        note: "FLIM lifetime; black: no decay",
     };
     let (rgb, cw, ch) = with_legend(rgb, w, h, &scale).map_err(legend_error)?;
     Ok(write_png_rgb(path, cw, ch, rgb)?)

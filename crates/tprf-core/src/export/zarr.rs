@@ -424,11 +424,16 @@ impl ZarrCube {
             source,
         })?;
         let layers = self.layers();
+        let lum = self.meta.luminescence_layer && layers >= 4;
         let layout = FilmLayout {
             width: self.width,
             height: self.height,
             axis,
-            bounces_separate: if layers >= 3 { (layers - 2) as u32 } else { 0 },
+            bounces_separate: match layers - usize::from(lum) {
+                l if l >= 3 => (l - 2) as u32,
+                _ => 0,
+            },
+            luminescence: lum,
         };
         let mut builder = SnapshotBuilder::new(layout);
         let t = self.bins;

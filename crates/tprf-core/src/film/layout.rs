@@ -11,6 +11,23 @@ pub struct FilmLayout {
     /// `0`: no per-bounce layers. `K > 0`: layers for 0 (emitter seen directly),
     /// 1, ..., K scattering events and one for "more than K" (`K + 2` layers in all).
     pub bounces_separate: u32,
+    /// With bounce layers, one more after them: the light re-emitted by a luminescent
+    /// surface on its way (contributions marked [`RE_EMITTED`]); the bounce layers then
+    /// hold the rest, so the layers still add up to the total. Ignored without bounce
+    /// layers.
+    pub luminescence: bool,
+}
+
+/// A flag on a contribution's count of scattering events (the `scatterings` of
+/// [`super::PixelSink::add`]): the path was re-emitted by a luminescent surface, so its
+/// light lands in the film's luminescence layer ([`FilmLayout::luminescence`]). The
+/// count itself is `scatterings & !RE_EMITTED` ([`scattering_count`]).
+pub const RE_EMITTED: u32 = 1 << 31;
+
+/// The number of scattering events of a contribution marked with [`RE_EMITTED`] or not.
+#[inline(always)]
+pub const fn scattering_count(scatterings: u32) -> u32 {
+    scatterings & !RE_EMITTED
 }
 
 impl FilmLayout {
@@ -18,19 +35,30 @@ impl FilmLayout {
         self.width * self.height
     }
 
-    /// Number of per-bounce layers (0 when not asked for).
+    /// Number of per-bounce layers (0 when not asked for), the luminescence layer
+    /// included.
     pub fn bounce_layers(&self) -> usize {
         if self.bounces_separate == 0 {
             0
         } else {
-            self.bounces_separate as usize + 2
+            self.bounces_separate as usize + 2 + usize::from(self.luminescence)
         }
     }
 
-    /// The layer a contribution with `scatterings` events lands in.
+    /// The luminescence layer's index, when the film has one.
+    pub fn luminescence_layer(&self) -> Option<usize> {
+        (self.bounces_separate > 0 && self.luminescence)
+            .then_some(self.bounces_separate as usize + 2)
+    }
+
+    /// The layer a contribution after `scatterings` events lands in (with
+    /// [`RE_EMITTED`] set: the luminescence layer, when the film has one).
     #[inline]
     pub fn layer_of(&self, scatterings: u32) -> usize {
-        scatterings.min(self.bounces_separate + 1) as usize
+        if self.luminescence && scatterings & RE_EMITTED != 0 {
+            return self.bounces_separate as usize + 2;
+        }
+        scattering_count(scatterings).min(self.bounces_separate + 1) as usize
     }
 
     /// Bins of the whole cube, `H x W x T` (saturating).

@@ -14,7 +14,7 @@ mod time_axis;
 
 pub use error::FilmError;
 pub use filter::TimeFilter;
-pub use layout::FilmLayout;
+pub use layout::{FilmLayout, RE_EMITTED, scattering_count};
 pub use row::{PixelPass, PixelSamples};
 pub use sink::{LeftOut, LeftOutCounts, PixelSink};
 pub use snapshot::{

@@ -144,8 +144,15 @@ impl FilmSnapshot {
             rows.extend(built);
             after_band(y0 + n, heap_bytes)?;
         }
+        // The luminescence layer, when the caller's layout says the file has one, is
+        // the last.
+        let lum = layout.luminescence && layers >= 4;
         let layout = FilmLayout {
-            bounces_separate: if layers >= 2 { (layers - 2) as u32 } else { 0 },
+            bounces_separate: match layers - usize::from(lum) {
+                l if l >= 2 => (l - 2) as u32,
+                _ => 0,
+            },
+            luminescence: lum,
             ..layout
         };
         let rows = rows.into_iter().map(Arc::new).collect();
@@ -227,9 +234,18 @@ impl FilmSnapshot {
         self.layout.height
     }
 
-    /// Number of per-bounce layers (0 when not recorded).
+    /// Number of per-bounce layers (0 when not recorded), the luminescence layer
+    /// included.
     pub fn layers(&self) -> usize {
         self.rows.first().map_or(0, |r| r.layers.len())
+    }
+
+    /// The index of the luminescence layer (the light re-emitted by a luminescent
+    /// surface, [`FilmLayout::luminescence`]), when the film has one: the last.
+    pub fn luminescence_layer(&self) -> Option<usize> {
+        self.layout
+            .luminescence_layer()
+            .filter(|&l| l < self.layers())
     }
 
     fn row(&self, x: usize, y: usize) -> Option<&FilmRow> {
@@ -642,6 +658,7 @@ mod tests {
             height: 1,
             axis: TimeAxis::new(0.0, 1e-9, 3).unwrap(),
             bounces_separate: 0,
+            luminescence: false,
         };
         let film = crate::film::TprfFilm::new(layout).unwrap();
         let (a, b) = (film.snapshot(), film.snapshot());
@@ -662,6 +679,7 @@ mod tests {
             height: 1,
             axis,
             bounces_separate: 0,
+            luminescence: false,
         };
         // Pixel 0: 1, 3, 2 (peak bin 1, sum 6); pixel 1 dark.
         let snap =
@@ -706,6 +724,7 @@ mod tests {
             height: h,
             axis: TimeAxis::new(0.0, 1e-9, t).unwrap(),
             bounces_separate: 0,
+            luminescence: false,
         };
         let cube = |seed: usize| -> Vec<f32> {
             (0..w * h * t)

@@ -460,6 +460,7 @@ mod tests {
                 bins: 64,
             },
             bounces_separate: 0,
+            luminescence: false,
         }
     }
 

@@ -382,6 +382,7 @@ pub fn cube_metadata(
         max_bounces: request.max_bounces,
         min_bounces: request.min_bounces,
         bounces_separate: request.bounces_separate,
+        luminescence_layer: film.layout().luminescence_layer().is_some(),
         threads,
         wall_seconds: wall_s,
         rays_traced: renderer.rays_traced(),
@@ -437,6 +438,7 @@ pub fn cube_metadata(
             ),
             None => None,
         },
+        request: serde_json::to_value(request).ok(),
     })
 }
 

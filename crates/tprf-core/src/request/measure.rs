@@ -10,8 +10,8 @@
 use super::Problem;
 use crate::export::ExportError;
 use crate::export::sensor::{
-    DEFAULT_TILE_BYTES, MultipathError, SensorCube, SensorFilesError, SensorRun, SpadFiles,
-    measure_cube, write_sensor_outputs, write_spad_files,
+    DEFAULT_TILE_BYTES, FlimSummary, MultipathError, SensorCube, SensorFilesError, SensorRun,
+    SpadFiles, measure_cube, write_sensor_outputs, write_spad_files,
 };
 use crate::sensor::{
     Derived, Draws, Exposure, LightPulse, Pipeline, Sensor, SensorError, SensorModel,
@@ -106,6 +106,8 @@ pub struct Measured {
     pub spad: Option<SpadFiles>,
     /// The AMCW depth's error, when the sensor has AMCW gates.
     pub multipath: Option<MultipathError>,
+    /// FLIM's lifetimes in numbers, when the sensor asks for them.
+    pub flim: Option<FlimSummary>,
 }
 
 impl MeasureRequest {
@@ -291,6 +293,7 @@ impl MeasureRequest {
             noise_s,
             spad,
             multipath: written.multipath,
+            flim: written.flim,
         })
     }
 }

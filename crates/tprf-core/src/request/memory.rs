@@ -229,7 +229,8 @@ struct Foreseen {
 struct CountingSink {
     axis: TimeAxis,
     tent: bool,
-    layers: usize,
+    /// The film's layout, for the layer a contribution lands in.
+    layout: FilmLayout,
     bins: Vec<usize>,
     layer_bins: Vec<(usize, usize)>,
 }
@@ -244,9 +245,9 @@ impl Sink for CountingSink {
         };
         let mut push = |bin: usize| {
             self.bins.push(bin);
-            if self.layers > 0 {
-                let layer = (scatterings as usize).min(self.layers - 1);
-                self.layer_bins.push((layer, bin));
+            if self.layout.bounce_layers() > 0 {
+                self.layer_bins
+                    .push((self.layout.layer_of(scatterings), bin));
             }
         };
         push(b);
@@ -287,7 +288,6 @@ impl MemoryBudget {
             ((w as f64 / step).ceil() as usize).max(1),
             ((h as f64 / step).ceil() as usize).max(1),
         );
-        let layers = layout.bounce_layers();
         let seed = renderer.settings().seed ^ 0x4d45_4d4f_5259_0000;
         let counts: Vec<(usize, usize)> = (0..pw * ph)
             .into_par_iter()
@@ -298,7 +298,7 @@ impl MemoryBudget {
                 let mut sink = CountingSink {
                     axis: layout.axis,
                     tent,
-                    layers,
+                    layout,
                     bins: Vec::new(),
                     layer_bins: Vec::new(),
                 };

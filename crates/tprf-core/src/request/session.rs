@@ -117,6 +117,7 @@ impl Session {
             height: request.height,
             axis,
             bounces_separate: request.bounces_separate,
+            luminescence: renderer.is_luminescent(),
         };
         let mut film = TprfFilm::new(layout)?.with_time_filter(request.time_filter);
         let shard = request.shard_spec()?;

@@ -70,6 +70,8 @@ pub(super) struct EyeVertex<'a> {
     pub throughput: f32,
     /// Scattering events before this vertex.
     pub scatterings: u32,
+    /// [`crate::film::RE_EMITTED`] when a luminescent surface re-emitted the path, else 0.
+    pub tag: u32,
     /// How many BSDF samples leave this vertex (the split's branches, else 1): the
     /// path tracer's strategy counts that many times in the heuristic.
     pub bsdf_samples: f32,
@@ -197,7 +199,7 @@ impl Renderer {
         sink.ray(x.position_out, w, t_max, RayKind::Shadow);
         let tr = self.transmittance(x.position_out, w, t_max);
         if tr > 0.0 {
-            sink.add(arrival_s, (value * tr) as f64, x.scatterings + 2);
+            sink.add(arrival_s, (value * tr) as f64, (x.scatterings + 2) | x.tag);
         }
         1
     }

@@ -11,7 +11,9 @@ use super::sampler::{Sampler, dim};
 use super::split::Strategy;
 use super::surface::{SurfacePoint, Surfaces};
 use crate::accel::Accel;
-use crate::film::{LeftOut, LeftOutCounts, PixelSink, TimeAxis, TprfFilm};
+use crate::film::{
+    LeftOut, LeftOutCounts, PixelSink, RE_EMITTED, TimeAxis, TprfFilm, scattering_count,
+};
 use crate::scene::{Camera, Channel, PulseOrigin, Scene, TimeOrigin};
 use crate::units::C_M_PER_S;
 use glam::Vec3;
@@ -21,7 +23,9 @@ use std::sync::{Arc, OnceLock};
 /// Where a path's contributions go.
 pub trait Sink {
     /// One contribution: radiance `value` (W / (m^2 sr) per unit pulse energy, already
-    /// divided by the path's pdf) arriving at `arrival_s` after `scatterings` events.
+    /// divided by the path's pdf) arriving at `arrival_s` after `scatterings` events,
+    /// with [`RE_EMITTED`] set in it when a luminescent surface re-emitted the path
+    /// ([`scattering_count`] gives the count alone).
     fn add(&mut self, arrival_s: f64, value: f64, scatterings: u32);
     /// Latest arrival time that still counts, seconds.
     fn window_end_s(&self) -> f64;
@@ -58,7 +62,7 @@ struct FromBounce<'a, S> {
 impl<S: Sink> Sink for FromBounce<'_, S> {
     #[inline]
     fn add(&mut self, arrival_s: f64, value: f64, scatterings: u32) {
-        if scatterings >= self.min {
+        if scattering_count(scatterings) >= self.min {
             self.inner.add(arrival_s, value, scatterings);
         }
     }
@@ -299,6 +303,9 @@ struct Path {
     /// where a light found along this ray is timed from with [`PulseOrigin::FirstHit`].
     vertex_opl_m: f64,
     scatterings: u32,
+    /// [`RE_EMITTED`] once a luminescent surface re-emitted the path, else 0: marks
+    /// its later contributions for the film's luminescence layer.
+    tag: u32,
     /// Refractive index of the medium the ray travels in.
     ior_here: f32,
     /// Solid-angle pdf of the last BSDF sample; `None` for the camera ray and delta lobes.
@@ -326,6 +333,7 @@ impl Path {
             opl_m: 0.0,
             vertex_opl_m: 0.0,
             scatterings: 0,
+            tag: 0,
             ior_here: 1.0,
             last_pdf: None,
             last_position: origin,
@@ -490,6 +498,12 @@ impl Renderer {
 
     pub(super) fn surfaces(&self) -> &Surfaces {
         &self.surfaces
+    }
+
+    /// Whether a material of the scene re-emits light in this band (a luminescent
+    /// surface): a film of its render with bounce layers gets a luminescence layer.
+    pub fn is_luminescent(&self) -> bool {
+        self.surfaces.any_luminescent()
     }
 
     /// The sampling strategy of this render: the settings' first-bounce split and
@@ -792,7 +806,7 @@ impl Renderer {
                 sink.add(
                     opl_m / C_M_PER_S,
                     (path.throughput * path.share * sp.emission * weight) as f64,
-                    path.scatterings,
+                    path.scatterings | path.tag,
                 );
             }
             if path.scatterings >= s.max_bounces {
@@ -820,6 +834,7 @@ impl Renderer {
                     } => {
                         sp.bsdf = *bsdf;
                         path.throughput *= weight;
+                        path.tag = RE_EMITTED;
                         // No light-vertex join finds a re-emission: its estimate here
                         // takes the whole weight.
                         path.connected_pdf = 0.0;
@@ -866,6 +881,7 @@ impl Renderer {
                         path.ior_here,
                         path.throughput * path.share,
                         path.scatterings,
+                        path.tag,
                         0.0,
                         rng,
                         &mut spread,
@@ -900,6 +916,7 @@ impl Renderer {
                     path.ior_here,
                     path.throughput * path.share,
                     path.scatterings,
+                    path.tag,
                     connected_pdf_area,
                     rng,
                     sink,
@@ -929,6 +946,7 @@ impl Renderer {
                         opl_m: path.opl_m,
                         throughput: path.throughput * path.share,
                         scatterings: path.scatterings,
+                        tag: path.tag,
                         bsdf_samples: splits as f32,
                     };
                     rays += self.connect(&x, lv, sink);
@@ -1055,11 +1073,12 @@ impl Renderer {
         ior_here: f32,
         throughput: f32,
         vertex: u32,
+        tag: u32,
         connected_pdf_area: f32,
         rng: &Sampler,
         sink: &mut impl Sink,
     ) -> u64 {
-        let scatterings = vertex + 1;
+        let scatterings = (vertex + 1) | tag;
         let mut rays = 0;
         // The optical length of the leg to the light, `d` metres away, counted in the
         // arrival time (none when the pulse starts at the surface it lights).

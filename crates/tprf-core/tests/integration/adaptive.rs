@@ -25,6 +25,7 @@ fn film(width: usize, height: usize, bins: usize) -> (TprfFilm, TimeAxis) {
         height,
         axis,
         bounces_separate: 0,
+        luminescence: false,
     };
     (TprfFilm::new(layout).unwrap(), axis)
 }

@@ -51,6 +51,7 @@ fn the_sparse_store_equals_a_dense_accumulation() {
         height: H,
         axis,
         bounces_separate: K,
+        luminescence: false,
     };
     let layers = layout.bounce_layers();
     let mut film = TprfFilm::new(layout).unwrap();
@@ -166,6 +167,7 @@ fn the_tent_filter_splits_between_bin_centres_in_the_sparse_store() {
         height: 1,
         axis,
         bounces_separate: 0,
+        luminescence: false,
     };
     let mut film = TprfFilm::new(layout)
         .unwrap()
@@ -187,6 +189,7 @@ fn a_pass_after_a_snapshot_leaves_the_snapshot_as_it_was() {
         height: 2,
         axis,
         bounces_separate: 0,
+        luminescence: false,
     };
     let mut film = TprfFilm::new(layout).unwrap();
     film.run_pass(1, |x, _, sink| sink.add(0.5 + x as f64, 1.0, 1));
@@ -208,6 +211,7 @@ fn non_finite_contributions_are_counted_and_kept_out() {
             height: 1,
             axis,
             bounces_separate,
+            luminescence: false,
         };
         let mut film = TprfFilm::new(layout).unwrap();
         let tally = film.run_pass(1, |x, _, sink| {

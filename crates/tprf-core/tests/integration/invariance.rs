@@ -162,6 +162,7 @@ fn bins_accumulate_1e8_samples_without_loss() {
         height: 1,
         axis,
         bounces_separate: 0,
+        luminescence: false,
     })
     .unwrap();
     let n: u64 = 100_000_000;
@@ -198,6 +199,7 @@ fn tent_filter_conserves_energy_and_keeps_centred_deltas_in_one_bin() {
         height: 5,
         axis,
         bounces_separate: 2,
+        luminescence: false,
     };
     let mut films = [TimeFilter::Box, TimeFilter::Tent]
         .map(|f| TprfFilm::new(layout).unwrap().with_time_filter(f));
@@ -227,6 +229,7 @@ fn tent_filter_conserves_energy_and_keeps_centred_deltas_in_one_bin() {
         height: 1,
         axis,
         bounces_separate: 0,
+        luminescence: false,
     })
     .unwrap()
     .with_time_filter(TimeFilter::Tent);

@@ -33,6 +33,7 @@ fn sphere_render(axis: TimeAxis) -> (TprfFilm, u64, LeftOutCounts) {
         height: H,
         axis,
         bounces_separate: 0,
+        luminescence: false,
     })
     .unwrap();
     let reports = render(&renderer, &mut film, &Schedule::spp(SPP), |_, _| {

@@ -96,6 +96,81 @@ fn a_luminescent_plane_decays_as_its_closed_form_per_bin() {
     assert!(check_plane(&lp, axis, 256, DelaySampling::Splat, 0) < 0.2);
 }
 
+/// With bounce layers, the film's luminescence layer holds the re-emitted light and the
+/// bounce layers the rest: on the lit plane the layer is the closed form's decay alone
+/// and the single-bounce layer the plain plane's direct return (both per bin within
+/// noise), the direct and ">1" layers are empty, and the layers add up to the total.
+#[test]
+fn the_luminescence_layer_holds_the_decay_and_the_bounce_layers_the_rest() {
+    let t_direct = 4.0 / C;
+    let axis = TimeAxis::new(0.95 * t_direct, 0.5e-9, 60).unwrap();
+    let lp = lplane(0.3, &[(0.4, LIFETIME_S)]);
+    let (w, h) = (6, 4);
+    let settings = RenderSettings {
+        seed: 5,
+        luminescence_delay: DelaySampling::Splat,
+        ..RenderSettings::default()
+    };
+    let r = render_with(lp.scene(), w, h, axis, 256, settings, 1);
+    let layout = *r.film.layout();
+    assert_eq!(layout.bounce_layers(), 4);
+    assert_eq!(layout.luminescence_layer(), Some(3));
+    // Expected per layer: [direct, 1 bounce, >1, luminescence].
+    let mut residuals = vec![vec![Vec::new(); axis.bins]; 4];
+    let mut want = vec![vec![0.0; axis.bins]; 4];
+    for y in 0..h {
+        for x in 0..w {
+            let total = r.film.pixel_tprf(x, y);
+            let layers = r.film.pixel_bounces(x, y);
+            let reflected = lp.plane.pixel_tprf(x, y, w, h, &axis);
+            let all = lp.pixel_tprf(x, y, w, h, &axis);
+            for b in 0..axis.bins {
+                let sum: f64 = layers.iter().map(|l| l[b]).sum();
+                assert!(
+                    (sum - total[b]).abs() <= 1e-9 * total[b].abs().max(1e-30),
+                    "pixel {x},{y} bin {b}: layers add to {sum}, the total is {}",
+                    total[b]
+                );
+                let expected = [0.0, reflected[b], 0.0, all[b] - reflected[b]];
+                for l in 0..4 {
+                    residuals[l][b].push(layers[l][b] - expected[l]);
+                    want[l][b] += expected[l] / (w * h) as f64;
+                }
+            }
+        }
+    }
+    let peak = want.iter().flatten().cloned().fold(0.0, f64::max);
+    for (l, name) in ["direct", "1 bounce", ">1", "luminescence"]
+        .iter()
+        .enumerate()
+    {
+        let mut lit = 0;
+        for b in 0..axis.bins {
+            let (mean, se) = mean_and_se(&residuals[l][b]);
+            if want[l][b] == 0.0 {
+                assert!(
+                    residuals[l][b].iter().all(|&r| r == 0.0),
+                    "{name} layer, bin {b}: light where none belongs"
+                );
+                continue;
+            }
+            lit += 1;
+            assert!(
+                mean.abs() < 4.5 * se + 1e-4 * peak,
+                "{name} layer, bin {b}: rendered - exact = {mean} (standard error {se}, \
+                 exact {})",
+                want[l][b]
+            );
+        }
+        // The reflection fills a few bins, the decay most of the window.
+        match l {
+            1 => assert!((1..10).contains(&lit), "{name}: {lit} lit bins"),
+            3 => assert!(lit > 40, "{name}: {lit} lit bins"),
+            _ => {}
+        }
+    }
+}
+
 #[test]
 fn two_lifetimes_add_their_decays() {
     let t_direct = 4.0 / C;

@@ -88,6 +88,7 @@ pub fn bins(size: Size) -> Vec<Row> {
         height: 1,
         axis: TimeAxis::new(0.0, 1.0, 2).expect("axis"),
         bounces_separate: 0,
+        luminescence: false,
     })
     .expect("tiny film");
     film.run_pass(1, |_, _, sink| {

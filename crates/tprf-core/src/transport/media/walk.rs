@@ -4,7 +4,7 @@ use super::distance::{Equiangular, Exponential, PathLength, gate};
 use super::glow::{GLOW_SHARE, Glow};
 use super::phase::{hg, sample_hg};
 use super::{BandMedium, Boundary, Media};
-use crate::film::LeftOut;
+use crate::film::{LeftOut, RE_EMITTED};
 use crate::transport::bsdf::{Bsdf, Frame, LobeKind};
 use crate::transport::integrator::{RayKind, Renderer, Sink, outside, power_heuristic};
 use crate::transport::lights::Punctual;
@@ -56,6 +56,8 @@ struct MediaPath {
     /// Eye-side optical path length, metres.
     opl_m: f64,
     scatterings: u32,
+    /// [`RE_EMITTED`] once a luminescent surface re-emitted the path, else 0.
+    tag: u32,
     /// The medium the ray travels in.
     region: BandMedium,
     /// Solid-angle pdf of the last direction sampled (BSDF or phase function); `None`
@@ -118,6 +120,7 @@ impl Renderer {
             throughput: 1.0,
             opl_m: start_opl_m.unwrap_or(0.0),
             scatterings: 0,
+            tag: 0,
             region: media.scene,
             last_pdf: None,
             last_position: origin,
@@ -225,7 +228,7 @@ impl Renderer {
                 sink.add(
                     path.opl_m / C_M_PER_S,
                     (path.throughput * sp.emission * weight) as f64,
-                    path.scatterings,
+                    path.scatterings | path.tag,
                 );
             }
             if path.scatterings >= s.max_bounces {
@@ -254,6 +257,7 @@ impl Renderer {
                         sp.bsdf = *bsdf;
                         path.throughput *= weight * delay_weight as f32;
                         path.opl_m += delay_opl_m;
+                        path.tag = RE_EMITTED;
                     }
                     Choice::Late => {
                         sink.left_out(LeftOut::PathPastWindow);
@@ -394,7 +398,7 @@ impl Renderer {
                             let pdf_light = es.pdf_area * d2 / cos_l;
                             let w = power_heuristic(pdf_light, f);
                             let value = path.throughput * f * le * w * tr / pdf_light;
-                            sink.add(opl_m / C_M_PER_S, value as f64, vertex + 1);
+                            sink.add(opl_m / C_M_PER_S, value as f64, (vertex + 1) | path.tag);
                         }
                     }
                 }
@@ -591,7 +595,7 @@ impl Renderer {
             let value =
                 (path.throughput * path.nee_weight) as f64 * region.sigma_s as f64 * lit * t_cam
                     / pdf;
-            sink.add(opl_m / C_M_PER_S, value, path.scatterings + 1);
+            sink.add(opl_m / C_M_PER_S, value, (path.scatterings + 1) | path.tag);
         }
         rays
     }
@@ -690,7 +694,7 @@ impl Renderer {
         let lights = self.lights();
         let bsdf: &Bsdf = &sp.bsdf;
         let (p, n_face) = (sp.position, sp.n_face);
-        let scatterings = path.scatterings + 1;
+        let scatterings = (path.scatterings + 1) | path.tag;
         let mut rays = 0;
         for light in &lights.punctual {
             let to = light.position - p;

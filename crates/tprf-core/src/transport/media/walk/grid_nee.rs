@@ -83,7 +83,7 @@ impl Renderer {
             let t_cam = (-(tau_a + tau_as)).exp();
             let sigma_s = region.sigma_s as f64 * density;
             let value = (path.throughput * path.nee_weight) as f64 * sigma_s * lit * t_cam / pdf;
-            sink.add(opl_m / C_M_PER_S, value, path.scatterings + 1);
+            sink.add(opl_m / C_M_PER_S, value, (path.scatterings + 1) | path.tag);
         }
         rays
     }
