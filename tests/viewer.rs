@@ -1763,6 +1763,12 @@ fn a_luminescent_cube_keeps_its_re_emitted_light_apart() {
         }
     }
     assert!(late_light > 0.0, "no light after the excitation");
+    // TPRF_FLIM_SHOT=FILE: a picture of the window with the curves, to look at.
+    if let Some(path) = std::env::var_os("TPRF_FLIM_SHOT")
+        && let Some(shot) = render(&mut h)
+    {
+        shot.save(path).unwrap();
+    }
 }
 
 /// A new scene opens where its light is (the scrubber was left on a late bin, after
