@@ -323,8 +323,17 @@ pub fn load_jobs(path: &Path) -> Result<Vec<Job>> {
             }
         }
     }
-    for (i, table) in m.measure.iter().enumerate() {
-        let what = || format!("{}: measure {}", not_manifest(), i + 1);
+    // [[measure]], [[capture]] and [[reconstruct]]: a name, an out, and the rest a
+    // request's keys (`needs` one of them), read as the request `R`.
+    fn request_job<R: serde::de::DeserializeOwned>(
+        kind: &str,
+        i: usize,
+        table: &toml::Table,
+        needs: &str,
+        manifest: &str,
+        resolve_out: impl Fn(&Path) -> PathBuf,
+    ) -> Result<(String, PathBuf, BTreeSet<String>, R)> {
+        let what = || format!("{manifest}: {kind} {}", i + 1);
         let mut t = table.clone();
         let mut text = |key: &str| -> Result<Option<String>> {
             match t.remove(key) {
@@ -337,7 +346,9 @@ pub fn load_jobs(path: &Path) -> Result<Vec<Job>> {
         let Some(out) = text("out")? else {
             bail!("{} has no out", what());
         };
-        let request: MeasureRequest = toml::Value::Table(t).try_into().with_context(what)?;
+        if !t.contains_key(needs) {
+            bail!("{} has no {needs}", what());
+        }
         let out = resolve_out(Path::new(&out));
         let name = name.unwrap_or_else(|| {
             out.file_name().map_or_else(
@@ -345,53 +356,29 @@ pub fn load_jobs(path: &Path) -> Result<Vec<Job>> {
                 |n| n.to_string_lossy().into_owned(),
             )
         });
+        let given: BTreeSet<String> = t.keys().cloned().collect();
+        let request: R = toml::Value::Table(t).try_into().with_context(what)?;
+        Ok((name, out, given, request))
+    }
+    let manifest = not_manifest();
+    let job_of = |name: &str| format!("{}: job '{name}'", path.display());
+    for (i, table) in m.measure.iter().enumerate() {
+        let (name, out, _, request): (_, _, _, MeasureRequest) =
+            request_job("measure", i, table, "dir", &manifest, &resolve_out)?;
         let request = MeasureRequest {
             dir: resolve_out(&request.dir),
             ..request
         };
-        request
-            .validate()
-            .with_context(|| format!("{}: job '{name}'", path.display()))?;
+        request.validate().with_context(|| job_of(&name))?;
         jobs.push(Job {
             name,
             out,
             work: Work::Measure(request),
         });
     }
-    // [[capture]] and [[reconstruct]]: a name, an out, and the rest a request's keys.
-    let named =
-        |kind: &str, i: usize, table: &toml::Table| -> Result<(String, PathBuf, toml::Table)> {
-            let what = || format!("{}: {kind} {}", not_manifest(), i + 1);
-            let mut t = table.clone();
-            let mut text = |key: &str| -> Result<Option<String>> {
-                match t.remove(key) {
-                    None => Ok(None),
-                    Some(toml::Value::String(s)) => Ok(Some(s)),
-                    Some(v) => bail!("{}: {key} must be a string (got {v})", what()),
-                }
-            };
-            let name = text("name")?;
-            let Some(out) = text("out")? else {
-                bail!("{} has no out", what());
-            };
-            let out = resolve_out(Path::new(&out));
-            let name = name.unwrap_or_else(|| {
-                out.file_name().map_or_else(
-                    || out.display().to_string(),
-                    |n| n.to_string_lossy().into_owned(),
-                )
-            });
-            Ok((name, out, t))
-        };
     for (i, table) in m.capture.iter().enumerate() {
-        let (name, out, t) = named("capture", i, table)?;
-        if !t.contains_key("scene") {
-            bail!("{}: capture {} has no scene", not_manifest(), i + 1);
-        }
-        let given: BTreeSet<String> = t.keys().cloned().collect();
-        let request: CaptureRequest = toml::Value::Table(t)
-            .try_into()
-            .with_context(|| format!("{}: capture {}", not_manifest(), i + 1))?;
+        let (name, out, given, request): (_, _, _, CaptureRequest) =
+            request_job("capture", i, table, "scene", &manifest, &resolve_out)?;
         let request = CaptureRequest {
             scene: resolve_scene(&request.scene),
             ..request
@@ -399,7 +386,7 @@ pub fn load_jobs(path: &Path) -> Result<Vec<Job>> {
         request
             .validate()
             .map_err(|e| super::nlos::capture_error(e, str::to_string))
-            .with_context(|| format!("{}: job '{name}'", path.display()))?;
+            .with_context(|| job_of(&name))?;
         jobs.push(Job {
             name,
             out,
@@ -410,13 +397,8 @@ pub fn load_jobs(path: &Path) -> Result<Vec<Job>> {
         });
     }
     for (i, table) in m.reconstruct.iter().enumerate() {
-        let (name, out, t) = named("reconstruct", i, table)?;
-        if !t.contains_key("capture") {
-            bail!("{}: reconstruct {} has no capture", not_manifest(), i + 1);
-        }
-        let request: ReconstructRequest = toml::Value::Table(t)
-            .try_into()
-            .with_context(|| format!("{}: reconstruct {}", not_manifest(), i + 1))?;
+        let (name, out, _, request): (_, _, _, ReconstructRequest) =
+            request_job("reconstruct", i, table, "capture", &manifest, &resolve_out)?;
         let request = ReconstructRequest {
             capture: resolve_out(&request.capture),
             ..request
@@ -424,7 +406,7 @@ pub fn load_jobs(path: &Path) -> Result<Vec<Job>> {
         request
             .validate()
             .map_err(|e| super::nlos::reconstruct_error(e, str::to_string))
-            .with_context(|| format!("{}: job '{name}'", path.display()))?;
+            .with_context(|| job_of(&name))?;
         jobs.push(Job {
             name,
             out,

@@ -430,6 +430,11 @@ pub fn merged_metadata(shards: &[Shard]) -> Result<CubeMetadata> {
     }
     let mut meta = first.meta.clone();
     meta.shard = None;
+    // The merged cube is the request's without its shard: what renders it in one
+    // process.
+    if let Some(serde_json::Value::Object(request)) = &mut meta.request {
+        request.remove("shard");
+    }
     meta.error_estimate = half_error_from_terms(first.info.half_spp, terms);
     meta.wall_seconds = shards.iter().map(|s| s.meta.wall_seconds).sum();
     meta.render_seconds = shards.iter().map(|s| s.meta.render_seconds).sum();
