@@ -364,7 +364,7 @@ pub fn load_jobs(path: &Path) -> Result<Vec<Job>> {
     let job_of = |name: &str| format!("{}: job '{name}'", path.display());
     for (i, table) in m.measure.iter().enumerate() {
         let (name, out, _, request): (_, _, _, MeasureRequest) =
-            request_job("measure", i, table, "dir", &manifest, &resolve_out)?;
+            request_job("measure", i, table, "dir", &manifest, resolve_out)?;
         let request = MeasureRequest {
             dir: resolve_out(&request.dir),
             ..request
@@ -378,7 +378,7 @@ pub fn load_jobs(path: &Path) -> Result<Vec<Job>> {
     }
     for (i, table) in m.capture.iter().enumerate() {
         let (name, out, given, request): (_, _, _, CaptureRequest) =
-            request_job("capture", i, table, "scene", &manifest, &resolve_out)?;
+            request_job("capture", i, table, "scene", &manifest, resolve_out)?;
         let request = CaptureRequest {
             scene: resolve_scene(&request.scene),
             ..request
@@ -398,7 +398,7 @@ pub fn load_jobs(path: &Path) -> Result<Vec<Job>> {
     }
     for (i, table) in m.reconstruct.iter().enumerate() {
         let (name, out, _, request): (_, _, _, ReconstructRequest) =
-            request_job("reconstruct", i, table, "capture", &manifest, &resolve_out)?;
+            request_job("reconstruct", i, table, "capture", &manifest, resolve_out)?;
         let request = ReconstructRequest {
             capture: resolve_out(&request.capture),
             ..request
