@@ -13,6 +13,7 @@ mod integrator;
 pub mod lights;
 pub mod luminescence;
 pub mod media;
+pub mod polarization;
 pub mod progressive;
 pub mod sampler;
 pub mod split;
