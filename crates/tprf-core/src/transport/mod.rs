@@ -7,6 +7,7 @@
 pub mod adaptive;
 pub mod ambient;
 pub mod bsdf;
+mod carried;
 mod connect;
 pub mod derivative;
 mod integrator;
@@ -14,6 +15,7 @@ pub mod lights;
 pub mod luminescence;
 pub mod media;
 pub mod polarization;
+pub mod polarized;
 pub mod progressive;
 pub mod sampler;
 pub mod split;
@@ -22,5 +24,6 @@ mod window;
 
 pub use integrator::{PassStats, RayKind, RenderSettings, Renderer, Sink};
 pub use luminescence::DelaySampling;
+pub use polarized::{PolarizationError, PolarizedTracer};
 pub use split::Strategy;
 pub use window::{ChosenWindow, WindowError, WindowRequest, auto_window, choose_window};
