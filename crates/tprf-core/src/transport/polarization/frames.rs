@@ -137,6 +137,29 @@ mod tests {
         );
     }
 
+    /// Mitsuba's numbers (3.9.1, `llvm_ad_mono_polarized`): `mi.mueller.stokes_basis(f)`
+    /// for `f = normalize(0.3, -0.5, 0.8)`, and `rotate_stokes_basis(f, that basis,
+    /// normalize(f x (0, 1, 0)))` (the rotation mitransient's `stokes` integrator applies
+    /// into the camera's frame).
+    #[test]
+    fn basis_and_rotation_match_mitsubas_numbers() {
+        let f = Vec3::new(0.3, -0.5, 0.8).normalize();
+        let b = stokes_basis(f);
+        let want = Vec3::new(0.949_208_8, 0.084_652_04, -0.303_045_75);
+        assert!((b - want).length() < 1e-6, "{b} vs {want}");
+        let r = rotate_stokes_basis(f, b, f.cross(Vec3::Y).normalize());
+        let (c, s) = (0.980_759_9f32, 0.195_217_9f32);
+        let want = [
+            [1.0, 0.0, 0.0, 0.0],
+            [0.0, c, -s, 0.0],
+            [0.0, s, c, 0.0],
+            [0.0, 0.0, 0.0, 1.0],
+        ];
+        for (got, want) in r.0.iter().flatten().zip(want.iter().flatten()) {
+            assert!((got - want).abs() < 1e-5, "{r:?}");
+        }
+    }
+
     /// Turning the frame by `theta` turns `(S1, S2)` by `-2 theta` (the light turns by
     /// `+2 theta` relative to a frame turned by `-theta`), keeps `S0`, `S3` and the
     /// degree of polarization, and `R(a) R(b) = R(a + b)`.

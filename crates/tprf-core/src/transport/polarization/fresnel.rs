@@ -268,4 +268,87 @@ mod tests {
             }
         }
     }
+
+    /// Mitsuba's own numbers: `mi.mueller.specular_reflection(cos, eta)` printed by
+    /// Mitsuba 3.9.1 (`llvm_ad_mono_polarized`; `mi.Complex2f(eta, k)` for conductors),
+    /// elements `M00, M01, M22, M23` (the rest follow: `M10 = M01`, `M11 = M00`, `M32 =
+    /// -M23`, `M33 = M22`): gold and aluminium-like conductors, glass from outside and
+    /// from inside beyond the critical angle (total internal reflection's retardance).
+    #[test]
+    fn reflection_matches_mitsubas_numbers() {
+        let cases: [(f32, f32, f32, [f32; 4]); 5] = [
+            (
+                0.9,
+                0.18,
+                3.42,
+                [0.944_784_6, 0.005_954_564, -0.937_744_7, -0.114_967_22],
+            ),
+            (
+                0.4,
+                0.18,
+                3.42,
+                [0.938_015_9, 0.040_356_457, -0.450_619_2, -0.821_697_9],
+            ),
+            (
+                0.2,
+                1.2,
+                7.26,
+                [0.857_496_3, 0.125_380_67, -0.351_545_7, -0.772_007_3],
+            ),
+            (
+                0.6,
+                1.5,
+                0.0,
+                [0.064_524_96, 0.063_564_97, -0.011_089_008, 0.0],
+            ),
+            (-0.6, 1.5, 0.0, [1.0, 0.0, 0.706_666_7, -0.707_546_6]),
+        ];
+        for (cos, eta, k, [m00, m01, m22, m23]) in cases {
+            let m = specular_reflection(cos, eta, k);
+            let expected = [
+                [m00, m01, 0.0, 0.0],
+                [m01, m00, 0.0, 0.0],
+                [0.0, 0.0, m22, m23],
+                [0.0, 0.0, -m23, m22],
+            ];
+            for (r, row) in expected.iter().enumerate() {
+                for (c, want) in row.iter().enumerate() {
+                    assert!(
+                        (m.0[r][c] - want).abs() < 2e-6,
+                        "cos {cos}, eta {eta}, k {k}: [{r}][{c}] {} vs Mitsuba's {want}",
+                        m.0[r][c]
+                    );
+                }
+            }
+        }
+    }
+
+    /// Mitsuba's `mi.mueller.specular_transmission(cos, eta)` (3.9.1): `M00, M01, M22`
+    /// (`M11 = M00`, `M10 = M01`, `M33 = M22`); zero under total internal reflection.
+    #[test]
+    fn transmission_matches_mitsubas_numbers() {
+        let cases: [(f32, f32, [f32; 3]); 3] = [
+            (0.6, 1.5, [0.935_474_9, -0.063_564_96, 0.933_312_9]),
+            (-0.6, 1.5, [0.0, 0.0, 0.0]),
+            (-0.9, 1.5, [0.953_667_4, -0.033_001_72, 0.953_096_2]),
+        ];
+        for (cos, eta, [m00, m01, m22]) in cases {
+            let m = specular_transmission(cos, eta);
+            let expected = [
+                [m00, m01, 0.0, 0.0],
+                [m01, m00, 0.0, 0.0],
+                [0.0, 0.0, m22, 0.0],
+                [0.0, 0.0, 0.0, m22],
+            ];
+            for (r, row) in expected.iter().enumerate() {
+                for (c, want) in row.iter().enumerate() {
+                    assert!(
+                        (m.0[r][c] - want).abs() < 2e-6,
+                        "cos {cos}, eta {eta}: [{r}][{c}] {} vs Mitsuba's {want}",
+                        m.0[r][c]
+                    );
+                }
+            }
+        }
+    }
 }
