@@ -1,6 +1,6 @@
-//! Polarized renders: the path walk carrying the path's Mueller matrix
-//! ([`super::carried::Polarization`]) and delivering Stokes vectors in the camera's frame
-//! (`S1 > 0`: light polarized along the image's x axis; docs/polarization.md).
+//! Polarized renders: the path walk carrying the path's Mueller matrix (`Polarization`
+//! in `transport::carried`) and delivering Stokes vectors in the camera's frame (`S1 >
+//! 0`: light polarized along the image's x axis; docs/polarization.md).
 //!
 //! Lights are unpolarized; lobes polarize as [`super::bsdf::polarized`] says. Next-event
 //! estimation and its MIS are the intensity walk's. Not carried yet, and refused by name
