@@ -18,6 +18,7 @@ pub mod derivative;
 pub mod fresnel;
 pub mod microfacet;
 pub mod plastic;
+pub mod polarized;
 
 pub use fresnel::fresnel_dielectric;
 

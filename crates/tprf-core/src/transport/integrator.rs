@@ -3,6 +3,7 @@
 //! arrival time and scattering count.
 
 use super::bsdf::{Bsdf, Frame, LobeKind};
+use super::carried::{Carried, Contribution, Intensity};
 use super::connect::{EyeVertex, LazyLightVertex, connected_weight};
 use super::lights::Lights;
 use super::luminescence::{self, Choice, Decay, DelaySampling};
@@ -27,6 +28,13 @@ pub trait Sink {
     /// with [`RE_EMITTED`] set in it when a luminescent surface re-emitted the path
     /// ([`scattering_count`] gives the count alone).
     fn add(&mut self, arrival_s: f64, value: f64, scatterings: u32);
+    /// One polarized contribution: the Stokes vector `stokes` (S0..S3 in the camera's
+    /// frame, unit of [`Sink::add`]'s `value`). A sink that keeps intensity only takes
+    /// `S0` (the default).
+    #[inline(always)]
+    fn add_stokes(&mut self, arrival_s: f64, stokes: [f64; 4], scatterings: u32) {
+        self.add(arrival_s, stokes[0], scatterings);
+    }
     /// Latest arrival time that still counts, seconds.
     fn window_end_s(&self) -> f64;
     /// Earliest arrival time that counts, seconds: a contribution arriving before it is
@@ -64,6 +72,12 @@ impl<S: Sink> Sink for FromBounce<'_, S> {
     fn add(&mut self, arrival_s: f64, value: f64, scatterings: u32) {
         if scattering_count(scatterings) >= self.min {
             self.inner.add(arrival_s, value, scatterings);
+        }
+    }
+    #[inline]
+    fn add_stokes(&mut self, arrival_s: f64, stokes: [f64; 4], scatterings: u32) {
+        if scattering_count(scatterings) >= self.min {
+            self.inner.add_stokes(arrival_s, stokes, scatterings);
         }
     }
     #[inline]
@@ -129,6 +143,16 @@ impl<S: Sink> Sink for Splat<'_, S> {
     }
     fn time_axis(&self) -> Option<TimeAxis> {
         None
+    }
+}
+
+/// Hand `c` to `sink`: an intensity to [`Sink::add`], a Stokes vector to
+/// [`Sink::add_stokes`].
+#[inline(always)]
+fn deliver(sink: &mut impl Sink, arrival_s: f64, c: Contribution, scatterings: u32) {
+    match c {
+        Contribution::Intensity(value) => sink.add(arrival_s, value, scatterings),
+        Contribution::Stokes(stokes) => sink.add_stokes(arrival_s, stokes, scatterings),
     }
 }
 
@@ -287,9 +311,10 @@ pub(super) fn outside(sink: &impl Sink, arrival_s: f64) -> Option<LeftOut> {
     }
 }
 
-/// The state of a path between two vertices.
+/// The state of a path between two vertices; `C` what it carries beside its scalar
+/// throughput ([`super::carried`]).
 #[derive(Clone, Copy, Debug)]
-struct Path {
+struct Path<C> {
     /// The ray about to be traced (unit `dir`).
     origin: Vec3,
     dir: Vec3,
@@ -320,11 +345,13 @@ struct Path {
     /// sample: that sample's solid-angle pdf times the BSDF samples leaving the vertex
     /// (for the MIS weight of next-event estimation at the next vertex); else 0.
     connected_pdf: f32,
+    /// Its polarization, in a polarized render; nothing otherwise.
+    pol: C,
 }
 
-impl Path {
-    /// A path leaving the eye at `origin` along unit `dir`.
-    fn camera(origin: Vec3, dir: Vec3) -> Path {
+impl<C: Carried> Path<C> {
+    /// A path leaving the eye at `origin` along unit `dir`, carrying `pol`.
+    fn camera(origin: Vec3, dir: Vec3, pol: C) -> Path<C> {
         Path {
             origin,
             dir,
@@ -340,6 +367,7 @@ impl Path {
             pass_throughs: 0,
             connected_pdf: 0.0,
             unwarp: false,
+            pol,
         }
     }
 }
@@ -647,14 +675,33 @@ impl Renderer {
         rng: &mut Sampler,
         sink: &mut impl Sink,
     ) -> u64 {
+        self.trace_sample_carrying::<Intensity>(x, y, w, h, strategy, rng, sink)
+    }
+
+    /// [`Renderer::trace_sample_with`], the path carrying `C` ([`super::carried`]).
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "the path walk's per-vertex state, passed by value on the hot path"
+    )]
+    #[inline(always)]
+    pub(super) fn trace_sample_carrying<C: Carried>(
+        &self,
+        x: usize,
+        y: usize,
+        w: usize,
+        h: usize,
+        strategy: Strategy,
+        rng: &mut Sampler,
+        sink: &mut impl Sink,
+    ) -> u64 {
         if self.settings.min_bounces > 0 {
             let mut sink = FromBounce {
                 inner: sink,
                 min: self.settings.min_bounces,
             };
-            return self.trace_camera_sample(x, y, w, h, strategy, rng, &mut sink);
+            return self.trace_camera_sample::<C>(x, y, w, h, strategy, rng, &mut sink);
         }
-        self.trace_camera_sample(x, y, w, h, strategy, rng, sink)
+        self.trace_camera_sample::<C>(x, y, w, h, strategy, rng, sink)
     }
 
     /// [`Renderer::trace_sample_with`], every contribution to `sink`.
@@ -662,7 +709,7 @@ impl Renderer {
         clippy::too_many_arguments,
         reason = "the path walk's per-vertex state, passed by value on the hot path"
     )]
-    fn trace_camera_sample(
+    fn trace_camera_sample<C: Carried>(
         &self,
         x: usize,
         y: usize,
@@ -680,12 +727,18 @@ impl Renderer {
         if let Some(media) = &self.media {
             return self.walk_media(media, origin, dir, start_opl_m, rng, sink);
         }
-        let mut path = Path::camera(origin, dir);
+        let up = || self.camera.world_from_camera.transform_vector3(Vec3::Y);
+        let pol = if C::POLARIZED {
+            C::at_camera(dir, up())
+        } else {
+            C::at_camera(dir, Vec3::Y)
+        };
+        let mut path = Path::camera(origin, dir, pol);
         match start_opl_m {
             Some(opl_m) => (path.opl_m, path.vertex_opl_m) = (opl_m, opl_m),
             None => path.unwarp = true,
         }
-        self.walk::<false>(&self.lights, path, strategy, None, rng, sink)
+        self.walk::<false, C>(&self.lights, path, strategy, None, rng, sink)
     }
 
     /// Trace a path from the eye at `origin` along unit `dir`. The eye-side optical path
@@ -724,7 +777,8 @@ impl Renderer {
         } else {
             self.strategy()
         };
-        self.walk::<AMBIENT>(lights, Path::camera(origin, dir), strategy, None, rng, sink)
+        let path = Path::camera(origin, dir, Intensity);
+        self.walk::<AMBIENT, Intensity>(lights, path, strategy, None, rng, sink)
     }
 
     /// Follow `path` with `strategy` until it ends; returns the rays traced. At its first
@@ -732,10 +786,10 @@ impl Renderer {
     /// [`RenderSettings::first_bounce_splits`]), each followed with `1 / splits` of the
     /// path's share and its own draws ([`Sampler::start_branch`]). `light_vertex` is
     /// the sample's light vertex when drawn already (a branch shares its sample's).
-    fn walk<const AMBIENT: bool>(
+    fn walk<const AMBIENT: bool, C: Carried>(
         &self,
         lights: &Lights,
-        mut path: Path,
+        mut path: Path<C>,
         strategy: Strategy,
         mut light_vertex: LazyLightVertex,
         rng: &mut Sampler,
@@ -743,7 +797,14 @@ impl Renderer {
     ) -> u64 {
         let s = &self.settings;
         let splits = strategy.splits;
-        let connects = !AMBIENT && s.nee && strategy.light_vertex && !lights.punctual.is_empty();
+        // A polarized path is not split and not joined to light vertices (its callers
+        // pass `Strategy::PLAIN`; the checks make sure).
+        let splits = if C::POLARIZED { 1 } else { splits };
+        let connects = !AMBIENT
+            && !C::POLARIZED
+            && s.nee
+            && strategy.light_vertex
+            && !lights.punctual.is_empty();
         let window_end_opl_m = sink.window_end_s() * C_M_PER_S;
         let mut rays = 0u64;
         loop {
@@ -756,7 +817,8 @@ impl Renderer {
                 // sees the sky's radiance L (found only by BSDF sampling: no MIS weight).
                 if AMBIENT && lights.sky_radiance > 0.0 {
                     let value = path.throughput * path.share * lights.sky_radiance;
-                    sink.add(path.opl_m / C_M_PER_S, value as f64, path.scatterings);
+                    let c = path.pol.light(value);
+                    deliver(sink, path.opl_m / C_M_PER_S, c, path.scatterings);
                 }
                 break;
             };
@@ -803,11 +865,10 @@ impl Renderer {
                     PulseOrigin::Light => path.opl_m,
                     PulseOrigin::FirstHit => path.vertex_opl_m,
                 };
-                sink.add(
-                    opl_m / C_M_PER_S,
-                    (path.throughput * path.share * sp.emission * weight) as f64,
-                    path.scatterings | path.tag,
-                );
+                let c = path
+                    .pol
+                    .light(path.throughput * path.share * sp.emission * weight);
+                deliver(sink, opl_m / C_M_PER_S, c, path.scatterings | path.tag);
             }
             if path.scatterings >= s.max_bounces {
                 break;
@@ -869,8 +930,9 @@ impl Renderer {
                         fallback_delay_s: delay_opl_m / C_M_PER_S,
                         fallback_weight: delay_weight,
                     };
-                    rays += self.next_event::<AMBIENT>(
+                    rays += self.next_event::<AMBIENT, C>(
                         lights,
+                        &path.pol,
                         &bsdf,
                         &frame,
                         wo,
@@ -904,8 +966,9 @@ impl Renderer {
                 } else {
                     0.0
                 };
-                rays += self.next_event::<AMBIENT>(
+                rays += self.next_event::<AMBIENT, C>(
                     lights,
+                    &path.pol,
                     &bsdf,
                     &frame,
                     wo,
@@ -953,7 +1016,7 @@ impl Renderer {
                 }
             }
             // What the next vertex's next-event weight needs of this BSDF sample.
-            let mark = |mut next: Path, n: u32| {
+            let mark = |mut next: Path<C>, n: u32| {
                 next.connected_pdf = match next.last_pdf {
                     Some(pdf) if connected => pdf * n as f32,
                     _ => 0.0,
@@ -972,8 +1035,14 @@ impl Renderer {
                             splits: 1,
                             ..strategy
                         };
-                        rays +=
-                            self.walk::<AMBIENT>(lights, next, strategy, light_vertex, rng, sink);
+                        rays += self.walk::<AMBIENT, C>(
+                            lights,
+                            next,
+                            strategy,
+                            light_vertex,
+                            rng,
+                            sink,
+                        );
                     }
                 }
                 break;
@@ -991,14 +1060,14 @@ impl Renderer {
     /// Always inlined (its two call sites in `walk`): 4 % of a one-thread render
     /// measured, where left to the compiler it was a call.
     #[inline(always)]
-    fn scatter(
+    fn scatter<C: Carried>(
         &self,
         sp: &SurfacePoint,
         frame: &Frame,
         wo: Vec3,
-        mut path: Path,
+        mut path: Path<C>,
         rng: &Sampler,
-    ) -> Option<Path> {
+    ) -> Option<Path<C>> {
         let s = &self.settings;
         let slot = |use_| dim::vertex(path.scatterings, use_);
         let bsdf = &sp.bsdf;
@@ -1016,6 +1085,7 @@ impl Renderer {
             return None;
         }
         path.throughput *= bs.weight;
+        path.pol.scatter(bsdf, frame, wo, &bs);
         let u_roulette = slot(dim::ROULETTE);
         path.scatterings += 1;
         if refracted {
@@ -1060,9 +1130,10 @@ impl Renderer {
         clippy::too_many_arguments,
         reason = "the path walk's per-vertex state, passed by value on the hot path"
     )]
-    fn next_event<const AMBIENT: bool>(
+    fn next_event<const AMBIENT: bool, C: Carried>(
         &self,
         lights: &Lights,
+        pol: &C,
         bsdf: &Bsdf,
         frame: &Frame,
         wo: Vec3,
@@ -1116,7 +1187,9 @@ impl Renderer {
                     1.0
                 };
                 let value = throughput * f * cos_i * intensity / d2 * tr * mis;
-                sink.add(arrival_s, value as f64, scatterings);
+                let wi = frame.to_local(wi_world);
+                let c = pol.light_through(value, bsdf, frame, wo, wi, f);
+                deliver(sink, arrival_s, c, scatterings);
             }
         }
         if AMBIENT {
@@ -1136,7 +1209,9 @@ impl Renderer {
                 if tr > 0.0 {
                     // Radiance f E cos(theta_i): E the irradiance facing the light, W/m^2.
                     let value = throughput * f * wi.z * light.irradiance_w_per_m2 * tr;
-                    sink.add(opl_m / C_M_PER_S, value as f64, scatterings);
+                    let arrival_s = opl_m / C_M_PER_S;
+                    let c = pol.light_through(value, bsdf, frame, wo, wi, f);
+                    deliver(sink, arrival_s, c, scatterings);
                 }
             }
         }
@@ -1173,7 +1248,8 @@ impl Renderer {
                                 let pdf_light = es.pdf_area * d2 / cos_l;
                                 let w = power_heuristic(pdf_light, pdf_bsdf);
                                 let value = throughput * f * wi.z * le * w * tr / pdf_light;
-                                sink.add(arrival_s, value as f64, scatterings);
+                                let c = pol.light_through(value, bsdf, frame, wo, wi, f);
+                                deliver(sink, arrival_s, c, scatterings);
                             }
                         }
                     }

@@ -7,12 +7,15 @@
 pub mod adaptive;
 pub mod ambient;
 pub mod bsdf;
+mod carried;
 mod connect;
 pub mod derivative;
 mod integrator;
 pub mod lights;
 pub mod luminescence;
 pub mod media;
+pub mod polarization;
+pub mod polarized;
 pub mod progressive;
 pub mod sampler;
 pub mod split;
@@ -21,5 +24,6 @@ mod window;
 
 pub use integrator::{PassStats, RayKind, RenderSettings, Renderer, Sink};
 pub use luminescence::DelaySampling;
+pub use polarized::{PolarizationError, PolarizedTracer};
 pub use split::Strategy;
 pub use window::{ChosenWindow, WindowError, WindowRequest, auto_window, choose_window};

@@ -12,12 +12,12 @@ use glam::Vec3;
 #[derive(Clone, Copy, Debug)]
 pub struct Conductor {
     /// Complex relative index `eta + i k` in this band.
-    eta: f32,
-    k: f32,
+    pub(super) eta: f32,
+    pub(super) k: f32,
     /// `specular_reflectance`.
-    specular: f32,
+    pub(super) specular: f32,
     /// `None`: a smooth conductor.
-    rough: Option<Microfacet>,
+    pub(super) rough: Option<Microfacet>,
 }
 
 impl Conductor {
