@@ -864,6 +864,7 @@ mod tests {
             g: -0.25,
             n: 1.33,
             density: None,
+            dispersion: None,
         });
         let smoke = crate::scene::DensityGrid::new(
             [3, 2, 1],

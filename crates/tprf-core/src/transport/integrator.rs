@@ -299,7 +299,8 @@ struct Path {
     /// where a light found along this ray is timed from with [`PulseOrigin::FirstHit`].
     vertex_opl_m: f64,
     scatterings: u32,
-    /// Refractive index of the medium the ray travels in.
+    /// Group index of the medium the ray travels in (the refractive index unless it is
+    /// dispersive): each metre adds `ior_here` metres to `opl_m`.
     ior_here: f32,
     /// Solid-angle pdf of the last BSDF sample; `None` for the camera ray and delta lobes.
     last_pdf: Option<f32>,
@@ -1001,7 +1002,7 @@ impl Renderer {
         let u_roulette = slot(dim::ROULETTE);
         path.scatterings += 1;
         if refracted {
-            path.ior_here = if sp.front { sp.ior } else { 1.0 };
+            path.ior_here = if sp.front { sp.ior_group } else { 1.0 };
         }
         path.last_pdf = (!bs.is_delta()).then_some(bs.pdf);
         path.last_position = sp.position;
