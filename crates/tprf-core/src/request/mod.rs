@@ -132,7 +132,8 @@ pub struct RenderRequest {
     /// Per-bounce layers: bounce 0 (emitters seen directly), 1..=K and the rest.
     pub bounces_separate: u32,
     pub seed: u64,
-    /// The spectral band the one-channel cube records (red, green, blue, gray).
+    /// The spectral band the one-channel cube records (red, green, blue, gray, or a
+    /// wavelength: `550nm`).
     #[serde(deserialize_with = "from_text")]
     pub channel: Channel,
     /// Every pixel draws every pass's samples; off (the default): adaptive sampling.

@@ -108,9 +108,9 @@ fn arrival_s(scene: Scene, channel: Channel, t0_s: f64, bins: usize) -> f64 {
         .unwrap();
     let (lo, hi) = (peak.saturating_sub(2), (peak + 3).min(bins));
     let (mut w, mut m) = (0.0, 0.0);
-    for b in lo..hi {
-        w += tprf[b];
-        m += tprf[b] * axis.bin_center_s(b);
+    for (b, v) in tprf.iter().enumerate().take(hi).skip(lo) {
+        w += v;
+        m += v * axis.bin_center_s(b);
     }
     assert!(w > 0.0, "no light in {channel}");
     m / w
