@@ -969,6 +969,14 @@ mod tests {
         assert!(e.to_string().contains("widht"), "{e}");
         let e = toml::from_str::<RenderRequest>("dt = \"5 furlongs\"\n").unwrap_err();
         assert!(e.to_string().contains("unknown unit"), "{e}");
+        // A band at a wavelength: written as its name, read back; a bad one refused.
+        let r: RenderRequest = toml::from_str("channel = \"550nm\"\n").unwrap();
+        assert_eq!(r.channel.name(), "550nm");
+        assert!(matches!(r.channel, Channel::Wavelength(w) if w.nm() == 550.0));
+        let back: RenderRequest = toml::from_str(&toml::to_string(&r).unwrap()).unwrap();
+        assert_eq!(back.channel, r.channel);
+        let e = toml::from_str::<RenderRequest>("channel = \"1500nm\"\n").unwrap_err();
+        assert!(e.to_string().contains("unknown channel '1500nm'"), "{e}");
     }
 
     /// A time written for a field reads back bit for bit: in metres where they do.
