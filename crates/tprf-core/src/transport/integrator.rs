@@ -299,8 +299,7 @@ struct Path {
     /// where a light found along this ray is timed from with [`PulseOrigin::FirstHit`].
     vertex_opl_m: f64,
     scatterings: u32,
-    /// Group index of the medium the ray travels in (the refractive index unless it is
-    /// dispersive): each metre adds `ior_here` metres to `opl_m`.
+    /// Refractive index of the medium the ray travels in.
     ior_here: f32,
     /// Solid-angle pdf of the last BSDF sample; `None` for the camera ray and delta lobes.
     last_pdf: Option<f32>,
@@ -1002,6 +1001,7 @@ impl Renderer {
         let u_roulette = slot(dim::ROULETTE);
         path.scatterings += 1;
         if refracted {
+            // The group index: it times the path (the phase index refracts it).
             path.ior_here = if sp.front { sp.ior_group } else { 1.0 };
         }
         path.last_pdf = (!bs.is_delta()).then_some(bs.pdf);
