@@ -135,7 +135,9 @@ pub struct RequestArgs {
     /// up to 4 GiB, zarr above.
     #[arg(long, value_parser = parse_format)]
     pub format: Option<tprf_core::export::CubeFormat>,
-    /// The spectral band the one-channel cube records: red, green, blue or gray.
+    /// The spectral band the one-channel cube records: red, green, blue or gray, or a
+    /// wavelength in [360, 830] nm (`550nm`): colours upsampled to smooth spectra,
+    /// dispersive indices read there (docs/dispersion.md).
     #[arg(long, value_parser = parse_channel)]
     pub channel: Option<tprf_core::scene::Channel>,
     /// Every pixel draws every pass's samples, for the same noise across the image.
@@ -168,7 +170,9 @@ pub struct RequestArgs {
     pub ambient_spp: Option<u32>,
     /// A participating medium filling the scene (the air: fog, haze, water), replacing
     /// the scene's own: `sigma_s=0.05/m,sigma_a=0.001/m,g=0.9,n=1.0` (coefficients per
-    /// metre, Henyey-Greenstein g, refractive index n), or `visibility=30m` (fog of that
+    /// metre, Henyey-Greenstein g, refractive index n, or a dispersive one: `n=bk7`,
+    /// `n=fused_silica`, `n=water`, `n=cauchy:A:B`, `n=sellmeier:B1:B2:B3:C1:C2:C3` with
+    /// B, C in um^2), or `visibility=30m` (fog of that
     /// meteorological optical range: extinction 3.912 / V, g 0.9; `albedo=` and `g=`
     /// may follow), or `none` to render the scene in vacuum.
     #[arg(long, value_name = "SPEC")]

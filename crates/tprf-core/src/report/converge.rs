@@ -586,15 +586,12 @@ pub fn resolve_target(
     if conflicts.iter().any(|&c| c) {
         return Err(ReportError::FilmFromCube);
     }
-    let channel = match meta.channel.as_str() {
-        "red" => Channel::Red,
-        "green" => Channel::Green,
-        "blue" => Channel::Blue,
-        "gray" => Channel::Gray,
-        other => {
+    let channel: Channel = match meta.channel.parse() {
+        Ok(c) => c,
+        Err(_) => {
             return Err(ReportError::UnknownChannel {
                 path: meta_path,
-                channel: other.to_string(),
+                channel: meta.channel.clone(),
             });
         }
     };

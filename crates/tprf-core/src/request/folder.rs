@@ -365,7 +365,7 @@ pub fn cube_metadata(
         spp: film.spp(),
         seed: request.seed,
         c_m_per_s: C_M_PER_S,
-        channel: request.channel.name().into(),
+        channel: request.channel.name(),
         value: BIN_VALUE.into(),
         scene: request.scene.clone(),
         camera: CameraMetadata {

@@ -132,7 +132,8 @@ pub struct RenderRequest {
     /// Per-bounce layers: bounce 0 (emitters seen directly), 1..=K and the rest.
     pub bounces_separate: u32,
     pub seed: u64,
-    /// The spectral band the one-channel cube records (red, green, blue, gray).
+    /// The spectral band the one-channel cube records (red, green, blue, gray, or a
+    /// wavelength: `550nm`).
     #[serde(deserialize_with = "from_text")]
     pub channel: Channel,
     /// Every pixel draws every pass's samples; off (the default): adaptive sampling.
@@ -968,6 +969,14 @@ mod tests {
         assert!(e.to_string().contains("widht"), "{e}");
         let e = toml::from_str::<RenderRequest>("dt = \"5 furlongs\"\n").unwrap_err();
         assert!(e.to_string().contains("unknown unit"), "{e}");
+        // A band at a wavelength: written as its name, read back; a bad one refused.
+        let r: RenderRequest = toml::from_str("channel = \"550nm\"\n").unwrap();
+        assert_eq!(r.channel.name(), "550nm");
+        assert!(matches!(r.channel, Channel::Wavelength(w) if w.nm() == 550.0));
+        let back: RenderRequest = toml::from_str(&toml::to_string(&r).unwrap()).unwrap();
+        assert_eq!(back.channel, r.channel);
+        let e = toml::from_str::<RenderRequest>("channel = \"1500nm\"\n").unwrap_err();
+        assert!(e.to_string().contains("unknown channel '1500nm'"), "{e}");
     }
 
     /// A time written for a field reads back bit for bit: in metres where they do.

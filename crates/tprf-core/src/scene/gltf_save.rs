@@ -27,6 +27,8 @@
 //!   of the irradiance, W/m^2; the node rotated so its -Z is the light's direction), and
 //!   the sky as the scene's extras `{"tprf": {"sky_radiance": [r, g, b]}}`.
 //! - the scene-wide medium as the scene's extras `{"tprf": {"medium": {...}}}`.
+//! - a material's dispersive index as its extras `{"tprf": {"n": {"cauchy": [A, B]}}}`
+//!   (or Sellmeier's, or a name);
 //! - a material's luminescence as its extras `{"tprf": {"luminescence": {...}}}`
 //!   (components, rise time and emission colour: what the loader reads back).
 
@@ -595,6 +597,9 @@ impl Writer {
         if m.one_sided {
             tprf.insert("one_sided".into(), serde_json::Value::Bool(true));
         }
+        if let Some(d) = &m.dispersion {
+            tprf.insert("n".into(), d.to_json());
+        }
         if let Some(l) = &m.luminescence {
             tprf.insert("luminescence".into(), l.to_json());
         }
@@ -864,6 +869,7 @@ mod tests {
             g: -0.25,
             n: 1.33,
             density: None,
+            dispersion: None,
         });
         let smoke = crate::scene::DensityGrid::new(
             [3, 2, 1],

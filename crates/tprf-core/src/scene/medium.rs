@@ -19,6 +19,7 @@
 
 use super::SceneError;
 use super::density::DensityGrid;
+use super::dispersion::Dispersion;
 use std::path::Path;
 
 /// Extinction times the meteorological optical range: `-ln(0.02)`, the contrast
@@ -39,8 +40,12 @@ pub struct Medium {
     pub sigma_a_per_m: [f32; 3],
     /// Henyey-Greenstein asymmetry, in (-1, 1): 0 isotropic, > 0 forward.
     pub g: f32,
-    /// Refractive index, at least 1: light travels at `c / n` in the medium.
+    /// Refractive index, at least 1: light travels at `c / n` in the medium. With a
+    /// `dispersion`, its value at the d line.
     pub n: f32,
+    /// The index as a function of wavelength (`n=bk7`, `n=cauchy:A:B` ...): a band at a
+    /// wavelength times the medium by its group index there. `None`: `n` in every band.
+    pub dispersion: Option<Dispersion>,
     /// A heterogeneous medium's density: the coefficients above are scaled by the
     /// grid's value at each point ([`DensityGrid`]); `None` for a homogeneous medium.
     pub density: Option<DensityGrid>,
@@ -54,8 +59,17 @@ impl Medium {
             sigma_a_per_m: [sigma_a_per_m; 3],
             g,
             n,
+            dispersion: None,
             density: None,
         }
+    }
+
+    /// The index `n` in a band at `lambda_um` micrometres for timing: the dispersion's
+    /// group index there, else `n`.
+    pub fn group_index(&self, lambda_um: f64) -> f32 {
+        self.dispersion
+            .as_ref()
+            .map_or(self.n, |d| d.group_index(lambda_um) as f32)
     }
 
     /// Fog of meteorological optical range `visibility_m` (extinction `3.912 / V`), of
@@ -149,7 +163,10 @@ impl Medium {
             v(self.sigma_s_per_m),
             v(self.sigma_a_per_m),
             self.g,
-            self.n
+            match &self.dispersion {
+                Some(d) => format!("{} ({} at the d line)", d.describe(), self.n),
+                None => self.n.to_string(),
+            }
         );
         match &self.density {
             Some(d) => s.push_str(&format!(", times a {}", d.describe())),
@@ -168,7 +185,9 @@ impl Medium {
     /// - `sigma_s=0.05/m`, `sigma_a=0.001/m`: coefficients per metre (`/m`, or `/cm`,
     ///   `/mm`, `/km`; a bare number is per metre), both 0 when not given;
     /// - `g=0.9`: Henyey-Greenstein asymmetry (default 0);
-    /// - `n=1.33`: refractive index (default 1);
+    /// - `n=1.33`: refractive index (default 1); or dispersive ([`Dispersion::parse`]):
+    ///   `n=cauchy:A:B` (B in um^2), `n=sellmeier:B1:B2:B3:C1:C2:C3` (C in um^2), `n=bk7`,
+    ///   `n=fused_silica`, `n=water`;
     /// - `visibility=30m` (or `km`, `cm`, `mm`; a bare number is metres): fog of that
     ///   meteorological optical range, extinction `3.912 / V`, with `albedo=` (default
     ///   1) of it scattering, and `g` [`FOG_G`] unless given; not with `sigma_s`/`sigma_a`.
@@ -178,6 +197,7 @@ impl Medium {
         let bad = |m: String| SceneError::Invalid(format!("medium '{spec}': {m}"));
         let (mut sigma_s, mut sigma_a, mut g, mut n) = (None, None, None, None);
         let (mut visibility, mut albedo) = (None, None);
+        let mut dispersion = None;
         for part in spec.split(',').map(str::trim).filter(|p| !p.is_empty()) {
             let Some((key, value)) = part.split_once('=') else {
                 return Err(bad(format!("'{part}' is not key=value")));
@@ -197,6 +217,12 @@ impl Medium {
                     continue;
                 }
                 "g" => &mut g,
+                "n" if value.parse::<f64>().is_err() => {
+                    let d = Dispersion::parse(value).map_err(|m| bad(format!("n: {m}")))?;
+                    n = Some(d.n(super::spectrum::D_LINE_NM * 1e-3));
+                    dispersion = Some(d);
+                    continue;
+                }
                 "n" => &mut n,
                 "albedo" => &mut albedo,
                 _ => {
@@ -243,6 +269,10 @@ impl Medium {
                 )
             }
         };
+        let medium = Medium {
+            dispersion,
+            ..medium
+        };
         medium.validate(&format!("medium '{spec}'"))?;
         Ok(medium)
     }
@@ -269,6 +299,7 @@ impl Medium {
             sigma_a_per_m: sigma_a,
             g: 0.0,
             n: 1.0,
+            dispersion: None,
             density: None,
         };
         for (key, v) in map {
@@ -293,6 +324,11 @@ impl Medium {
                 "sigma_s_per_m" => m.sigma_s_per_m = rgb()?,
                 "sigma_a_per_m" => m.sigma_a_per_m = rgb()?,
                 "g" => m.g = number()? as f32,
+                "n" if !v.is_number() => {
+                    let d = Dispersion::from_json(v, &format!("{what}.n"))?;
+                    m.n = d.n(super::spectrum::D_LINE_NM * 1e-3) as f32;
+                    m.dispersion = Some(d);
+                }
                 "n" => m.n = number()? as f32,
                 "density" => {
                     let what = format!("{what}.density");
@@ -315,7 +351,7 @@ impl Medium {
             "sigma_s_per_m": self.sigma_s_per_m,
             "sigma_a_per_m": self.sigma_a_per_m,
             "g": self.g,
-            "n": self.n,
+            "n": self.dispersion.as_ref().map_or(serde_json::json!(self.n), Dispersion::to_json),
         });
         if let (Some(d), Some(map)) = (&self.density, v.as_object_mut()) {
             map.insert("density".into(), d.to_json());
@@ -467,8 +503,26 @@ mod tests {
             g: -0.3,
             n: 1.33,
             density: None,
+            dispersion: None,
         };
         assert_eq!(Medium::from_json(&m.to_json(), [0.0; 3], None, "x"), Ok(m));
+        // A dispersive index: `n` its value at the d line, read back by name or formula.
+        for spec in [
+            "n=bk7",
+            "n=cauchy:1.5:0.004",
+            "n=sellmeier:1:0.2:1:0.006:0.02:100",
+        ] {
+            let m = Medium::parse_spec(spec).unwrap();
+            let d = m.dispersion.clone().unwrap();
+            assert_eq!(m.n, d.n(0.58756) as f32, "{spec}");
+            assert!(m.group_index(0.45) > m.group_index(0.65), "{spec}");
+            assert_eq!(Medium::from_json(&m.to_json(), [0.0; 3], None, "x"), Ok(m));
+        }
+        assert!((Medium::parse_spec("n=bk7").unwrap().n - 1.5168).abs() < 1e-4);
+        for bad in ["n=flint", "n=cauchy:1.5", "n=sellmeier:1:2:3"] {
+            let e = Medium::parse_spec(bad).unwrap_err().to_string();
+            assert!(e.contains("n: "), "{bad}: {e}");
+        }
         let v = serde_json::json!({"sigma_s_per_m": 0.5, "g": 0.2});
         let m = Medium::from_json(&v, [0.1, 0.2, 0.3], None, "x").unwrap();
         assert_eq!(m.sigma_s_per_m, [0.5; 3]);

@@ -7,11 +7,13 @@
 pub mod builtin;
 pub mod camera;
 pub mod density;
+pub mod dispersion;
 pub mod gltf_load;
 pub mod gltf_save;
 pub mod luminescence;
 pub mod medium;
 pub mod mitsuba;
+pub mod spectrum;
 pub mod time_origin;
 
 pub use camera::{Camera, FovAxis};
@@ -100,7 +102,13 @@ pub struct Material {
     /// KHR_materials_transmission `transmissionFactor` in [0, 1].
     pub transmission: f32,
     /// KHR_materials_ior (1.5 without the extension). Light inside travels at c / ior.
+    /// With a `dispersion`, its value at the d line.
     pub ior: f32,
+    /// The index as a function of wavelength (glTF extras `{"tprf": {"n": {"cauchy":
+    /// [A, B_um2]}}}`): a band at a wavelength refracts by its phase index there and
+    /// times the inside by its group index ([`dispersion::Dispersion`]). `None`: `ior`
+    /// in every band.
+    pub dispersion: Option<dispersion::Dispersion>,
     pub alpha_mode: AlphaMode,
     /// Emitted radiance, W / (m^2 sr) per channel: `emissiveFactor x emissive_strength`.
     pub emissive: [f32; 3],
@@ -191,6 +199,7 @@ impl Default for Material {
             specular_color: [1.0; 3],
             transmission: 0.0,
             ior: 1.5,
+            dispersion: None,
             alpha_mode: AlphaMode::Opaque,
             emissive: [0.0; 3],
             emissive_texture: None,
@@ -779,9 +788,9 @@ impl Scene {
     }
 }
 
-/// The single spectral band the transient cube records.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
+/// The single spectral band the transient cube records: a colour channel, or a
+/// wavelength (colours upsampled to spectra, [`spectrum`]; dispersive indices read there).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Channel {
     Red,
     Green,
@@ -789,51 +798,96 @@ pub enum Channel {
     /// A panchromatic band: Rec. 709 luminance weights of R, G, B.
     #[default]
     Gray,
+    /// A narrow band at one wavelength.
+    Wavelength(spectrum::Wavelength),
 }
 
 impl Channel {
-    /// Every band, with the name [`Channel::name`] gives it.
+    /// Every colour band, with the name [`Channel::name`] gives it.
     pub const ALL: [Channel; 4] = [Channel::Red, Channel::Green, Channel::Blue, Channel::Gray];
 
-    /// The band's name in files and on the command line.
-    pub fn name(self) -> &'static str {
+    /// The band's name in files and on the command line: `red`, `550nm`.
+    pub fn name(self) -> String {
         match self {
-            Channel::Red => "red",
-            Channel::Green => "green",
-            Channel::Blue => "blue",
-            Channel::Gray => "gray",
+            Channel::Red => "red".into(),
+            Channel::Green => "green".into(),
+            Channel::Blue => "blue".into(),
+            Channel::Gray => "gray".into(),
+            Channel::Wavelength(w) => w.name(),
         }
     }
 
-    /// This band's value of a linear RGB triple.
+    /// This band's value of a linear RGB triple (at a wavelength: the value there of the
+    /// smooth spectrum of that colour, [`spectrum::Wavelength::pick`]).
+    #[inline]
     pub fn pick(self, rgb: [f32; 3]) -> f32 {
         match self {
             Channel::Red => rgb[0],
             Channel::Green => rgb[1],
             Channel::Blue => rgb[2],
             Channel::Gray => 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2],
+            Channel::Wavelength(w) => w.pick(rgb),
+        }
+    }
+
+    /// [`Channel::pick`] for colours met per hit (a texture's): at a wavelength by the
+    /// coefficient table ([`spectrum::Wavelength::pick_fast`]), else the same.
+    #[inline]
+    pub fn pick_texel(self, rgb: [f32; 3]) -> f32 {
+        match self {
+            Channel::Wavelength(w) => w.pick_fast(rgb),
+            c => c.pick(rgb),
+        }
+    }
+
+    /// The wavelength a dispersive index is read at in this band: its own, or the
+    /// d line ([`spectrum::D_LINE_NM`]) for a colour band.
+    pub fn index_wavelength_um(self) -> f64 {
+        match self {
+            Channel::Wavelength(w) => w.um(),
+            _ => spectrum::D_LINE_NM * 1e-3,
         }
     }
 }
 
 impl std::fmt::Display for Channel {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
+        f.write_str(&self.name())
     }
 }
 
-/// A band name that is not one of [`Channel::ALL`].
+/// A band name that is neither one of [`Channel::ALL`] nor a wavelength.
 #[derive(Debug, thiserror::Error)]
-#[error("unknown channel '{0}' (known: red, green, blue, gray)")]
+#[error(
+    "unknown channel '{0}' (known: red, green, blue, gray, or a wavelength such as 550nm in [360, 830] nm)"
+)]
 pub struct UnknownChannel(pub String);
 
 impl std::str::FromStr for Channel {
     type Err = UnknownChannel;
     fn from_str(s: &str) -> Result<Channel, UnknownChannel> {
-        Channel::ALL
+        if let Some(c) = Channel::ALL
             .into_iter()
             .find(|c| c.name().eq_ignore_ascii_case(s.trim()))
-            .ok_or_else(|| UnknownChannel(s.to_string()))
+        {
+            return Ok(c);
+        }
+        spectrum::Wavelength::parse(s)
+            .map(Channel::Wavelength)
+            .map_err(|_| UnknownChannel(s.to_string()))
+    }
+}
+
+impl Serialize for Channel {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(&self.name())
+    }
+}
+
+impl<'de> Deserialize<'de> for Channel {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Channel, D::Error> {
+        let s = String::deserialize(d)?;
+        s.parse().map_err(serde::de::Error::custom)
     }
 }
 

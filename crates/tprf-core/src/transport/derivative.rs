@@ -483,7 +483,7 @@ impl Renderer {
             let u_roulette = slot(dim::ROULETTE);
             path.scatterings += 1;
             if refracted {
-                path.ior_here = if sp.front { sp.ior } else { 1.0 };
+                path.ior_here = if sp.front { sp.ior_group } else { 1.0 };
             }
             path.last_pdf = (!bs.is_delta()).then_some(bs.pdf);
             path.last_position = sp.position;

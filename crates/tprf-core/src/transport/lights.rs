@@ -60,7 +60,11 @@ struct BandImage {
 impl BandImage {
     fn new(im: &IrradianceImage, channel: Channel) -> Option<BandImage> {
         let (width, height) = (im.width as usize, im.height as usize);
-        let values: Vec<f32> = im.rgb.iter().map(|c| channel.pick(*c).max(0.0)).collect();
+        let values: Vec<f32> = im
+            .rgb
+            .iter()
+            .map(|c| channel.pick_texel(*c).max(0.0))
+            .collect();
         if width == 0 || height == 0 || values.len() != width * height {
             return None;
         }
@@ -431,13 +435,19 @@ impl Lights {
         let mut emitters = Vec::new();
         let mut weights = Vec::new();
         let mut emitter_of = vec![u32::MAX; scene.triangles.len()];
+        // Each material's radiance in the band, once (a wavelength's is a spectral fit).
+        let le_of: Vec<f32> = scene
+            .materials
+            .iter()
+            .map(|m| channel.pick(m.emissive))
+            .collect();
         for (i, (t, a)) in scene.triangles.iter().zip(&scene.attrs).enumerate() {
             let Some(m) = scene.materials.get(a.material as usize) else {
                 continue;
             };
             // Power per unit radiance: area x pi per emitting side. Textures are not in
             // the selection weights (an upper bound is fine for an unbiased estimator).
-            let le = channel.pick(m.emissive);
+            let le = le_of[a.material as usize];
             let area = t.area_m2();
             if le > 0.0 && area > 0.0 && le.is_finite() {
                 let sides = if m.double_sided { 2.0 } else { 1.0 };

@@ -88,8 +88,12 @@ pub struct SurfacePoint {
     /// The BSDF for light leaving toward the ray's side (its relative index set for
     /// that side).
     pub bsdf: Bsdf,
-    /// Refractive index of the material's inside.
+    /// Refractive index of the material's inside in this band (its phase index: what
+    /// refraction reads).
     pub ior: f32,
+    /// The inside's group index in this band: a path inside takes `ior_group d / c`
+    /// (`ior` itself unless the material is dispersive).
+    pub ior_group: f32,
 }
 
 /// A material reduced to one band, with what does not vary over the surface computed once.
@@ -97,6 +101,8 @@ pub struct SurfacePoint {
 struct BandMaterial {
     /// Parameters without textures.
     params: BsdfParams,
+    /// The inside's group index in this band ([`SurfacePoint::ior_group`]).
+    ior_group: f32,
     /// The scattering model in this band.
     model: BandModel,
     /// The untextured BSDF seen from the front (eta = 1 / ior) and from the back (ior).
@@ -143,6 +149,26 @@ pub struct Surfaces {
     luminescence: Vec<Option<BandLuminescence>>,
 }
 
+/// `m`'s index in the band of `channel`: its dispersion's phase index at the band's
+/// wavelength ([`Channel::index_wavelength_um`]), else its `ior` (1.5 when that is not a
+/// finite number >= 1).
+pub(crate) fn band_ior(m: &Material, channel: Channel) -> f32 {
+    match &m.dispersion {
+        Some(d) => d.n(channel.index_wavelength_um()) as f32,
+        None if m.ior.is_finite() && m.ior >= 1.0 => m.ior,
+        None => 1.5,
+    }
+}
+
+/// `m`'s group index in the band of `channel`: `n_g = n - lambda dn/dlambda` of its
+/// dispersion there, else [`band_ior`] (no dispersion: the phase index).
+pub(crate) fn band_group_ior(m: &Material, channel: Channel) -> f32 {
+    match &m.dispersion {
+        Some(d) => d.group_index(channel.index_wavelength_um()) as f32,
+        None => band_ior(m, channel),
+    }
+}
+
 impl BandMaterial {
     fn new(m: &Material, channel: Channel) -> BandMaterial {
         let params = BsdfParams {
@@ -154,11 +180,7 @@ impl BandMaterial {
             specular_factor: m.specular_factor.clamp(0.0, 1.0),
             specular_color: channel.pick(m.specular_color).max(0.0),
             transmission: m.transmission.clamp(0.0, 1.0),
-            ior: if m.ior.is_finite() && m.ior >= 1.0 {
-                m.ior
-            } else {
-                1.5
-            },
+            ior: band_ior(m, channel),
         };
         let model = BandModel::new(
             &m.model,
@@ -168,6 +190,7 @@ impl BandMaterial {
         );
         BandMaterial {
             params,
+            ior_group: band_group_ior(m, channel),
             model,
             bsdf_front: Bsdf::build(&model, &params, true),
             bsdf_back: Bsdf::build(&model, &params, false),
@@ -353,7 +376,7 @@ impl Surfaces {
             let c = sample_texture(t, self.uv(triangle, u, v), true);
             e = [e[0] * c[0], e[1] * c[1], e[2] * c[2]];
         }
-        self.channel.pick(e).max(0.0) * profile
+        self.channel.pick_texel(e).max(0.0) * profile
     }
 
     /// The BSDF parameters of a textured material at `(u, v)`.
@@ -372,7 +395,7 @@ impl Surfaces {
             metallic *= c[2];
         }
         BsdfParams {
-            base: self.channel.pick(base).clamp(0.0, 1.0),
+            base: self.channel.pick_texel(base).clamp(0.0, 1.0),
             metallic: metallic.clamp(0.0, 1.0),
             roughness: roughness.clamp(0.0, 1.0),
             ..bm.params
@@ -432,6 +455,7 @@ impl Surfaces {
             },
             bsdf,
             ior: bm.params.ior,
+            ior_group: bm.ior_group,
         }
     }
 }

@@ -63,7 +63,8 @@ fn furnace_reference(r_m: f64, rho: f64, i: f64, axis: &TimeAxis) -> Vec<f64> {
 
 /// The furnace (R 1 m, I 2 W/sr) rendered at 8 x 8, 1024 spp with `settings` against
 /// its reference: energy in the window, every bin, mean arrival. `what` names the case.
-fn check_furnace_with(rho: f32, settings: RenderSettings, what: &str) {
+/// Returns the pixels' mean TPRF.
+pub(crate) fn check_furnace_with(rho: f32, settings: RenderSettings, what: &str) -> Vec<f64> {
     let (r_m, i) = (1.0f32, 2.0f32);
     let axis = TimeAxis::new(0.25 / C, 0.5 / C, 60).unwrap();
     let rendered = render_with(furnace(r_m, rho, i), 8, 8, axis, 1024, settings, 0);
@@ -109,6 +110,7 @@ fn check_furnace_with(rho: f32, settings: RenderSettings, what: &str) {
         (t_got - t_ref).abs() < 0.01 * t_ref,
         "{what}: mean arrival {t_got} vs {t_ref}"
     );
+    mean
 }
 
 fn check_furnace(rho: f32) {

@@ -13,6 +13,7 @@ pub const ROOT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
 mod adaptive;
 mod analytic;
 mod builtin_assets;
+mod dispersion;
 mod film_store;
 mod gltf_load;
 mod gradients;

@@ -52,6 +52,7 @@ impl Builder<'_> {
         let emission_falloff = self.emission_falloff_of(m)?;
         let one_sided = self.one_sided_of(m)?;
         let luminescence = self.luminescence_of(m)?;
+        let dispersion = self.dispersion_of(m)?;
         Ok(Material {
             name: name_or_index(m.name(), "materials", m.index().unwrap_or_default()),
             base_color: pbr.base_color_factor(),
@@ -65,7 +66,10 @@ impl Builder<'_> {
                 .as_ref()
                 .map_or([1.0; 3], |s| s.specular_color_factor()),
             transmission: transmission.map_or(0.0, |t| t.transmission_factor()),
-            ior: m.ior().unwrap_or(1.5),
+            ior: dispersion.as_ref().map_or(m.ior().unwrap_or(1.5), |d| {
+                d.n(crate::scene::spectrum::D_LINE_NM * 1e-3) as f32
+            }),
+            dispersion,
             alpha_mode: match m.alpha_mode() {
                 gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
                 gltf::material::AlphaMode::Mask => AlphaMode::Mask {
@@ -82,6 +86,24 @@ impl Builder<'_> {
             model: crate::scene::SurfaceModel::MetallicRoughness,
             luminescence,
         })
+    }
+
+    /// A material's index as a function of wavelength, from its extras `{"tprf": {"n":
+    /// {"cauchy": [A, B_um2]}}}` (or `{"sellmeier": [...]}`, or a name such as `"bk7"`:
+    /// [`crate::scene::dispersion::Dispersion::from_json`]); it replaces
+    /// `KHR_materials_ior`'s constant index.
+    fn dispersion_of(
+        &mut self,
+        m: &gltf::Material,
+    ) -> Result<Option<crate::scene::dispersion::Dispersion>, SceneError> {
+        let what = format!("material '{}'", m.name().unwrap_or("(unnamed)"));
+        let extras = tprf_extras(m.extras(), self.file, &what)?;
+        let Some(v) = extras.as_ref().and_then(|t| t.get("n")) else {
+            return Ok(None);
+        };
+        crate::scene::dispersion::Dispersion::from_json(v, &format!("{what} extras tprf.n"))
+            .map(Some)
+            .map_err(|e| invalid(self.file, e))
     }
 
     /// A material's luminescence, from its extras `{"tprf": {"luminescence": {...}}}`
@@ -207,6 +229,7 @@ impl Builder<'_> {
                 sigma_a_per_m: sigma_a,
                 g: 0.0,
                 n: ior,
+                dispersion: None,
                 density: None,
             },
             (sigma_a, Some(v)) => {

@@ -103,6 +103,7 @@ impl Builder<'_> {
             g: g as f32,
             n,
             density,
+            dispersion: None,
         };
         medium.validate(&format!("{} ({})", o.describe(), o.loc))?;
         Ok(medium)

@@ -62,7 +62,8 @@ pub(crate) struct BandMedium {
     pub sigma_s: f32,
     pub sigma_t: f32,
     pub g: f32,
-    /// Refractive index.
+    /// Refractive index that times the medium: its group index in the band (the index
+    /// itself unless it is dispersive). Light crosses `d` in `n d / c`.
     pub n: f32,
     /// A heterogeneous medium's density grid ([`Media::grids`]): `sigma_s` and `sigma_t`
     /// are then its coefficients at density 1.
@@ -89,7 +90,7 @@ impl BandMedium {
             sigma_s,
             sigma_t: sigma_s + sigma_a,
             g: m.g.clamp(-0.999, 0.999),
-            n: m.n.max(1.0),
+            n: m.group_index(channel.index_wavelength_um()).max(1.0),
             grid,
         }
     }
@@ -166,11 +167,7 @@ impl Media {
             .materials
             .iter()
             .map(|m| {
-                let ior = if m.ior.is_finite() && m.ior >= 1.0 {
-                    m.ior
-                } else {
-                    1.5
-                };
+                let ior = super::surface::band_group_ior(m, channel);
                 match &m.medium {
                     Some(md) if m.transmission <= 0.0 => {
                         Boundary::IndexMatched { inside: band(md) }

@@ -45,7 +45,7 @@ impl Surfaces {
             let per = match self.texture(m.base_color_texture) {
                 Some(t) => {
                     let c = sample_texture(t, self.uv(tri, hit.u, hit.v), true);
-                    self.channel.pick([c[0], c[1], c[2]])
+                    self.channel.pick_texel([c[0], c[1], c[2]])
                 }
                 None => 1.0,
             };
