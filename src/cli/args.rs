@@ -148,6 +148,13 @@ pub struct RequestArgs {
     #[arg(long)]
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub uniform: bool,
+    /// Render polarized: also write `tprf_stokes.npy`, float32 [4, H, W, T] (S0 S1 S2
+    /// S3 in the camera's frame, S1 > 0 along the image's x axis; `tprf.npy` is S0).
+    /// Refused for scenes with media or luminescent materials, and with --format zarr
+    /// (docs/polarization.md).
+    #[arg(long)]
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub polarized: bool,
     /// Render only shard K of N (0-based, "K/N"): the image's bands of --band-rows rows,
     /// band b going to shard b mod N, with the same passes and window as the whole
     /// render. `tprf merge` puts the N shard folders together into the cube one
@@ -455,7 +462,7 @@ mod tests {
                 "max_memory" => &["2GiB"],
                 "phasor" => &["100:50"],
                 "shard" => &["1/2"],
-                "until_stopped" | "frames" | "uniform" => &[],
+                "until_stopped" | "frames" | "uniform" | "polarized" => &[],
                 other => panic!("no test value for --{other}: add one"),
             }
         };

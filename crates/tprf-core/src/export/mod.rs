@@ -236,6 +236,13 @@ pub struct CubeMetadata {
     /// `phasor.npy` or `tprf.zarr/phasor` and its frequencies ([`phasor`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub phasor: Option<phasor::PhasorMetadata>,
+    /// Whether the render was polarized (the request's `polarized`): `tprf.npy` is then
+    /// S0 and `stokes` names the Stokes cube. Older files: false.
+    #[serde(default)]
+    pub polarized: bool,
+    /// A polarized render's Stokes cube ([`StokesMetadata`]); `None` otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stokes: Option<StokesMetadata>,
     /// The request that made the render (`tprf render`'s options, as a batch manifest's
     /// `[[job]]` keys: [`crate::request::RenderRequest`], every field written, its
     /// defaults included), when one did: enough to render the cube again. Older files
@@ -334,6 +341,31 @@ fn light() -> String {
 fn pinhole() -> String {
     "pinhole".into()
 }
+
+/// Where a polarized render's Stokes cube is and how to read it (docs/polarization.md).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct StokesMetadata {
+    /// The file: `tprf_stokes.npy`, float32 `[4, H, W, T]`, S0 S1 S2 S3 (S0 = `tprf.npy`).
+    pub file: String,
+    /// The frame the Stokes vectors are in.
+    pub frame: String,
+}
+
+impl StokesMetadata {
+    /// The Stokes cube of `tprf render --polarized`.
+    pub fn npy() -> StokesMetadata {
+        StokesMetadata {
+            file: STOKES_NPY.into(),
+            frame: "camera: x = ray x camera up (the image's x axis at the centre), y = \
+                    forward x x; S1 > 0 polarized along the image's x axis, S3 > 0 right \
+                    circular (Mitsuba 3's conventions, as mitransient's stokes integrator)"
+                .into(),
+        }
+    }
+}
+
+/// A polarized render's Stokes cube, float32 `[4, H, W, T]`.
+pub const STOKES_NPY: &str = "tprf_stokes.npy";
 
 impl CubeMetadata {
     /// The cube's time axis, checked ([`TimeAxis::new`]).
@@ -693,22 +725,44 @@ pub fn write_snapshot_npy(
         snap.height() as u64,
         snap.axis().bins as u64,
     );
-    let (shape, planes): (Vec<u64>, Vec<Option<usize>>) = if layers {
+    if layers {
         let l = snap.layers();
-        (vec![l as u64, h, w, t], (0..l).map(Some).collect())
+        write_planes_npy(path, &[l as u64, h, w, t], (0..l).map(|p| (snap, Some(p))))
     } else {
-        (vec![h, w, t], vec![None])
-    };
+        write_planes_npy(path, &[h, w, t], [(snap, None)])
+    }
+}
+
+/// Write the Stokes cube `[4, H, W, T]` of the snapshots of S0..S3 (one layout) to
+/// `path` ([`STOKES_NPY`]), atomically.
+pub fn write_stokes_npy(path: &Path, stokes: [&FilmSnapshot; 4]) -> Result<(), ExportError> {
+    let s0 = stokes[0];
+    let shape = [
+        4,
+        s0.height() as u64,
+        s0.width() as u64,
+        s0.axis().bins as u64,
+    ];
+    write_planes_npy(path, &shape, stokes.map(|s| (s, None)))
+}
+
+/// Write `planes` (each a snapshot's cube, or one of its layers) one after the other as
+/// an npy array of `shape`, atomically; chunks no light reached are holes in the file.
+fn write_planes_npy<'a>(
+    path: &Path,
+    shape: &[u64],
+    planes: impl IntoIterator<Item = (&'a FilmSnapshot, Option<usize>)>,
+) -> Result<(), ExportError> {
     write_atomic_bulk(path, |out| {
         // Chunks no light reached are holes in the file, not written zeros.
         let sparse = npyz::WriteOptions::<f32>::new()
             .default_dtype()
-            .shape(&shape)
+            .shape(shape)
             .writer(&mut *out)
             .write_header_only()?;
         // The data: little-endian float32 (the header's `<f4`), a row at a time.
         let (mut row, mut bytes) = (Vec::new(), Vec::new());
-        for plane in planes {
+        for (snap, plane) in planes {
             for y in 0..snap.height() {
                 snap.row_dense(y, plane, &mut row);
                 bytes.clear();

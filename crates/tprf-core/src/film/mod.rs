@@ -9,6 +9,7 @@ mod row;
 mod sink;
 mod snapshot;
 pub mod sparse;
+mod stokes;
 mod store;
 mod time_axis;
 
@@ -21,5 +22,6 @@ pub use snapshot::{
     DENSE_BAND_VALUES, FilmSnapshot, SliceCursor, SnapshotBuilder, quantile, quantile_f32,
     quantile_positive, robust_max,
 };
+pub use stokes::{StokesFilms, StokesPixelSink};
 pub use store::{BYTES_PER_PIXEL, PassTally, StoreStats, TprfFilm, half_error_from_terms};
 pub use time_axis::{MAX_BINS, TimeAxis};

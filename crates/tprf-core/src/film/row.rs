@@ -211,45 +211,108 @@ where
     F: Fn(usize, usize, PixelPass, &mut PixelSink<'_>) -> u64 + Sync,
 {
     let w = layout.width;
-    let t = layout.axis.bins;
-    let layers = layout.bounce_layers();
     let mut tally = RowTally::default();
-    work.new.clear();
-    work.new_end.clear();
-    for l in 0..layers {
-        work.layer_new[l].clear();
-        work.layer_new_end[l].clear();
-    }
+    work.begin_row(layout);
     let mut samples = Vec::with_capacity(w);
     for x in 0..w {
-        let mut drawn = row.pixel_samples(x);
-        let n = plan
-            .and_then(|p| p.get(x).copied())
-            .unwrap_or(pass_spp)
-            .max(1);
-        let pass = PixelPass {
-            first: drawn.drawn[half],
-            samples: n,
-        };
-        // Exactly 1 when the pixel draws the pass's samples (x / x = 1 in IEEE).
-        let weight = pass_spp as f64 / n as f64;
+        let (pass, weight) = pixel_pass(row, x, half, pass_spp, plan);
         let mut sink = PixelSink::new(*layout, filter, weight, &mut work.scratch);
         let cost = render_pixel(x, y, pass, &mut sink);
         tally.work += cost;
-        drawn.drawn[half] = drawn.drawn[half].wrapping_add(n);
-        drawn.cost = (cost as f64 / n as f64) as f32;
-        samples.push(drawn);
         tally.outside += sink.outside;
         tally.left_out += sink.left_out;
-        let s = &mut work.scratch;
-        s.touched.drain(&mut s.bins, &mut work.new);
-        work.new_end.push(work.new.len());
-        for l in 0..layers {
-            let bins = s.layers.get_mut(l * t..(l + 1) * t).unwrap_or(&mut []);
-            s.layer_touched[l].drain(bins, &mut work.layer_new[l]);
-            work.layer_new_end[l].push(work.layer_new[l].len());
+        samples.push(drawn_after(row, x, half, pass, cost));
+        work.end_pixel(layout);
+    }
+    commit_row(row, layout, half, spp_after, work, samples);
+    tally
+}
+
+/// Pixel `x`'s samples in a pass of `pass_spp` per pixel into half `half` (`plan`: the
+/// row's samples per pixel, `None`: `pass_spp` each), and the weight of its
+/// contributions, `pass_spp / samples`.
+#[inline]
+pub(super) fn pixel_pass(
+    row: &FilmRow,
+    x: usize,
+    half: usize,
+    pass_spp: u32,
+    plan: Option<&[u32]>,
+) -> (PixelPass, f64) {
+    let drawn = row.pixel_samples(x);
+    let n = plan
+        .and_then(|p| p.get(x).copied())
+        .unwrap_or(pass_spp)
+        .max(1);
+    let pass = PixelPass {
+        first: drawn.drawn[half],
+        samples: n,
+    };
+    // Exactly 1 when the pixel draws the pass's samples (x / x = 1 in IEEE).
+    (pass, pass_spp as f64 / n as f64)
+}
+
+/// Pixel `x`'s sampling record once `pass` drew its samples at a work of `cost`.
+#[inline]
+pub(super) fn drawn_after(
+    row: &FilmRow,
+    x: usize,
+    half: usize,
+    pass: PixelPass,
+    cost: u64,
+) -> PixelSamples {
+    let mut drawn = row.pixel_samples(x);
+    drawn.drawn[half] = drawn.drawn[half].wrapping_add(pass.samples);
+    drawn.cost = (cost as f64 / pass.samples as f64) as f32;
+    drawn
+}
+
+impl RowWork {
+    /// Start a row: no new bins yet.
+    #[inline]
+    pub(super) fn begin_row(&mut self, layout: &FilmLayout) {
+        self.new.clear();
+        self.new_end.clear();
+        for l in 0..layout.bounce_layers() {
+            self.layer_new[l].clear();
+            self.layer_new_end[l].clear();
         }
     }
+
+    /// After a pixel's samples: its scratch's bins taken into the row's new bins.
+    #[inline]
+    pub(super) fn end_pixel(&mut self, layout: &FilmLayout) {
+        let t = layout.axis.bins;
+        let s = &mut self.scratch;
+        s.touched.drain(&mut s.bins, &mut self.new);
+        self.new_end.push(self.new.len());
+        for l in 0..layout.bounce_layers() {
+            let bins = s.layers.get_mut(l * t..(l + 1) * t).unwrap_or(&mut []);
+            s.layer_touched[l].drain(bins, &mut self.layer_new[l]);
+            self.layer_new_end[l].push(self.layer_new[l].len());
+        }
+    }
+
+    /// The scratch a pixel's sink adds to.
+    pub(super) fn scratch(&mut self) -> &mut Scratch {
+        &mut self.scratch
+    }
+}
+
+/// The row's new bins (`work`, one pass into half `half`) added to `row`: in place where
+/// the film holds the row's only reference and every new bin is stored already, else
+/// merged with the old row into a new one; `samples` the pixels' sampling records after
+/// the pass, `spp_after` the film's samples per half once the pass is counted.
+pub(super) fn commit_row(
+    row: &mut Arc<FilmRow>,
+    layout: &FilmLayout,
+    half: usize,
+    spp_after: [u64; 2],
+    work: &mut RowWork,
+    samples: Vec<PixelSamples>,
+) {
+    let w = layout.width;
+    let layers = layout.bounce_layers();
     // Branches, not `o[half]`: an array indexed by a variable lives on the stack.
     let add_half = |[a, b]: [f64; 2], n: f64| if half == 0 { [a + n, b] } else { [a, b + n] };
     let fresh_half = |n: f64| if half == 0 { [n, 0.0] } else { [0.0, n] };
@@ -276,7 +339,7 @@ where
         };
         next.summarise(spp_after);
         *row = Arc::new(next);
-        return tally;
+        return;
     };
     // The film's only copy: the pass's bins are added where they are stored, and the row
     // is rebuilt only where one is new.
@@ -294,7 +357,6 @@ where
     }
     r.samples = samples;
     r.summarise(spp_after);
-    tally
 }
 
 /// Every pixel of `old` merged with the pass's new bins (`new`, pixel `x`'s ending at

@@ -49,14 +49,14 @@ pub const BYTES_PER_PIXEL: u64 = 16 + 8 + 4 + std::mem::size_of::<PixelSamples>(
 #[derive(Clone, Debug)]
 pub struct TprfFilm {
     layout: FilmLayout,
-    rows: Vec<Arc<FilmRow>>,
+    pub(super) rows: Vec<Arc<FilmRow>>,
     /// Samples per pixel in each half.
-    spp: [u64; 2],
-    passes: u64,
+    pub(super) spp: [u64; 2],
+    pub(super) passes: u64,
     filter: TimeFilter,
     /// The rows a pass renders (`None`: all). A shard of a render renders its bands of
     /// rows only; the others stay empty.
-    rows_rendered: Option<Arc<[bool]>>,
+    pub(super) rows_rendered: Option<Arc<[bool]>>,
     /// See [`FilmSnapshot::film`].
     id: u64,
 }
@@ -220,11 +220,7 @@ impl TprfFilm {
         // threads idle while one finishes a long stretch of them. But each leaf zeroes a
         // scratch of the axis's length (32 MB at 4 M bins): on a long axis, leaves of
         // at least one scratch bin per 64 pixels, up to a 16th of a share.
-        let share = layout.height / rayon::current_num_threads();
-        let leaf_rows = (share / 64)
-            .max(layout.axis.bins / (64 * w.max(1)))
-            .min(share / 16)
-            .max(1);
+        let leaf_rows = leaf_rows(&layout);
         let tallies: Vec<super::row::RowTally> = self
             .rows
             .par_iter_mut()
@@ -268,6 +264,7 @@ impl TprfFilm {
         tally
     }
 
+    /// A row of the film (`None` past its height).
     fn row(&self, y: usize) -> Option<&FilmRow> {
         self.rows.get(y).map(|r| &**r)
     }
@@ -421,6 +418,15 @@ impl TprfFilm {
     pub fn half_error_estimate(&self) -> Option<f64> {
         half_error_from_terms(self.spp, self.rows.iter().map(|r| r.err_terms))
     }
+}
+
+/// Rows per leaf of a pass's parallel loop over rows (see [`TprfFilm::run_pass_planned`]).
+pub(super) fn leaf_rows(layout: &FilmLayout) -> usize {
+    let share = layout.height / rayon::current_num_threads();
+    (share / 64)
+        .max(layout.axis.bins / (64 * layout.width.max(1)))
+        .min(share / 16)
+        .max(1)
 }
 
 /// The two-half error estimate ([`TprfFilm::half_error_estimate`]) from the samples per

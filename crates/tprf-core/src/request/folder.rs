@@ -4,14 +4,14 @@
 //! (`phasor.npy`, `phasor.json`: [`crate::export::phasor`]); written into a new folder
 //! beside the target and swapped in whole ([`crate::export::staging`]).
 
-use super::{MemoryRefusal, MemoryStop, RenderRequest, RequestError, Session};
+use super::{MemoryRefusal, MemoryStop, Problem, RenderRequest, RequestError, Session};
 use crate::export::ambient::{AMBIENT_NPY, AMBIENT_UNITS, AmbientMetadata};
 use crate::export::phasor::{self, PhasorMetadata};
 use crate::export::shard::{self, ShardInfo};
 use crate::export::{
     self, BIN_VALUE, CameraMetadata, CubeFormat, CubeMetadata, MediumMetadata, RenderStopped, zarr,
 };
-use crate::film::{FilmSnapshot, TprfFilm};
+use crate::film::{FilmSnapshot, StokesFilms, TprfFilm};
 use crate::transport::ambient::{AmbientImage, render_ambient};
 use crate::transport::progressive::PassReport;
 use crate::units::{C_M_PER_S, format_time};
@@ -71,6 +71,8 @@ fn existing_ancestor(path: &Path) -> PathBuf {
 /// light.
 pub struct Rendered {
     pub film: TprfFilm,
+    /// A polarized render's S1..S3 films (`film` is S0); `None` otherwise.
+    pub stokes: Option<StokesFilms>,
     pub meta: CubeMetadata,
     pub ambient: Option<(AmbientImage, AmbientMetadata)>,
     /// Every pass's report.
@@ -119,8 +121,17 @@ pub fn render_to_folder(
         let snap = done.film.snapshot();
         let steady = done.film.steady();
         let format = format(snap.axis().bins);
-        let meta = write_folder(
+        let stokes = done
+            .stokes
+            .as_ref()
+            .map(|s| [1, 2, 3].map(|k| s.component(k).map(TprfFilm::snapshot)));
+        let stokes = match stokes {
+            Some([Some(a), Some(b), Some(c)]) => Some([a, b, c]),
+            _ => None,
+        };
+        let meta = write_cube_folder(
             &snap,
+            stokes.as_ref().map(|[a, b, c]| [a, b, c]),
             &steady,
             done.meta,
             done.ambient
@@ -236,8 +247,10 @@ fn rendered(
         std::slice::from_ref(&reports),
     )?;
     meta.ambient = ambient.as_ref().map(|(_, m)| m.clone());
+    let (film, stokes) = session.into_films();
     Ok(Rendered {
-        film: session.into_film(),
+        film,
+        stokes,
         meta,
         ambient,
         passes: reports,
@@ -260,6 +273,30 @@ fn rendered(
 pub fn write_folder(
     snap: &FilmSnapshot,
     steady: &[f64],
+    meta: CubeMetadata,
+    ambient: Option<&[f32]>,
+    format: CubeFormat,
+    frames: bool,
+    out: &Path,
+    inputs: &[&Path],
+    observer: &mut (dyn Observer + Send),
+) -> Result<CubeMetadata, RequestError> {
+    write_cube_folder(
+        snap, None, steady, meta, ambient, format, frames, out, inputs, observer,
+    )
+}
+
+/// [`write_folder`] with a polarized render's S1..S3 snapshots `stokes` (`snap` is
+/// S0): the Stokes cube `tprf_stokes.npy` `[4, H, W, T]` beside `tprf.npy`, named in
+/// `tprf.json`'s `stokes`. Refused for a Zarr cube (not written yet).
+#[allow(
+    clippy::too_many_arguments,
+    reason = "the parts of the folder, one argument each; not yet one request"
+)]
+fn write_cube_folder(
+    snap: &FilmSnapshot,
+    stokes: Option<[&FilmSnapshot; 3]>,
+    steady: &[f64],
     mut meta: CubeMetadata,
     ambient: Option<&[f32]>,
     format: CubeFormat,
@@ -275,6 +312,14 @@ pub fn write_folder(
     interrupted(observer)?;
     let (width, height) = (snap.width(), snap.height());
     let zarr = format == CubeFormat::Zarr;
+    if zarr && stokes.is_some() {
+        return Err(RequestError::invalid(Problem::field("polarized").text(
+            ": the cube is written as Zarr (format, or auto for a cube over 4 GiB), and \
+             the Stokes cube is written as npy only for now (use format npy)",
+        )));
+    }
+    meta.polarized = stokes.is_some();
+    meta.stokes = None;
     meta.format = if zarr {
         "tprf cube v2: tprf.zarr (Zarr v3 group): cube float32 [H, W, T] and, with \
          bounces_separate > 0, bounces float32 [layers, H, W, T]; row 0 = top"
@@ -311,6 +356,12 @@ pub fn write_folder(
         export::write_snapshot_npy(&dir.join("tprf.npy"), snap, false)?;
         if snap.layers() > 0 {
             export::write_snapshot_npy(&dir.join("tprf_bounces.npy"), snap, true)?;
+        }
+        if let Some([s1, s2, s3]) = stokes {
+            interrupted(observer)?;
+            let m = export::StokesMetadata::npy();
+            export::write_stokes_npy(&dir.join(&m.file), [snap, s1, s2, s3])?;
+            meta.stokes = Some(m);
         }
     }
     if let Some(radiance) = ambient {
@@ -427,6 +478,9 @@ pub fn cube_metadata(
             limited_by: stop.limited_by.key().into(),
         }),
         ambient: None,
+        polarized: request.polarized,
+        // Filled in by `write_folder`, which writes the file.
+        stokes: None,
         phasor: match request.phasor {
             Some(band) => Some(
                 PhasorMetadata::new(band, axis.t0_s, axis.dt_s, axis.bins, film.time_filter())
@@ -515,4 +569,96 @@ fn media_metadata(scene: &crate::scene::Scene) -> Vec<MediumMetadata> {
             Some(row(format!("material '{}'", mat.name), m))
         }))
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::export::NpyF32;
+
+    struct Quiet;
+    impl Observer for Quiet {}
+
+    fn request(polarized: bool) -> RenderRequest {
+        RenderRequest {
+            width: 6,
+            height: 5,
+            spp: Some(4),
+            uniform: true,
+            polarized,
+            // The plain path tracer, the polarized walk's strategy: the same paths.
+            splits: Some(1),
+            light_vertex: Some(false),
+            ..RenderRequest::new("builtin:cornell")
+        }
+    }
+
+    /// `--polarized` writes `tprf_stokes.npy` `[4, H, W, T]`: its S0 plane is `tprf.npy`
+    /// value for value, S1..S3 of the diffuse Cornell box are 0 (the walk's are exactly),
+    /// and `tprf.json` says `"polarized": true` and names the file and its frame; an
+    /// intensity render writes neither.
+    #[test]
+    fn polarized_folder_has_the_stokes_cube() {
+        let dir = std::env::temp_dir().join(format!("tprf-stokes-folder-{}", std::process::id()));
+        let out = dir.join("pol");
+        render_to_folder(&request(true), &out, &mut Quiet).unwrap();
+        let cube = NpyF32::open(&out.join("tprf.npy")).unwrap();
+        let stokes = NpyF32::open(&out.join("tprf_stokes.npy")).unwrap();
+        let [h, w, t] = cube.shape() else {
+            panic!("{:?}", cube.shape())
+        };
+        assert_eq!((*h, *w), (5, 6));
+        assert_eq!(stokes.shape(), [4, *h, *w, *t]);
+        let (c, s) = (cube.read_all().unwrap(), stokes.read_all().unwrap());
+        let n = c.len();
+        assert!(c.iter().any(|&v| v > 0.0));
+        assert_eq!(s[..n], c[..]);
+        assert!(s[n..].iter().all(|&v| v == 0.0));
+        let json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("tprf.json")).unwrap()).unwrap();
+        assert_eq!(json["polarized"], serde_json::Value::Bool(true));
+        assert_eq!(json["stokes"]["file"], "tprf_stokes.npy");
+        assert!(json["stokes"]["frame"].as_str().unwrap().contains("camera"));
+        assert_eq!(json["request"]["polarized"], serde_json::Value::Bool(true));
+
+        let plain = dir.join("plain");
+        render_to_folder(&request(false), &plain, &mut Quiet).unwrap();
+        assert!(!plain.join("tprf_stokes.npy").exists());
+        let json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(plain.join("tprf.json")).unwrap()).unwrap();
+        assert_eq!(json["polarized"], serde_json::Value::Bool(false));
+        assert!(json.get("stokes").is_none());
+        // The same samples: S0 of the polarized render is the intensity cube to float
+        // rounding of the Mueller products (1e-5).
+        let i = NpyF32::open(&plain.join("tprf.npy"))
+            .unwrap()
+            .read_all()
+            .unwrap();
+        for (a, b) in i.iter().zip(&c) {
+            assert!((a - b).abs() <= 1e-5 * a.abs(), "{a} vs {b}");
+        }
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// What the polarized walk does not carry is refused by the field's name.
+    #[test]
+    fn polarized_refusals_name_the_field() {
+        let dir = std::env::temp_dir().join(format!("tprf-stokes-refused-{}", std::process::id()));
+        for (scene, format) in [
+            ("builtin:fog", CubeFormat::Npy),
+            ("builtin:flim", CubeFormat::Npy),
+            ("builtin:cornell", CubeFormat::Zarr),
+        ] {
+            let r = RenderRequest {
+                format,
+                ..RenderRequest {
+                    scene: scene.into(),
+                    ..request(true)
+                }
+            };
+            let e = render_to_folder(&r, &dir.join("x"), &mut Quiet).unwrap_err();
+            assert!(e.to_string().contains("polarized"), "{scene}: {e}");
+        }
+        std::fs::remove_dir_all(&dir).ok();
+    }
 }

@@ -138,6 +138,10 @@ pub struct RenderRequest {
     pub channel: Channel,
     /// Every pixel draws every pass's samples; off (the default): adaptive sampling.
     pub uniform: bool,
+    /// Render polarized (docs/polarization.md): the Stokes cube `tprf_stokes.npy`
+    /// `[4, H, W, T]` beside `tprf.npy` (= S0). Scenes with media or luminescent
+    /// materials are refused; written as npy only (not Zarr) for now.
+    pub polarized: bool,
     /// Next-event estimation (default on).
     pub nee: bool,
     /// Scattering events before Russian roulette starts (default 3).
@@ -246,6 +250,7 @@ impl Default for RenderRequest {
             seed: settings.seed,
             channel: settings.channel,
             uniform: !settings.adaptive,
+            polarized: false,
             nee: settings.nee,
             rr_start: settings.rr_start,
             rr_floor: settings.rr_min_survival,
@@ -606,6 +611,14 @@ impl RenderRequest {
         }
         if self.ambient_spp == Some(0) {
             return bad("ambient_spp", " must be at least 1".into());
+        }
+        if self.polarized && self.format == CubeFormat::Zarr {
+            return bad(
+                "polarized",
+                ": the Stokes cube is written as npy only (tprf_stokes.npy); Zarr is not \
+                 supported yet (use format npy)"
+                    .into(),
+            );
         }
         self.medium_override()?;
         if self.threads == Some(0) {

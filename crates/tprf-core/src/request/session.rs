@@ -3,9 +3,9 @@
 use super::memory::{MemoryBudget, MemoryStop};
 use super::{Problem, RenderRequest, RequestError, apply_camera};
 use crate::export::shard::ShardSpec;
-use crate::film::{FilmLayout, TimeAxis, TimeFilter, TprfFilm};
+use crate::film::{FilmLayout, StokesFilms, TimeAxis, TimeFilter, TprfFilm};
 use crate::scene::{self, Camera, PulseOrigin, Scene};
-use crate::transport::progressive::{self, PassReport, PassSize};
+use crate::transport::progressive::{self, PassReport, PassSize, Polarized};
 use crate::transport::{Renderer, choose_window};
 use std::ops::ControlFlow;
 use std::sync::Arc;
@@ -21,6 +21,8 @@ pub struct Session {
     scene: Arc<Scene>,
     renderer: Arc<Renderer>,
     film: TprfFilm,
+    /// A polarized render's S1..S3 films, in lockstep with `film` (S0).
+    stokes: Option<StokesFilms>,
     shard: Option<ShardSpec>,
     setup_s: f64,
     surface_returns_s: Option<f64>,
@@ -133,11 +135,20 @@ impl Session {
             request.time_filter == TimeFilter::Tent,
         );
         memory.check_first_pass(&film, 1)?;
+        let stokes = if request.polarized {
+            renderer.polarized().map_err(|e| {
+                RequestError::Invalid(Problem::field("polarized").text(format!(": {e}")))
+            })?;
+            Some(StokesFilms::like(&film)?)
+        } else {
+            None
+        };
         Ok(Session {
             request: request.clone(),
             scene,
             renderer,
             film,
+            stokes,
             shard,
             setup_s: start.elapsed().as_secs_f64(),
             surface_returns_s: chosen.surface_returns_s,
@@ -197,23 +208,36 @@ impl Session {
                 ControlFlow::Break(())
             }
         };
-        progressive::render_with(
-            &self.renderer,
-            &mut self.film,
-            &schedule,
-            before,
-            |report, film| {
-                on_pass(report, film)?;
-                // The error target reached: done, like the spp target.
-                if error_target
-                    .zip(film.half_error_estimate())
-                    .is_some_and(|(target, e)| e <= target)
-                {
-                    return ControlFlow::Break(());
-                }
-                ControlFlow::Continue(())
-            },
-        )
+        let after = |report: &PassReport, film: &TprfFilm| {
+            on_pass(report, film)?;
+            // The error target reached: done, like the spp target.
+            if error_target
+                .zip(film.half_error_estimate())
+                .is_some_and(|(target, e)| e <= target)
+            {
+                return ControlFlow::Break(());
+            }
+            ControlFlow::Continue(())
+        };
+        let renderer = &*self.renderer;
+        match (&mut self.stokes, renderer.polarized()) {
+            (Some(s123), Ok(tracer)) => {
+                let mut target = Polarized {
+                    tracer,
+                    s0: &mut self.film,
+                    s123,
+                };
+                progressive::render_with(renderer, &mut target, &schedule, before, after)
+            }
+            // A polarized session's renderer was checked when it was made.
+            _ => progressive::render_with(renderer, &mut self.film, &schedule, before, after),
+        }
+    }
+
+    /// A polarized render's S1..S3 films (`None`: the request is not polarized); S0 is
+    /// [`Session::film`].
+    pub fn stokes(&self) -> Option<&StokesFilms> {
+        self.stokes.as_ref()
     }
 
     pub fn request(&self) -> &RenderRequest {
@@ -248,6 +272,11 @@ impl Session {
     /// The film, taken out of the session.
     pub fn into_film(self) -> TprfFilm {
         self.film
+    }
+
+    /// The film and a polarized render's S1..S3 films, taken out of the session.
+    pub fn into_films(self) -> (TprfFilm, Option<StokesFilms>) {
+        (self.film, self.stokes)
     }
 
     pub fn axis(&self) -> TimeAxis {

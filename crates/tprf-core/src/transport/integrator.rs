@@ -646,6 +646,12 @@ impl Renderer {
         }
     }
 
+    /// Count `rays` traced by a pass made outside [`Renderer::render_pass`] (a polarized
+    /// pass).
+    pub(super) fn count_rays(&self, rays: u64) {
+        self.rays.fetch_add(rays, Ordering::Relaxed);
+    }
+
     /// Trace the next sample of `rng` through pixel `(x, y)` (jittered); returns the rays
     /// traced.
     pub fn trace_sample(

@@ -7,8 +7,9 @@
 //! snapshot, measuring an error, waiting while paused). The callback is also how a
 //! render is cancelled: it returns [`ControlFlow::Break`].
 
-use super::integrator::Renderer;
-use crate::film::{LeftOutCounts, TprfFilm};
+use super::PolarizedTracer;
+use super::integrator::{PassStats, Renderer};
+use crate::film::{LeftOutCounts, StokesFilms, TprfFilm};
 use std::ops::ControlFlow;
 use std::time::{Duration, Instant};
 
@@ -168,6 +169,45 @@ pub fn paced_target_s(seconds: f64, render_s: f64) -> f64 {
     seconds * grown
 }
 
+/// What the passes of [`render_with`] render into: an intensity film, or a Stokes film
+/// ([`Polarized`]). Generic, so an intensity render's loop is what it was.
+pub trait Passes {
+    /// The intensity film (a Stokes film's S0): what schedules, adaptive plans, memory
+    /// budgets and the callbacks read.
+    fn film(&self) -> &TprfFilm;
+    /// One pass of `spp` samples per pixel.
+    fn render_pass(&mut self, renderer: &Renderer, spp: u32) -> PassStats;
+}
+
+impl Passes for TprfFilm {
+    #[inline]
+    fn film(&self) -> &TprfFilm {
+        self
+    }
+    #[inline]
+    fn render_pass(&mut self, renderer: &Renderer, spp: u32) -> PassStats {
+        renderer.render_pass(self, spp)
+    }
+}
+
+/// A polarized render's passes: S0 in `s0`, S1..S3 in `s123`, every sample by `tracer`
+/// (the renderer's polarized walk; the renderer [`render_with`] is given counts its rays
+/// through it).
+pub struct Polarized<'a, 'r> {
+    pub tracer: PolarizedTracer<'r>,
+    pub s0: &'a mut TprfFilm,
+    pub s123: &'a mut StokesFilms,
+}
+
+impl Passes for Polarized<'_, '_> {
+    fn film(&self) -> &TprfFilm {
+        self.s0
+    }
+    fn render_pass(&mut self, _renderer: &Renderer, spp: u32) -> PassStats {
+        self.tracer.render_pass(self.s0, self.s123, spp)
+    }
+}
+
 /// Run passes of `renderer` into `film` until `schedule` is met or `on_pass` breaks;
 /// returns the report of every pass made. A film that already holds samples goes on
 /// from where it is (its pass index and spp).
@@ -190,10 +230,11 @@ pub fn render(
 /// per pixel the schedule would add: it answers the samples per pixel to add (at most
 /// `spp`: a paced schedule's passes may be made smaller), or [`ControlFlow::Break`] to
 /// stop the render there, the film holding the passes before it (what a memory budget
-/// does when the pass would not fit).
-pub fn render_with(
+/// does when the pass would not fit). `target` is a film ([`TprfFilm`]) or a polarized
+/// render's films ([`Polarized`]); `before_pass` and `on_pass` see its intensity film.
+pub fn render_with<P: Passes + ?Sized>(
     renderer: &Renderer,
-    film: &mut TprfFilm,
+    target: &mut P,
     schedule: &Schedule,
     mut before_pass: impl FnMut(u32, &TprfFilm) -> ControlFlow<(), u32>,
     mut on_pass: impl FnMut(&PassReport, &TprfFilm) -> ControlFlow<()>,
@@ -204,8 +245,9 @@ pub fn render_with(
     let mut paths = 0u64;
     let mut left_out = LeftOutCounts::default();
     let mut paced_spp = 1u32;
-    let pixels = film.layout().pixels();
+    let pixels = target.film().layout().pixels();
     loop {
+        let film = target.film();
         let pass = film.passes();
         let mut spp = match schedule.pass_size {
             PassSize::Doubling { cap } => doubling_spp(pass, doubling_cap(cap, pixels)),
@@ -230,7 +272,8 @@ pub fn render_with(
             ControlFlow::Break(()) => break,
         };
         let pass_start = Instant::now();
-        let stats = renderer.render_pass(film, spp);
+        let stats = target.render_pass(renderer, spp);
+        let film = target.film();
         let pass_time = pass_start.elapsed();
         render_time += pass_time;
         paths += stats.paths;
