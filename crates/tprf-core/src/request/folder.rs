@@ -88,6 +88,14 @@ pub fn render(
     observer: &mut (dyn Observer + Send),
 ) -> Result<Rendered, RequestError> {
     request.validate()?;
+    if !request.wavelengths.is_empty() {
+        return Err(RequestError::invalid(
+            super::Problem::field("wavelengths").text(
+                ": a render of several bands is written to a folder (render_to_folder), \
+             not held in memory",
+            ),
+        ));
+    }
     let pool = request.thread_pool()?;
     let threads = pool.current_num_threads();
     pool.install(|| rendered(request, threads, observer, |_| Ok(())))
@@ -108,6 +116,9 @@ pub fn render_to_folder(
     export::staging::check_target(out, &[scene_path])?;
     let pool = request.thread_pool()?;
     let threads = pool.current_num_threads();
+    if !request.wavelengths.is_empty() {
+        return pool.install(|| super::spectral::render_to_folder(request, threads, out, observer));
+    }
     pool.install(|| {
         let format = |bins: usize| {
             let (w, h) = (request.width as u64, request.height as u64);
@@ -178,7 +189,7 @@ fn disk_room(
 
 /// The render of [`render`] in the current pool, `before_passes` checking the session
 /// once it is ready.
-fn rendered(
+pub(super) fn rendered(
     request: &RenderRequest,
     threads: usize,
     observer: &mut (dyn Observer + Send),
@@ -260,6 +271,37 @@ fn rendered(
 pub fn write_folder(
     snap: &FilmSnapshot,
     steady: &[f64],
+    meta: CubeMetadata,
+    ambient: Option<&[f32]>,
+    format: CubeFormat,
+    frames: bool,
+    out: &Path,
+    inputs: &[&Path],
+    observer: &mut (dyn Observer + Send),
+) -> Result<CubeMetadata, RequestError> {
+    write_folder_with(
+        snap,
+        steady,
+        meta,
+        ambient,
+        format,
+        frames,
+        out,
+        inputs,
+        observer,
+        &mut |_| Ok(()),
+    )
+}
+
+/// [`write_folder`], `extra` writing more files into the staging folder (its path
+/// given) before `tprf.json`.
+#[allow(
+    clippy::too_many_arguments,
+    reason = "write_folder's arguments and the extra files"
+)]
+pub(super) fn write_folder_with(
+    snap: &FilmSnapshot,
+    steady: &[f64],
     mut meta: CubeMetadata,
     ambient: Option<&[f32]>,
     format: CubeFormat,
@@ -267,6 +309,7 @@ pub fn write_folder(
     out: &Path,
     inputs: &[&Path],
     observer: &mut (dyn Observer + Send),
+    extra: &mut dyn FnMut(&Path) -> Result<(), RequestError>,
 ) -> Result<CubeMetadata, RequestError> {
     let interrupted = |observer: &mut (dyn Observer + Send)| match observer.writing() {
         ControlFlow::Break(()) => Err(RequestError::Interrupted),
@@ -322,6 +365,8 @@ pub fn write_folder(
         interrupted(observer)?;
         meta.phasor = Some(phasor::write_phasors(dir, zarr, snap, p)?);
     }
+    interrupted(observer)?;
+    extra(dir)?;
     interrupted(observer)?;
     export::write_json(&dir.join("tprf.json"), &meta)?;
     interrupted(observer)?;
@@ -427,6 +472,7 @@ pub fn cube_metadata(
             limited_by: stop.limited_by.key().into(),
         }),
         ambient: None,
+        spectral: None,
         phasor: match request.phasor {
             Some(band) => Some(
                 PhasorMetadata::new(band, axis.t0_s, axis.dt_s, axis.bins, film.time_filter())
