@@ -4,7 +4,7 @@
 //! (`phasor.npy`, `phasor.json`: [`crate::export::phasor`]); written into a new folder
 //! beside the target and swapped in whole ([`crate::export::staging`]).
 
-use super::{MemoryRefusal, MemoryStop, RenderRequest, RequestError, Session};
+use super::{MemoryRefusal, MemoryStop, RenderRequest, RequestError, Session, spectral};
 use crate::export::ambient::{AMBIENT_NPY, AMBIENT_UNITS, AmbientMetadata};
 use crate::export::phasor::{self, PhasorMetadata};
 use crate::export::shard::{self, ShardInfo};
@@ -12,6 +12,7 @@ use crate::export::{
     self, BIN_VALUE, CameraMetadata, CubeFormat, CubeMetadata, MediumMetadata, RenderStopped, zarr,
 };
 use crate::film::{FilmSnapshot, TprfFilm};
+
 use crate::transport::ambient::{AmbientImage, render_ambient};
 use crate::transport::progressive::PassReport;
 use crate::units::{C_M_PER_S, format_time};
@@ -117,7 +118,7 @@ pub fn render_to_folder(
     let pool = request.thread_pool()?;
     let threads = pool.current_num_threads();
     if !request.wavelengths.is_empty() {
-        return pool.install(|| super::spectral::render_to_folder(request, threads, out, observer));
+        return pool.install(|| render_bands_to_folder(request, threads, out, observer));
     }
     pool.install(|| {
         let format = |bins: usize| {
@@ -150,6 +151,125 @@ pub fn render_to_folder(
             passes: done.passes,
             stopped: done.stopped,
         })
+    })
+}
+
+/// Render every band of `request` (validated, `wavelengths` not empty) in the current
+/// pool and write the folder `out` (checked by the caller).
+fn render_bands_to_folder(
+    request: &RenderRequest,
+    threads: usize,
+    out: &Path,
+    observer: &mut (dyn Observer + Send),
+) -> Result<Written, RequestError> {
+    let start = Instant::now();
+    let fixed = spectral::shared_window(request, &mut |line| observer.message(line))?;
+    let mut bands: Vec<Rendered> = Vec::with_capacity(request.wavelengths.len());
+    for (k, w) in request.wavelengths.iter().enumerate() {
+        observer.message(&format!(
+            "band {} of {}: {}",
+            k + 1,
+            request.wavelengths.len(),
+            w.name()
+        ));
+        let band = fixed.band_request(k).expect("k is a band");
+        let check_disk = |session: &Session| {
+            if k == 0 {
+                spectral::disk_room(request, session, out)
+            } else {
+                Ok(())
+            }
+        };
+        bands.push(rendered(&band, threads, observer, check_disk)?);
+    }
+    let weights = crate::scene::wavelengths::luminance_weights(&request.wavelengths);
+    // tprf.npy: the band `channel` names, else the luminance.
+    let chosen = match request.channel {
+        crate::scene::Channel::Wavelength(w) => request.wavelengths.iter().position(|&v| v == w),
+        _ => None,
+    };
+    let snaps: Vec<FilmSnapshot> = bands.iter().map(|b| b.film.snapshot()).collect();
+    let main_weights: Vec<f64> = match chosen {
+        Some(j) => (0..bands.len())
+            .map(|k| f64::from(u8::from(k == j)))
+            .collect(),
+        None => weights.clone(),
+    };
+    let films: Vec<&TprfFilm> = bands.iter().map(|b| &b.film).collect();
+    let main = spectral::weighted_snapshot(&snaps, &main_weights, &films);
+    let steadies: Vec<Vec<f64>> = bands.iter().map(|b| b.film.steady()).collect();
+    let steady: Vec<f64> = (0..steadies[0].len())
+        .map(|i| {
+            steadies
+                .iter()
+                .zip(&main_weights)
+                .map(|(s, w)| w * s[i])
+                .sum()
+        })
+        .collect();
+    let ambient: Option<Vec<f32>> = bands
+        .iter()
+        .map(|b| b.ambient.as_ref().map(|(image, _)| &image.radiance))
+        .collect::<Option<Vec<_>>>()
+        .map(|images| {
+            (0..images[0].len())
+                .map(|i| {
+                    images
+                        .iter()
+                        .zip(&main_weights)
+                        .map(|(im, w)| w * f64::from(im[i]))
+                        .sum::<f64>() as f32
+                })
+                .collect()
+        });
+    let mut meta = bands[0].meta.clone();
+    meta.channel = match chosen {
+        Some(j) => request.wavelengths[j].name(),
+        None => "luminance".into(),
+    };
+    meta.spp = main.spp;
+    meta.wall_seconds = start.elapsed().as_secs_f64();
+    meta.paths_traced = bands.iter().map(|b| b.meta.paths_traced).sum();
+    meta.rays_traced = bands.iter().map(|b| b.meta.rays_traced).sum();
+    meta.render_seconds = bands.iter().map(|b| b.meta.render_seconds).sum();
+    meta.passes = bands.iter().map(|b| b.meta.passes).sum();
+    meta.error_estimate = bands
+        .iter()
+        .filter_map(|b| b.meta.error_estimate)
+        .reduce(f64::max);
+    meta.request = serde_json::to_value(request).ok();
+    meta.spectral = Some(export::SpectralMetadata {
+        file: spectral::SPECTRAL_NPY.into(),
+        wavelengths_nm: request.wavelengths.iter().map(|w| w.nm()).collect(),
+        tprf_npy: meta.channel.clone(),
+        luminance_weights: weights,
+        luminance: spectral::LUMINANCE_RULE.into(),
+        spp: bands.iter().map(|b| b.film.spp()).collect(),
+    });
+    let refs: Vec<&FilmSnapshot> = snaps.iter().collect();
+    let meta = write_folder_with(
+        &main,
+        &steady,
+        meta,
+        ambient.as_deref(),
+        CubeFormat::Npy,
+        request.frames,
+        out,
+        &[Path::new(&request.scene)],
+        observer,
+        &mut |dir| {
+            Ok(export::write_snapshots_npy(
+                &dir.join(spectral::SPECTRAL_NPY),
+                &refs,
+            )?)
+        },
+    )?;
+    Ok(Written {
+        meta,
+        format: CubeFormat::Npy,
+        rows_rendered: bands[0].film.rows_rendered(),
+        stopped: bands.iter().find_map(|b| b.stopped.clone()),
+        passes: bands.into_iter().flat_map(|b| b.passes).collect(),
     })
 }
 

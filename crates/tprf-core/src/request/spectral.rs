@@ -1,23 +1,22 @@
-//! A render of several bands (`wavelengths`): one [`Session`] per band, each its own
-//! film, on one time axis holding every band's light, rendered one after another by
-//! the one pass loop ([`super::folder::rendered`]); written as `tprf_spectral.npy`
-//! `[L, H, W, T]` beside `tprf.npy`, their luminance or the band `channel` names.
+//! A render of several bands (`wavelengths`), what `render_to_folder` needs for it: the
+//! request's checks, each band's request, the time window shared by the bands, the
+//! weighted cube `tprf.npy` holds (their luminance or one band) and the disk's room.
+//! `render_to_folder` renders one [`Session`] per band, each its own film, by the one
+//! pass loop, and writes `tprf_spectral.npy` `[L, H, W, T]` beside `tprf.npy`.
 
-use super::folder::{Observer, Rendered, Written, rendered, write_folder_with};
 use super::{Problem, RenderRequest, RequestError, Session};
-use crate::export::{self, CubeFormat, SpectralMetadata};
-use crate::film::{FilmLayout, FilmSnapshot};
+use crate::export::{self, CubeFormat};
+use crate::film::{FilmLayout, FilmSnapshot, TprfFilm};
 use crate::scene::Channel;
-use crate::scene::wavelengths::{check_list, luminance_weights};
+use crate::scene::wavelengths::check_list;
 use crate::units::format_time;
 use std::path::Path;
-use std::time::Instant;
 
 /// The spectral cube's file name.
-pub const SPECTRAL_NPY: &str = "tprf_spectral.npy";
+pub(super) const SPECTRAL_NPY: &str = "tprf_spectral.npy";
 
 /// How `tprf.json` names the luminance weighting.
-const LUMINANCE_RULE: &str = "CIE 1931 Y normalised: sum_k w_k band_k, w_k = ybar(lambda_k) \
+pub(super) const LUMINANCE_RULE: &str = "CIE 1931 Y normalised: sum_k w_k band_k, w_k = ybar(lambda_k) \
      D_k / sum_j ybar(lambda_j) D_j, the trapezoid rule over the wavelengths sorted (D_k \
      half the distance between a band's neighbours, to its one neighbour at an end); the \
      weights sum to 1, so a flat spectrum's luminance is its value";
@@ -89,9 +88,9 @@ impl RenderRequest {
 /// made for it) and the union taken: `t0` the earliest start, `dt` the span to the
 /// latest end over `bins` (with `dt` given, the window is `bins` of them from that
 /// start).
-fn shared_window(
+pub(super) fn shared_window(
     request: &RenderRequest,
-    observer: &mut (dyn Observer + Send),
+    message: &mut dyn FnMut(&str),
 ) -> Result<RenderRequest, RequestError> {
     if request.t0_s.is_some() && request.dt_s.is_some() {
         return Ok(request.clone());
@@ -107,7 +106,7 @@ fn shared_window(
     let dt_s = request
         .dt_s
         .unwrap_or((end_s - t0_s) / request.bins.max(1) as f64);
-    observer.message(&format!(
+    message(&format!(
         "bands' shared window: from {} to {} (each band's own window, joined)",
         format_time(t0_s),
         format_time(end_s)
@@ -119,122 +118,13 @@ fn shared_window(
     })
 }
 
-/// Render every band of `request` (validated, `wavelengths` not empty) in the current
-/// pool and write the folder `out` (checked by the caller).
-pub(super) fn render_to_folder(
-    request: &RenderRequest,
-    threads: usize,
-    out: &Path,
-    observer: &mut (dyn Observer + Send),
-) -> Result<Written, RequestError> {
-    let start = Instant::now();
-    let fixed = shared_window(request, observer)?;
-    let mut bands: Vec<Rendered> = Vec::with_capacity(request.wavelengths.len());
-    for (k, w) in request.wavelengths.iter().enumerate() {
-        observer.message(&format!(
-            "band {} of {}: {}",
-            k + 1,
-            request.wavelengths.len(),
-            w.name()
-        ));
-        let band = fixed.band_request(k).expect("k is a band");
-        let mut check_disk = |session: &Session| {
-            if k == 0 {
-                disk_room(request, session, out)
-            } else {
-                Ok(())
-            }
-        };
-        bands.push(rendered(&band, threads, observer, &mut check_disk)?);
-    }
-    let weights = luminance_weights(&request.wavelengths);
-    // tprf.npy: the band `channel` names, else the luminance.
-    let chosen = match request.channel {
-        Channel::Wavelength(w) => request.wavelengths.iter().position(|&v| v == w),
-        _ => None,
-    };
-    let snaps: Vec<FilmSnapshot> = bands.iter().map(|b| b.film.snapshot()).collect();
-    let main_weights: Vec<f64> = match chosen {
-        Some(j) => (0..bands.len())
-            .map(|k| f64::from(u8::from(k == j)))
-            .collect(),
-        None => weights.clone(),
-    };
-    let main = weighted_snapshot(&snaps, &main_weights, &bands);
-    let steadies: Vec<Vec<f64>> = bands.iter().map(|b| b.film.steady()).collect();
-    let steady: Vec<f64> = (0..steadies[0].len())
-        .map(|i| {
-            steadies
-                .iter()
-                .zip(&main_weights)
-                .map(|(s, w)| w * s[i])
-                .sum()
-        })
-        .collect();
-    let ambient: Option<Vec<f32>> = bands
-        .iter()
-        .map(|b| b.ambient.as_ref().map(|(image, _)| &image.radiance))
-        .collect::<Option<Vec<_>>>()
-        .map(|images| {
-            (0..images[0].len())
-                .map(|i| {
-                    images
-                        .iter()
-                        .zip(&main_weights)
-                        .map(|(im, w)| w * f64::from(im[i]))
-                        .sum::<f64>() as f32
-                })
-                .collect()
-        });
-    let mut meta = bands[0].meta.clone();
-    meta.channel = match chosen {
-        Some(j) => request.wavelengths[j].name(),
-        None => "luminance".into(),
-    };
-    meta.spp = main.spp;
-    meta.wall_seconds = start.elapsed().as_secs_f64();
-    meta.paths_traced = bands.iter().map(|b| b.meta.paths_traced).sum();
-    meta.rays_traced = bands.iter().map(|b| b.meta.rays_traced).sum();
-    meta.render_seconds = bands.iter().map(|b| b.meta.render_seconds).sum();
-    meta.passes = bands.iter().map(|b| b.meta.passes).sum();
-    meta.error_estimate = bands
-        .iter()
-        .filter_map(|b| b.meta.error_estimate)
-        .reduce(f64::max);
-    meta.request = serde_json::to_value(request).ok();
-    meta.spectral = Some(SpectralMetadata {
-        file: SPECTRAL_NPY.into(),
-        wavelengths_nm: request.wavelengths.iter().map(|w| w.nm()).collect(),
-        tprf_npy: meta.channel.clone(),
-        luminance_weights: weights,
-        luminance: LUMINANCE_RULE.into(),
-        spp: bands.iter().map(|b| b.film.spp()).collect(),
-    });
-    let refs: Vec<&FilmSnapshot> = snaps.iter().collect();
-    let meta = write_folder_with(
-        &main,
-        &steady,
-        meta,
-        ambient.as_deref(),
-        CubeFormat::Npy,
-        request.frames,
-        out,
-        &[Path::new(&request.scene)],
-        observer,
-        &mut |dir| Ok(export::write_snapshots_npy(&dir.join(SPECTRAL_NPY), &refs)?),
-    )?;
-    Ok(Written {
-        meta,
-        format: CubeFormat::Npy,
-        rows_rendered: bands[0].film.rows_rendered(),
-        stopped: bands.iter().find_map(|b| b.stopped.clone()),
-        passes: bands.into_iter().flat_map(|b| b.passes).collect(),
-    })
-}
-
 /// The cube `sum_k weights[k] snaps[k]` (summed in f64), a band of rows at a time; its
 /// spp the fewest of the bands'.
-fn weighted_snapshot(snaps: &[FilmSnapshot], weights: &[f64], bands: &[Rendered]) -> FilmSnapshot {
+pub(super) fn weighted_snapshot(
+    snaps: &[FilmSnapshot],
+    weights: &[f64],
+    films: &[&TprfFilm],
+) -> FilmSnapshot {
     let first = &snaps[0];
     let (w, t) = (first.width(), first.axis().bins);
     let layout = FilmLayout {
@@ -244,11 +134,11 @@ fn weighted_snapshot(snaps: &[FilmSnapshot], weights: &[f64], bands: &[Rendered]
         bounces_separate: 0,
         luminescence: false,
     };
-    let spp = bands.iter().map(|b| b.film.spp()).min().unwrap_or(0);
-    let passes = bands.iter().map(|b| b.film.passes()).min().unwrap_or(0);
-    let error = bands
+    let spp = films.iter().map(|f| f.spp()).min().unwrap_or(0);
+    let passes = films.iter().map(|f| f.passes()).min().unwrap_or(0);
+    let error = films
         .iter()
-        .filter_map(|b| b.film.half_error_estimate())
+        .filter_map(|f| f.half_error_estimate())
         .reduce(f64::max);
     let (mut row, mut sum) = (Vec::new(), Vec::new());
     let read = |y0: usize, _layer: Option<usize>, out: &mut [f32]| {
@@ -278,7 +168,11 @@ fn weighted_snapshot(snaps: &[FilmSnapshot], weights: &[f64], bands: &[Rendered]
 
 /// Refuse now, not after the renders, the files the disk under `out` has no room for:
 /// `L + 1` cubes of `session`'s shape.
-fn disk_room(request: &RenderRequest, session: &Session, out: &Path) -> Result<(), RequestError> {
+pub(super) fn disk_room(
+    request: &RenderRequest,
+    session: &Session,
+    out: &Path,
+) -> Result<(), RequestError> {
     let parent = out
         .ancestors()
         .skip(1)

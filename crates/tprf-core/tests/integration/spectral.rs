@@ -16,6 +16,10 @@ use tprf_core::scene::{Channel, Scene};
 struct Quiet;
 impl Observer for Quiet {}
 
+/// A folder's metadata, `tprf.npy` and, for several bands, `tprf_spectral.npy`'s shape
+/// and values.
+type Folder = (CubeMetadata, Vec<f32>, Option<(Vec<u64>, Vec<f32>)>);
+
 fn tempdir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("tprf-spectral-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
@@ -29,11 +33,7 @@ fn wl(nm: f64) -> Wavelength {
 
 /// Render `request` into `dir/name`: its metadata, `tprf.npy` and, for several bands,
 /// `tprf_spectral.npy` (shape and values).
-fn run(
-    request: &RenderRequest,
-    dir: &Path,
-    name: &str,
-) -> (CubeMetadata, Vec<f32>, Option<(Vec<u64>, Vec<f32>)>) {
+fn run(request: &RenderRequest, dir: &Path, name: &str) -> Folder {
     let out = dir.join(name);
     render_to_folder(request, &out, &mut Quiet).unwrap();
     let meta = read_metadata(&out.join("tprf.json")).unwrap();
@@ -175,9 +175,9 @@ fn bk7_slab_bands_arrive_at_their_group_delays_in_one_file() {
             .unwrap();
         let (lo, hi) = (peak.saturating_sub(2), (peak + 3).min(bins));
         let (mut w, mut m) = (0.0, 0.0);
-        for b in lo..hi {
-            w += tprf[b] as f64;
-            m += tprf[b] as f64 * centre(b);
+        for (b, &v) in tprf.iter().enumerate().take(hi).skip(lo) {
+            w += v as f64;
+            m += v as f64 * centre(b);
         }
         let (t, want) = (m / w, (2.0 + bk7_ng(nm * 1e-3)) / C);
         assert!(
