@@ -140,6 +140,18 @@ pub struct RequestArgs {
     /// dispersive indices read there (docs/dispersion.md).
     #[arg(long, value_parser = parse_channel)]
     pub channel: Option<tprf_core::scene::Channel>,
+    /// Several bands in one render, in this order: `450nm,550nm,650nm`. Writes
+    /// tprf_spectral.npy float32 [L, H, W, T] (band k the k-th wavelength) and, as
+    /// tprf.npy, the bands' CIE 1931 luminance, or the band --channel names when it is
+    /// one of them (docs/dispersion.md).
+    #[arg(long, value_parser = parse_wavelengths, conflicts_with = "spectrum")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub wavelengths: Option<Wavelengths>,
+    /// Several bands evenly spaced, FIRST:LAST:COUNT, both ends included
+    /// (`400nm:700nm:31`): the same as listing them with --wavelengths.
+    #[arg(long, value_parser = parse_spectrum)]
+    #[serde(rename = "wavelengths", skip_serializing_if = "Option::is_none")]
+    pub spectrum: Option<Wavelengths>,
     /// Every pixel draws every pass's samples, for the same noise across the image.
     /// Default: from the fourth sample per pixel on, where the noise is uneven enough for
     /// it to pay, pixels draw samples in proportion to their measured noise over the
@@ -387,6 +399,19 @@ fn parse_channel(s: &str) -> Result<tprf_core::scene::Channel, String> {
         .map_err(|e: tprf_core::scene::UnknownChannel| e.to_string())
 }
 
+/// `--wavelengths` and `--spectrum`'s value: the request's `wavelengths`.
+#[derive(Clone, Debug, Serialize)]
+#[serde(transparent)]
+pub struct Wavelengths(Vec<tprf_core::scene::spectrum::Wavelength>);
+
+fn parse_wavelengths(s: &str) -> Result<Wavelengths, String> {
+    tprf_core::scene::wavelengths::parse_list(s).map(Wavelengths)
+}
+
+fn parse_spectrum(s: &str) -> Result<Wavelengths, String> {
+    tprf_core::scene::wavelengths::parse_range(s).map(Wavelengths)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -414,7 +439,8 @@ mod tests {
             .iter()
             .map(|k| k.to_string())
             .collect();
-        let flags = flags();
+        // `--spectrum` is `wavelengths` given as a range.
+        let flags: BTreeSet<String> = flags().into_iter().filter(|f| f != "spectrum").collect();
         assert_eq!(
             keys.difference(&flags).collect::<Vec<_>>(),
             Vec::<&String>::new(),
@@ -455,6 +481,8 @@ mod tests {
                 "filter" => &["tent"],
                 "format" => &["zarr"],
                 "channel" => &["red"],
+                "wavelengths" => &["450nm,550nm"],
+                "spectrum" => &["450nm:550nm:3"],
                 "time_origin" => &["near-plane"],
                 "pulse_origin" => &["first-hit"],
                 "medium" => &["visibility=30m"],
@@ -499,8 +527,58 @@ mod tests {
                 .map(|(k, _)| k)
                 .filter(|k| !(key == "band_rows" && *k == "shard"))
                 .collect();
+            let key = if key == "spectrum" {
+                "wavelengths".to_string()
+            } else {
+                key
+            };
             assert_eq!(changed, [&key], "{args:?}");
         }
+    }
+
+    /// `--wavelengths` and `--spectrum` fill the same list; bad values are refused
+    /// naming the flag, and the two together are refused.
+    #[test]
+    fn wavelengths_and_spectrum_are_one_list() {
+        let list = |args: &[&str]| parse(args).request().unwrap().wavelengths;
+        let names = |l: Vec<tprf_core::scene::spectrum::Wavelength>| {
+            l.iter().map(|w| w.name()).collect::<Vec<_>>()
+        };
+        assert_eq!(
+            names(list(&["builtin:x", "--wavelengths", "650nm,450nm"])),
+            ["650nm", "450nm"]
+        );
+        assert_eq!(
+            names(list(&["builtin:x", "--spectrum", "400nm:700nm:4"])),
+            ["400nm", "500nm", "600nm", "700nm"]
+        );
+        let refused = |args: &[&str]| {
+            RequestArgs::augment_args(clap::Command::new("render"))
+                .try_get_matches_from(std::iter::once("render").chain(args.iter().copied()))
+                .unwrap_err()
+                .to_string()
+        };
+        for (flag, bad) in [
+            ("--wavelengths", "450nm,900nm"),
+            ("--wavelengths", "450nm,450nm"),
+            ("--wavelengths", "blue"),
+            ("--spectrum", "700nm:400nm:3"),
+            ("--spectrum", "400nm:700nm"),
+        ] {
+            let e = refused(&["builtin:x", flag, bad]);
+            assert!(e.contains(flag), "{flag} {bad}: {e}");
+        }
+        let both = refused(&[
+            "builtin:x",
+            "--wavelengths",
+            "450nm",
+            "--spectrum",
+            "400nm:700nm:3",
+        ]);
+        assert!(
+            both.contains("--wavelengths") && both.contains("--spectrum"),
+            "{both}"
+        );
     }
 
     /// `--help` shows the request's own defaults.

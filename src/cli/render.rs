@@ -96,6 +96,10 @@ pub fn render_request(
         meta.shard.as_ref().map_or(String::new(), |s| format!(
             " (shard {}/{}: {} of {} rows)",
             s.k, s.n, written.rows_rendered, meta.height
+        )) + &meta.spectral.as_ref().map_or(String::new(), |s| format!(
+            " ({} bands in tprf_spectral.npy; tprf.npy: {})",
+            s.wavelengths_nm.len(),
+            s.tprf_npy
         )),
         meta.spp,
         meta.wall_seconds,

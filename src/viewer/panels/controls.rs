@@ -232,10 +232,19 @@ impl TprfApp {
                 ui.end_row();
                 let l = ui.label("Band");
                 egui::ComboBox::from_id_salt("band")
-                    .selected_text(format!("{:?}", p.channel))
+                    .selected_text(p.channel.name())
                     .show_ui(ui, |ui| {
-                        for c in [Channel::Gray, Channel::Red, Channel::Green, Channel::Blue] {
-                            ui.selectable_value(&mut p.channel, c, format!("{c:?}"));
+                        // The colour bands, then wavelengths every 50 nm (docs/dispersion.md).
+                        let bands = [Channel::Gray, Channel::Red, Channel::Green, Channel::Blue]
+                            .into_iter()
+                            .chain((0..7).filter_map(|k| {
+                                let nm = 400.0 + 50.0 * k as f64;
+                                tprf_core::scene::spectrum::Wavelength::from_nm(nm)
+                                    .ok()
+                                    .map(Channel::Wavelength)
+                            }));
+                        for c in bands {
+                            ui.selectable_value(&mut p.channel, c, c.name());
                         }
                     })
                     .response

@@ -243,12 +243,63 @@ pub struct CubeMetadata {
     /// A polarized render's Stokes cube ([`StokesMetadata`]); `None` otherwise.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stokes: Option<StokesMetadata>,
+    /// Only in a render of several bands (`wavelengths`): `tprf_spectral.npy`, its
+    /// wavelengths and what `tprf.npy` holds ([`SpectralMetadata`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spectral: Option<SpectralMetadata>,
     /// The request that made the render (`tprf render`'s options, as a batch manifest's
     /// `[[job]]` keys: [`crate::request::RenderRequest`], every field written, its
     /// defaults included), when one did: enough to render the cube again. Older files
     /// hold none.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub request: Option<serde_json::Value>,
+}
+
+/// A render of several bands, as `tprf.json` records it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SpectralMetadata {
+    /// `tprf_spectral.npy`: float32 `[L, H, W, T]`, band k at `wavelengths_nm[k]`.
+    pub file: String,
+    /// The bands' wavelengths, nm, in the order asked (the file's first axis).
+    pub wavelengths_nm: Vec<f64>,
+    /// What `tprf.npy` holds: `luminance`, or the band's name (`550nm`) when the
+    /// request's channel is one of the wavelengths.
+    pub tprf_npy: String,
+    /// Each band's weight in the luminance (in the order of `wavelengths_nm`), and the
+    /// rule that made them.
+    pub luminance_weights: Vec<f64>,
+    pub luminance: String,
+    /// Samples per pixel each band reached.
+    pub spp: Vec<u64>,
+}
+
+/// Write snapshots of one shape as one float32 C-order `.npy` `[L, H, W, T]`, plane k
+/// the total of `snaps[k]`, a row at a time as [`write_snapshot_npy`] (holes where no
+/// light arrived).
+pub fn write_snapshots_npy(path: &Path, snaps: &[&FilmSnapshot]) -> Result<(), ExportError> {
+    let Some(first) = snaps.first() else {
+        return write_npy_f32(path, &[0, 0, 0, 0], &[]);
+    };
+    let (w, h, t) = (first.width(), first.height(), first.axis().bins);
+    let shape = [snaps.len() as u64, h as u64, w as u64, t as u64];
+    write_atomic_bulk(path, |out| {
+        let sparse = npyz::WriteOptions::<f32>::new()
+            .default_dtype()
+            .shape(&shape)
+            .writer(&mut *out)
+            .write_header_only()?;
+        let (mut row, mut bytes) = (Vec::new(), Vec::new());
+        for snap in snaps {
+            for y in 0..h {
+                snap.row_dense(y, None, &mut row);
+                row.resize(w * t, 0.0);
+                bytes.clear();
+                bytes.extend(row.iter().flat_map(|v| v.to_le_bytes()));
+                sparse.write_all(&bytes)?;
+            }
+        }
+        Ok(())
+    })
 }
 
 /// Why a render stopped before its target, as `tprf.json` records it.

@@ -4,7 +4,7 @@
 //! (`phasor.npy`, `phasor.json`: [`crate::export::phasor`]); written into a new folder
 //! beside the target and swapped in whole ([`crate::export::staging`]).
 
-use super::{MemoryRefusal, MemoryStop, Problem, RenderRequest, RequestError, Session};
+use super::{MemoryRefusal, MemoryStop, Problem, RenderRequest, RequestError, Session, spectral};
 use crate::export::ambient::{AMBIENT_NPY, AMBIENT_UNITS, AmbientMetadata};
 use crate::export::phasor::{self, PhasorMetadata};
 use crate::export::shard::{self, ShardInfo};
@@ -90,6 +90,14 @@ pub fn render(
     observer: &mut (dyn Observer + Send),
 ) -> Result<Rendered, RequestError> {
     request.validate()?;
+    if !request.wavelengths.is_empty() {
+        return Err(RequestError::invalid(
+            super::Problem::field("wavelengths").text(
+                ": a render of several bands is written to a folder (render_to_folder), \
+             not held in memory",
+            ),
+        ));
+    }
     let pool = request.thread_pool()?;
     let threads = pool.current_num_threads();
     pool.install(|| rendered(request, threads, observer, |_| Ok(())))
@@ -110,6 +118,9 @@ pub fn render_to_folder(
     export::staging::check_target(out, &[scene_path])?;
     let pool = request.thread_pool()?;
     let threads = pool.current_num_threads();
+    if !request.wavelengths.is_empty() {
+        return pool.install(|| render_bands_to_folder(request, threads, out, observer));
+    }
     pool.install(|| {
         let format = |bins: usize| {
             let (w, h) = (request.width as u64, request.height as u64);
@@ -142,6 +153,7 @@ pub fn render_to_folder(
             out,
             &[scene_path],
             observer,
+            &mut |_| Ok(()),
         )?;
         Ok(Written {
             meta,
@@ -150,6 +162,126 @@ pub fn render_to_folder(
             passes: done.passes,
             stopped: done.stopped,
         })
+    })
+}
+
+/// Render every band of `request` (validated, `wavelengths` not empty) in the current
+/// pool and write the folder `out` (checked by the caller).
+fn render_bands_to_folder(
+    request: &RenderRequest,
+    threads: usize,
+    out: &Path,
+    observer: &mut (dyn Observer + Send),
+) -> Result<Written, RequestError> {
+    let start = Instant::now();
+    let fixed = spectral::shared_window(request, &mut |line| observer.message(line))?;
+    let mut bands: Vec<Rendered> = Vec::with_capacity(request.wavelengths.len());
+    for (k, w) in request.wavelengths.iter().enumerate() {
+        observer.message(&format!(
+            "band {} of {}: {}",
+            k + 1,
+            request.wavelengths.len(),
+            w.name()
+        ));
+        let band = fixed.band_request(k).expect("k is a band");
+        let check_disk = |session: &Session| {
+            if k == 0 {
+                spectral::disk_room(request, session, out)
+            } else {
+                Ok(())
+            }
+        };
+        bands.push(rendered(&band, threads, observer, check_disk)?);
+    }
+    let weights = crate::scene::wavelengths::luminance_weights(&request.wavelengths);
+    // tprf.npy: the band `channel` names, else the luminance.
+    let chosen = match request.channel {
+        crate::scene::Channel::Wavelength(w) => request.wavelengths.iter().position(|&v| v == w),
+        _ => None,
+    };
+    let snaps: Vec<FilmSnapshot> = bands.iter().map(|b| b.film.snapshot()).collect();
+    let main_weights: Vec<f64> = match chosen {
+        Some(j) => (0..bands.len())
+            .map(|k| f64::from(u8::from(k == j)))
+            .collect(),
+        None => weights.clone(),
+    };
+    let films: Vec<&TprfFilm> = bands.iter().map(|b| &b.film).collect();
+    let main = spectral::weighted_snapshot(&snaps, &main_weights, &films);
+    let steadies: Vec<Vec<f64>> = bands.iter().map(|b| b.film.steady()).collect();
+    let steady: Vec<f64> = (0..steadies[0].len())
+        .map(|i| {
+            steadies
+                .iter()
+                .zip(&main_weights)
+                .map(|(s, w)| w * s[i])
+                .sum()
+        })
+        .collect();
+    let ambient: Option<Vec<f32>> = bands
+        .iter()
+        .map(|b| b.ambient.as_ref().map(|(image, _)| &image.radiance))
+        .collect::<Option<Vec<_>>>()
+        .map(|images| {
+            (0..images[0].len())
+                .map(|i| {
+                    images
+                        .iter()
+                        .zip(&main_weights)
+                        .map(|(im, w)| w * f64::from(im[i]))
+                        .sum::<f64>() as f32
+                })
+                .collect()
+        });
+    let mut meta = bands[0].meta.clone();
+    meta.channel = match chosen {
+        Some(j) => request.wavelengths[j].name(),
+        None => "luminance".into(),
+    };
+    meta.spp = main.spp;
+    meta.wall_seconds = start.elapsed().as_secs_f64();
+    meta.paths_traced = bands.iter().map(|b| b.meta.paths_traced).sum();
+    meta.rays_traced = bands.iter().map(|b| b.meta.rays_traced).sum();
+    meta.render_seconds = bands.iter().map(|b| b.meta.render_seconds).sum();
+    meta.passes = bands.iter().map(|b| b.meta.passes).sum();
+    meta.error_estimate = bands
+        .iter()
+        .filter_map(|b| b.meta.error_estimate)
+        .reduce(f64::max);
+    meta.request = serde_json::to_value(request).ok();
+    meta.spectral = Some(export::SpectralMetadata {
+        file: spectral::SPECTRAL_NPY.into(),
+        wavelengths_nm: request.wavelengths.iter().map(|w| w.nm()).collect(),
+        tprf_npy: meta.channel.clone(),
+        luminance_weights: weights,
+        luminance: spectral::LUMINANCE_RULE.into(),
+        spp: bands.iter().map(|b| b.film.spp()).collect(),
+    });
+    let refs: Vec<&FilmSnapshot> = snaps.iter().collect();
+    let meta = write_cube_folder(
+        &main,
+        None,
+        &steady,
+        meta,
+        ambient.as_deref(),
+        CubeFormat::Npy,
+        request.frames,
+        out,
+        &[Path::new(&request.scene)],
+        observer,
+        &mut |dir| {
+            Ok(export::write_snapshots_npy(
+                &dir.join(spectral::SPECTRAL_NPY),
+                &refs,
+            )?)
+        },
+    )?;
+    Ok(Written {
+        meta,
+        format: CubeFormat::Npy,
+        rows_rendered: bands[0].film.rows_rendered(),
+        stopped: bands.iter().find_map(|b| b.stopped.clone()),
+        passes: bands.into_iter().flat_map(|b| b.passes).collect(),
     })
 }
 
@@ -189,7 +321,7 @@ fn disk_room(
 
 /// The render of [`render`] in the current pool, `before_passes` checking the session
 /// once it is ready.
-fn rendered(
+pub(super) fn rendered(
     request: &RenderRequest,
     threads: usize,
     observer: &mut (dyn Observer + Send),
@@ -282,18 +414,30 @@ pub fn write_folder(
     observer: &mut (dyn Observer + Send),
 ) -> Result<CubeMetadata, RequestError> {
     write_cube_folder(
-        snap, None, steady, meta, ambient, format, frames, out, inputs, observer,
+        snap,
+        None,
+        steady,
+        meta,
+        ambient,
+        format,
+        frames,
+        out,
+        inputs,
+        observer,
+        &mut |_| Ok(()),
     )
 }
 
 /// [`write_folder`] with a polarized render's S1..S3 snapshots `stokes` (`snap` is
 /// S0): the Stokes cube `tprf_stokes.npy` `[4, H, W, T]` beside `tprf.npy`, named in
-/// `tprf.json`'s `stokes`. Refused for a Zarr cube (not written yet).
+/// `tprf.json`'s `stokes` (refused for a Zarr cube: not written yet); and `extra`
+/// writing more files into the staging folder (its path given) before `tprf.json` (a
+/// render of several bands: `tprf_spectral.npy`).
 #[allow(
     clippy::too_many_arguments,
     reason = "the parts of the folder, one argument each; not yet one request"
 )]
-fn write_cube_folder(
+pub(super) fn write_cube_folder(
     snap: &FilmSnapshot,
     stokes: Option<[&FilmSnapshot; 3]>,
     steady: &[f64],
@@ -304,6 +448,7 @@ fn write_cube_folder(
     out: &Path,
     inputs: &[&Path],
     observer: &mut (dyn Observer + Send),
+    extra: &mut dyn FnMut(&Path) -> Result<(), RequestError>,
 ) -> Result<CubeMetadata, RequestError> {
     let interrupted = |observer: &mut (dyn Observer + Send)| match observer.writing() {
         ControlFlow::Break(()) => Err(RequestError::Interrupted),
@@ -373,6 +518,8 @@ fn write_cube_folder(
         interrupted(observer)?;
         meta.phasor = Some(phasor::write_phasors(dir, zarr, snap, p)?);
     }
+    interrupted(observer)?;
+    extra(dir)?;
     interrupted(observer)?;
     export::write_json(&dir.join("tprf.json"), &meta)?;
     interrupted(observer)?;
@@ -481,6 +628,7 @@ pub fn cube_metadata(
         polarized: request.polarized,
         // Filled in by `write_folder`, which writes the file.
         stokes: None,
+        spectral: None,
         phasor: match request.phasor {
             Some(band) => Some(
                 PhasorMetadata::new(band, axis.t0_s, axis.dt_s, axis.bins, film.time_filter())

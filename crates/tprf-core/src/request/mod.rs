@@ -40,6 +40,7 @@ mod memory;
 pub mod parameter;
 mod reconstruct;
 mod session;
+mod spectral;
 pub mod worker;
 
 pub use camera::apply_camera;
@@ -136,6 +137,12 @@ pub struct RenderRequest {
     /// wavelength: `550nm`).
     #[serde(deserialize_with = "from_text")]
     pub channel: Channel,
+    /// Several bands in one render (`--wavelengths 450nm,550nm,650nm`, `--spectrum
+    /// 400nm:700nm:31`; a list here): `tprf_spectral.npy` `[L, H, W, T]`, band k at the
+    /// k-th, and `tprf.npy` their luminance, or the band `channel` names when it is one
+    /// of them (docs/dispersion.md). Empty (the default): the one band `channel`.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub wavelengths: Vec<crate::scene::spectrum::Wavelength>,
     /// Every pixel draws every pass's samples; off (the default): adaptive sampling.
     pub uniform: bool,
     /// Render polarized (docs/polarization.md): the Stokes cube `tprf_stokes.npy`
@@ -249,6 +256,7 @@ impl Default for RenderRequest {
             bounces_separate: 0,
             seed: settings.seed,
             channel: settings.channel,
+            wavelengths: Vec::new(),
             uniform: !settings.adaptive,
             polarized: false,
             nee: settings.nee,
@@ -683,7 +691,7 @@ impl RenderRequest {
             }
             spec.check(self.height)?;
         }
-        Ok(())
+        self.check_wavelengths()
     }
 
     /// The shard this request renders (`None`: the whole image); refused when `shard`

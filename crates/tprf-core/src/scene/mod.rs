@@ -15,6 +15,7 @@ pub mod medium;
 pub mod mitsuba;
 pub mod spectrum;
 pub mod time_origin;
+pub mod wavelengths;
 
 pub use camera::{Camera, FovAxis};
 pub use density::DensityGrid;

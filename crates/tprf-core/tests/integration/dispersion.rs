@@ -27,7 +27,7 @@ fn bk7_n(l_um: f64) -> f64 {
 }
 
 /// Its group index `n - lambda dn/dlambda`, `dn/dlambda` by a central difference.
-fn bk7_ng(l_um: f64) -> f64 {
+pub(super) fn bk7_ng(l_um: f64) -> f64 {
     let h = 1e-5;
     bk7_n(l_um) - l_um * (bk7_n(l_um + h) - bk7_n(l_um - h)) / (2.0 * h)
 }
@@ -38,7 +38,7 @@ fn band(nm: f64) -> Channel {
 
 /// An axis-aligned square at height `z`, half-size `half`, its front face looking up
 /// (`up`) or down.
-fn quad(scene: &mut Scene, z: f32, half: f32, up: bool, material: u32) {
+pub(super) fn quad(scene: &mut Scene, z: f32, half: f32, up: bool, material: u32) {
     let (a, b, c, d) = (
         Vec3::new(-half, -half, z),
         Vec3::new(half, -half, z),
@@ -67,7 +67,7 @@ fn camera_above(h: f32) -> Camera {
 /// A camera at `(0, 0, h)` looking down with a 0.2 degree field of view (its rays within
 /// 0.1 degree of the vertical: their paths longer by a relative 2e-6, 0.02 ps here), over
 /// an emitting plane z = 0 (black, radiance 1, pulsed at t = 0).
-fn emitter_below(h: f32) -> Scene {
+pub(super) fn emitter_below(h: f32) -> Scene {
     let mut s = empty_scene(camera_above(h));
     s.materials.push(Material {
         emissive: [1.0; 3],
@@ -79,7 +79,7 @@ fn emitter_below(h: f32) -> Scene {
 
 /// The smooth N-BK7 dielectric (glTF transmission 1, roughness 0, its index the
 /// Sellmeier dispersion).
-fn bk7_glass() -> Material {
+pub(super) fn bk7_glass() -> Material {
     let d = Dispersion::named("bk7").unwrap();
     Material {
         transmission: 1.0,

@@ -25,4 +25,5 @@ mod media;
 mod nlos_reconstruct;
 mod sensor_gradients;
 mod spad;
+mod spectral;
 mod window;
