@@ -1498,3 +1498,53 @@ fn obj_files_decoded_ahead_load_in_file_order_with_the_first_error() {
     let e = refusal(&dir, "bad.xml", &bad);
     assert!(e.contains("gone70.obj") && !e.contains("gone100"), "{e}");
 }
+
+/// Mitsuba's `stokes` integrator around a transient one (mitransient's polarized
+/// examples) asks for a polarized render: the file's settings say so, with the wrapped
+/// integrator's own (`max_depth`) still read; `tprf render` writes the Stokes cube; a
+/// `stokes` with nothing inside is refused at its line.
+#[test]
+fn a_stokes_integrator_renders_polarized() {
+    let dir = tmp("stokes");
+    let wrapped = BY_HAND.replace(
+        r#"<integrator type="transient_path">
+        <integer name="max_depth" value="4"/>
+    </integrator>"#,
+        r#"<integrator type="stokes">
+        <integrator type="transient_path">
+            <integer name="max_depth" value="4"/>
+        </integrator>
+    </integrator>"#,
+    );
+    assert_ne!(wrapped, BY_HAND, "the integrator was not replaced");
+    let path = write(&dir, "stokes.xml", &wrapped);
+    let settings = scene::file_settings(&path).unwrap();
+    assert_eq!(settings.polarized.map(|s| s.value), Some(true));
+    assert_eq!(settings.max_bounces.map(|s| s.value), Some(3));
+    let plain = scene::file_settings(&write(&dir, "plain.xml", BY_HAND)).unwrap();
+    assert_eq!(plain.polarized, None);
+    let out = dir.join("out");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_tprf"))
+        .args(["render", &path, "--spp", "2", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    assert!(stderr.contains("--polarized true"), "{stderr}");
+    let meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("tprf.json")).unwrap()).unwrap();
+    assert_eq!(meta["polarized"], serde_json::json!(true));
+    assert!(out.join("tprf_stokes.npy").is_file());
+    let empty = wrapped.replace(
+        r#"<integrator type="transient_path">
+            <integer name="max_depth" value="4"/>
+        </integrator>"#,
+        "",
+    );
+    let why = refusal(&dir, "empty.xml", &empty);
+    assert!(
+        why.contains("stokes") && why.contains("needs the integrator it wraps"),
+        "{why}"
+    );
+}

@@ -46,7 +46,8 @@ impl RenderRequest {
     ///   optical path, `t = opl_m / c` seconds;
     /// - `spp`: only when nothing else ends the render (no `seconds`, `error_target` or
     ///   `until_stopped`);
-    /// - `phasor`: the `phasor_hdr_film`'s `wl_mean:wl_sigma` when the file gives both.
+    /// - `phasor`: the `phasor_hdr_film`'s `wl_mean:wl_sigma` when the file gives both;
+    /// - `polarized`: true under a `stokes` integrator.
     pub fn with_file_defaults(
         &mut self,
         file: &FileSettings,
@@ -121,6 +122,13 @@ impl RenderRequest {
         }
         if let Some(dt_s) = opl("dt", file.dt_opl_m.clone()) {
             self.dt_s = Some(dt_s);
+        }
+        if let Some(s) = file.polarized.as_ref().filter(|_| !given("polarized")) {
+            notes.push(FileNote {
+                field: "polarized",
+                taken: format!("{} ({})", s.value, s.from),
+            });
+            self.polarized = s.value;
         }
         if !given("phasor")
             && let (Some(mean), Some(sigma)) = (&file.phasor_wl_mean_m, &file.phasor_wl_sigma_m)

@@ -953,6 +953,9 @@ pub struct FileSettings {
     /// optical path (the phasors to write: `export::phasor`).
     pub phasor_wl_mean_m: Option<FileSetting<f64>>,
     pub phasor_wl_sigma_m: Option<FileSetting<f64>>,
+    /// The file asks for Stokes vectors (Mitsuba's `stokes` integrator around its
+    /// transient one): a polarized render.
+    pub polarized: Option<FileSetting<bool>>,
     /// An NLOS capture's settings (mitransient's `transient_nlos_path` with an
     /// `nlos_capture_meter` on the relay wall), for `tprf nlos`.
     pub nlos: Option<NlosFileSettings>,

@@ -450,6 +450,24 @@ impl Builder<'_> {
     /// The `<integrator>`: its depth into the settings.
     pub(super) fn read_integrator(&mut self, k: usize) -> Result<(), SceneError> {
         let o = self.object(k);
+        if o.plugin == "stokes" {
+            // Mitsuba's `stokes` wraps the integrator that renders: Stokes vectors of its
+            // radiance (mitransient's polarized examples).
+            let loc = o.loc.clone();
+            let from = format!("{} {}", o.loc, o.describe());
+            let inner = o
+                .children()
+                .find(|&(_, c)| self.object(c).tag == "integrator");
+            let Some((p, c)) = inner else {
+                return Err(err(
+                    &loc,
+                    "<integrator type=\"stokes\"> needs the integrator it wraps inside it",
+                ));
+            };
+            p.used.set(true);
+            self.settings.polarized = Some(FileSetting { value: true, from });
+            return self.read_integrator(c);
+        }
         let default_depth = match o.plugin.as_str() {
             "path" | "volpath" | "volpathmis" => -1,
             "transient_path" | "transient_prbvolpath" | "prb" | "prb_basic" | "prbvolpath" => 6,
@@ -458,7 +476,7 @@ impl Builder<'_> {
             _ => {
                 return Err(Builder::unsupported(
                     o,
-                    "tprf's integrator is a path tracer (path, transient_path)",
+                    "tprf's integrator is a path tracer (path, transient_path; stokes around one)",
                 ));
             }
         };
