@@ -861,12 +861,9 @@ fn screenshots() {
 
 #[test]
 fn opens_a_saved_cube_without_rendering() {
-    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join(format!("viewer-cube-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_tprf"))
-        .args([
-            "render",
+    let dir = tprf_render(
+        "cube",
+        &[
             "builtin:cornell",
             "--width",
             "20",
@@ -876,15 +873,7 @@ fn opens_a_saved_cube_without_rendering() {
             "4",
             "--bins",
             "40",
-            "--out",
-        ])
-        .arg(&dir)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+        ],
     );
     let cube_dir = dir.clone();
     let mut h = Harness::builder()
@@ -1578,19 +1567,22 @@ fn rendered_cube(name: &str, w: usize, h: usize) -> std::path::PathBuf {
 /// A cube folder rendered by `tprf render builtin:cornell --spp 2` at `w x h` pixels
 /// with the further arguments `more`.
 fn rendered_cube_with(name: &str, w: usize, h: usize, more: &[&str]) -> std::path::PathBuf {
+    let (w, h) = (w.to_string(), h.to_string());
+    let mut args = vec!["builtin:cornell", "--spp", "2"];
+    args.extend_from_slice(more);
+    args.extend(["--width", &w, "--height", &h]);
+    tprf_render(name, &args)
+}
+
+/// A cube folder (named after `name`) made by `tprf render ARGS --out FOLDER`.
+fn tprf_render(name: &str, args: &[&str]) -> std::path::PathBuf {
     let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
         .join(format!("viewer-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_tprf"))
-        .args(["render", "builtin:cornell", "--spp", "2"])
-        .args(more)
-        .args([
-            "--width",
-            &w.to_string(),
-            "--height",
-            &h.to_string(),
-            "--out",
-        ])
+        .arg("render")
+        .args(args)
+        .arg("--out")
         .arg(&dir)
         .output()
         .unwrap();
@@ -1676,12 +1668,9 @@ fn bounce_curves_follow_the_films_layers() {
 /// ps) the whole TPRF is the re-emitted light's.
 #[test]
 fn a_luminescent_cube_keeps_its_re_emitted_light_apart() {
-    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join(format!("viewer-flim-layers-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_tprf"))
-        .args([
-            "render",
+    let dir = tprf_render(
+        "flim-layers",
+        &[
             "builtin:flim",
             "--spp",
             "16",
@@ -1689,15 +1678,11 @@ fn a_luminescent_cube_keeps_its_re_emitted_light_apart() {
             "16",
             "--height",
             "16",
-        ])
-        .args(["--bins", "96", "--bounces-separate", "1", "--out"])
-        .arg(&dir)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+            "--bins",
+            "96",
+            "--bounces-separate",
+            "1",
+        ],
     );
     let meta: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("tprf.json")).unwrap()).unwrap();

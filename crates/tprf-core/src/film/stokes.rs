@@ -120,14 +120,7 @@ impl StokesFilms {
                 },
             )
             .collect();
-        let mut tally = PassTally::default();
-        for t in tallies {
-            tally.outside_per_pixel += t.outside;
-            tally.left_out += t.left_out;
-            tally.work += t.work;
-        }
-        let pixels = layout.width * s0.rows_rendered();
-        tally.outside_per_pixel /= (pixels as f64).max(1.0);
+        let tally = PassTally::of_rows(tallies, layout.width * s0.rows_rendered());
         for f in [&mut *s0, f1, f2, f3] {
             f.spp = spp_after;
             f.passes += 1;

@@ -26,6 +26,21 @@ pub struct PassTally {
     pub work: u64,
 }
 
+impl PassTally {
+    /// The pass's tally from its rows' (in row order: the same totals for any thread
+    /// count) over the `pixels` it rendered.
+    pub(super) fn of_rows(rows: Vec<super::row::RowTally>, pixels: usize) -> PassTally {
+        let mut tally = PassTally::default();
+        for t in rows {
+            tally.outside_per_pixel += t.outside;
+            tally.left_out += t.left_out;
+            tally.work += t.work;
+        }
+        tally.outside_per_pixel /= (pixels as f64).max(1.0);
+        tally
+    }
+}
+
 /// How much of the dense cube the film stores.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct StoreStats {
@@ -250,15 +265,7 @@ impl TprfFilm {
                 },
             )
             .collect();
-        // Summed in row order: the same totals for any thread count.
-        let mut tally = PassTally::default();
-        for t in tallies {
-            tally.outside_per_pixel += t.outside;
-            tally.left_out += t.left_out;
-            tally.work += t.work;
-        }
-        let pixels = layout.width * self.rows_rendered();
-        tally.outside_per_pixel /= (pixels as f64).max(1.0);
+        let tally = PassTally::of_rows(tallies, layout.width * self.rows_rendered());
         self.spp = spp_after;
         self.passes += 1;
         tally
